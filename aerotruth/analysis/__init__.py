@@ -1,0 +1,1 @@
+"""Analysis: the wind paper's heading correction, wind metrics, FITS, ILS metrics."""

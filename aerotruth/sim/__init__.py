@@ -1,0 +1,1 @@
+"""Campaigns: expansion, seeding, executors, result store, regression, figures, report."""

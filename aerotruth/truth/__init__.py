@@ -1,0 +1,1 @@
+"""Truth: JSBSim flights through a truth atmosphere on real airline routes."""
