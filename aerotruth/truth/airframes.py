@@ -1,0 +1,173 @@
+"""Aircraft known to aerotruth: where JSBSim finds each model, its autopilot gain file,
+and the speed/vertical-speed schedule a crew would fly per phase.
+
+Every airframe plugs into the same aircraft-agnostic autopilot
+(`aircraft/systems/aerotruth_autopilot.xml`); only gains and schedule differ. An aircraft
+shipped in the jsbsim wheel is loaded from the wheel's own data folder: at run time a
+small wrapper copy of its XML with our two <system> lines added is written to a cache
+folder (never to the repository).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import hashlib
+import os
+import re
+import sys
+import tempfile
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import jsbsim
+
+PACKAGE_AIRCRAFT_DIR = Path(__file__).parent / "aircraft"
+SYSTEMS_DIR = PACKAGE_AIRCRAFT_DIR / "systems"
+JSBSIM_DATA_DIR = Path(jsbsim.__file__).parent
+
+
+@dataclass(frozen=True)
+class SpeedSchedule:
+    """Targets per phase. Climb and descent fly IAS; cruise flies TAS (the published SAAB
+    figures are KTAS, and the acceptance test states TAS); vertical speeds in ft/min."""
+
+    initial_ias_kt: float
+    climb_ias_kt: float
+    cruise_tas_kt: float
+    descent_ias_kt: float
+    arrival_ias_kt: float
+    climb_vs_fpm: float
+    descent_vs_fpm: float
+
+
+@dataclass(frozen=True)
+class Airframe:
+    name: str
+    model: str
+    in_jsbsim_wheel: bool
+    gains_file: str
+    schedule: SpeedSchedule
+    # initial mass: fuel per tank (lbs) set before run_ic; None keeps the model's default
+    fuel_lbs: tuple[float, ...] | None = None
+    engines: int = 2
+    # divergence guard (attitude limits in deg, altitude floor above the lowest runway in m)
+    max_bank_deg: float = 60.0
+    max_pitch_deg: float = 30.0
+    min_pitch_deg: float = -20.0
+    extra_ic: dict[str, float] = field(default_factory=dict)
+
+
+AIRFRAMES: dict[str, Airframe] = {
+    "737": Airframe(
+        name="737",
+        model="737",
+        in_jsbsim_wheel=True,
+        gains_file="gains_737",
+        schedule=SpeedSchedule(
+            initial_ias_kt=190.0,
+            climb_ias_kt=250.0,
+            cruise_tas_kt=320.0,
+            descent_ias_kt=260.0,
+            arrival_ias_kt=210.0,
+            climb_vs_fpm=2500.0,
+            descent_vs_fpm=-2000.0,
+        ),
+        fuel_lbs=(8000.0, 8000.0, 0.0),
+    ),
+}
+
+DEFAULT_AIRCRAFT = "737"
+
+
+def airframe(name: str | None) -> Airframe:
+    """The airframe called `name` (None: the default), with a clear error for unknown names."""
+    key = DEFAULT_AIRCRAFT if name is None else name
+    try:
+        return AIRFRAMES[key]
+    except KeyError:
+        raise ValueError(f"aircraft: unknown aircraft {key!r}; expected one of {sorted(AIRFRAMES)}") from None
+
+
+def _cache_dir() -> Path:
+    base = os.environ.get("AEROTRUTH_CACHE")
+    root = Path(base) if base else Path(tempfile.gettempdir()) / f"aerotruth-cache-{os.getuid()}"
+    return root
+
+
+_SYSTEM_LINES = '    <system file="{gains}"/>\n    <system file="aerotruth_autopilot"/>\n'
+
+
+def with_autopilot(xml: str, gains_file: str) -> str:
+    """Aircraft XML text with our gain and autopilot systems inserted before its flight
+    control (systems declared first are evaluated first each step)."""
+    lines = _SYSTEM_LINES.format(gains=gains_file)
+    m = re.search(r"^\s*<(flight_control|autopilot|system)\b", xml, flags=re.M)
+    if m is None:
+        m = re.search(r"^\s*</fdm_config>", xml, flags=re.M)
+    if m is None:
+        raise ValueError("aircraft XML: no <flight_control>, <system> or </fdm_config> element to insert the autopilot before")
+    return xml[: m.start()] + "\n" + lines + xml[m.start():]
+
+
+_IO_ELEMENTS = (
+    re.compile(r"<(input|output)\s[^>]*/>"),
+    re.compile(r"<(input|output)\s[^>]*>.*?</\1>", flags=re.S),
+)
+
+
+def strip_io(xml: str) -> str:
+    """Remove top-level <input port=...> and <output type=...> directives (sockets and log
+    files) from an aircraft XML: truth runs open no ports and write no JSBSim logs.
+    Component <input>/<output> elements carry no attributes and are kept."""
+    for pattern in _IO_ELEMENTS:
+        xml = pattern.sub("", xml)
+    return xml
+
+
+def aircraft_root(af: Airframe) -> Path:
+    """Folder to use as JSBSim's aircraft path for `af`: a cache folder holding the aircraft
+    XML wrapped with the autopilot (written once per content digest). The aircraft files
+    themselves stay free of the autopilot, so they can be tested open-loop."""
+    src_dir = (JSBSIM_DATA_DIR if af.in_jsbsim_wheel else PACKAGE_AIRCRAFT_DIR.parent) / "aircraft" / af.model
+    xml = with_autopilot(strip_io((src_dir / f"{af.model}.xml").read_text()), af.gains_file)
+    digest = hashlib.sha256(xml.encode()).hexdigest()[:12]
+    root = _cache_dir() / f"aircraft-{digest}"
+    target = root / af.model / f"{af.model}.xml"
+    if not target.exists():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        tmp = target.with_suffix(f".{os.getpid()}.tmp")
+        tmp.write_text(xml)
+        os.replace(tmp, target)
+    return root
+
+
+def engine_dir(af: Airframe) -> Path:
+    return JSBSIM_DATA_DIR / "engine" if af.in_jsbsim_wheel else PACKAGE_AIRCRAFT_DIR / "engine"
+
+
+@contextlib.contextmanager
+def quiet_jsbsim():
+    """Silence what JSBSim's C++ prints on the process's stdout (banner, trim chatter):
+    file descriptor 1 goes to /dev/null for the duration."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        with open(os.devnull, "wb") as null:
+            os.dup2(null.fileno(), 1)
+            yield
+    finally:
+        os.dup2(saved, 1)
+        os.close(saved)
+
+
+def new_fdm(af: Airframe, dt: float) -> jsbsim.FGFDMExec:
+    """A quiet FGFDMExec with `af` loaded (autopilot included) at time step dt (s)."""
+    with quiet_jsbsim():
+        fdm = jsbsim.FGFDMExec(str(JSBSIM_DATA_DIR))
+        fdm.set_debug_level(0)
+        fdm.disable_output()
+        ok = fdm.load_model_with_paths(af.model, str(aircraft_root(af)), str(engine_dir(af)), str(SYSTEMS_DIR))
+    if not ok:
+        raise RuntimeError(f"JSBSim could not load aircraft {af.name!r}")
+    fdm.set_dt(dt)
+    return fdm

@@ -1,0 +1,441 @@
+"""Flying a leg with JSBSim: the truth loop.
+
+Python sets targets once per simulated second (leg sequencing, phase, speed, the truth
+wind sample at the aircraft's position one second ahead, the atmosphere's temperature
+and pressure); JSBSim flies at 100 Hz with the aircraft-agnostic autopilot XML, which
+also interpolates the wind to every step. Samples are recorded at 10 Hz into a
+TruthTrack. A flight that produces NaN, leaves attitude limits, sinks below its
+runways or fails to arrive ends with FlightDiverged (reason and seed), never as truth.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import math
+from dataclasses import asdict, dataclass
+from datetime import datetime, timezone
+from typing import Protocol
+
+import jsbsim
+import numpy as np
+import pandas as pd
+
+from aerotruth.truth.airframes import Airframe, airframe, new_fdm, quiet_jsbsim
+from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, turn_anticipation_m
+from aerotruth.truth.track import PHASES, TruthTrack
+from aerotruth.units import DEG, FT, KT, NM
+
+DT = 0.01  # s: JSBSim step (100 Hz, a multiple of 50 Hz: IMU and 10 Hz samples fall on steps)
+RECORD_EVERY = 10  # steps: 10 Hz truth samples
+GUIDE_EVERY = 100  # steps: 1 Hz target and wind updates
+FPS = FT  # m/s per ft/s
+PSF = 47.880258980336  # Pa per lbf/ft^2
+RANKINE = 5.0 / 9.0  # K per degree Rankine
+ISA_LAPSE = 0.0065  # K/m, ICAO standard atmosphere troposphere lapse rate
+TEN_THOUSAND_FT = 10000 * FT
+US_SPEED_LIMIT_KT = 250.0  # 14 CFR 91.117(a): 250 KIAS below 10,000 ft MSL
+TURN_BANK_DEG = 20.0  # bank assumed for turn anticipation (autopilot limit is 25 deg)
+
+
+class FlightDiverged(Exception):
+    """A flight that left its envelope: never returned as truth."""
+
+    def __init__(self, reason: str, seed, time_s: float | None = None):
+        self.reason = reason
+        self.seed = seed
+        self.time_s = time_s
+        at = f" at t={time_s:.1f} s" if time_s is not None else ""
+        super().__init__(f"flight diverged{at} (seed {seed}): {reason}")
+
+
+class Atmosphere(Protocol):
+    """What the truth loop needs of an atmosphere (heights above mean sea level, t in s
+    since 00:00 UTC of the departure day, winds towards east/north/up in m/s)."""
+
+    def wind(self, lat_deg, lon_deg, alt_m, t_s): ...
+
+    def delta_t(self, lat_deg, lon_deg, t_s): ...
+
+    def static_pressure(self, lat_deg, lon_deg, alt_m, t_s): ...
+
+
+@dataclass(frozen=True)
+class UniformAtmosphere:
+    """ISA + delta_t with a constant wind: the known-truth atmosphere of analytic tests
+    (drift, wind triangle) and of calm-air runs."""
+
+    u_mps: float = 0.0
+    v_mps: float = 0.0
+    w_mps: float = 0.0
+    delta_t_k: float = 0.0
+    sea_level_pressure_pa: float = 101325.0
+
+    def wind(self, lat_deg, lon_deg, alt_m, t_s):
+        shape = np.shape(lat_deg)
+        return (np.full(shape, self.u_mps), np.full(shape, self.v_mps), np.full(shape, self.w_mps))
+
+    def delta_t(self, lat_deg, lon_deg, t_s):
+        return np.full(np.shape(lat_deg), self.delta_t_k)
+
+    def static_pressure(self, lat_deg, lon_deg, alt_m, t_s):
+        # hypsometric equation in an ISA troposphere shifted by delta_t (ICAO Doc 7488)
+        t0 = 288.15 + self.delta_t_k
+        return self.sea_level_pressure_pa * (1.0 - ISA_LAPSE * np.asarray(alt_m) / t0) ** 5.255877
+
+
+@dataclass(frozen=True)
+class Route:
+    """What the loop flies: waypoints joined by great-circle legs, the start state, the
+    cruise pressure altitude and the arrival geometry. Heights are WGS-84 ellipsoidal."""
+
+    name: str
+    waypoints: tuple[tuple[str, float, float], ...]
+    departure_utc: datetime
+    start_h_ellipsoid_m: float
+    start_course_deg: float
+    cruise_pressure_altitude_m: float
+    arrival_h_ellipsoid_m: float
+    arrival_threshold: tuple[float, float]
+    arrival_course_deg: float
+    arrival_far_point: tuple[float, float]
+    undulation_m: float
+    lowest_runway_ellipsoid_m: float
+
+    @property
+    def legs(self) -> list[GreatCircleLeg]:
+        w = self.waypoints
+        return [GreatCircleLeg(f"{w[i][0]}-{w[i + 1][0]}", w[i][1], w[i][2], w[i + 1][1], w[i + 1][2])
+                for i in range(len(w) - 1)]
+
+
+def _digest(obj) -> str:
+    return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:16]
+
+
+class _Recorder:
+    """Reads the truth properties through property nodes (faster than fdm[...])."""
+
+    PROPS = (
+        ("simulation/sim-time-sec", 1.0),
+        ("position/lat-geod-deg", 1.0),
+        ("position/long-gc-deg", 1.0),
+        ("position/geod-alt-ft", FT),
+        ("atmosphere/pressure-altitude", FT),
+        ("velocities/v-north-fps", FPS),
+        ("velocities/v-east-fps", FPS),
+        ("velocities/v-down-fps", FPS),
+        ("attitude/phi-rad", 1.0),
+        ("attitude/theta-rad", 1.0),
+        ("attitude/psi-rad", 1.0),
+        ("velocities/vtrue-fps", FPS),
+        ("velocities/vc-fps", FPS),
+        ("aero/alpha-rad", 1.0),
+        ("aero/beta-rad", 1.0),
+        ("velocities/p-rad_sec", 1.0),
+        ("velocities/q-rad_sec", 1.0),
+        ("velocities/r-rad_sec", 1.0),
+        ("atmosphere/total-wind-east-fps", FPS),
+        ("atmosphere/total-wind-north-fps", FPS),
+        ("atmosphere/total-wind-down-fps", -FPS),
+        ("atmosphere/P-psf", PSF),
+        ("atmosphere/T-R", RANKINE),
+    )
+    COLUMNS = ("time_s", "lat_deg", "lon_deg", "h_ellipsoid_m", "pressure_altitude_m", "vn_mps", "ve_mps",
+               "vd_mps", "roll_rad", "pitch_rad", "heading_rad", "tas_mps", "cas_mps", "alpha_rad", "beta_rad",
+               "p_radps", "q_radps", "r_radps", "wind_u_mps", "wind_v_mps", "wind_w_mps",
+               "static_pressure_pa", "temperature_k")
+
+    def __init__(self, fdm: jsbsim.FGFDMExec):
+        pm = fdm.get_property_manager()
+        self.getters = [pm.get_node(p).get_double_value for p, _ in self.PROPS]
+        self.scale = np.array([s for _, s in self.PROPS])
+        self.rows: list[list[float]] = []
+        self.tags: list[tuple[int, int]] = []
+
+    def frame(self, rows: list[list[float]], tags: list[tuple[int, int]]) -> pd.DataFrame:
+        data = np.asarray(rows, dtype=float) * self.scale
+        df = pd.DataFrame(data, columns=list(self.COLUMNS))
+        tag = np.asarray(tags, dtype=np.int64).reshape(-1, 2)
+        df["leg_index"] = tag[:, 0].astype(np.int32)
+        df["phase"] = pd.Categorical.from_codes(tag[:, 1], categories=list(PHASES))
+        return df
+
+
+class _Guide:
+    """Python's 1 Hz part of the guidance: leg sequencing, distance to go, phases, targets.
+    Targets are written through property nodes and only when they change."""
+
+    def __init__(self, route: Route, af: Airframe, fdm: jsbsim.FGFDMExec):
+        self.route = route
+        self.af = af
+        legs = route.legs
+        self.geom = [LegGeometry(leg, legs[i + 1] if i + 1 < len(legs) else None) for i, leg in enumerate(legs)]
+        self.lengths = [g.length_m for g in self.geom]
+        self.leg = 0
+        self.phase = 0  # index into PHASES
+        self.level_since: float | None = None
+        pm = fdm.get_property_manager()
+        self._nodes = {}
+        self._last: dict[str, float] = {}
+        self._pm = pm
+        self._set("ap/nav/mode", 1)
+        self._set_leg(0)
+
+    def _set(self, prop: str, value: float) -> None:
+        if self._last.get(prop) != value:
+            node = self._nodes.get(prop)
+            if node is None:
+                node = self._nodes[prop] = self._pm.get_node(prop)
+            node.set_double_value(float(value))
+            self._last[prop] = value
+
+    def _set_leg(self, i: int) -> None:
+        self.leg = i
+        nx, ny, nz = self.geom[i].n
+        self._set("ap/nav/nx", nx)
+        self._set("ap/nav/ny", ny)
+        self._set("ap/nav/nz", nz)
+
+    def distance_to_go_m(self, lat: float, lon: float) -> float:
+        return self.geom[self.leg].to_go_m(lat, lon) + sum(self.lengths[self.leg + 1:])
+
+    def update(self, t: float, lat: float, lon: float, gs_mps: float, h_ell_m: float, p_alt_m: float,
+               tas_kt: float, cas_kt: float) -> bool:
+        """Advance legs and phase; set autopilot targets. False once the route is finished.
+
+        Cruise begins once the cruise level and the cruise TAS are both captured (or 300 s
+        after level-off if the speed is not): the level-off acceleration belongs to the climb."""
+        s = self.af.schedule
+        g = self.geom[self.leg]
+        to_leg_end = g.to_go_m(lat, lon)
+        if self.leg + 1 < len(self.geom):
+            if to_leg_end <= turn_anticipation_m(gs_mps, g.turn_deg, TURN_BANK_DEG):
+                self._set_leg(self.leg + 1)
+        elif to_leg_end <= 0.0:
+            return False
+        to_go = self.distance_to_go_m(lat, lon)
+        r = self.route
+        final = self.leg == len(self.geom) - 1
+        descent_needed_m = (h_ell_m - r.arrival_h_ellipsoid_m) / (abs(s.descent_vs_fpm) * FT / 60.0) * gs_mps
+        if self.phase < 2 and to_go <= descent_needed_m + 8 * NM:
+            self.phase = 2
+        if self.phase == 2 and final:
+            self.phase = 3
+        if self.phase == 0 and abs(p_alt_m - r.cruise_pressure_altitude_m) < 50 * FT:
+            if self.level_since is None:
+                self.level_since = t
+            if abs(tas_kt - s.cruise_tas_kt) < 2.0 or t - self.level_since > 300.0:
+                self.phase = 1
+        levelled = self.level_since is not None
+        if self.phase <= 1:
+            self._set("ap/target/use-pressure-altitude", 1)
+            self._set("ap/target/altitude-ft", r.cruise_pressure_altitude_m / FT)
+            self._set("ap/target/vs-max-fpm", s.climb_vs_fpm)
+            self._set("ap/target/vs-min-fpm", -1000.0)
+        else:
+            self._set("ap/target/use-pressure-altitude", 0)
+            self._set("ap/target/altitude-ft", r.arrival_h_ellipsoid_m / FT)
+            self._set("ap/target/vs-max-fpm", 1000.0)
+            self._set("ap/target/vs-min-fpm", s.descent_vs_fpm)
+        if self.phase == 1 or (self.phase == 0 and levelled):
+            self._set("ap/target/speed-mode", 2)
+            self._set("ap/target/tas-kt", s.cruise_tas_kt)
+        else:
+            ias = {0: s.climb_ias_kt, 2: s.descent_ias_kt, 3: s.arrival_ias_kt}[self.phase]
+            if self.phase == 0:
+                # no faster than the cruise TAS: its calibrated equivalent here is cruise_tas * CAS/TAS
+                ias = min(ias, s.cruise_tas_kt * cas_kt / max(tas_kt, 1.0))
+            if to_go < 25 * NM:
+                ias = min(ias, s.arrival_ias_kt)
+            if h_ell_m - r.undulation_m < TEN_THOUSAND_FT:
+                ias = min(ias, US_SPEED_LIMIT_KT)
+            self._set("ap/target/speed-mode", 0)
+            self._set("ap/target/ias-kt", ias)
+        return True
+
+
+def _initial_conditions(fdm, route: Route, af: Airframe, atmosphere: Atmosphere, t0_s: float) -> None:
+    lat, lon = route.waypoints[0][1], route.waypoints[0][2]
+    fdm["ic/lat-geod-deg"] = lat
+    fdm["ic/long-gc-deg"] = lon
+    fdm["ic/h-sl-ft"] = route.start_h_ellipsoid_m / FT
+    fdm["ic/terrain-elevation-ft"] = route.lowest_runway_ellipsoid_m / FT
+    fdm["ic/psi-true-deg"] = route.start_course_deg
+    fdm["ic/vc-kts"] = af.schedule.initial_ias_kt
+    fdm["ic/gamma-deg"] = 0.0
+    if af.fuel_lbs is not None:
+        for i, lbs in enumerate(af.fuel_lbs):
+            fdm[f"propulsion/tank[{i}]/contents-lbs"] = lbs
+    for k, v in af.extra_ic.items():
+        fdm[k] = v
+    _set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s)
+    u, v, w = (float(np.asarray(c).ravel()[0]) for c in
+               atmosphere.wind(lat, lon, route.start_h_ellipsoid_m - route.undulation_m, t0_s))
+    fdm["ic/vw-north-fps"] = v / FPS
+    fdm["ic/vw-east-fps"] = u / FPS
+    fdm["ic/vw-down-fps"] = -w / FPS
+    fdm["ap/wind/t0-sec"] = 0.0
+    fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"] = v / FPS, u / FPS, -w / FPS
+
+
+def _set_atmosphere(fdm, route: Route, atmosphere: Atmosphere, lat: float, lon: float, t_s: float) -> None:
+    """JSBSim's 'sea level' is the ellipsoid; the truth atmosphere is referenced to mean sea
+    level. Give JSBSim the truth pressure at the ellipsoid (MSL height -N) as its sea-level
+    pressure and the temperature offset shifted by the lapse over N, so JSBSim's pressure
+    and temperature at an ellipsoidal height equal the truth at the same point."""
+    n = route.undulation_m
+    dt = float(np.asarray(atmosphere.delta_t(lat, lon, t_s)).ravel()[0]) + ISA_LAPSE * n
+    p0 = float(np.asarray(atmosphere.static_pressure(lat, lon, -n, t_s)).ravel()[0])
+    fdm["atmosphere/delta-T"] = dt / RANKINE
+    fdm["atmosphere/P-sl-psf"] = p0 / PSF
+
+
+def fly_route(route: Route, *, seed, aircraft: str | None = None, atmosphere: Atmosphere | None = None,
+              turbulence: bool = False, max_duration_s: float | None = None, meta: dict | None = None) -> TruthTrack:
+    """Fly `route` with JSBSim and return its TruthTrack (10 Hz). Raises FlightDiverged."""
+    af = airframe(aircraft)
+    atmosphere = atmosphere if atmosphere is not None else UniformAtmosphere()
+    rng = np.random.default_rng(seed if not isinstance(seed, np.random.SeedSequence) else seed)
+    day0 = route.departure_utc.replace(hour=0, minute=0, second=0, microsecond=0)
+    t0_s = (route.departure_utc - day0).total_seconds()
+    fdm = new_fdm(af, DT)
+    _initial_conditions(fdm, route, af, atmosphere, t0_s)
+    if turbulence:
+        # JSBSim Tustin-form MIL-F-8785C/MIL-HDBK-1797 turbulence; severity drawn per flight
+        fdm["atmosphere/turb-type"] = 3
+        fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = float(rng.uniform(5.0, 25.0)) / FPS * KT
+        fdm["atmosphere/turbulence/milspec/severity"] = int(rng.integers(1, 4))
+    fdm.run_ic()
+    fdm["propulsion/set-running"] = -1
+    _trim(fdm, af)
+    guide = _Guide(route, af, fdm)
+    fdm["ap/active"] = 1
+
+    total_m = float(sum(guide.lengths))
+    limit_s = max_duration_s if max_duration_s is not None else total_m / (180 * KT) + 1800.0
+    rec = _Recorder(fdm)
+    rows, tags = rec.rows, rec.tags
+    getters = rec.getters
+    run = fdm.run
+    pm = fdm.get_property_manager()
+    g_lat = pm.get_node("position/lat-geod-deg").get_double_value
+    g_lon = pm.get_node("position/long-gc-deg").get_double_value
+    g_h = pm.get_node("position/geod-alt-ft").get_double_value
+    g_palt = pm.get_node("atmosphere/pressure-altitude").get_double_value
+    g_vn = pm.get_node("velocities/v-north-fps").get_double_value
+    g_ve = pm.get_node("velocities/v-east-fps").get_double_value
+    g_vd = pm.get_node("velocities/v-down-fps").get_double_value
+    g_t = pm.get_node("simulation/sim-time-sec").get_double_value
+    g_vt = pm.get_node("velocities/vtrue-fps").get_double_value
+    g_vc = pm.get_node("velocities/vc-fps").get_double_value
+    g_phi = pm.get_node("attitude/phi-rad").get_double_value
+    g_theta = pm.get_node("attitude/theta-rad").get_double_value
+    wind_nodes = [pm.get_node(f"ap/wind/{k}") for k in
+                  ("t0-sec", "north-fps", "east-fps", "down-fps", "north-rate-fps2", "east-rate-fps2", "down-rate-fps2")]
+    w_prev = (fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"])
+    max_bank, max_pitch, min_pitch = af.max_bank_deg * DEG, af.max_pitch_deg * DEG, af.min_pitch_deg * DEG
+    floor_ft = (route.lowest_runway_ellipsoid_m - 150.0) / FT
+    seed_repr = _seed_repr(seed)
+
+    while True:
+        lat, lon, h_ft = g_lat(), g_lon(), g_h()
+        t = g_t()
+        phi, theta = g_phi(), g_theta()
+        if not all(map(math.isfinite, (lat, lon, h_ft, phi, theta))):
+            raise FlightDiverged("NaN in the JSBSim state", seed_repr, t)
+        if abs(phi) > max_bank or theta > max_pitch or theta < min_pitch:
+            raise FlightDiverged(f"attitude limit: roll {phi / DEG:.1f} deg, pitch {theta / DEG:.1f} deg", seed_repr, t)
+        if h_ft < floor_ft:
+            raise FlightDiverged(f"altitude {h_ft * FT:.0f} m below the runways", seed_repr, t)
+        if t > limit_s:
+            raise FlightDiverged(f"did not arrive within {limit_s:.0f} s", seed_repr, t)
+        vn, ve, vd = g_vn() * FPS, g_ve() * FPS, g_vd() * FPS
+        gs = math.hypot(vn, ve)
+        if not guide.update(t, lat, lon, gs, h_ft * FT, g_palt() * FT, g_vt() / KT * FPS, g_vc() / KT * FPS):
+            break
+        # truth wind one guidance period ahead, at the dead-reckoned position
+        dt_g = GUIDE_EVERY * DT
+        lat1 = lat + vn * dt_g / 6371008.8 / DEG
+        lon1 = lon + ve * dt_g / (6371008.8 * math.cos(lat * DEG)) / DEG
+        h1 = h_ft * FT - vd * dt_g - route.undulation_m
+        u, v, w = (float(np.asarray(c).ravel()[0]) for c in atmosphere.wind(lat1, lon1, h1, t0_s + t + dt_g))
+        w_next = (v / FPS, u / FPS, -w / FPS)
+        wind_nodes[0].set_double_value(t)
+        for k in range(3):
+            wind_nodes[1 + k].set_double_value(w_prev[k])
+            wind_nodes[4 + k].set_double_value((w_next[k] - w_prev[k]) / dt_g)
+        w_prev = w_next
+        _set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s + t)
+        tag = (guide.leg, guide.phase)
+        for _ in range(GUIDE_EVERY // RECORD_EVERY):
+            rows.append([g() for g in getters])
+            tags.append(tag)
+            for _ in range(RECORD_EVERY):
+                run()
+
+    df = rec.frame(rows, tags)
+    if not np.isfinite(df.drop(columns=["phase"]).to_numpy()).all():
+        raise FlightDiverged("NaN in the recorded truth", seed_repr)
+    meta = dict(meta or {})
+    thr, far = route.arrival_threshold, route.arrival_far_point
+    meta.update({
+        "route": route.name,
+        "aircraft": af.name,
+        "seed": seed_repr,
+        "jsbsim_version": jsbsim.__version__,
+        "departure_utc": route.departure_utc.astimezone(timezone.utc).isoformat(),
+        "cruise_tas_kt": af.schedule.cruise_tas_kt,
+        "cruise_pressure_altitude_m": route.cruise_pressure_altitude_m,
+        "legs": [asdict(leg) for leg in route.legs],
+        "arrival_runway": {"threshold_lat": thr[0], "threshold_lon": thr[1], "far_lat": far[0], "far_lon": far[1],
+                           "course_deg": route.arrival_course_deg},
+        "turbulence": bool(turbulence),
+        "rate_hz": 1.0 / (DT * RECORD_EVERY),
+    })
+    meta["config_hash"] = _digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})
+    return TruthTrack(df, meta)
+
+
+def _seed_repr(seed):
+    if isinstance(seed, np.random.SeedSequence):
+        return {"entropy": str(seed.entropy), "spawn_key": list(seed.spawn_key)}
+    return int(seed)
+
+
+def _trim(fdm, af: Airframe) -> None:
+    """Start from JSBSim's longitudinal trim when it converges; otherwise from a mid
+    throttle guess (turboprop trims are unreliable) and let the autopilot settle."""
+    try:
+        with quiet_jsbsim():
+            fdm["simulation/do_simple_trim"] = 0
+        thr, elev = fdm["fcs/throttle-cmd-norm[0]"], fdm["fcs/elevator-cmd-norm"]
+    except jsbsim.TrimFailureError:
+        thr, elev = 0.6, 0.0
+        for i in range(af.engines):
+            fdm[f"fcs/throttle-cmd-norm[{i}]"] = thr
+    fdm["ap/trim/throttle"] = thr
+    fdm["ap/trim/elevator"] = elev
+
+
+def route_from_plan(plan) -> Route:
+    """The loop's Route for a routes.LegPlan (waypoints, ellipsoidal heights, arrival
+    centreline; the undulation used for MSL heights is the mean of the two airports')."""
+    from aerotruth import geo
+
+    rw = plan.arrival_runway
+    far_lat, far_lon, _ = geo.forward(rw.threshold_lat, rw.threshold_lon, (rw.true_course_deg + 180.0) % 360.0, 30 * NM)
+    return Route(
+        name=f"{plan.origin.icao}-{plan.destination.icao}",
+        waypoints=tuple((w.name, float(w.lat), float(w.lon)) for w in plan.waypoints),
+        departure_utc=plan.departure_utc,
+        start_h_ellipsoid_m=float(plan.initial_height_m),
+        start_course_deg=float(plan.initial_course_deg),
+        cruise_pressure_altitude_m=float(plan.cruise_pressure_altitude_m),
+        arrival_h_ellipsoid_m=float(plan.arrival_height_m),
+        arrival_threshold=(float(rw.threshold_lat), float(rw.threshold_lon)),
+        arrival_course_deg=float(rw.true_course_deg),
+        arrival_far_point=(float(far_lat), float(far_lon)),
+        undulation_m=0.5 * (plan.origin.undulation_m + plan.destination.undulation_m),
+        lowest_runway_ellipsoid_m=min(plan.origin.elevation_ellipsoid_m, plan.destination.elevation_ellipsoid_m),
+    )

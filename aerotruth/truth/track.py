@@ -1,0 +1,141 @@
+"""TruthTrack: one flight (or approach) as a table of truth samples at a fixed rate, with
+metadata, stored as Parquet. The contract is documented in docs/data-formats.md.
+
+Columns (SI, angles in rad, positions WGS-84 geodetic with ellipsoidal height):
+time_s, lat_deg, lon_deg, h_ellipsoid_m, pressure_altitude_m, vn_mps, ve_mps, vd_mps,
+roll_rad, pitch_rad, heading_rad (true), tas_mps, cas_mps, alpha_rad, beta_rad,
+p_radps, q_radps, r_radps, wind_u_mps, wind_v_mps, wind_w_mps (air motion towards
+east/north/up, turbulence included), static_pressure_pa, temperature_k, leg_index, phase.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pyarrow as pa
+import pyarrow.parquet as pq
+
+from aerotruth.units import KT, NM
+
+COLUMNS = (
+    "time_s", "lat_deg", "lon_deg", "h_ellipsoid_m", "pressure_altitude_m",
+    "vn_mps", "ve_mps", "vd_mps", "roll_rad", "pitch_rad", "heading_rad",
+    "tas_mps", "cas_mps", "alpha_rad", "beta_rad", "p_radps", "q_radps", "r_radps",
+    "wind_u_mps", "wind_v_mps", "wind_w_mps", "static_pressure_pa", "temperature_k",
+    "leg_index", "phase",
+)
+PHASES = ("climb", "cruise", "descent", "approach")
+_META_KEY = b"aerotruth"
+
+
+def air_velocity_ned(df: pd.DataFrame) -> np.ndarray:
+    """Velocity of the aircraft relative to the air in NED (m/s), from TAS, alpha, beta and
+    the Euler angles: v_body = V (cos a cos b, sin b, sin a cos b), v_ned = Rz(psi) Ry(theta) Rx(phi) v_body."""
+    v = df["tas_mps"].to_numpy()
+    a, b = df["alpha_rad"].to_numpy(), df["beta_rad"].to_numpy()
+    ph, th, ps = df["roll_rad"].to_numpy(), df["pitch_rad"].to_numpy(), df["heading_rad"].to_numpy()
+    vb = np.stack([v * np.cos(a) * np.cos(b), v * np.sin(b), v * np.sin(a) * np.cos(b)], axis=-1)
+    cph, sph, cth, sth, cps, sps = np.cos(ph), np.sin(ph), np.cos(th), np.sin(th), np.cos(ps), np.sin(ps)
+    r = np.empty((len(v), 3, 3))
+    r[:, 0, 0] = cth * cps
+    r[:, 0, 1] = sph * sth * cps - cph * sps
+    r[:, 0, 2] = cph * sth * cps + sph * sps
+    r[:, 1, 0] = cth * sps
+    r[:, 1, 1] = sph * sth * sps + cph * cps
+    r[:, 1, 2] = cph * sth * sps - sph * cps
+    r[:, 2, 0] = -sth
+    r[:, 2, 1] = sph * cth
+    r[:, 2, 2] = cph * cth
+    return np.einsum("nij,nj->ni", r, vb)
+
+
+@dataclass
+class TruthTrack:
+    """A truth trajectory: `df` holds the samples, `meta` the flight's identity and targets
+    (aircraft, route, seed, JSBSim version, config hash, waypoints, runways)."""
+
+    df: pd.DataFrame
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    def __post_init__(self) -> None:
+        missing = [c for c in COLUMNS if c not in self.df.columns]
+        if missing:
+            raise ValueError(f"TruthTrack: missing columns {missing}")
+
+    def __len__(self) -> int:
+        return len(self.df)
+
+    # --- storage -----------------------------------------------------------------
+    def to_parquet(self, path: str | Path) -> None:
+        """Write atomically (temp file + rename) with the metadata in the Parquet schema."""
+        path = Path(path)
+        table = pa.Table.from_pandas(self.df, preserve_index=False)
+        schema_meta = dict(table.schema.metadata or {})
+        schema_meta[_META_KEY] = json.dumps(self.meta, sort_keys=True).encode()
+        table = table.replace_schema_metadata(schema_meta)
+        tmp = path.with_name(path.name + ".tmp")
+        pq.write_table(table, tmp, compression="zstd")
+        tmp.replace(path)
+
+    @classmethod
+    def read_parquet(cls, path: str | Path) -> "TruthTrack":
+        table = pq.read_table(path)
+        raw = (table.schema.metadata or {}).get(_META_KEY)
+        if raw is None:
+            raise ValueError(f"{path}: not a TruthTrack (no aerotruth metadata in the Parquet schema)")
+        return cls(table.to_pandas(), json.loads(raw))
+
+    # --- derived quantities --------------------------------------------------------
+    def ground_velocity_ne(self) -> np.ndarray:
+        return self.df[["vn_mps", "ve_mps"]].to_numpy()
+
+    def wind_triangle_residual_mps(self) -> np.ndarray:
+        """|V_G - V_A - V_W| in the horizontal at every sample (wind paper eq. 1 must close)."""
+        va = air_velocity_ned(self.df)
+        vg = self.ground_velocity_ne()
+        wind = self.df[["wind_v_mps", "wind_u_mps"]].to_numpy()
+        return np.hypot(*(vg - va[:, :2] - wind).T)
+
+    def phase_mask(self, phase: str) -> np.ndarray:
+        if phase not in PHASES:
+            raise ValueError(f"phase: expected one of {PHASES}, got {phase!r}")
+        return (self.df["phase"] == phase).to_numpy()
+
+    def summary(self) -> dict[str, float]:
+        """Leg metrics: cruise TAS error, cruise cross-track, arrival centreline offset,
+        wind-triangle closure, duration and flown distance."""
+        from aerotruth.truth.guidance import GreatCircleLeg
+
+        df = self.df
+        out: dict[str, float] = {
+            "duration_s": float(df["time_s"].iloc[-1] - df["time_s"].iloc[0]),
+            "wind_triangle_residual_max_kt": float(self.wind_triangle_residual_mps().max() / KT),
+        }
+        gs = np.hypot(df["vn_mps"], df["ve_mps"]).to_numpy()
+        out["distance_nm"] = float(np.sum(gs[1:] * np.diff(df["time_s"].to_numpy())) / NM)
+        cruise = self.phase_mask("cruise")
+        target = self.meta.get("cruise_tas_kt")
+        if cruise.any() and target is not None:
+            out["cruise_tas_error_max_kt"] = float(np.max(np.abs(df["tas_mps"].to_numpy()[cruise] / KT - target)))
+            legs = [GreatCircleLeg(**leg) for leg in self.meta["legs"]]
+            xt = np.zeros(int(cruise.sum()))
+            idx = df["leg_index"].to_numpy()[cruise]
+            lat, lon = df["lat_deg"].to_numpy()[cruise], df["lon_deg"].to_numpy()[cruise]
+            for i in np.unique(idx):
+                sel = idx == i
+                xt[sel] = legs[int(i)].cross_track_m(lat[sel], lon[sel])
+            out["cruise_xtrack_max_nm"] = float(np.max(np.abs(xt)) / NM)
+        else:
+            out["cruise_tas_error_max_kt"] = float("nan")
+            out["cruise_xtrack_max_nm"] = float("nan")
+        rwy = self.meta.get("arrival_runway")
+        if rwy is not None:
+            centre = GreatCircleLeg("centreline", rwy["far_lat"], rwy["far_lon"], rwy["threshold_lat"], rwy["threshold_lon"])
+            out["arrival_centreline_offset_nm"] = float(
+                abs(centre.cross_track_m(df["lat_deg"].iloc[-1], df["lon_deg"].iloc[-1])) / NM)
+        return out
