@@ -124,12 +124,14 @@ def strip_io(xml: str) -> str:
     return xml
 
 
-def aircraft_root(af: Airframe) -> Path:
+def aircraft_root(af: Airframe, autopilot: bool = True) -> Path:
     """Folder to use as JSBSim's aircraft path for `af`: a cache folder holding the aircraft
     XML wrapped with the autopilot (written once per content digest). The aircraft files
     themselves stay free of the autopilot, so they can be tested open-loop."""
     src_dir = (JSBSIM_DATA_DIR if af.in_jsbsim_wheel else PACKAGE_AIRCRAFT_DIR.parent) / "aircraft" / af.model
-    xml = with_autopilot(strip_io((src_dir / f"{af.model}.xml").read_text()), af.gains_file)
+    xml = strip_io((src_dir / f"{af.model}.xml").read_text())
+    if autopilot:
+        xml = with_autopilot(xml, af.gains_file)
     digest = hashlib.sha256(xml.encode()).hexdigest()[:12]
     root = _cache_dir() / f"aircraft-{digest}"
     target = root / af.model / f"{af.model}.xml"
@@ -160,13 +162,13 @@ def quiet_jsbsim():
         os.close(saved)
 
 
-def new_fdm(af: Airframe, dt: float) -> jsbsim.FGFDMExec:
-    """A quiet FGFDMExec with `af` loaded (autopilot included) at time step dt (s)."""
+def new_fdm(af: Airframe, dt: float, autopilot: bool = True) -> jsbsim.FGFDMExec:
+    """A quiet FGFDMExec with `af` loaded (autopilot included unless told) at time step dt (s)."""
     with quiet_jsbsim():
         fdm = jsbsim.FGFDMExec(str(JSBSIM_DATA_DIR))
         fdm.set_debug_level(0)
         fdm.disable_output()
-        ok = fdm.load_model_with_paths(af.model, str(aircraft_root(af)), str(engine_dir(af)), str(SYSTEMS_DIR))
+        ok = fdm.load_model_with_paths(af.model, str(aircraft_root(af, autopilot)), str(engine_dir(af)), str(SYSTEMS_DIR))
     if not ok:
         raise RuntimeError(f"JSBSim could not load aircraft {af.name!r}")
     fdm.set_dt(dt)
