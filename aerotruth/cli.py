@@ -12,9 +12,75 @@ class UserError(Exception):
 
 
 def _cmd_fly(args: argparse.Namespace) -> int:
-    from aerotruth.truth.flight import fly_cli
+    from pathlib import Path
 
-    return fly_cli(args)
+    from aerotruth.truth.flight import FlightDiverged, fly_leg
+    from aerotruth.truth.weather import plan_in_weather
+    from aerotruth.truth.library import parse_departure
+    from aerotruth.units import NM
+
+    try:
+        departure = parse_departure(args.date)
+        plan = plan_in_weather(args.origin.upper(), args.destination.upper(), departure, seed=args.seed)
+        track = fly_leg(plan, seed=args.seed, aircraft=args.aircraft, turbulence=args.turbulence)
+    except ValueError as e:
+        raise UserError(str(e)) from None
+    except FlightDiverged as e:
+        raise UserError(str(e)) from None
+    out = Path(args.out)
+    if not out.parent.exists():
+        raise UserError(f"--out: folder {out.parent} does not exist")
+    track.to_parquet(out)
+    s = track.summary()
+    print(f"{plan.origin.icao} rwy {plan.departure_runway.ident} -> {plan.destination.icao} rwy "
+          f"{plan.arrival_runway.ident}, FL{plan.cruise_flight_level}, {plan.total_distance_m / NM:.0f} nm: "
+          f"{len(track)} samples ({s['duration_s'] / 60:.1f} min) -> {out}")
+    print(f"cruise TAS error max {s['cruise_tas_error_max_kt']:.2f} kt, cruise cross-track max "
+          f"{s['cruise_xtrack_max_nm']:.3f} nm, arrival off centreline {s['arrival_centreline_offset_nm']:.3f} nm")
+    return 0
+
+
+def _add_campaign_commands(sub) -> None:
+    """run / validate / figures / report / regress: implemented in aerotruth.sim.commands."""
+
+    def lazy(name: str):
+        def call(args: argparse.Namespace) -> int:
+            from aerotruth.sim import commands
+
+            return getattr(commands, name)(args)
+
+        return call
+
+    run = sub.add_parser("run", help="run a campaign (seeded Monte-Carlo) into a run directory")
+    run.add_argument("campaign", help="campaign YAML file")
+    run.add_argument("--out", default=None, help="run directory (default runs/<campaign name>)")
+    run.add_argument("--workers", type=int, default=None, help="worker processes (default: cores)")
+    run.add_argument("--executor", choices=["local", "dask"], default=None, help="executor (default: the YAML's, else local)")
+    run.add_argument("--scheduler", default=None, help="Dask scheduler address (implies --executor dask)")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--no-report", action="store_true", help="skip figures and report")
+    run.set_defaults(func=lazy("run_cli"))
+
+    val = sub.add_parser("validate", help="check a campaign YAML and expand its tasks")
+    val.add_argument("campaign")
+    val.set_defaults(func=lazy("validate_cli"))
+
+    fig = sub.add_parser("figures", help="draw the figures of a run directory")
+    fig.add_argument("run_dir")
+    fig.set_defaults(func=lazy("figures_cli"))
+
+    rep = sub.add_parser("report", help="write RUN_DIR/report.md with figures and metric tables")
+    rep.add_argument("run_dir")
+    rep.set_defaults(func=lazy("report_cli"))
+
+    reg = sub.add_parser("regress", help="compare a run's metrics with a baseline (exit 1 if a metric moved)")
+    reg.add_argument("run_dir")
+    reg.add_argument("baseline", help="baseline JSON (metric values and tolerances)")
+    reg.add_argument("--write", action="store_true", help="write the baseline from this run instead of checking")
+    reg.add_argument("--abs-tol", type=float, default=0.0, help="with --write: absolute tolerance per metric")
+    reg.add_argument("--rel-tol", type=float, default=0.01, help="with --write: relative tolerance per metric")
+    reg.add_argument("--all", action="store_true", help="print every metric, not only those that moved")
+    reg.set_defaults(func=lazy("regress_cli"))
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -30,6 +96,7 @@ def build_parser() -> argparse.ArgumentParser:
     fly.add_argument("--turbulence", action="store_true", help="switch on JSBSim turbulence")
     fly.add_argument("--out", required=True, help="output Parquet file")
     fly.set_defaults(func=_cmd_fly)
+    _add_campaign_commands(sub)
     return p
 
 

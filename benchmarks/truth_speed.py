@@ -17,7 +17,8 @@ import time
 from datetime import datetime, timezone
 
 from aerotruth.truth.airframes import airframe, new_fdm
-from aerotruth.truth.flight import DT, fly_leg, plan_in_weather
+from aerotruth.truth.flight import DT, fly_leg
+from aerotruth.truth.weather import plan_in_weather
 
 
 def _cruise_ic(fdm) -> None:

@@ -6,7 +6,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aerotruth.truth.flight import FlightDiverged, UniformAtmosphere
+from aerotruth.truth.flight import FlightDiverged
 from aerotruth.truth.library import TruthLibrary, parse_departure, truth_key
 from aerotruth.truth.routes import plan_leg
 from aerotruth.truth.track import COLUMNS, TruthTrack, air_velocity_ned

@@ -54,7 +54,9 @@ class Airframe:
     max_bank_deg: float = 60.0
     max_pitch_deg: float = 30.0
     min_pitch_deg: float = -20.0
+    # properties set before run_ic (mass, configuration), and on entering each phase
     extra_ic: dict[str, float] = field(default_factory=dict)
+    phase_properties: dict[str, dict[str, float]] = field(default_factory=dict)
 
 
 AIRFRAMES: dict[str, Airframe] = {
@@ -75,6 +77,34 @@ AIRFRAMES: dict[str, Airframe] = {
         fuel_lbs=(8000.0, 8000.0, 0.0),
     ),
 }
+
+AIRFRAMES["saab340"] = Airframe(
+    name="saab340",
+    model="saab340",
+    in_jsbsim_wheel=False,
+    gains_file="gains_saab340",
+    # speeds a SAAB 340 crew flies: V2+ climb-out clean, 160 KIAS en-route climb at max
+    # rpm, cruise below the 267 KTAS the model makes at FL150 with cruise power so FL250
+    # is still held by power, 220 KIAS descent (Vmo 250 KIAS), 180 KIAS clean arrival
+    schedule=SpeedSchedule(
+        initial_ias_kt=145.0,
+        climb_ias_kt=160.0,
+        cruise_tas_kt=255.0,
+        descent_ias_kt=220.0,
+        arrival_ias_kt=180.0,
+        climb_vs_fpm=2000.0,
+        descent_vs_fpm=-1500.0,
+    ),
+    fuel_lbs=None,  # the model's default load: 12,000 kg with 1,760 kg of fuel
+    extra_ic={"fcs/gear-cmd-norm": 0.0, "gear/gear-pos-norm": 0.0, "fcs/flap-cmd-norm": 0.0,
+              "fcs/advance-cmd-norm[0]": 1.0, "fcs/advance-cmd-norm[1]": 1.0},
+    phase_properties={
+        "climb": {"fcs/advance-cmd-norm[0]": 1.0, "fcs/advance-cmd-norm[1]": 1.0},  # 1,384 rpm
+        "cruise": {"fcs/advance-cmd-norm[0]": 0.0, "fcs/advance-cmd-norm[1]": 0.0},  # 1,230 rpm
+        "descent": {"fcs/advance-cmd-norm[0]": 0.0, "fcs/advance-cmd-norm[1]": 0.0},
+        "approach": {"fcs/advance-cmd-norm[0]": 1.0, "fcs/advance-cmd-norm[1]": 1.0},
+    },
+)
 
 DEFAULT_AIRCRAFT = "737"
 
@@ -168,8 +198,10 @@ def new_fdm(af: Airframe, dt: float, autopilot: bool = True) -> jsbsim.FGFDMExec
         fdm = jsbsim.FGFDMExec(str(JSBSIM_DATA_DIR))
         fdm.set_debug_level(0)
         fdm.disable_output()
+        # before loading: JSBSim's FCS components (filters, PIDs, kinematics) take the time
+        # step when they are built, and would otherwise keep the default 1/120 s
+        fdm.set_dt(dt)
         ok = fdm.load_model_with_paths(af.model, str(aircraft_root(af, autopilot)), str(engine_dir(af)), str(SYSTEMS_DIR))
     if not ok:
         raise RuntimeError(f"JSBSim could not load aircraft {af.name!r}")
-    fdm.set_dt(dt)
     return fdm

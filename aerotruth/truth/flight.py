@@ -15,7 +15,6 @@ import json
 import math
 from dataclasses import asdict, dataclass
 from datetime import datetime, timezone
-from typing import Protocol
 
 import jsbsim
 import numpy as np
@@ -24,6 +23,7 @@ import pandas as pd
 from aerotruth.truth.airframes import Airframe, airframe, new_fdm, quiet_jsbsim
 from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, turn_anticipation_m
 from aerotruth.truth.track import PHASES, TruthTrack
+from aerotruth.truth.weather import ISA_LAPSE, Atmosphere, UniformAtmosphere
 from aerotruth.units import DEG, FT, KT, NM
 
 DT = 0.01  # s: JSBSim step (100 Hz, a multiple of 50 Hz: IMU and 10 Hz samples fall on steps)
@@ -32,7 +32,6 @@ GUIDE_EVERY = 100  # steps: 1 Hz target and wind updates
 FPS = FT  # m/s per ft/s
 PSF = 47.880258980336  # Pa per lbf/ft^2
 RANKINE = 5.0 / 9.0  # K per degree Rankine
-ISA_LAPSE = 0.0065  # K/m, ICAO standard atmosphere troposphere lapse rate
 TEN_THOUSAND_FT = 10000 * FT
 US_SPEED_LIMIT_KT = 250.0  # 14 CFR 91.117(a): 250 KIAS below 10,000 ft MSL
 TURN_BANK_DEG = 20.0  # bank assumed for turn anticipation (autopilot limit is 25 deg)
@@ -47,41 +46,6 @@ class FlightDiverged(Exception):
         self.time_s = time_s
         at = f" at t={time_s:.1f} s" if time_s is not None else ""
         super().__init__(f"flight diverged{at} (seed {seed}): {reason}")
-
-
-class Atmosphere(Protocol):
-    """What the truth loop needs of an atmosphere (heights above mean sea level, t in s
-    since 00:00 UTC of the departure day, winds towards east/north/up in m/s)."""
-
-    def wind(self, lat_deg, lon_deg, alt_m, t_s): ...
-
-    def delta_t(self, lat_deg, lon_deg, t_s): ...
-
-    def static_pressure(self, lat_deg, lon_deg, alt_m, t_s): ...
-
-
-@dataclass(frozen=True)
-class UniformAtmosphere:
-    """ISA + delta_t with a constant wind: the known-truth atmosphere of analytic tests
-    (drift, wind triangle) and of calm-air runs."""
-
-    u_mps: float = 0.0
-    v_mps: float = 0.0
-    w_mps: float = 0.0
-    delta_t_k: float = 0.0
-    sea_level_pressure_pa: float = 101325.0
-
-    def wind(self, lat_deg, lon_deg, alt_m, t_s):
-        shape = np.shape(lat_deg)
-        return (np.full(shape, self.u_mps), np.full(shape, self.v_mps), np.full(shape, self.w_mps))
-
-    def delta_t(self, lat_deg, lon_deg, t_s):
-        return np.full(np.shape(lat_deg), self.delta_t_k)
-
-    def static_pressure(self, lat_deg, lon_deg, alt_m, t_s):
-        # hypsometric equation in an ISA troposphere shifted by delta_t (ICAO Doc 7488)
-        t0 = 288.15 + self.delta_t_k
-        return self.sea_level_pressure_pa * (1.0 - ISA_LAPSE * np.asarray(alt_m) / t0) ** 5.255877
 
 
 @dataclass(frozen=True)
@@ -101,6 +65,8 @@ class Route:
     arrival_far_point: tuple[float, float]
     undulation_m: float
     lowest_runway_ellipsoid_m: float
+    departure_elevation_msl_m: float = 0.0
+    arrival_elevation_msl_m: float = 0.0
 
     @property
     def legs(self) -> list[GreatCircleLeg]:
@@ -175,6 +141,7 @@ class _Guide:
         self.leg = 0
         self.phase = 0  # index into PHASES
         self.level_since: float | None = None
+        self._phase_applied = -1
         pm = fdm.get_property_manager()
         self._nodes = {}
         self._last: dict[str, float] = {}
@@ -227,6 +194,10 @@ class _Guide:
                 self.level_since = t
             if abs(tas_kt - s.cruise_tas_kt) < 2.0 or t - self.level_since > 300.0:
                 self.phase = 1
+        if self.phase != self._phase_applied:
+            for prop, value in self.af.phase_properties.get(PHASES[self.phase], {}).items():
+                self._set(prop, value)
+            self._phase_applied = self.phase
         levelled = self.level_since is not None
         if self.phase <= 1:
             self._set("ap/target/use-pressure-altitude", 1)
@@ -261,9 +232,6 @@ def _initial_conditions(fdm, route: Route, af: Airframe, atmosphere: Atmosphere,
     fdm["ic/long-gc-deg"] = lon
     fdm["ic/h-sl-ft"] = route.start_h_ellipsoid_m / FT
     fdm["ic/terrain-elevation-ft"] = route.lowest_runway_ellipsoid_m / FT
-    fdm["ic/psi-true-deg"] = route.start_course_deg
-    fdm["ic/vc-kts"] = af.schedule.initial_ias_kt
-    fdm["ic/gamma-deg"] = 0.0
     if af.fuel_lbs is not None:
         for i, lbs in enumerate(af.fuel_lbs):
             fdm[f"propulsion/tank[{i}]/contents-lbs"] = lbs
@@ -271,12 +239,25 @@ def _initial_conditions(fdm, route: Route, af: Airframe, atmosphere: Atmosphere,
         fdm[k] = v
     _set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s)
     u, v, w = (float(np.asarray(c).ravel()[0]) for c in
-               atmosphere.wind(lat, lon, route.start_h_ellipsoid_m - route.undulation_m, t0_s))
-    fdm["ic/vw-north-fps"] = v / FPS
-    fdm["ic/vw-east-fps"] = u / FPS
-    fdm["ic/vw-down-fps"] = -w / FPS
+               atmosphere.wind(lat, lon, route.start_h_ellipsoid_m - route.undulation_m, t0_s,
+                               ground_elevation_m=route.departure_elevation_msl_m))
     fdm["ap/wind/t0-sec"] = 0.0
     fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"] = v / FPS, u / FPS, -w / FPS
+    # JSBSim 1.3.3's initial condition ignores the wind when it builds the ground velocity
+    # (the ic/vw-* setters do not take), so set the state it can hold exactly: ground
+    # velocity G = TAS h(psi) + W along the start course chi, body heading psi from the
+    # wind triangle, entered as a sideslip of the IC velocity (heading = psi_ic - beta_ic).
+    # CAS -> TAS first: an angle set after ic/vc-kts corrupts the speed.
+    fdm["ic/vc-kts"] = af.schedule.initial_ias_kt
+    tas = fdm["ic/vt-kts"] * KT
+    chi = route.start_course_deg * DEG
+    cross = -v * math.sin(chi) + u * math.cos(chi)  # wind to the right of the course
+    psi = chi - math.asin(max(-0.5, min(0.5, cross / tas)))
+    gn, ge = tas * math.cos(psi) + v, tas * math.sin(psi) + u
+    fdm["ic/psi-true-deg"] = route.start_course_deg
+    fdm["ic/gamma-deg"] = 0.0
+    fdm["ic/beta-deg"] = (chi - psi) / DEG
+    fdm["ic/vt-kts"] = math.hypot(gn, ge) / KT
 
 
 def _set_atmosphere(fdm, route: Route, atmosphere: Atmosphere, lat: float, lon: float, t_s: float) -> None:
@@ -291,12 +272,12 @@ def _set_atmosphere(fdm, route: Route, atmosphere: Atmosphere, lat: float, lon: 
     fdm["atmosphere/P-sl-psf"] = p0 / PSF
 
 
-def fly_route(route: Route, *, seed, aircraft: str | None = None, atmosphere: Atmosphere | None = None,
+def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atmosphere: Atmosphere | None = None,
               turbulence: bool = False, max_duration_s: float | None = None, meta: dict | None = None) -> TruthTrack:
     """Fly `route` with JSBSim and return its TruthTrack (10 Hz). Raises FlightDiverged."""
-    af = airframe(aircraft)
+    af = aircraft if isinstance(aircraft, Airframe) else airframe(aircraft)
     atmosphere = atmosphere if atmosphere is not None else UniformAtmosphere()
-    rng = np.random.default_rng(seed if not isinstance(seed, np.random.SeedSequence) else seed)
+    rng = np.random.default_rng(seed)
     day0 = route.departure_utc.replace(hour=0, minute=0, second=0, microsecond=0)
     t0_s = (route.departure_utc - day0).total_seconds()
     fdm = new_fdm(af, DT)
@@ -306,6 +287,8 @@ def fly_route(route: Route, *, seed, aircraft: str | None = None, atmosphere: At
         fdm["atmosphere/turb-type"] = 3
         fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = float(rng.uniform(5.0, 25.0)) / FPS * KT
         fdm["atmosphere/turbulence/milspec/severity"] = int(rng.integers(1, 4))
+        # JSBSim's own generator drives the turbulence: seed it from the flight's stream
+        fdm["simulation/randomseed"] = int(rng.integers(0, 2**31 - 1))
     fdm.run_ic()
     fdm["propulsion/set-running"] = -1
     _trim(fdm, af)
@@ -336,20 +319,20 @@ def fly_route(route: Route, *, seed, aircraft: str | None = None, atmosphere: At
     w_prev = (fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"])
     max_bank, max_pitch, min_pitch = af.max_bank_deg * DEG, af.max_pitch_deg * DEG, af.min_pitch_deg * DEG
     floor_ft = (route.lowest_runway_ellipsoid_m - 150.0) / FT
-    seed_repr = _seed_repr(seed)
+    seed_id = seed_repr(seed)
 
     while True:
         lat, lon, h_ft = g_lat(), g_lon(), g_h()
         t = g_t()
         phi, theta = g_phi(), g_theta()
         if not all(map(math.isfinite, (lat, lon, h_ft, phi, theta))):
-            raise FlightDiverged("NaN in the JSBSim state", seed_repr, t)
+            raise FlightDiverged("NaN in the JSBSim state", seed_id, t)
         if abs(phi) > max_bank or theta > max_pitch or theta < min_pitch:
-            raise FlightDiverged(f"attitude limit: roll {phi / DEG:.1f} deg, pitch {theta / DEG:.1f} deg", seed_repr, t)
+            raise FlightDiverged(f"attitude limit: roll {phi / DEG:.1f} deg, pitch {theta / DEG:.1f} deg", seed_id, t)
         if h_ft < floor_ft:
-            raise FlightDiverged(f"altitude {h_ft * FT:.0f} m below the runways", seed_repr, t)
+            raise FlightDiverged(f"altitude {h_ft * FT:.0f} m below the runways", seed_id, t)
         if t > limit_s:
-            raise FlightDiverged(f"did not arrive within {limit_s:.0f} s", seed_repr, t)
+            raise FlightDiverged(f"did not arrive within {limit_s:.0f} s", seed_id, t)
         vn, ve, vd = g_vn() * FPS, g_ve() * FPS, g_vd() * FPS
         gs = math.hypot(vn, ve)
         if not guide.update(t, lat, lon, gs, h_ft * FT, g_palt() * FT, g_vt() / KT * FPS, g_vc() / KT * FPS):
@@ -359,7 +342,9 @@ def fly_route(route: Route, *, seed, aircraft: str | None = None, atmosphere: At
         lat1 = lat + vn * dt_g / 6371008.8 / DEG
         lon1 = lon + ve * dt_g / (6371008.8 * math.cos(lat * DEG)) / DEG
         h1 = h_ft * FT - vd * dt_g - route.undulation_m
-        u, v, w = (float(np.asarray(c).ravel()[0]) for c in atmosphere.wind(lat1, lon1, h1, t0_s + t + dt_g))
+        ground = route.departure_elevation_msl_m if guide.phase < 2 else route.arrival_elevation_msl_m
+        u, v, w = (float(np.asarray(c).ravel()[0]) for c in
+                   atmosphere.wind(lat1, lon1, h1, t0_s + t + dt_g, ground_elevation_m=ground))
         w_next = (v / FPS, u / FPS, -w / FPS)
         wind_nodes[0].set_double_value(t)
         for k in range(3):
@@ -376,13 +361,13 @@ def fly_route(route: Route, *, seed, aircraft: str | None = None, atmosphere: At
 
     df = rec.frame(rows, tags)
     if not np.isfinite(df.drop(columns=["phase"]).to_numpy()).all():
-        raise FlightDiverged("NaN in the recorded truth", seed_repr)
+        raise FlightDiverged("NaN in the recorded truth", seed_id)
     meta = dict(meta or {})
     thr, far = route.arrival_threshold, route.arrival_far_point
     meta.update({
         "route": route.name,
         "aircraft": af.name,
-        "seed": seed_repr,
+        "seed": seed_id,
         "jsbsim_version": jsbsim.__version__,
         "departure_utc": route.departure_utc.astimezone(timezone.utc).isoformat(),
         "cruise_tas_kt": af.schedule.cruise_tas_kt,
@@ -397,7 +382,8 @@ def fly_route(route: Route, *, seed, aircraft: str | None = None, atmosphere: At
     return TruthTrack(df, meta)
 
 
-def _seed_repr(seed):
+def seed_repr(seed):
+    """JSON-able form of an int seed or a SeedSequence (for metadata and divergence logs)."""
     if isinstance(seed, np.random.SeedSequence):
         return {"entropy": str(seed.entropy), "spawn_key": list(seed.spawn_key)}
     return int(seed)
@@ -438,4 +424,24 @@ def route_from_plan(plan) -> Route:
         arrival_far_point=(float(far_lat), float(far_lon)),
         undulation_m=0.5 * (plan.origin.undulation_m + plan.destination.undulation_m),
         lowest_runway_ellipsoid_m=min(plan.origin.elevation_ellipsoid_m, plan.destination.elevation_ellipsoid_m),
+        departure_elevation_msl_m=float(plan.origin.elevation_m),
+        arrival_elevation_msl_m=float(plan.destination.elevation_m),
     )
+
+
+def fly_leg(plan, *, seed, aircraft: str | Airframe | None = None, turbulence: bool = False,
+            atmosphere: Atmosphere | None = None, region: str | None = None) -> TruthTrack:
+    """Fly a routes.LegPlan through the day's truth atmosphere (unless one is given).
+    `seed` (int or SeedSequence) selects the atmosphere realization of the day and the
+    flight's own draws (turbulence severity). Raises FlightDiverged."""
+    if atmosphere is None:
+        from aerotruth.truth.weather import truth_atmosphere_for
+
+        atmosphere = truth_atmosphere_for(plan, seed, region)
+    atm = atmosphere
+    meta = {"origin": plan.origin.icao, "destination": plan.destination.icao,
+            "departure_runway": plan.departure_runway.ident, "arrival_runway_ident": plan.arrival_runway.ident,
+            "flight_id": plan.flight_id, "cruise_flight_level": plan.cruise_flight_level,
+            "atmosphere": getattr(atm, "region_key", type(atm).__name__)}
+    return fly_route(route_from_plan(plan), seed=seed, aircraft=aircraft, atmosphere=atm,
+                     turbulence=turbulence, meta=meta)

@@ -1,0 +1,115 @@
+"""The campaign subcommands of `aerotruth` (run, validate, figures, report, regress).
+Expected problems (bad YAML, wrong run directory, bad baseline, failed task) become one
+line through aerotruth.cli.UserError."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable
+from functools import wraps
+
+from aerotruth.cli import UserError
+from aerotruth.config import ConfigError, load_campaign
+from aerotruth.sim.regress import BaselineError
+from aerotruth.sim.store import RunDirError
+
+
+def _user_errors(fn: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
+    @wraps(fn)
+    def wrapper(args: argparse.Namespace) -> int:
+        from aerotruth.sim.campaign import TaskFailed
+
+        try:
+            return fn(args)
+        except (ConfigError, RunDirError, BaselineError, TaskFailed) as e:
+            raise UserError(str(e)) from None
+
+    return wrapper
+
+
+def _err(msg: str) -> None:
+    print(msg, file=sys.stderr)
+
+
+@_user_errors
+def run_cli(args: argparse.Namespace) -> int:
+    """aerotruth run CAMPAIGN.yaml [--out DIR] [--workers N] [--executor local|dask] [--scheduler ADDR]"""
+    from aerotruth.sim.campaign import run_campaign
+    from aerotruth.sim.executors import resolve
+
+    campaign = load_campaign(args.campaign)
+    ex = campaign.executor
+    try:
+        choice = resolve(ex.kind, ex.workers, ex.scheduler, kind=args.executor, workers=args.workers, scheduler=args.scheduler)
+    except ValueError as e:
+        raise UserError(str(e)) from None
+    try:
+        summary = run_campaign(campaign, choice, out=args.out, progress=not args.quiet, log=_err)
+    except ValueError as e:  # e.g. a scheduler that cannot be reached, an unknown airport in a schedule
+        raise UserError(str(e)) from None
+    _err(f"{campaign.name}: {summary.n_tasks} tasks ({summary.reused} reused, {summary.ran} run) in {summary.seconds:.1f} s")
+    outputs = campaign.outputs
+    if outputs.report and not args.no_report:
+        from aerotruth.sim.report import write_report
+
+        _err(f"report: {write_report(summary.run_dir)}")
+    elif outputs.figures and not args.no_report:
+        from aerotruth.sim.figures import make_figures
+
+        make_figures(summary.run_dir)
+    print(summary.run_dir / "metrics.json")
+    return 0
+
+
+@_user_errors
+def validate_cli(args: argparse.Namespace) -> int:
+    """aerotruth validate CAMPAIGN.yaml: check the schema and expand the tasks."""
+    from aerotruth.sim.campaign import expand
+
+    campaign = load_campaign(args.campaign)
+    try:
+        tasks = expand(campaign)
+    except ValueError as e:
+        raise UserError(f"{args.campaign}: {e}") from None
+    counts = ", ".join(f"{s} {sum(t.study == s for t in tasks)}" for s in campaign.studies.present())
+    print(f"{args.campaign}: ok, campaign {campaign.name}, {len(tasks)} tasks ({counts}), config hash {campaign.config_hash()[:12]}")
+    return 0
+
+
+@_user_errors
+def figures_cli(args: argparse.Namespace) -> int:
+    """aerotruth figures RUN_DIR"""
+    from aerotruth.sim.figures import make_figures
+
+    figs = make_figures(args.run_dir)
+    for study, items in figs.items():
+        for f in items:
+            print(f"{args.run_dir}/figures/{f.stem}.png")
+    return 0
+
+
+@_user_errors
+def report_cli(args: argparse.Namespace) -> int:
+    """aerotruth report RUN_DIR"""
+    from aerotruth.sim.report import write_report
+
+    print(write_report(args.run_dir))
+    return 0
+
+
+@_user_errors
+def regress_cli(args: argparse.Namespace) -> int:
+    """aerotruth regress RUN_DIR BASELINE.json: exit 1 and a table when a metric moved."""
+    from aerotruth.sim.regress import format_checks, regress, write_baseline
+
+    if args.write:
+        n = write_baseline(args.run_dir, args.baseline, abs_tol=args.abs_tol, rel_tol=args.rel_tol)
+        print(f"wrote {args.baseline}: {n} metrics (abs {args.abs_tol}, rel {args.rel_tol})")
+        return 0
+    checks = regress(args.run_dir, args.baseline)
+    bad = [c for c in checks if not c.ok]
+    if bad or args.all:
+        print(format_checks(checks, only_failures=not args.all))
+    print(f"{len(checks) - len(bad)} of {len(checks)} metrics within tolerance" + (f", {len(bad)} moved" if bad else ""))
+    return 1 if bad else 0

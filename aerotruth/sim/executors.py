@@ -1,0 +1,95 @@
+"""Executors: where tasks run, behind the one `concurrent.futures.Executor` interface.
+
+* local: a `ProcessPoolExecutor` (default one process per core) started with the
+  'forkserver' method — every worker is a fresh process, never a fork of a parent that
+  may hold JSBSim state (JSBSim wants one FGFDMExec per process);
+* dask: `distributed.Client(...).get_executor()`, whose futures are
+  `concurrent.futures.Future`s — on a running scheduler (`--scheduler ADDRESS`) or on an
+  in-process `LocalCluster` of worker *processes* (`--executor dask`).
+
+The campaign runner only calls `submit` and waits on futures, so both take the same path.
+"""
+
+from __future__ import annotations
+
+import multiprocessing
+import os
+from collections.abc import Iterator
+from concurrent.futures import Executor, ProcessPoolExecutor
+from contextlib import contextmanager
+from dataclasses import dataclass
+
+DEFAULT_DASK_LOCAL_WORKERS = 2
+
+
+@dataclass(frozen=True)
+class ExecutorChoice:
+    """Resolved executor settings (command line over YAML over defaults)."""
+
+    kind: str  # "local" or "dask"
+    workers: int | None = None
+    scheduler: str | None = None
+
+    def describe(self) -> str:
+        """One phrase for logs."""
+        if self.kind == "local":
+            return f"local pool, {self.workers or os.cpu_count()} processes"
+        if self.scheduler:
+            return f"dask scheduler {self.scheduler}"
+        return f"dask LocalCluster, {self.workers or DEFAULT_DASK_LOCAL_WORKERS} worker processes"
+
+
+def resolve(yaml_kind: str, yaml_workers: int | None, yaml_scheduler: str | None, *, kind: str | None = None,
+            workers: int | None = None, scheduler: str | None = None) -> ExecutorChoice:
+    """Merge command-line options over the campaign's `executor:` block; a scheduler address
+    implies dask."""
+    if workers is not None and workers < 1:
+        raise ValueError(f"--workers: expected a positive integer, got {workers}")
+    sched = scheduler if scheduler is not None else (yaml_scheduler if kind in (None, "dask") else None)
+    k = kind or ("dask" if sched else yaml_kind)
+    if sched and k != "dask":
+        raise ValueError("--scheduler needs --executor dask")
+    return ExecutorChoice(kind=k, workers=workers if workers is not None else yaml_workers, scheduler=sched if k == "dask" else None)
+
+
+@contextmanager
+def open_executor(choice: ExecutorChoice) -> Iterator[tuple[Executor, int]]:
+    """Yield (executor, parallel slots). Slots bound how many tasks are kept in flight."""
+    if choice.kind == "local":
+        n = choice.workers or os.cpu_count() or 1
+        ctx = multiprocessing.get_context("forkserver")
+        # Import the worker's dependencies once in the fork server, not in every worker.
+        ctx.set_forkserver_preload(["aerotruth.sim.worker"])
+        pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx)
+        try:
+            yield pool, n
+        finally:
+            pool.shutdown(wait=True, cancel_futures=True)
+        return
+    if choice.kind != "dask":
+        raise ValueError(f"executor: expected 'local' or 'dask', got {choice.kind!r}")
+    from distributed import Client, LocalCluster
+
+    cluster = None
+    if choice.scheduler:
+        try:
+            client = Client(choice.scheduler, timeout="20s")
+        except OSError as e:
+            raise ValueError(f"--scheduler {choice.scheduler}: cannot connect ({e})") from None
+    else:
+        cluster = LocalCluster(
+            n_workers=choice.workers or DEFAULT_DASK_LOCAL_WORKERS,
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            host="127.0.0.1",
+        )
+        client = Client(cluster)
+    try:
+        slots = sum(w.get("nthreads", 1) for w in client.scheduler_info().get("workers", {}).values()) or 1
+        executor = client.get_executor(pure=False)
+        yield executor, slots
+    finally:
+        client.close()
+        if cluster is not None:
+            cluster.close()

@@ -1,0 +1,41 @@
+"""Figures of a finished run: each study draws its own into RUN_DIR/figures (PNG + PDF)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from aerotruth.sim.campaign import expand
+from aerotruth.sim.store import RunStore
+from aerotruth.sim.studies import Figure, get_study
+
+
+def make_figures(run_dir: str | Path) -> dict[str, list[Figure]]:
+    """Draw every study's figures of the run in `run_dir`; returns them by study name."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    store = RunStore(run_dir)
+    campaign = store.campaign()
+    store.read_manifest()
+    metrics = store.read_metrics()["metrics"]
+    tasks = expand(campaign)
+    store.figures_dir.mkdir(parents=True, exist_ok=True)
+    out: dict[str, list[Figure]] = {}
+    for name in campaign.studies.present():
+        study = get_study(name)
+        rows = store.read_rows([t for t in tasks if t.study == name])
+        prefix = f"{name}."
+        mine = {k[len(prefix):]: v for k, v in metrics.items() if k.startswith(prefix)}
+        try:
+            out[name] = study.figures(rows, mine, store.figures_dir)
+        finally:
+            plt.close("all")
+    return out
+
+
+def save(fig, out_dir: Path, stem: str) -> None:
+    """Save a matplotlib figure as out_dir/<stem>.png (150 dpi) and .pdf."""
+    fig.savefig(out_dir / f"{stem}.png", dpi=150, bbox_inches="tight")
+    fig.savefig(out_dir / f"{stem}.pdf", bbox_inches="tight")

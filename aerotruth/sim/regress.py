@@ -1,0 +1,144 @@
+"""Regression of a run's metrics against a baseline with per-metric tolerances.
+
+Baseline file (JSON):
+
+    {"default": {"abs": 0.0, "rel": 0.02},
+     "metrics": {"wind_climatology.FL250.speed_mean_mps": {"value": 21.3, "abs": 0.5},
+                 "truth.legs": 4}}
+
+A metric passes when |got − value| ≤ abs + rel·|value| (numpy.isclose's rule); a bare
+number uses the default tolerances, which are 0 (exact) when not given. A baseline
+metric missing from the run fails; run metrics absent from the baseline are not checked.
+"""
+
+from __future__ import annotations
+
+import json
+import math
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from aerotruth.sim.store import RunStore, atomic_write_text
+
+
+class BaselineError(ValueError):
+    """A baseline file that cannot be used (one line naming the problem)."""
+
+
+@dataclass(frozen=True)
+class Check:
+    """One metric compared with its baseline."""
+
+    metric: str
+    baseline: float | None
+    got: float | None
+    abs_tol: float
+    rel_tol: float
+    missing: bool = False
+
+    @property
+    def tolerance(self) -> float:
+        return self.abs_tol + self.rel_tol * abs(self.baseline or 0.0)
+
+    @property
+    def diff(self) -> float | None:
+        if self.baseline is None or self.got is None:
+            return None
+        return self.got - self.baseline
+
+    @property
+    def ok(self) -> bool:
+        if self.missing:
+            return False
+        if self.baseline is None or self.got is None:  # NaN is written as null
+            return self.baseline is None and self.got is None
+        return abs(self.got - self.baseline) <= self.tolerance
+
+
+def _tolerances(spec: dict[str, Any], where: str) -> tuple[float | None, float | None]:
+    out = []
+    for key in ("abs", "rel"):
+        v = spec.get(key)
+        if v is not None and (not isinstance(v, (int, float)) or isinstance(v, bool) or v < 0 or math.isnan(v)):
+            raise BaselineError(f"{where}.{key}: expected a non-negative number, got {json.dumps(v)}")
+        out.append(None if v is None else float(v))
+    unknown = set(spec) - {"abs", "rel", "value"}
+    if unknown:
+        raise BaselineError(f"{where}: unknown key {sorted(unknown)[0]!r} (allowed: value, abs, rel)")
+    return out[0], out[1]
+
+
+def load_baseline(path: str | Path) -> dict[str, tuple[float | None, float, float]]:
+    """metric -> (value, abs tolerance, rel tolerance) from a baseline file."""
+    p = Path(path)
+    try:
+        doc = json.loads(p.read_text())
+    except FileNotFoundError:
+        raise BaselineError(f"{p}: no such baseline file") from None
+    except json.JSONDecodeError as e:
+        raise BaselineError(f"{p}: not valid JSON: {e.msg} (line {e.lineno})") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("metrics"), dict):
+        raise BaselineError(f"{p}: expected an object with a 'metrics' object")
+    unknown = set(doc) - {"metrics", "default", "comment"}
+    if unknown:
+        raise BaselineError(f"{p}: unknown key {sorted(unknown)[0]!r} (allowed: metrics, default, comment)")
+    d_abs, d_rel = _tolerances(doc.get("default") or {}, "default")
+    out = {}
+    for name, spec in doc["metrics"].items():
+        where = f"metrics.{name}"
+        if isinstance(spec, dict):
+            if "value" not in spec:
+                raise BaselineError(f"{p}: {where}.value: required field missing")
+            a, r = _tolerances(spec, where)
+            value = spec["value"]
+        else:
+            a, r, value = None, None, spec
+        if value is not None and (not isinstance(value, (int, float)) or isinstance(value, bool)):
+            raise BaselineError(f"{p}: {where}: expected a number or null, got {json.dumps(value)}")
+        out[name] = (None if value is None else float(value), a if a is not None else (d_abs or 0.0), r if r is not None else (d_rel or 0.0))
+    return out
+
+
+def compare(metrics: dict[str, Any], baseline: dict[str, tuple[float | None, float, float]]) -> list[Check]:
+    """Check every baseline metric against the run's metrics, in name order."""
+    checks = []
+    for name in sorted(baseline):
+        value, a, r = baseline[name]
+        if name not in metrics:
+            checks.append(Check(name, value, None, a, r, missing=True))
+            continue
+        got = metrics[name]
+        checks.append(Check(name, value, None if got is None else float(got), a, r))
+    return checks
+
+
+def format_checks(checks: list[Check], only_failures: bool = True) -> str:
+    """A plain-text table of the checks (the moved ones only, by default)."""
+    from aerotruth.sim.markdown import format_value
+
+    rows = [c for c in checks if not (only_failures and c.ok)]
+    head = ("metric", "baseline", "got", "diff", "tolerance", "status")
+    body = [
+        (c.metric, format_value(c.baseline, 6), "missing" if c.missing else format_value(c.got, 6),
+         format_value(c.diff, 3), format_value(c.tolerance, 3), "ok" if c.ok else "MOVED")
+        for c in rows
+    ]
+    widths = [max(len(h), *(len(r[i]) for r in body)) if body else len(h) for i, h in enumerate(head)]
+    fmt = "  ".join(f"{{:<{w}}}" for w in widths)
+    lines = [fmt.format(*head), fmt.format(*("-" * w for w in widths))] + [fmt.format(*r) for r in body]
+    return "\n".join(lines)
+
+
+def regress(run_dir: str | Path, baseline_path: str | Path) -> list[Check]:
+    """Compare the metrics of a finished run with a baseline file."""
+    metrics = RunStore(run_dir).read_metrics()["metrics"]
+    return compare(metrics, load_baseline(baseline_path))
+
+
+def write_baseline(run_dir: str | Path, path: str | Path, *, abs_tol: float = 0.0, rel_tol: float = 0.0) -> int:
+    """Write the run's metrics as a baseline with default tolerances; returns the count."""
+    metrics = RunStore(run_dir).read_metrics()["metrics"]
+    doc = {"default": {"abs": abs_tol, "rel": rel_tol}, "metrics": {k: {"value": v} for k, v in sorted(metrics.items())}}
+    atomic_write_text(Path(path), json.dumps(doc, indent=2, sort_keys=True) + "\n")
+    return len(metrics)

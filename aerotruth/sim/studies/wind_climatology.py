@@ -1,0 +1,209 @@
+"""Wind climatology of the truth atmosphere: how strong are the winds the truth flights
+meet, level by level, over a network's region on the campaign's days?
+
+One task per region × day: the day's TruthAtmosphere (the same realization every study
+of the campaign sees for that date: seeded by the campaign seed and the date) is sampled
+at `points` random positions, uniform over the area of the region box, at each flight
+level and UTC hour. A flight level is a pressure altitude; its height above mean sea level
+is found on the day's pressure profile at each point. Metrics per level: mean, RMS,
+median, 95th percentile and maximum of the horizontal speed, mean u and v, RMS of w, and
+the vector RMS of the mesoscale part (total minus synoptic wind; at flight levels the
+boundary-layer factor is 1, so the difference is the mesoscale field alone).
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+
+from aerotruth.config import Campaign, RegionBox
+from aerotruth.sim.studies import Figure
+from aerotruth.sim.tasks import Task, weather_seed
+from aerotruth.units import FT, KT
+
+NETWORK_MARGIN_DEG = 1.0  # a network's region box extends this far beyond its airports
+
+
+def region_box(region: RegionBox) -> tuple[float, float, float, float]:
+    """(south, north, west, east) in degrees: the given box, or the network's airports
+    widened by NETWORK_MARGIN_DEG."""
+    if region.network is None:
+        return (*region.lat_deg, *region.lon_deg)  # type: ignore[misc]
+    from aerotruth.truth.airports import airport, network
+
+    net = network(region.network)
+    lats = [airport(c).lat for c in net.airports]
+    lons = [airport(c).lon for c in net.airports]
+    m = NETWORK_MARGIN_DEG
+    return (max(min(lats) - m, -90.0), min(max(lats) + m, 90.0), max(min(lons) - m, -180.0), min(max(lons) + m, 180.0))
+
+
+def sample_points(rng: np.random.Generator, box: tuple[float, float, float, float], n: int) -> tuple[np.ndarray, np.ndarray]:
+    """n points uniform over the area of a lat/lon box: sin(lat) and lon uniform."""
+    s, nn, w, e = box
+    lat = np.degrees(np.arcsin(rng.uniform(math.sin(math.radians(s)), math.sin(math.radians(nn)), n)))
+    lon = rng.uniform(w, e, n)
+    return lat, lon
+
+
+def atmosphere_region(region: RegionBox) -> str | tuple[float, float]:
+    """Region key of the truth atmosphere: a network's region (the realization its truth
+    flights fly through), or an explicit box's own realization centred on the box."""
+    if region.network is not None:
+        from aerotruth.truth.weather import NETWORK_REGION
+
+        return NETWORK_REGION[region.network]
+    s, n, w, e = region_box(region)
+    return (0.5 * (s + n), 0.5 * (w + e))
+
+
+class WindClimatology:
+    """The `wind_climatology` study (see the module docstring)."""
+
+    name = "wind_climatology"
+    title = "Wind climatology of the truth atmosphere"
+
+    def expand(self, campaign: Campaign) -> list[Task]:
+        cfg = campaign.studies.wind_climatology
+        if cfg is None:
+            return []
+        days = sorted({d for p in cfg.periods for d in campaign.period(p).days()})
+        tasks = []
+        for region in cfg.regions:
+            box = region_box(region)
+            for day in days:
+                tasks.append(Task(self.name, (("region", region.name), ("date", day.isoformat())), params={
+                    "box": box,
+                    "atmosphere_region": atmosphere_region(region),
+                    "weather_seed": weather_seed(campaign.seed, day),
+                    "flight_levels": list(cfg.flight_levels),
+                    "hours_utc": list(cfg.hours_utc),
+                    "points": cfg.points,
+                }))
+        return tasks
+
+    def run(self, task: Task, rng: np.random.Generator) -> pd.DataFrame:
+        from aerotruth.truth.atmosphere import TruthAtmosphere
+
+        ident = dict(task.identity)
+        p = task.params
+        day = dt.date.fromisoformat(str(ident["date"]))
+        atm = TruthAtmosphere.for_day(day, p["weather_seed"], p["atmosphere_region"])
+        n = int(p["points"])
+        frames = []
+        for fl in p["flight_levels"]:
+            for hour in p["hours_utc"]:
+                lat, lon = sample_points(rng, p["box"], n)
+                t_s = np.full(n, float(hour) * 3600.0)
+                alt = msl_height_of_flight_level(atm, lat, lon, fl, t_s)
+                u, v, w = (np.asarray(c, dtype=float) for c in atm.wind(lat, lon, alt, t_s))
+                us, vs = (np.asarray(c, dtype=float) for c in atm.synoptic_wind(lat, lon, alt, t_s))
+                frames.append(pd.DataFrame({
+                    "region": str(ident["region"]), "date": day.isoformat(), "flight_level": int(fl), "hour_utc": float(hour),
+                    "lat_deg": lat, "lon_deg": lon, "alt_msl_m": alt, "u_mps": u, "v_mps": v, "w_mps": w,
+                    "u_synoptic_mps": us, "v_synoptic_mps": vs,
+                }))
+        return pd.concat(frames, ignore_index=True)
+
+    def aggregate(self, rows: pd.DataFrame) -> dict[str, Any]:
+        out: dict[str, Any] = {"samples": int(len(rows)), "tasks": int(rows["task_id"].nunique()) if len(rows) else 0}
+        for fl, g in _by_level(rows):
+            speed = np.hypot(g["u_mps"].to_numpy(), g["v_mps"].to_numpy())
+            key = f"FL{fl:03d}"
+            out[f"{key}.speed_mean_mps"] = float(np.mean(speed))
+            out[f"{key}.speed_rms_mps"] = float(np.sqrt(np.mean(speed**2)))
+            out[f"{key}.speed_p50_mps"] = float(np.percentile(speed, 50))
+            out[f"{key}.speed_p95_mps"] = float(np.percentile(speed, 95))
+            out[f"{key}.speed_max_mps"] = float(np.max(speed))
+            out[f"{key}.u_mean_mps"] = float(np.mean(g["u_mps"]))
+            out[f"{key}.v_mean_mps"] = float(np.mean(g["v_mps"]))
+            out[f"{key}.w_rms_mps"] = float(np.sqrt(np.mean(g["w_mps"].to_numpy() ** 2)))
+            du = g["u_mps"].to_numpy() - g["u_synoptic_mps"].to_numpy()
+            dv = g["v_mps"].to_numpy() - g["v_synoptic_mps"].to_numpy()
+            out[f"{key}.mesoscale_vector_rms_mps"] = float(np.sqrt(np.mean(du**2 + dv**2)))
+        return out
+
+    def tables(self, rows: pd.DataFrame, metrics: dict[str, Any]) -> dict[str, pd.DataFrame]:
+        levels = sorted({int(k[2:5]) for k in metrics if k.startswith("FL")})
+        table = pd.DataFrame({
+            "flight level": [f"FL{fl:03d}" for fl in levels],
+            "mean speed (kt)": [metrics[f"FL{fl:03d}.speed_mean_mps"] / KT for fl in levels],
+            "RMS speed (kt)": [metrics[f"FL{fl:03d}.speed_rms_mps"] / KT for fl in levels],
+            "median (kt)": [metrics[f"FL{fl:03d}.speed_p50_mps"] / KT for fl in levels],
+            "95 % (kt)": [metrics[f"FL{fl:03d}.speed_p95_mps"] / KT for fl in levels],
+            "max (kt)": [metrics[f"FL{fl:03d}.speed_max_mps"] / KT for fl in levels],
+            "mean u (m/s)": [metrics[f"FL{fl:03d}.u_mean_mps"] for fl in levels],
+            "mean v (m/s)": [metrics[f"FL{fl:03d}.v_mean_mps"] for fl in levels],
+            "RMS w (m/s)": [metrics[f"FL{fl:03d}.w_rms_mps"] for fl in levels],
+            "mesoscale vector RMS (m/s)": [metrics[f"FL{fl:03d}.mesoscale_vector_rms_mps"] for fl in levels],
+        })
+        return {"wind_by_level": table}
+
+    def figures(self, rows: pd.DataFrame, metrics: dict[str, Any], out_dir: Path) -> list[Figure]:
+        import matplotlib.pyplot as plt
+
+        from aerotruth.sim.figures import save
+
+        figs = []
+        fig, ax = plt.subplots(figsize=(5.5, 4.5))
+        for fl, g in _by_level(rows):
+            speed = np.hypot(g["u_mps"], g["v_mps"]) / KT
+            lo, med, hi = np.percentile(speed, [5, 50, 95])
+            ax.plot([lo, hi], [fl, fl], color="0.6", lw=4, solid_capstyle="butt")
+            ax.plot(med, fl, "ko")
+            ax.plot(np.mean(speed), fl, "r|", ms=12)
+        ax.set_xlabel("horizontal wind speed (kt): 5–95 % bar, median ●, mean |")
+        ax.set_ylabel("flight level")
+        ax.grid(alpha=0.3)
+        ax.set_title("Truth wind speed by flight level")
+        save(fig, out_dir, "wind_speed_by_level")
+        figs.append(Figure("wind_speed_by_level", "Horizontal truth wind speed by flight level over all regions, days and hours"))
+
+        fig, ax = plt.subplots(figsize=(6.5, 4.5))
+        for (region, fl), g in rows.groupby(["region", "flight_level"], sort=True):
+            daily = g.assign(speed=np.hypot(g["u_mps"], g["v_mps"]) / KT).groupby("date", sort=True)["speed"].mean()
+            ax.plot(pd.to_datetime(daily.index), daily.to_numpy(), marker=".", label=f"{region} FL{fl:03d}")
+        import matplotlib.dates as mdates
+
+        ax.xaxis.set_major_formatter(mdates.DateFormatter("%Y-%m-%d"))
+        ax.set_ylabel("daily mean wind speed (kt)")
+        ax.legend(fontsize="small", ncol=2)
+        ax.grid(alpha=0.3)
+        fig.autofmt_xdate()
+        ax.set_title("Day-to-day variation of the truth wind")
+        save(fig, out_dir, "wind_speed_by_day")
+        figs.append(Figure("wind_speed_by_day", "Daily mean truth wind speed per region and flight level"))
+        return figs
+
+
+def _by_level(rows: pd.DataFrame):
+    """(flight level, rows) in level order; rows keep their task-id order."""
+    if not len(rows):
+        return []
+    return [(int(fl), g) for fl, g in rows.groupby("flight_level", sort=True)]
+
+
+def msl_height_of_flight_level(atm, lat: np.ndarray, lon: np.ndarray, flight_level: int, t_s: np.ndarray,
+                               iterations: int = 4) -> np.ndarray:
+    """Geometric height above mean sea level (m) where the day's static pressure equals
+    that of the flight level (pressure altitude FL x 100 ft). Newton-like iteration on the
+    hypsometric relation: a layer of the ISA + dT column is T / T_ISA times as thick as
+    the same layer of the standard atmosphere, so
+    z <- z + (PA_target - PA(p(z))) * T(z) / T_ISA(PA(p(z))) (ICAO Doc 7488 ISA)."""
+    from aerotruth.truth.isa import geometric_altitude_m, isa_temperature_k, pressure_altitude_m
+
+    target = flight_level * 100.0 * FT
+    z = np.full(np.shape(lat), float(geometric_altitude_m(target)))
+    for _ in range(iterations):
+        temp, p = (np.asarray(a, dtype=float) for a in atm.temperature_and_pressure(lat, lon, z, t_s))
+        pa = np.asarray(pressure_altitude_m(p), dtype=float)
+        z = z + (target - pa) * temp / np.asarray(isa_temperature_k(pa), dtype=float)
+    return z
+
+
+STUDY = WindClimatology()

@@ -1,0 +1,135 @@
+"""The JSBSim truth loop: flies legs, closes the wind triangle, holds its targets,
+is bit-reproducible and reports divergence (issue 'Foundation' acceptance)."""
+
+import dataclasses
+import hashlib
+import subprocess
+import sys
+from datetime import datetime, timezone
+
+import numpy as np
+import pytest
+
+from aerotruth.truth.airframes import airframe
+from aerotruth.truth.flight import FlightDiverged, fly_leg
+from aerotruth.truth.weather import UniformAtmosphere, plan_in_weather
+from aerotruth.truth.routes import plan_leg
+from aerotruth.truth.track import TruthTrack, air_velocity_ned
+from aerotruth.units import FT, KT
+
+DEPARTURE = datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc)
+
+
+@pytest.fixture(scope="module")
+def msp_dlh():
+    plan = plan_in_weather("KMSP", "KDLH", DEPARTURE, seed=1)
+    return plan, fly_leg(plan, seed=1)
+
+
+@pytest.fixture(scope="module")
+def anc_dlg():
+    plan = plan_in_weather("PANC", "PADL", DEPARTURE, seed=2)
+    return plan, fly_leg(plan, seed=2)
+
+
+def test_ground_minus_air_velocity_equals_a_known_constant_wind():
+    # independent of the recorded wind columns: V_G - V_A from TAS, alpha, beta and attitude
+    plan = plan_leg("KMSP", "KRST", DEPARTURE)
+    track = fly_leg(plan, seed=0, atmosphere=UniformAtmosphere(u_mps=20.0, v_mps=-10.0))
+    va = air_velocity_ned(track.df)
+    drift_n = track.df["vn_mps"].to_numpy() - va[:, 0]
+    drift_e = track.df["ve_mps"].to_numpy() - va[:, 1]
+    assert np.max(np.abs(drift_e - 20.0)) / KT < 0.5
+    assert np.max(np.abs(drift_n + 10.0)) / KT < 0.5
+
+
+@pytest.mark.parametrize("leg", ["msp_dlh", "anc_dlg"])
+def test_leg_meets_foundation_acceptance(leg, request):
+    plan, track = request.getfixturevalue(leg)
+    s = track.summary()
+    assert s["cruise_tas_error_max_kt"] <= 5.0
+    assert s["cruise_xtrack_max_nm"] < 0.3
+    assert s["arrival_centreline_offset_nm"] < 1.0
+    assert s["wind_triangle_residual_max_kt"] < 0.5
+    assert set(track.df["phase"].unique()) == {"climb", "cruise", "descent", "approach"}
+    assert np.all(np.diff(track.df["time_s"]) == pytest.approx(0.1))
+
+
+def test_truth_wind_varies_along_the_flight(msp_dlh):
+    _, track = msp_dlh
+    speed = np.hypot(track.df["wind_u_mps"], track.df["wind_v_mps"])
+    assert speed.max() - speed.min() > 2.0  # shear with height and mesoscale structure, not a constant
+
+
+def test_altitude_capture_does_not_overshoot_the_cruise_level(msp_dlh):
+    plan, track = msp_dlh
+    climb_cruise = track.df["phase"].isin(["climb", "cruise"])
+    overshoot_ft = (track.df["pressure_altitude_m"][climb_cruise].max() - plan.cruise_pressure_altitude_m) / FT
+    assert overshoot_ft < 100.0
+
+
+def test_flight_ends_near_2000_ft_above_the_arrival_runway(msp_dlh):
+    plan, track = msp_dlh
+    h_end = track.df["h_ellipsoid_m"].iloc[-1]
+    assert abs(h_end - plan.arrival_height_m) < 300 * FT
+
+
+def _fly_subprocess(tmp_path, name):
+    out = tmp_path / name
+    subprocess.run([sys.executable, "-m", "aerotruth.cli", "fly", "--from", "KMSP", "--to", "KRST",
+                    "--date", "2009-08-15", "--seed", "7", "--out", str(out)], check=True, capture_output=True)
+    return out
+
+
+def test_same_inputs_give_bit_identical_truth_from_two_processes(tmp_path):
+    a, b = _fly_subprocess(tmp_path, "a.parquet"), _fly_subprocess(tmp_path, "b.parquet")
+    assert hashlib.sha256(a.read_bytes()).hexdigest() == hashlib.sha256(b.read_bytes()).hexdigest()
+    ta, tb = TruthTrack.read_parquet(a), TruthTrack.read_parquet(b)
+    assert ta.df.equals(tb.df) and ta.meta == tb.meta
+    assert ta.meta["seed"] == 7 and ta.meta["aircraft"] == airframe(None).name
+
+
+class _NaNAfter(UniformAtmosphere):
+    def wind(self, lat_deg, lon_deg, alt_m, t_s, ground_elevation_m=0.0):
+        u, v, w = super().wind(lat_deg, lon_deg, alt_m, t_s)
+        return (u * np.nan, v, w) if t_s - 13 * 3600 > 60.0 else (u, v, w)
+
+
+def test_nan_in_the_state_ends_the_flight_with_reason_and_seed():
+    plan = plan_leg("KMSP", "KRST", DEPARTURE)
+    with pytest.raises(FlightDiverged) as err:
+        fly_leg(plan, seed=11, atmosphere=_NaNAfter())
+    assert "NaN" in err.value.reason and err.value.seed == 11
+    assert 60.0 < err.value.time_s < 70.0
+
+
+def test_attitude_limit_ends_the_flight():
+    plan = plan_leg("KMSP", "KDLH", DEPARTURE)  # the climb-out turns towards Duluth
+    stiff = dataclasses.replace(airframe(None), max_bank_deg=10.0)
+    with pytest.raises(FlightDiverged, match="attitude limit") as err:
+        fly_leg(plan, seed=3, aircraft=stiff, atmosphere=UniformAtmosphere())
+    assert err.value.seed == 3
+
+
+def test_turbulence_is_reproducible_per_seed_and_differs_between_seeds():
+    plan = plan_leg("KMSP", "KRST", DEPARTURE)
+    calm = UniformAtmosphere()
+    a1 = fly_leg(plan, seed=3, turbulence=True, atmosphere=calm).df
+    a2 = fly_leg(plan, seed=3, turbulence=True, atmosphere=calm).df
+    b = fly_leg(plan, seed=4, turbulence=True, atmosphere=calm).df
+    assert a1.equals(a2)
+    n = min(len(a1), len(b))
+    assert not np.allclose(a1["wind_w_mps"][:n], b["wind_w_mps"][:n])
+    assert a1["wind_w_mps"].std() > 0.1  # turbulence really is on (calm atmosphere otherwise)
+    s = fly_leg(plan, seed=3, turbulence=True, atmosphere=calm).summary()
+    assert s["wind_triangle_residual_max_kt"] < 0.5  # turbulence included in the recorded wind
+
+
+def test_flight_starts_at_the_scheduled_airspeed_without_sideslip_in_a_crosswind():
+    plan = plan_leg("KMSP", "KRST", DEPARTURE)
+    track = fly_leg(plan, seed=0, atmosphere=UniformAtmosphere(u_mps=-15.0, v_mps=12.0))
+    first = track.df.iloc[0]
+    assert first["cas_mps"] / KT == pytest.approx(airframe(None).schedule.initial_ias_kt, abs=1.0)
+    assert abs(np.degrees(first["beta_rad"])) < 0.5
+    course = np.degrees(np.arctan2(first["ve_mps"], first["vn_mps"])) % 360.0
+    assert (course - plan.initial_course_deg + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=0.5)
