@@ -106,7 +106,7 @@ AIRFRAMES["saab340"] = Airframe(
     },
 )
 
-DEFAULT_AIRCRAFT = "737"
+DEFAULT_AIRCRAFT = "saab340"
 
 
 def airframe(name: str | None) -> Airframe:
