@@ -2,7 +2,6 @@
 
 import math
 
-import numpy as np
 import pytest
 
 from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, geocentric_lat_rad, turn_anticipation_m

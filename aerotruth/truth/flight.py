@@ -29,6 +29,7 @@ from aerotruth.units import DEG, FT, KT, NM
 DT = 0.01  # s: JSBSim step (100 Hz, a multiple of 50 Hz: IMU and 10 Hz samples fall on steps)
 RECORD_EVERY = 10  # steps: 10 Hz truth samples
 GUIDE_EVERY = 100  # steps: 1 Hz target and wind updates
+ATMOSPHERE_EVERY = 10  # guidance ticks: temperature and pressure fields every 10 s (they vary over 100s of km)
 FPS = FT  # m/s per ft/s
 PSF = 47.880258980336  # Pa per lbf/ft^2
 RANKINE = 5.0 / 9.0  # K per degree Rankine
@@ -320,6 +321,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
     max_bank, max_pitch, min_pitch = af.max_bank_deg * DEG, af.max_pitch_deg * DEG, af.min_pitch_deg * DEG
     floor_ft = (route.lowest_runway_ellipsoid_m - 150.0) / FT
     seed_id = seed_repr(seed)
+    ticks = 0
 
     while True:
         lat, lon, h_ft = g_lat(), g_lon(), g_h()
@@ -351,7 +353,9 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
             wind_nodes[1 + k].set_double_value(w_prev[k])
             wind_nodes[4 + k].set_double_value((w_next[k] - w_prev[k]) / dt_g)
         w_prev = w_next
-        _set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s + t)
+        ticks += 1
+        if ticks % ATMOSPHERE_EVERY == 0:
+            _set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s + t)
         tag = (guide.leg, guide.phase)
         for _ in range(GUIDE_EVERY // RECORD_EVERY):
             rows.append([g() for g in getters])
