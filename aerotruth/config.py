@@ -16,11 +16,12 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import json
+import typing
 from pathlib import Path
 from typing import Any, Literal
 
 import yaml
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
+from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, ValidationError, field_validator, model_validator
 
 # ----------------------------------------------------------------------------- schema
 
@@ -35,7 +36,7 @@ class ExecutorConfig(_Section):
     """Where tasks run. The command line (--executor, --workers, --scheduler) overrides it."""
 
     kind: Literal["local", "dask"] = "local"
-    workers: int | None = Field(default=None, ge=1, description="local: processes (default: cores); dask: LocalCluster workers (default 2)")
+    workers: StrictInt | None = Field(default=None, ge=1, description="local: processes (default: cores); dask: LocalCluster workers (default 2)")
     scheduler: str | None = Field(default=None, description="address of a running Dask scheduler (implies kind: dask)")
 
 
@@ -43,8 +44,8 @@ class OutputsConfig(_Section):
     """What a run writes besides the per-task tables and metrics.json."""
 
     dir: str | None = Field(default=None, description="run directory (default runs/<name>)")
-    figures: bool = True
-    report: bool = True
+    figures: StrictBool = True
+    report: StrictBool = True
 
 
 class Period(_Section):
@@ -110,8 +111,8 @@ class TruthStudyConfig(_Section):
     fleets: list[str] = Field(min_length=1)
     periods: list[str] = Field(min_length=1)
     legs: list[LegSpec] | None = Field(default=None, description="fly these legs every aircraft-day instead of a schedule")
-    max_legs_per_day: int | None = Field(default=None, ge=1, description="keep only the first N legs of each day")
-    turbulence: bool = False
+    max_legs_per_day: StrictInt | None = Field(default=None, ge=1, description="keep only the first N legs of each day")
+    turbulence: StrictBool = False
 
 
 class RegionBox(_Section):
@@ -146,9 +147,9 @@ class WindClimatologyConfig(_Section):
 
     regions: list[RegionBox] = Field(min_length=1)
     periods: list[str] = Field(min_length=1)
-    flight_levels: list[int] = Field(default=[50, 100, 150, 200, 250], min_length=1, description="hundreds of feet")
+    flight_levels: list[StrictInt] = Field(default=[50, 100, 150, 200, 250], min_length=1, description="hundreds of feet")
     hours_utc: list[float] = Field(default=[0.0, 6.0, 12.0, 18.0], min_length=1)
-    points: int = Field(default=36, ge=1, le=1_000_000, description="random sample points per level and hour, uniform over the box area")
+    points: StrictInt = Field(default=36, ge=1, le=1_000_000, description="random sample points per level and hour, uniform over the box area")
 
     @field_validator("flight_levels")
     @classmethod
@@ -190,7 +191,7 @@ class Campaign(_Section):
     """A whole campaign file."""
 
     name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$", description="also the default run directory runs/<name>")
-    seed: int = Field(ge=0, description="campaign seed: every task stream is SeedSequence(seed, spawn_key=digest(task))")
+    seed: StrictInt = Field(ge=0, description="campaign seed: every task stream is SeedSequence(seed, spawn_key=digest(task))")
     description: str = ""
     fleets: list[Fleet] = Field(default_factory=list)
     periods: list[Period] = Field(min_length=1)
@@ -254,6 +255,9 @@ _EXPECTED = {
     "model_attributes_type": "a mapping",
     "dict_type": "a mapping",
 }
+
+
+_BOUNDS = {"greater_than_equal": ">=", "greater_than": ">", "less_than_equal": "<=", "less_than": "<"}
 
 
 def _describe(value: Any) -> str:
@@ -341,6 +345,11 @@ def _one_line(err: ValidationError, root: yaml.Node | None, fields_of: type[Base
     elif kind == "too_long":
         n = e["ctx"]["max_length"]
         text = f"expected at most {n} item{'s' if n != 1 else ''}, got {e['ctx'].get('actual_length')}"
+    elif kind in _BOUNDS:
+        bound = next(v for k, v in e["ctx"].items() if k in ("ge", "gt", "le", "lt"))
+        text = f"expected a number {_BOUNDS[kind]} {bound}, got {_describe(e.get('input'))}"
+    elif kind == "string_pattern_mismatch" and loc == ("name",):
+        text = f"expected a name of letters, digits, '_', '.' and '-' (it names the run directory), got {_describe(e.get('input'))}"
     elif kind == "value_error":
         text = str(e["ctx"]["error"])
     else:
@@ -356,8 +365,6 @@ def _field_names(model: type[BaseModel]) -> list[str]:
 
 def _model_at(model: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | None:
     """The schema class found at `loc` (for naming the allowed keys of an unknown key)."""
-    import typing
-
     current: Any = model
     for part in loc:
         if isinstance(part, int):

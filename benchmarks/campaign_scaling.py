@@ -7,11 +7,11 @@ Prints `label: value` lines:
   efficiency = wall_1 / (2 * wall_2) (target >= 0.8), efficiency_dask likewise;
   identical_metrics: 1 when the three metrics.json files are byte-identical.
 
-The default campaign is a wind climatology with tasks of a few seconds each (8 tasks:
+The default campaign is a wind climatology with tasks of ~5 s each (8 tasks:
 2 regions x 4 days). `--truth` uses truth flights instead (4 aircraft-days of 2 legs:
 heavier, JSBSim).
 
-    python benchmarks/campaign_scaling.py [--points 6000] [--no-dask] [--truth]
+    python benchmarks/campaign_scaling.py [--points 12000] [--no-dask] [--truth]
 """
 
 from __future__ import annotations
@@ -65,7 +65,7 @@ def timed_run(text: str, choice: ExecutorChoice, out: Path) -> float:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
-    ap.add_argument("--points", type=int, default=6000, help="wind samples per level and hour (task weight)")
+    ap.add_argument("--points", type=int, default=12000, help="wind samples per level and hour (task weight)")
     ap.add_argument("--no-dask", action="store_true", help="skip the Dask LocalCluster run")
     ap.add_argument("--truth", action="store_true", help="time truth flights instead of the wind climatology")
     args = ap.parse_args()

@@ -129,7 +129,7 @@ def test_run_dir_of_another_configuration_is_refused(reference):
 
 def test_seed_changes_metrics_and_regress_catches_it_both_ways(reference, tmp_path, capsys):
     baseline = tmp_path / "baseline.json"
-    assert main(["regress", str(reference), str(baseline), "--write", "--rel", "1e-9"]) == 0
+    assert main(["regress", str(reference), str(baseline), "--write", "--rel-tol", "1e-9"]) == 0
     assert main(["regress", str(reference), str(baseline)]) == 0
     moved = tmp_path / "seed12"
     run_campaign(parse_campaign(TINY.replace("seed: 11", "seed: 12")), LOCAL1, out=moved, **QUIET)
@@ -172,3 +172,10 @@ def test_report_embeds_figures_and_the_metric_table(reference, capsys):
 def test_figures_of_an_unfinished_run_is_one_line(tmp_path, capsys):
     assert main(["figures", str(tmp_path)]) == 2
     assert capsys.readouterr().err.strip() == f"aerotruth figures: {tmp_path} is not a run directory (no config.resolved.yaml)"
+
+
+def test_scheduler_with_local_executor_is_one_line(tmp_path, capsys):
+    (tmp_path / "tiny.yaml").write_text(TINY)
+    args = ["run", str(tmp_path / "tiny.yaml"), "--executor", "local", "--scheduler", "tcp://127.0.0.1:8786"]
+    assert main(args) == 2
+    assert capsys.readouterr().err.strip() == "aerotruth run: --scheduler needs --executor dask"

@@ -166,3 +166,11 @@ def test_cli_validate_prints_one_line_and_exits_2(tmp_path, capsys):
 def test_missing_file_is_one_line():
     with pytest.raises(ConfigError, match="no such campaign file"):
         load_campaign("/nonexistent/campaign.yaml")
+
+
+def test_bounds_and_strict_integers():
+    assert error_of(VALID.replace("seed: 5", "seed: -3")) == "seed: expected a number >= 0, got -3 (line 2)"
+    assert error_of(VALID.replace("seed: 5", "seed: yes")) == "seed: expected an integer, got true (line 2)"
+    assert error_of(VALID.replace("max_legs_per_day: 2", "max_legs_per_day: 2.5")).startswith(
+        "studies.truth.max_legs_per_day: expected an integer, got 2.5")
+    assert error_of(VALID.replace("name: t1", "name: my run")).startswith("name: expected a name of letters, digits")

@@ -57,7 +57,7 @@ def test_metric_missing_from_the_run_fails(tmp_path, run_dir, capsys):
 
 def test_written_baseline_passes_then_fails_after_an_edit(tmp_path, run_dir):
     b = str(tmp_path / "b.json")
-    assert main(["regress", str(run_dir), b, "--write", "--rel", "0.02"]) == 0
+    assert main(["regress", str(run_dir), b, "--write", "--rel-tol", "0.02"]) == 0
     assert main(["regress", str(run_dir), b]) == 0
     doc = json.loads(open(b).read())
     doc["metrics"]["w.speed"]["value"] = 10.3  # 0.3 > 0.02 * 10.3

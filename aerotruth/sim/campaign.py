@@ -18,11 +18,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from aerotruth.config import Campaign
+from aerotruth.config import Campaign, ConfigError
 from aerotruth.sim.executors import ExecutorChoice, open_executor
 from aerotruth.sim.markdown import to_markdown
 from aerotruth.sim.store import RunDirError, RunStore
-from aerotruth.sim.studies import get_study
+from aerotruth.sim.studies import get_study, task_cost
 from aerotruth.sim.tasks import Task
 from aerotruth.sim.worker import execute_task
 
@@ -51,11 +51,14 @@ def expand(campaign: Campaign) -> list[Task]:
     """All tasks of all studies of the campaign, sorted by task id."""
     tasks: list[Task] = []
     for name in campaign.studies.present():
-        tasks.extend(get_study(name).expand(campaign))
+        try:
+            tasks.extend(get_study(name).expand(campaign))
+        except ValueError as e:  # a study's own check of its section (e.g. an unknown aircraft type)
+            raise ConfigError(f"studies.{name}: {e}") from None
     ids = [t.id for t in tasks]
     if len(set(ids)) != len(ids):
         dup = sorted({i for i in ids if ids.count(i) > 1})
-        raise ValueError(f"campaign {campaign.name}: repeated task identities {dup[:3]}")
+        raise ConfigError(f"campaign {campaign.name}: repeated task identities {dup[:3]}")
     return sorted(tasks, key=lambda t: t.id)
 
 
@@ -111,7 +114,7 @@ def _execute(todo: list[Task], choice: ExecutorChoice, store: RunStore, seed: in
     failure: tuple[Task, BaseException] | None = None
     with open_executor(choice) as (executor, slots):
         window = max(2 * slots, 4)
-        queue = iter(todo)
+        queue = iter(sorted(todo, key=lambda t: (-task_cost(t), t.id)))  # longest first
         pending: dict[Future, Task] = {}
 
         def fill() -> None:

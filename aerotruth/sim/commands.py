@@ -5,6 +5,7 @@ line through aerotruth.cli.UserError."""
 from __future__ import annotations
 
 import argparse
+import signal
 import sys
 from collections.abc import Callable
 from functools import wraps
@@ -19,13 +20,18 @@ def _user_errors(fn: Callable[[argparse.Namespace], int]) -> Callable[[argparse.
     @wraps(fn)
     def wrapper(args: argparse.Namespace) -> int:
         from aerotruth.sim.campaign import TaskFailed
+        from aerotruth.sim.executors import ExecutorError
 
         try:
             return fn(args)
-        except (ConfigError, RunDirError, BaselineError, TaskFailed) as e:
+        except (ConfigError, RunDirError, BaselineError, TaskFailed, ExecutorError) as e:
             raise UserError(str(e)) from None
 
     return wrapper
+
+
+def _terminate(signum: int, frame: object) -> None:
+    raise SystemExit(128 + signum)
 
 
 def _err(msg: str) -> None:
@@ -40,14 +46,16 @@ def run_cli(args: argparse.Namespace) -> int:
 
     campaign = load_campaign(args.campaign)
     ex = campaign.executor
-    try:
-        choice = resolve(ex.kind, ex.workers, ex.scheduler, kind=args.executor, workers=args.workers, scheduler=args.scheduler)
-    except ValueError as e:
-        raise UserError(str(e)) from None
+    # SIGTERM (e.g. a batch system's kill) unwinds like Ctrl-C: the executor stops its
+    # workers instead of leaving them orphaned; finished tasks stay stored for a resume.
+    choice = resolve(ex.kind, ex.workers, ex.scheduler, kind=args.executor, workers=args.workers, scheduler=args.scheduler)
+    previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         summary = run_campaign(campaign, choice, out=args.out, progress=not args.quiet, log=_err)
-    except ValueError as e:  # e.g. a scheduler that cannot be reached, an unknown airport in a schedule
-        raise UserError(str(e)) from None
+    except ConfigError as e:
+        raise ConfigError(f"{args.campaign}: {e}") from None
+    finally:
+        signal.signal(signal.SIGTERM, previous)
     _err(f"{campaign.name}: {summary.n_tasks} tasks ({summary.reused} reused, {summary.ran} run) in {summary.seconds:.1f} s")
     outputs = campaign.outputs
     if outputs.report and not args.no_report:
@@ -70,8 +78,8 @@ def validate_cli(args: argparse.Namespace) -> int:
     campaign = load_campaign(args.campaign)
     try:
         tasks = expand(campaign)
-    except ValueError as e:
-        raise UserError(f"{args.campaign}: {e}") from None
+    except ConfigError as e:
+        raise ConfigError(f"{args.campaign}: {e}") from None
     counts = ", ".join(f"{s} {sum(t.study == s for t in tasks)}" for s in campaign.studies.present())
     print(f"{args.campaign}: ok, campaign {campaign.name}, {len(tasks)} tasks ({counts}), config hash {campaign.config_hash()[:12]}")
     return 0

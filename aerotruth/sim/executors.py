@@ -2,12 +2,15 @@
 
 * local: a `ProcessPoolExecutor` (default one process per core) started with the
   'forkserver' method — every worker is a fresh process, never a fork of a parent that
-  may hold JSBSim state (JSBSim wants one FGFDMExec per process);
+  may hold JSBSim state (JSBSim wants one FGFDMExec per process) — each with one
+  BLAS/OpenMP thread;
 * dask: `distributed.Client(...).get_executor()`, whose futures are
   `concurrent.futures.Future`s — on a running scheduler (`--scheduler ADDRESS`) or on an
   in-process `LocalCluster` of worker *processes* (`--executor dask`).
 
 The campaign runner only calls `submit` and waits on futures, so both take the same path.
+Workers of an external Dask cluster must have the same aerotruth and dependency
+versions installed (tasks are pickled by reference to aerotruth.sim.worker).
 """
 
 from __future__ import annotations
@@ -19,7 +22,14 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass
 
+from aerotruth.sim.worker import ignore_sigint
+
 DEFAULT_DASK_LOCAL_WORKERS = 2
+_THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
+
+
+class ExecutorError(ValueError):
+    """Executor settings that cannot be used (bad combination, unreachable scheduler)."""
 
 
 @dataclass(frozen=True)
@@ -44,11 +54,11 @@ def resolve(yaml_kind: str, yaml_workers: int | None, yaml_scheduler: str | None
     """Merge command-line options over the campaign's `executor:` block; a scheduler address
     implies dask."""
     if workers is not None and workers < 1:
-        raise ValueError(f"--workers: expected a positive integer, got {workers}")
+        raise ExecutorError(f"--workers: expected a positive integer, got {workers}")
     sched = scheduler if scheduler is not None else (yaml_scheduler if kind in (None, "dask") else None)
     k = kind or ("dask" if sched else yaml_kind)
     if sched and k != "dask":
-        raise ValueError("--scheduler needs --executor dask")
+        raise ExecutorError("--scheduler needs --executor dask")
     return ExecutorChoice(kind=k, workers=workers if workers is not None else yaml_workers, scheduler=sched if k == "dask" else None)
 
 
@@ -57,17 +67,30 @@ def open_executor(choice: ExecutorChoice) -> Iterator[tuple[Executor, int]]:
     """Yield (executor, parallel slots). Slots bound how many tasks are kept in flight."""
     if choice.kind == "local":
         n = choice.workers or os.cpu_count() or 1
+        # Parallelism comes from processes: one BLAS/OpenMP thread per worker (as Dask's
+        # nanny does), else each worker's OpenBLAS spins on every core, doubling CPU time
+        # for no gain and spoiling the scaling. The fork server inherits this environment.
+        for var in _THREAD_VARS:
+            os.environ.setdefault(var, "1")
         ctx = multiprocessing.get_context("forkserver")
         # Import the worker's dependencies once in the fork server, not in every worker.
         ctx.set_forkserver_preload(["aerotruth.sim.worker"])
-        pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx)
+        pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=ignore_sigint)
         try:
             yield pool, n
+        except BaseException:
+            # interrupted (Ctrl-C) or the driver failed: stop the workers now rather than
+            # wait for their tasks; finished tasks are already stored, the rest rerun
+            workers = list((getattr(pool, "_processes", None) or {}).values())
+            pool.shutdown(wait=False, cancel_futures=True)
+            for proc in workers:
+                proc.terminate()
+            raise
         finally:
             pool.shutdown(wait=True, cancel_futures=True)
         return
     if choice.kind != "dask":
-        raise ValueError(f"executor: expected 'local' or 'dask', got {choice.kind!r}")
+        raise ExecutorError(f"executor: expected 'local' or 'dask', got {choice.kind!r}")
     from distributed import Client, LocalCluster
 
     cluster = None
@@ -75,7 +98,7 @@ def open_executor(choice: ExecutorChoice) -> Iterator[tuple[Executor, int]]:
         try:
             client = Client(choice.scheduler, timeout="20s")
         except OSError as e:
-            raise ValueError(f"--scheduler {choice.scheduler}: cannot connect ({e})") from None
+            raise ExecutorError(f"--scheduler {choice.scheduler}: cannot connect ({e})") from None
     else:
         cluster = LocalCluster(
             n_workers=choice.workers or DEFAULT_DASK_LOCAL_WORKERS,

@@ -3,6 +3,8 @@ Parquet bytes. The driver alone writes files, so a cluster needs no shared files
 
 from __future__ import annotations
 
+import signal
+
 import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
@@ -41,3 +43,9 @@ def execute_task(task: Task, campaign_seed: int, config_hash: str) -> bytes:
     sink = pa.BufferOutputStream()
     pq.write_table(table, sink)
     return sink.getvalue().to_pybytes()
+
+
+def ignore_sigint() -> None:
+    """Pool-worker initializer: Ctrl-C is the driver's to handle (it stops the workers);
+    a worker interrupted mid-task would only send back a KeyboardInterrupt as a result."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)

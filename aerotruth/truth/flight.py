@@ -303,18 +303,11 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
     getters = rec.getters
     run = fdm.run
     pm = fdm.get_property_manager()
-    g_lat = pm.get_node("position/lat-geod-deg").get_double_value
-    g_lon = pm.get_node("position/long-gc-deg").get_double_value
-    g_h = pm.get_node("position/geod-alt-ft").get_double_value
-    g_palt = pm.get_node("atmosphere/pressure-altitude").get_double_value
-    g_vn = pm.get_node("velocities/v-north-fps").get_double_value
-    g_ve = pm.get_node("velocities/v-east-fps").get_double_value
-    g_vd = pm.get_node("velocities/v-down-fps").get_double_value
-    g_t = pm.get_node("simulation/sim-time-sec").get_double_value
-    g_vt = pm.get_node("velocities/vtrue-fps").get_double_value
-    g_vc = pm.get_node("velocities/vc-fps").get_double_value
-    g_phi = pm.get_node("attitude/phi-rad").get_double_value
-    g_theta = pm.get_node("attitude/theta-rad").get_double_value
+    (g_lat, g_lon, g_h, g_palt, g_vn, g_ve, g_vd, g_t, g_vt, g_vc, g_phi, g_theta) = (
+        pm.get_node(p).get_double_value for p in (
+            "position/lat-geod-deg", "position/long-gc-deg", "position/geod-alt-ft", "atmosphere/pressure-altitude",
+            "velocities/v-north-fps", "velocities/v-east-fps", "velocities/v-down-fps", "simulation/sim-time-sec",
+            "velocities/vtrue-fps", "velocities/vc-fps", "attitude/phi-rad", "attitude/theta-rad"))
     wind_nodes = [pm.get_node(f"ap/wind/{k}") for k in
                   ("t0-sec", "north-fps", "east-fps", "down-fps", "north-rate-fps2", "east-rate-fps2", "down-rate-fps2")]
     w_prev = (fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"])

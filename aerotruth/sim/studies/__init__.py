@@ -11,7 +11,10 @@ A study module exposes `STUDY`, an object with
   in task-id order with a leading `task_id` column; the reduction must not depend on how
   the tasks were scheduled (it never sees that);
 * `tables(rows, metrics) -> dict[str, DataFrame]` — named tables for CSV and the report;
-* `figures(rows, metrics, out_dir) -> list[Figure]` — saves `out_dir/<stem>.png` and `.pdf`.
+* `figures(rows, metrics, out_dir) -> list[Figure]` — saves `out_dir/<stem>.png` and `.pdf`;
+* optionally `cost(task) -> float` — a rough estimate of the task's run time (s): the
+  longest tasks are submitted first, so that one long task does not finish alone at the
+  end (results never depend on the order).
 
 Modules are imported only when their study is used, so a wind-only campaign never loads
 JSBSim.
@@ -84,3 +87,9 @@ def get_study(name: str) -> Study:
     if study.name != name:
         raise ValueError(f"module {_MODULES[name]} defines study {study.name!r}, registered as {name!r}")
     return study
+
+
+def task_cost(task: Task) -> float:
+    """The study's run-time estimate for `task` (1.0 when the study gives none)."""
+    cost = getattr(get_study(task.study), "cost", None)
+    return float(cost(task)) if cost is not None else 1.0

@@ -133,6 +133,25 @@ class TruthFlights:
                     }))
         return tasks
 
+    def cost(self, task: Task) -> float:
+        """Run-time estimate (s): ~1.6 s per 100 nm flown plus 0.5 s per leg (interim
+        aircraft, measured here), over the fixed legs or the expected schedule (6 legs of
+        the network's mean hub-spoke distance)."""
+        from aerotruth import geo
+        from aerotruth.truth.airports import airport, network
+
+        p = task.params
+        if p["legs"] is not None:
+            pairs = [(leg["from"], leg["to"]) for leg in p["legs"]]
+        else:
+            net = network(p["network"])
+            pairs = [(h, s) for h, spokes in net.spokes_by_hub.items() for s in spokes]
+        dist_nm = [geo.inverse(airport(a).lat, airport(a).lon, airport(b).lat, airport(b).lon)[2] / NM for a, b in pairs]
+        n_legs = len(pairs) if p["legs"] is not None else 6
+        if p["max_legs_per_day"] is not None:
+            n_legs = min(n_legs, p["max_legs_per_day"])
+        return n_legs * (0.5 + 1.6 * float(np.mean(dist_nm)) / 100.0)
+
     def run(self, task: Task, rng: np.random.Generator) -> pd.DataFrame:
         from aerotruth.truth.flight import FlightDiverged, fly_leg
 
