@@ -213,7 +213,7 @@ class TruthFlights:
             "95 %": [metrics.get(f"{m}.p95") for m in ACCEPTANCE],
             "max": [metrics.get(f"{m}.max") for m in ACCEPTANCE],
             "limit": list(ACCEPTANCE.values()),
-            "legs within": [metrics.get(f"{m}.pass_fraction") for m in ACCEPTANCE],
+            "fraction of legs within": [metrics.get(f"{m}.pass_fraction") for m in ACCEPTANCE],
         })
         counts = pd.DataFrame({
             "aircraft-days": [metrics["aircraft_days"]], "legs": [metrics["legs"]], "flown": [metrics["legs_flown"]],
