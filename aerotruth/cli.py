@@ -19,6 +19,9 @@ def _cmd_fly(args: argparse.Namespace) -> int:
     from aerotruth.truth.library import parse_departure
     from aerotruth.units import NM
 
+    out = Path(args.out)
+    if not out.parent.exists():
+        raise UserError(f"--out: folder {out.parent} does not exist")
     try:
         departure = parse_departure(args.date)
         plan = plan_in_weather(args.origin.upper(), args.destination.upper(), departure, seed=args.seed)
@@ -27,9 +30,6 @@ def _cmd_fly(args: argparse.Namespace) -> int:
         raise UserError(str(e)) from None
     except FlightDiverged as e:
         raise UserError(str(e)) from None
-    out = Path(args.out)
-    if not out.parent.exists():
-        raise UserError(f"--out: folder {out.parent} does not exist")
     track.to_parquet(out)
     s = track.summary()
     print(f"{plan.origin.icao} rwy {plan.departure_runway.ident} -> {plan.destination.icao} rwy "

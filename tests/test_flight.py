@@ -133,3 +133,18 @@ def test_flight_starts_at_the_scheduled_airspeed_without_sideslip_in_a_crosswind
     assert abs(np.degrees(first["beta_rad"])) < 0.5
     course = np.degrees(np.arctan2(first["ve_mps"], first["vn_mps"])) % 360.0
     assert (course - plan.initial_course_deg + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=0.5)
+
+
+@pytest.mark.parametrize("argv, expect", [
+    (["--from", "KMSP", "--to", "XXXX"], "XXXX"),
+    (["--from", "KMSP", "--to", "KDLH", "--date", "2009-13-01"], "--date"),
+    (["--from", "KMSP", "--to", "KDLH", "--aircraft", "a380"], "unknown aircraft 'a380'"),
+    (["--from", "KMSP", "--to", "KDLH", "--out", "/no/such/folder/f.parquet"], "--out"),
+])
+def test_fly_command_reports_bad_input_in_one_line(argv, expect, capsys, tmp_path):
+    from aerotruth.cli import main
+
+    args = ["fly", "--date", "2009-08-15", "--out", str(tmp_path / "f.parquet")] + argv
+    assert main(args) == 2
+    err = capsys.readouterr().err.strip()
+    assert expect in err and "\n" not in err and "Traceback" not in err

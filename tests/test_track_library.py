@@ -97,3 +97,11 @@ def test_bad_departure_dates_name_the_option(text):
 
 def test_departure_date_defaults_to_13_utc():
     assert parse_departure("2009-08-15") == datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc)
+
+
+def test_flight_diverged_survives_pickling_between_processes():
+    import pickle
+
+    e = pickle.loads(pickle.dumps(FlightDiverged("NaN in the JSBSim state", {"entropy": "1", "spawn_key": [2]}, 61.5)))
+    assert (e.reason, e.seed, e.time_s) == ("NaN in the JSBSim state", {"entropy": "1", "spawn_key": [2]}, 61.5)
+    assert "t=61.5 s" in str(e)

@@ -48,6 +48,9 @@ class FlightDiverged(Exception):
         at = f" at t={time_s:.1f} s" if time_s is not None else ""
         super().__init__(f"flight diverged{at} (seed {seed}): {reason}")
 
+    def __reduce__(self):  # picklable across worker processes with its fields
+        return (FlightDiverged, (self.reason, self.seed, self.time_s))
+
 
 @dataclass(frozen=True)
 class Route:
