@@ -133,8 +133,8 @@ def test_reference_to_undefined_period_names_the_defined_ones():
 def test_unknown_network_and_airport_are_errors():
     text = VALID.replace("network: mesaba", "network: lufthansa")
     assert error_of(text).startswith('fleets[0].network: expected a route network (chautauqua, mesaba, penair), got "lufthansa"')
-    text = VALID.replace("    max_legs_per_day: 2\n", "    legs: [{from: KMSP, to: XXXX}]\n")
-    assert error_of(text).startswith('studies.truth.legs[0].to: expected the ICAO code of an airport in the embedded table, got "XXXX"')
+    text = VALID.replace("    max_legs_per_day: 2\n", "    legs: [{from: KMSP, to: ZZZZ}]\n")
+    assert error_of(text).startswith('studies.truth.legs[0].to: expected the ICAO code of an airport in the embedded table, got "ZZZZ"')
 
 
 def test_schedule_needs_a_network():

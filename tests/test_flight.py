@@ -136,7 +136,7 @@ def test_flight_starts_at_the_scheduled_airspeed_without_sideslip_in_a_crosswind
 
 
 @pytest.mark.parametrize("argv, expect", [
-    (["--from", "KMSP", "--to", "XXXX"], "XXXX"),
+    (["--from", "KMSP", "--to", "ZZZZ"], "ZZZZ"),
     (["--from", "KMSP", "--to", "KDLH", "--date", "2009-13-01"], "--date"),
     (["--from", "KMSP", "--to", "KDLH", "--aircraft", "a380"], "unknown aircraft 'a380'"),
     (["--from", "KMSP", "--to", "KDLH", "--out", "/no/such/folder/f.parquet"], "--out"),

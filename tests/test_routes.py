@@ -280,7 +280,7 @@ def test_plan_leg_rejects_bad_input():
     with pytest.raises(ValueError, match="origin"):
         plan_leg(42, "KDLH", T0)
     with pytest.raises(ValueError, match="unknown ICAO"):
-        plan_leg("KMSP", "KXXX", T0)
+        plan_leg("KMSP", "KZZZ", T0)
 
 
 def test_every_network_leg_plans_within_limits():
