@@ -148,3 +148,11 @@ def test_fly_command_reports_bad_input_in_one_line(argv, expect, capsys, tmp_pat
     assert main(args) == 2
     err = capsys.readouterr().err.strip()
     assert expect in err and "\n" not in err and "Traceback" not in err
+
+
+def test_running_out_of_fuel_ends_the_flight_with_that_reason():
+    plan = plan_leg("KMSP", "KRST", DEPARTURE)
+    dry = dataclasses.replace(airframe("737"), fuel_lbs=(60.0, 60.0, 0.0))
+    with pytest.raises(FlightDiverged, match="fuel exhausted") as err:
+        fly_leg(plan, seed=5, aircraft=dry, atmosphere=UniformAtmosphere())
+    assert err.value.seed == 5 and err.value.time_s < 300.0

@@ -74,7 +74,9 @@ AIRFRAMES: dict[str, Airframe] = {
             climb_vs_fpm=2500.0,
             descent_vs_fpm=-2000.0,
         ),
-        fuel_lbs=(8000.0, 8000.0, 0.0),
+        # wing tanks full and part of the centre tank: ~4 h at FL240, enough for the
+        # longest network leg (PANC-PADU, ~690 nm); 16,000 lb ran dry after 2.4 h
+        fuel_lbs=(10000.0, 10000.0, 8000.0),
     ),
 }
 

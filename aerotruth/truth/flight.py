@@ -318,6 +318,8 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
     floor_ft = (route.lowest_runway_ellipsoid_m - 150.0) / FT
     seed_id = seed_repr(seed)
     ticks = 0
+    g_fuel = pm.get_node("propulsion/total-fuel-lbs").get_double_value
+    fuel_floor_lbs = 0.01 * g_fuel()
 
     while True:
         lat, lon, h_ft = g_lat(), g_lon(), g_h()
@@ -331,6 +333,8 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
             raise FlightDiverged(f"altitude {h_ft * FT:.0f} m below the runways", seed_id, t)
         if t > limit_s:
             raise FlightDiverged(f"did not arrive within {limit_s:.0f} s", seed_id, t)
+        if g_fuel() < fuel_floor_lbs:
+            raise FlightDiverged(f"fuel exhausted ({g_fuel():.0f} lb left)", seed_id, t)
         vn, ve, vd = g_vn() * FPS, g_ve() * FPS, g_vd() * FPS
         gs = math.hypot(vn, ve)
         if not guide.update(t, lat, lon, gs, h_ft * FT, g_palt() * FT, g_vt() / KT * FPS, g_vc() / KT * FPS):
