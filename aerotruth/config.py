@@ -207,6 +207,10 @@ class Campaign(_Section):
         """The period called `name`."""
         return next(p for p in self.periods if p.name == name)
 
+    def days(self, period_names) -> list:
+        """The sorted distinct dates of the named periods (what a study's tasks span)."""
+        return sorted({d for name in period_names for d in self.period(name).days()})
+
     def config_hash(self) -> str:
         """sha256 of everything that determines results (not executor or outputs)."""
         data = self.model_dump(mode="json", by_alias=True, exclude={"executor", "outputs", "description"})

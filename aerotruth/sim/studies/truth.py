@@ -108,7 +108,7 @@ class TruthFlights:
         cfg = campaign.studies.truth
         if cfg is None:
             return []
-        days = sorted({d for p in cfg.periods for d in campaign.period(p).days()})
+        days = campaign.days(cfg.periods)
         legs = None if cfg.legs is None else [
             {"from": leg.origin, "to": leg.destination, "departure_utc": leg.departure_utc.isoformat(timespec="minutes")}
             for leg in cfg.legs

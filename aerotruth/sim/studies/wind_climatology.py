@@ -73,7 +73,7 @@ class WindClimatology:
         cfg = campaign.studies.wind_climatology
         if cfg is None:
             return []
-        days = sorted({d for p in cfg.periods for d in campaign.period(p).days()})
+        days = campaign.days(cfg.periods)
         tasks = []
         for region in cfg.regions:
             box = region_box(region)
