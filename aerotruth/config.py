@@ -26,13 +26,13 @@ from pydantic import BaseModel, ConfigDict, Field, StrictBool, StrictInt, Valida
 # ----------------------------------------------------------------------------- schema
 
 
-class _Section(BaseModel):
+class Section(BaseModel):
     """Base of every schema block: unknown keys are errors, values are immutable."""
 
     model_config = ConfigDict(extra="forbid", frozen=True, populate_by_name=True)
 
 
-class ExecutorConfig(_Section):
+class ExecutorConfig(Section):
     """Where tasks run. The command line (--executor, --workers, --scheduler) overrides it."""
 
     kind: Literal["local", "dask"] = "local"
@@ -40,7 +40,7 @@ class ExecutorConfig(_Section):
     scheduler: str | None = Field(default=None, description="address of a running Dask scheduler (implies kind: dask)")
 
 
-class OutputsConfig(_Section):
+class OutputsConfig(Section):
     """What a run writes besides the per-task tables and metrics.json."""
 
     dir: str | None = Field(default=None, description="run directory (default runs/<name>)")
@@ -48,7 +48,7 @@ class OutputsConfig(_Section):
     report: StrictBool = True
 
 
-class Period(_Section):
+class Period(Section):
     """A named set of UTC days: either `dates:` (a list) or `start:`/`end:` (inclusive)."""
 
     name: str = Field(min_length=1)
@@ -77,7 +77,7 @@ class Period(_Section):
         return [self.start + _dt.timedelta(days=i) for i in range(n)]  # type: ignore[operator]
 
 
-class Fleet(_Section):
+class Fleet(Section):
     """A group of aircraft flying one route network."""
 
     name: str = Field(min_length=1)
@@ -96,7 +96,7 @@ class Fleet(_Section):
         return v
 
 
-class LegSpec(_Section):
+class LegSpec(Section):
     """One fixed leg: departure and arrival airports (ICAO) and the departure time (UTC)."""
 
     origin: str = Field(alias="from", min_length=3)
@@ -104,7 +104,7 @@ class LegSpec(_Section):
     departure_utc: _dt.time = Field(default=_dt.time(12, 0), description="HH:MM UTC")
 
 
-class TruthStudyConfig(_Section):
+class TruthStudyConfig(Section):
     """Truth flights: every aircraft of the named fleets flies each day of the named periods,
     either its generated daily schedule or the fixed `legs:` list."""
 
@@ -115,7 +115,7 @@ class TruthStudyConfig(_Section):
     turbulence: StrictBool = False
 
 
-class RegionBox(_Section):
+class RegionBox(Section):
     """A latitude/longitude box (degrees) sampled by the wind climatology: given as
     `lat_deg: [south, north]` and `lon_deg: [west, east]`, or as `network:` (the box around
     that route network's airports, NETWORK_MARGIN_DEG wider on each side)."""
@@ -141,7 +141,7 @@ class RegionBox(_Section):
         return self
 
 
-class WindClimatologyConfig(_Section):
+class WindClimatologyConfig(Section):
     """Wind statistics of the truth atmosphere: each region is sampled at random points at the
     given flight levels and UTC hours, one task per region and day."""
 
@@ -170,7 +170,7 @@ class WindClimatologyConfig(_Section):
         return v
 
 
-class StudiesConfig(_Section):
+class StudiesConfig(Section):
     """One optional section per study type (aerotruth.sim.studies registers their runners)."""
 
     truth: TruthStudyConfig | None = None
@@ -182,12 +182,12 @@ class StudiesConfig(_Section):
             raise ValueError(f"expected at least one study ({', '.join(type(self).model_fields)})")
         return self
 
-    def present(self) -> dict[str, _Section]:
+    def present(self) -> dict[str, Section]:
         """The configured study sections by name, in schema order."""
         return {f: getattr(self, f) for f in type(self).model_fields if getattr(self, f) is not None}
 
 
-class Campaign(_Section):
+class Campaign(Section):
     """A whole campaign file."""
 
     name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$", description="also the default run directory runs/<name>")
