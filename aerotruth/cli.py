@@ -1,34 +1,63 @@
 """The `aerotruth` command line. Each subcommand's work lives in its module; this file
-only parses arguments and turns expected errors into one clear line (exit 2)."""
+only parses arguments and prints user errors (aerotruth.errors.UserError) as one clear
+line with exit status 2."""
 
 from __future__ import annotations
 
 import argparse
 import sys
+from pathlib import Path
+
+import aerotruth
+from aerotruth.errors import UserError
 
 
-class UserError(Exception):
-    """An error in the user's input: printed as one line, no traceback."""
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
+    return value
+
+
+def _positive_int(text: str) -> int:
+    value = _non_negative_int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
+
+
+def _output_file(value: str, option: str = "--out") -> Path:
+    """Check an output file path before any work is done."""
+    out = Path(value)
+    if out.is_dir():
+        raise UserError(f"{option}: {out} is a folder, expected a file name (e.g. {out / 'flight.parquet'})")
+    if not out.parent.exists():
+        raise UserError(f"{option}: folder {out.parent} does not exist")
+    return out
 
 
 def _cmd_fly(args: argparse.Namespace) -> int:
-    from pathlib import Path
-
+    from aerotruth.truth.airframes import airframe
+    from aerotruth.truth.days import day_atmosphere, parse_departure, plan_in_weather
     from aerotruth.truth.flight import FlightDiverged, fly_leg
-    from aerotruth.truth.weather import plan_in_weather
-    from aerotruth.truth.library import parse_departure
+    from aerotruth.truth.weather import region_for_airport
     from aerotruth.units import NM
 
-    out = Path(args.out)
-    if not out.parent.exists():
-        raise UserError(f"--out: folder {out.parent} does not exist")
+    out = _output_file(args.out)
+    origin, destination = args.origin.strip().upper(), args.destination.strip().upper()
+    weather_seed = args.seed if args.weather_seed is None else args.weather_seed
     try:
+        airframe(args.aircraft)
         departure = parse_departure(args.date)
-        plan = plan_in_weather(args.origin.upper(), args.destination.upper(), departure, seed=args.seed)
-        track = fly_leg(plan, seed=args.seed, aircraft=args.aircraft, turbulence=args.turbulence)
-    except ValueError as e:
-        raise UserError(str(e)) from None
-    except FlightDiverged as e:
+        region = args.region or region_for_airport(origin)
+        plan = plan_in_weather(origin, destination, departure, weather_seed=weather_seed, region=region,
+                               cruise_flight_level=args.cruise_fl, flight_id=args.flight_id or "")
+        atmosphere = day_atmosphere(plan.departure_utc.date(), weather_seed, region)
+        track = fly_leg(plan, seed=args.seed, aircraft=args.aircraft, turbulence=args.turbulence, atmosphere=atmosphere)
+    except (ValueError, FlightDiverged) as e:
         raise UserError(str(e)) from None
     track.to_parquet(out)
     s = track.summary()
@@ -54,7 +83,7 @@ def _add_campaign_commands(sub) -> None:
     run = sub.add_parser("run", help="run a campaign (seeded Monte-Carlo) into a run directory")
     run.add_argument("campaign", help="campaign YAML file")
     run.add_argument("--out", default=None, help="run directory (default runs/<campaign name>)")
-    run.add_argument("--workers", type=int, default=None, help="worker processes (default: cores)")
+    run.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: cores)")
     run.add_argument("--executor", choices=["local", "dask"], default=None, help="executor (default: the YAML's, else local)")
     run.add_argument("--scheduler", default=None, help="Dask scheduler address (implies --executor dask)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
@@ -62,19 +91,19 @@ def _add_campaign_commands(sub) -> None:
     run.set_defaults(func=lazy("run_cli"))
 
     val = sub.add_parser("validate", help="check a campaign YAML and expand its tasks")
-    val.add_argument("campaign")
+    val.add_argument("campaign", help="campaign YAML file")
     val.set_defaults(func=lazy("validate_cli"))
 
     fig = sub.add_parser("figures", help="draw the figures of a run directory")
-    fig.add_argument("run_dir")
+    fig.add_argument("run_dir", help="run directory written by `aerotruth run`")
     fig.set_defaults(func=lazy("figures_cli"))
 
     rep = sub.add_parser("report", help="write RUN_DIR/report.md with figures and metric tables")
-    rep.add_argument("run_dir")
+    rep.add_argument("run_dir", help="run directory written by `aerotruth run`")
     rep.set_defaults(func=lazy("report_cli"))
 
     reg = sub.add_parser("regress", help="compare a run's metrics with a baseline (exit 1 if a metric moved)")
-    reg.add_argument("run_dir")
+    reg.add_argument("run_dir", help="run directory written by `aerotruth run`")
     reg.add_argument("baseline", help="baseline JSON (metric values and tolerances)")
     reg.add_argument("--write", action="store_true", help="write the baseline from this run instead of checking")
     reg.add_argument("--abs-tol", type=float, default=0.0, help="with --write: absolute tolerance per metric")
@@ -84,15 +113,22 @@ def _add_campaign_commands(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="aerotruth", description=__doc__)
+    p = argparse.ArgumentParser(prog="aerotruth", description=__doc__.split("\n\n")[0])
+    p.add_argument("--version", action="version", version=f"aerotruth {aerotruth.__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
-    fly = sub.add_parser("fly", help="fly one leg with JSBSim and write its TruthTrack (Parquet)")
+    fly = sub.add_parser("fly", help="fly one leg with JSBSim and write its TruthTrack (Parquet)",
+                         description="Fly one leg. A campaign leg is re-flown bit for bit with the arguments in the "
+                                     "fly_command column of its truth row (seeds, region, cruise level, flight id).")
     fly.add_argument("--from", dest="origin", required=True, help="departure airport ICAO code")
     fly.add_argument("--to", dest="destination", required=True, help="arrival airport ICAO code")
-    fly.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (or ISO date-time of departure)")
-    fly.add_argument("--seed", type=int, default=0, help="random seed (weather realization, schedule)")
-    fly.add_argument("--aircraft", default=None, help="aircraft name (default: the project default)")
+    fly.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (departure 13:00 UTC) or ISO date-time of departure")
+    fly.add_argument("--seed", type=_non_negative_int, default=0, help="flight seed (turbulence); also the weather seed unless --weather-seed")
+    fly.add_argument("--weather-seed", type=_non_negative_int, default=None, help="seed of the day's truth atmosphere (default: --seed)")
+    fly.add_argument("--region", default=None, help="truth-atmosphere region (default: that of the departure airport)")
+    fly.add_argument("--cruise-fl", type=_positive_int, default=None, help="cruise flight level (default: by distance and direction)")
+    fly.add_argument("--flight-id", default=None, help="flight id recorded in the track's metadata")
+    fly.add_argument("--aircraft", default=None, help="aircraft type (default: the project default, saab340)")
     fly.add_argument("--turbulence", action="store_true", help="switch on JSBSim turbulence")
     fly.add_argument("--out", required=True, help="output Parquet file")
     fly.set_defaults(func=_cmd_fly)

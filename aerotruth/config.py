@@ -96,95 +96,11 @@ class Fleet(Section):
         return v
 
 
-class LegSpec(Section):
-    """One fixed leg: departure and arrival airports (ICAO) and the departure time (UTC)."""
+class TruthStoreConfig(Section):
+    """Where flown truth is cached (shared by every run and campaign on this machine)."""
 
-    origin: str = Field(alias="from", min_length=3)
-    destination: str = Field(alias="to", min_length=3)
-    departure_utc: _dt.time = Field(default=_dt.time(12, 0), description="HH:MM UTC")
-
-
-class TruthStudyConfig(Section):
-    """Truth flights: every aircraft of the named fleets flies each day of the named periods,
-    either its generated daily schedule or the fixed `legs:` list."""
-
-    fleets: list[str] = Field(min_length=1)
-    periods: list[str] = Field(min_length=1)
-    legs: list[LegSpec] | None = Field(default=None, description="fly these legs every aircraft-day instead of a schedule")
-    max_legs_per_day: StrictInt | None = Field(default=None, ge=1, description="keep only the first N legs of each day")
-    turbulence: StrictBool = False
-
-
-class RegionBox(Section):
-    """A latitude/longitude box (degrees) sampled by the wind climatology: given as
-    `lat_deg: [south, north]` and `lon_deg: [west, east]`, or as `network:` (the box around
-    that route network's airports, NETWORK_MARGIN_DEG wider on each side)."""
-
-    name: str = Field(min_length=1)
-    network: str | None = None
-    lat_deg: tuple[float, float] | None = None
-    lon_deg: tuple[float, float] | None = None
-
-    @model_validator(mode="after")
-    def _ordered(self) -> RegionBox:
-        if self.network is not None:
-            if self.lat_deg is not None or self.lon_deg is not None:
-                raise ValueError("give either network or lat_deg/lon_deg, not both")
-            return self
-        if self.lat_deg is None or self.lon_deg is None:
-            raise ValueError("expected network: NAME or both lat_deg: [south, north] and lon_deg: [west, east]")
-        (la0, la1), (lo0, lo1) = self.lat_deg, self.lon_deg
-        if not (-90.0 <= la0 < la1 <= 90.0):
-            raise ValueError(f"lat_deg: expected [south, north] within [-90, 90], got [{la0}, {la1}]")
-        if not (-180.0 <= lo0 < lo1 <= 180.0):
-            raise ValueError(f"lon_deg: expected [west, east] within [-180, 180], got [{lo0}, {lo1}]")
-        return self
-
-
-class WindClimatologyConfig(Section):
-    """Wind statistics of the truth atmosphere: each region is sampled at random points at the
-    given flight levels and UTC hours, one task per region and day."""
-
-    regions: list[RegionBox] = Field(min_length=1)
-    periods: list[str] = Field(min_length=1)
-    flight_levels: list[StrictInt] = Field(default=[50, 100, 150, 200, 250], min_length=1, description="hundreds of feet")
-    hours_utc: list[float] = Field(default=[0.0, 6.0, 12.0, 18.0], min_length=1)
-    points: StrictInt = Field(default=36, ge=1, le=1_000_000, description="random sample points per level and hour, uniform over the box area")
-
-    @field_validator("flight_levels")
-    @classmethod
-    def _levels(cls, v: list[int]) -> list[int]:
-        for fl in v:
-            if not 0 <= fl <= 450:
-                raise ValueError(f"expected flight levels within 0..450, got {fl}")
-        if len(set(v)) != len(v):
-            raise ValueError("flight levels must be unique")
-        return v
-
-    @field_validator("hours_utc")
-    @classmethod
-    def _hours(cls, v: list[float]) -> list[float]:
-        for h in v:
-            if not 0.0 <= h < 24.0:
-                raise ValueError(f"expected hours within [0, 24), got {h}")
-        return v
-
-
-class StudiesConfig(Section):
-    """One optional section per study type (aerotruth.sim.studies registers their runners)."""
-
-    truth: TruthStudyConfig | None = None
-    wind_climatology: WindClimatologyConfig | None = None
-
-    @model_validator(mode="after")
-    def _at_least_one(self) -> StudiesConfig:
-        if all(getattr(self, f) is None for f in type(self).model_fields):
-            raise ValueError(f"expected at least one study ({', '.join(type(self).model_fields)})")
-        return self
-
-    def present(self) -> dict[str, Section]:
-        """The configured study sections by name, in schema order."""
-        return {f: getattr(self, f) for f in type(self).model_fields if getattr(self, f) is not None}
+    path: str | None = Field(default=None, description="folder (default $AEROTRUTH_CACHE/truth, else the user's cache folder)")
+    max_gb: float = Field(default=20.0, gt=0, description="size cap; least recently used flights are evicted after a run")
 
 
 class Campaign(Section):
@@ -195,7 +111,9 @@ class Campaign(Section):
     description: str = ""
     fleets: list[Fleet] = Field(default_factory=list)
     periods: list[Period] = Field(min_length=1)
-    studies: StudiesConfig
+    study_modules: list[str] = Field(default_factory=list, description="extra study modules: importable module names or .py files (relative to the YAML file)")
+    studies: dict[str, Any] = Field(description="one section per study, validated by that study's own schema")
+    truth_store: TruthStoreConfig = TruthStoreConfig()
     executor: ExecutorConfig = ExecutorConfig()
     outputs: OutputsConfig = OutputsConfig()
 
@@ -211,10 +129,22 @@ class Campaign(Section):
         """The sorted distinct dates of the named periods (what a study's tasks span)."""
         return sorted({d for name in period_names for d in self.period(name).days()})
 
+    def section(self, study: str) -> Section:
+        """The validated section of `study`."""
+        return self.studies[study]
+
+    def results_json(self, study: str | None = None) -> str:
+        """Canonical JSON of what determines results: seed, fleets, periods and the study
+        sections (all of them, or only `study`'s); not the executor, outputs, description
+        or where truth is cached."""
+        data = self.model_dump(mode="json", by_alias=True, exclude={"executor", "outputs", "description", "truth_store", "study_modules"})
+        if study is not None:
+            data["studies"] = {study: data["studies"][study]}
+        return json.dumps(data, sort_keys=True, separators=(",", ":"))
+
     def config_hash(self) -> str:
         """sha256 of everything that determines results (not executor or outputs)."""
-        data = self.model_dump(mode="json", by_alias=True, exclude={"executor", "outputs", "description"})
-        return hashlib.sha256(json.dumps(data, sort_keys=True, separators=(",", ":")).encode()).hexdigest()
+        return hashlib.sha256(self.results_json().encode()).hexdigest()
 
     def to_yaml(self) -> str:
         """The resolved campaign (all defaults filled in) as YAML that load_campaign reads back."""
@@ -224,19 +154,9 @@ class Campaign(Section):
 # ----------------------------------------------------------------------------- errors
 
 
-class ConfigError(ValueError):
-    """A campaign file problem, already worded as one line: `path: what was expected (line N)`."""
+from aerotruth.errors import ConfigError  # noqa: E402  (re-exported: campaign problems are user errors)
 
 
-class _NoTimestampLoader(yaml.SafeLoader):
-    """SafeLoader that leaves dates as strings so that pydantic reports a bad date by path
-    (PyYAML would otherwise fail on 2009-02-30 with its own message)."""
-
-
-_NoTimestampLoader.yaml_implicit_resolvers = {
-    ch: [(tag, rx) for tag, rx in resolvers if tag != "tag:yaml.org,2002:timestamp"]
-    for ch, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
-}
 
 _EXPECTED = {
     "int_parsing": "an integer",
@@ -326,13 +246,14 @@ def _check_duplicate_keys(node: yaml.Node | None, loc: tuple[Any, ...] = ()) -> 
             _check_duplicate_keys(v, loc + (i,))
 
 
-def _one_line(err: ValidationError, root: yaml.Node | None, fields_of: type[BaseModel]) -> str:
-    """The first validation error as `path: expected ..., got ... (line N)`."""
+def _one_line(err: ValidationError, root: yaml.Node | None, fields_of: type[BaseModel], prefix: tuple[Any, ...] = ()) -> str:
+    """The first validation error as `path: expected ..., got ... (line N)`; `prefix` is
+    the YAML path of the block `fields_of` validated (e.g. ("studies", "truth"))."""
     errors = err.errors(include_url=False)
     e = errors[0]
     loc = tuple(e["loc"])
     kind = e["type"]
-    path = format_path(loc)
+    path = format_path(prefix + loc)
     if kind == "missing":
         text = "required field missing"
     elif kind == "extra_forbidden":
@@ -358,7 +279,7 @@ def _one_line(err: ValidationError, root: yaml.Node | None, fields_of: type[Base
         text = str(e["ctx"]["error"])
     else:
         text = f"{e['msg'][0].lower()}{e['msg'][1:]}, got {_describe(e.get('input'))}"
-    line = _line_of(root, loc)
+    line = _line_of(root, prefix + loc)
     more = f"; and {len(errors) - 1} more error{'s' if len(errors) > 2 else ''}" if len(errors) > 1 else ""
     return f"{path}: {text}" + (f" (line {line})" if line is not None else "") + more
 
@@ -390,8 +311,57 @@ def _model_at(model: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] |
     return current if isinstance(current, type) and issubclass(current, BaseModel) else None
 
 
-def _check_references(c: Campaign, root: yaml.Node | None) -> None:
-    """Names used under studies must be defined under fleets/periods; names must be unique."""
+class References:
+    """What a study's `check` uses to test the names in its section against the campaign
+    (fleets, periods, airports, ...) and to word a problem as one line with its YAML line."""
+
+    def __init__(self, campaign: Campaign, root: yaml.Node | None, prefix: tuple[Any, ...]):
+        self.campaign = campaign
+        self._root = root
+        self._prefix = prefix
+
+    def error(self, loc: tuple[Any, ...], text: str, *, absolute: bool = False) -> ConfigError:
+        """ConfigError `path: text (line N)`; `loc` is relative to the section unless absolute."""
+        full = tuple(loc) if absolute else self._prefix + tuple(loc)
+        line = _line_of(self._root, full)
+        return ConfigError(f"{format_path(full)}: {text}" + (f" (line {line})" if line is not None else ""))
+
+    @property
+    def where(self) -> str:
+        """The YAML path of the section, e.g. `studies.truth`."""
+        return format_path(self._prefix)
+
+    def names(self, field: str | tuple[Any, ...], kind: str) -> None:
+        """Each name in the section's `field` (a name or a list of names; a path relative
+        to the section) must be that of one of the campaign's `kind` ("fleets" or "periods")."""
+        path = (field,) if isinstance(field, str) else tuple(field)
+        values: Any = self.campaign.section(self._prefix[-1])
+        for part in path:
+            values = values[part] if isinstance(part, int) else getattr(values, part, None)
+        known = {x.name for x in getattr(self.campaign, kind)}
+        items = [values] if isinstance(values, str) else list(values or [])
+        for i, ref in enumerate(items):
+            if ref not in known:
+                have = ", ".join(sorted(known)) or "none defined"
+                loc = path if isinstance(values, str) else path + (i,)
+                raise self.error(loc, f"expected the name of one of the {kind} ({have}), got {_describe(ref)}")
+
+    def fleets(self, field: str = "fleets") -> None:
+        """The section's `field` names defined fleets."""
+        self.names(field, "fleets")
+
+    def periods(self, field: str = "periods") -> None:
+        """The section's `field` names defined periods."""
+        self.names(field, "periods")
+
+    def value(self, value: Any) -> str:
+        """A short rendering of an offending value for a message."""
+        return _describe(value)
+
+
+def _check_campaign(c: Campaign, root: yaml.Node | None) -> None:
+    """Checks across the campaign's own blocks: unique fleet and period names, known route
+    networks and aircraft types."""
     for what, items in (("fleets", c.fleets), ("periods", c.periods)):
         seen: set[str] = set()
         for i, item in enumerate(items):
@@ -399,64 +369,106 @@ def _check_references(c: Campaign, root: yaml.Node | None) -> None:
                 loc = (what, i, "name")
                 raise ConfigError(f"{format_path(loc)}: duplicate name {item.name!r} (line {_line_of(root, loc)})")
             seen.add(item.name)
-    fleets = {f.name for f in c.fleets}
-    periods = {p.name for p in c.periods}
-    for study, section in c.studies.present().items():
-        for field, known in (("fleets", fleets), ("periods", periods)):
-            for i, ref in enumerate(getattr(section, field, None) or []):
-                if ref not in known:
-                    loc = ("studies", study, field, i)
-                    have = ", ".join(sorted(known)) or "none defined"
-                    raise ConfigError(f"{format_path(loc)}: expected the name of one of the {field} ({have}), got {_describe(ref)} (line {_line_of(root, loc)})")
-        regions = getattr(section, "regions", None)
-        if regions:
-            names = [r.name for r in regions]
-            for i, n in enumerate(names):
-                if names.index(n) != i:
-                    loc = ("studies", study, "regions", i, "name")
-                    raise ConfigError(f"{format_path(loc)}: duplicate name {n!r} (line {_line_of(root, loc)})")
-    from aerotruth.truth.airports import networks
+    if any(f.network is not None for f in c.fleets):
+        from aerotruth.truth.airports import networks
 
-    known_networks = networks()
-    named = [(("fleets", i, "network"), f.network) for i, f in enumerate(c.fleets)]
-    wind = c.studies.wind_climatology
-    if wind is not None:
-        named += [(("studies", "wind_climatology", "regions", i, "network"), r.network) for i, r in enumerate(wind.regions)]
-    for loc, net in named:
-        if net is not None and net not in known_networks:
-            raise ConfigError(
-                f"{format_path(loc)}: expected a route network ({', '.join(sorted(known_networks))}), got {_describe(net)} (line {_line_of(root, loc)})"
-            )
-    truth = c.studies.truth
-    if truth is not None and truth.legs is not None:
-        from aerotruth.truth.airports import airports
-
-        known_airports = airports()
-        for i, leg in enumerate(truth.legs):
-            for key, code in (("from", leg.origin), ("to", leg.destination)):
-                if code not in known_airports:
-                    loc = ("studies", "truth", "legs", i, key)
-                    raise ConfigError(
-                        f"{format_path(loc)}: expected the ICAO code of an airport in the embedded table, got {_describe(code)} (line {_line_of(root, loc)})"
-                    )
-            if leg.origin == leg.destination:
-                loc = ("studies", "truth", "legs", i)
-                raise ConfigError(f"{format_path(loc)}: from and to are the same airport {leg.origin} (line {_line_of(root, loc)})")
-    if truth is not None and truth.legs is None:
-        for i, name in enumerate(truth.fleets):
-            if c.fleet(name).network is None:
-                j = next(k for k, f in enumerate(c.fleets) if f.name == name)
-                loc = ("fleets", j, "network")
+        known_networks = networks()
+        for i, f in enumerate(c.fleets):
+            if f.network is not None and f.network not in known_networks:
+                loc = ("fleets", i, "network")
                 raise ConfigError(
-                    f"{format_path(loc)}: required by studies.truth (no fixed legs given), expected a route network name (line {_line_of(root, ('fleets', j))})"
+                    f"{format_path(loc)}: expected a route network ({', '.join(sorted(known_networks))}), got {_describe(f.network)} (line {_line_of(root, loc)})"
+                )
+    if any(f.aircraft_type is not None for f in c.fleets):
+        from aerotruth.truth.airframes import airframe_names
+
+        known = airframe_names()
+        for i, f in enumerate(c.fleets):
+            if f.aircraft_type is not None and f.aircraft_type not in known:
+                loc = ("fleets", i, "aircraft_type")
+                raise ConfigError(
+                    f"{format_path(loc)}: expected an aircraft type ({', '.join(known)}), got {_describe(f.aircraft_type)} (line {_line_of(root, loc)})"
                 )
 
 
-def parse_campaign(text: str) -> Campaign:
-    """Validate campaign YAML text; any problem raises ConfigError with one line."""
+def _resolve_study_modules(c: Campaign, root: yaml.Node | None, base_dir: Path | None) -> list[str]:
+    """`study_modules:` entries as import sources: a `.py` file becomes `file:<absolute
+    path>` (relative to the YAML file's folder), anything else `module:<name>`."""
+    from aerotruth.sim.studies import source_for
+
+    out = []
+    for i, entry in enumerate(c.study_modules):
+        try:
+            out.append(source_for(entry, base_dir))
+        except ValueError as e:
+            loc = ("study_modules", i)
+            raise ConfigError(f"{format_path(loc)}: {e} (line {_line_of(root, loc)})") from None
+    return out
+
+
+def _validate_studies(c: Campaign, root: yaml.Node | None, base_dir: Path | None) -> Campaign:
+    """Validate each `studies:` section with its study's own schema and run its checks."""
+    from aerotruth.sim.studies import StudyError, registry
+
+    sources = _resolve_study_modules(c, root, base_dir)
     try:
-        root = yaml.compose(text, Loader=_NoTimestampLoader)
-        data = yaml.load(text, Loader=_NoTimestampLoader)
+        reg = registry(sources)
+    except StudyError as e:
+        raise ConfigError(f"study_modules: {e}") from None
+    if not c.studies:
+        raise ConfigError(f"studies: expected at least one study ({', '.join(reg)}) (line {_line_of(root, ('studies',))})")
+    sections: dict[str, Section] = {}
+    for name, value in c.studies.items():
+        loc = ("studies", name)
+        if name not in reg:
+            raise ConfigError(f"{format_path(loc)}: unknown study (available: {', '.join(sorted(reg))}) (line {_line_of(root, loc)})")
+        study = reg.get(name)
+        try:
+            sections[name] = study.Config.model_validate({} if value is None else value)
+        except ValidationError as e:
+            raise ConfigError(_one_line(e, root, study.Config, prefix=loc)) from None
+    c = c.model_copy(update={"studies": sections, "study_modules": [s.split(":", 1)[1] for s in sources]})
+    for name in sections:
+        reg.get(name).check(c, References(c, root, ("studies", name)))
+    return c
+
+
+class _CampaignLoader(yaml.SafeLoader):
+    """SafeLoader that leaves dates as strings (so that pydantic reports a bad date by its
+    path; PyYAML would fail on 2009-02-30 with its own message) and reads no YAML 1.1
+    sexagesimal numbers (unquoted `13:00` would otherwise be the integer 780)."""
+
+
+_SEXAGESIMAL = ":"
+_CampaignLoader.yaml_implicit_resolvers = {
+    ch: [
+        (tag, rx) for tag, rx in resolvers
+        if tag != "tag:yaml.org,2002:timestamp"
+        and not (tag in ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float") and _SEXAGESIMAL in rx.pattern)
+    ]
+    for ch, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+# ints and floats without the base-60 alternative of YAML 1.1
+import re as _re  # noqa: E402
+
+_CampaignLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:int",
+    _re.compile(r"""^(?:[-+]?0b[0-1_]+|[-+]?0[0-7_]+|[-+]?(?:0|[1-9][0-9_]*)|[-+]?0x[0-9a-fA-F_]+)$""", _re.X),
+    list("-+0123456789"),
+)
+_CampaignLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    _re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+][0-9]+)?|\.[0-9][0-9_]*(?:[eE][-+][0-9]+)?|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$""", _re.X),
+    list("-+0123456789."),
+)
+
+
+def parse_campaign(text: str, base_dir: str | Path | None = None) -> Campaign:
+    """Validate campaign YAML text; any problem raises ConfigError with one line.
+    `base_dir` is where relative `study_modules:` files are found (the YAML's folder)."""
+    try:
+        root = yaml.compose(text, Loader=_CampaignLoader)
+        data = yaml.load(text, Loader=_CampaignLoader)
     except yaml.MarkedYAMLError as e:
         mark = e.problem_mark or e.context_mark
         where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
@@ -470,8 +482,8 @@ def parse_campaign(text: str) -> Campaign:
         campaign = Campaign.model_validate(data)
     except ValidationError as e:
         raise ConfigError(_one_line(e, root, Campaign)) from None
-    _check_references(campaign, root)
-    return campaign
+    _check_campaign(campaign, root)
+    return _validate_studies(campaign, root, Path(base_dir) if base_dir is not None else None)
 
 
 def load_campaign(path: str | Path) -> Campaign:
@@ -481,9 +493,13 @@ def load_campaign(path: str | Path) -> Campaign:
         text = p.read_text(encoding="utf-8")
     except FileNotFoundError:
         raise ConfigError(f"{p}: no such campaign file") from None
-    except (IsADirectoryError, UnicodeDecodeError) as e:
+    except NotADirectoryError:
+        raise ConfigError(f"{p}: no such campaign file ({p.parent} is not a folder)") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{p}: is a folder, expected a campaign YAML file") from None
+    except (OSError, UnicodeDecodeError) as e:
         raise ConfigError(f"{p}: cannot read campaign file ({e})") from None
     try:
-        return parse_campaign(text)
+        return parse_campaign(text, base_dir=p.resolve().parent)
     except ConfigError as e:
         raise ConfigError(f"{p}: {e}") from None

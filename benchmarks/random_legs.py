@@ -38,12 +38,13 @@ def draw_legs(n: int, seed: int) -> list[tuple[int, str, str, str, datetime]]:
 
 def fly_one(job):
     from aerotruth.truth.flight import FlightDiverged, fly_leg
-    from aerotruth.truth.weather import NETWORK_REGION, plan_in_weather
+    from aerotruth.truth.days import plan_in_weather
+    from aerotruth.truth.weather import NETWORK_REGION
 
     i, net, a, b, dep, aircraft, base_seed = job
     seed = base_seed + i
     try:
-        plan = plan_in_weather(a, b, dep, seed=seed)
+        plan = plan_in_weather(a, b, dep, weather_seed=seed)
         track = fly_leg(plan, seed=seed, aircraft=aircraft, turbulence=True, region=NETWORK_REGION[net])
     except FlightDiverged as e:
         return i, f"{a}-{b}", "diverged", {"reason": e.reason, "seed": e.seed, "time_s": e.time_s}

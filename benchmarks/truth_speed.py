@@ -22,7 +22,7 @@ from datetime import datetime, timezone
 
 from aerotruth.truth.airframes import airframe, new_fdm
 from aerotruth.truth.flight import DT, fly_leg
-from aerotruth.truth.weather import plan_in_weather
+from aerotruth.truth.days import plan_in_weather
 
 
 def _cruise_ic(fdm) -> None:
@@ -66,7 +66,7 @@ def main() -> None:
     ap.add_argument("--to", dest="destination", default="KDLH")
     args = ap.parse_args()
     af = airframe(args.aircraft)
-    plan = plan_in_weather(args.origin, args.destination, datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc), seed=1)
+    plan = plan_in_weather(args.origin, args.destination, datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc), weather_seed=1)
 
     wrapped = new_fdm(af, DT)
     _cruise_ic(wrapped)

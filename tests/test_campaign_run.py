@@ -18,7 +18,6 @@ from aerotruth.cli import main
 from aerotruth.config import parse_campaign
 from aerotruth.sim.campaign import TaskFailed, run_campaign
 from aerotruth.sim.executors import ExecutorChoice
-from aerotruth.sim.store import RunDirError
 
 TINY = """\
 name: tiny
@@ -121,10 +120,20 @@ def test_finished_run_is_reused_entirely(reference):
     assert (s.reused, s.ran) == (N_TASKS, 0)
 
 
-def test_run_dir_of_another_configuration_is_refused(reference):
-    other = parse_campaign(TINY.replace("seed: 11", "seed: 12"))
-    with pytest.raises(RunDirError, match="holds a run of a different configuration"):
-        run_campaign(other, LOCAL1, out=reference, **QUIET)
+def test_rerun_with_another_configuration_recomputes_what_it_changes(reference, tmp_path):
+    out = tmp_path / "reconfigured"
+    run_campaign(parse_campaign(TINY), LOCAL1, out=out, **QUIET)
+    # another seed changes every task's stream: all rerun, and the result is a fresh run's
+    s = run_campaign(parse_campaign(TINY.replace("seed: 11", "seed: 12")), LOCAL1, out=out, **QUIET)
+    assert (s.reused, s.ran) == (0, N_TASKS)
+    fresh = tmp_path / "fresh12"
+    run_campaign(parse_campaign(TINY.replace("seed: 11", "seed: 12")), LOCAL1, out=fresh, **QUIET)
+    assert metrics_bytes(out) == metrics_bytes(fresh) != metrics_bytes(reference)
+    # one period day fewer: nothing reruns, the dropped day's tables leave the run directory
+    s = run_campaign(parse_campaign(TINY.replace("seed: 11", "seed: 12").replace("end: 2009-08-17", "end: 2009-08-16")),
+                     LOCAL1, out=out, **QUIET)
+    assert (s.n_tasks, s.ran) == (N_TASKS - 2, 0)
+    assert len(list((out / "tasks").glob("*.parquet"))) == N_TASKS - 2
 
 
 def test_seed_changes_metrics_and_regress_catches_it_both_ways(reference, tmp_path, capsys):

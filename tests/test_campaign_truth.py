@@ -12,9 +12,9 @@ import pytest
 from aerotruth.config import parse_campaign
 from aerotruth.sim.campaign import expand, run_campaign
 from aerotruth.sim.executors import ExecutorChoice
+from aerotruth.sim.context import TaskContext
 from aerotruth.sim.store import RunStore
-from aerotruth.sim.studies import get_study
-from aerotruth.sim.studies.truth import plan_day
+from aerotruth.sim.studies.truth import STUDY as TRUTH
 from aerotruth.truth.airports import airport
 from aerotruth.units import NM
 
@@ -75,18 +75,21 @@ def test_schedule_day_keeps_the_first_legs_chained_in_time():
     text = FIXED.replace("  - {name: f, aircraft: [N1, N2]}", "  - {name: f, network: mesaba, aircraft: [N1]}")
     text = text[: text.index("    legs:")] + "    max_legs_per_day: 3\n"
     (task,) = expand(parse_campaign(text))
-    legs = plan_day(task, task.rng(7))
+    legs = task.params["day"].plans()
     assert len(legs) == 3
-    for (a, _), (b, _) in zip(legs, legs[1:]):
+    plans = [leg.plan for leg in legs]
+    for a, b in zip(plans, plans[1:]):
         assert a.destination.icao == b.origin.icao
         assert b.departure_utc >= a.departure_utc + dt.timedelta(seconds=a.block_time_s)
-    assert all(p.departure_utc.date() == dt.date(2009, 8, 15) for p, _ in legs)
-    # one atmosphere realization for the network's day
-    assert len({id(atm) for _, atm in legs}) == 1
+    assert all(p.departure_utc.date() == dt.date(2009, 8, 15) for p in plans)
+    # one atmosphere realization for the network's day; each leg its own flight seed
+    assert len({id(leg.atmosphere()) for leg in legs}) == 1
+    assert len({leg.flight_seed for leg in legs}) == 3
 
 
-def test_diverged_leg_is_kept_by_name_with_its_seed_and_left_out_of_statistics(monkeypatch):
+def test_diverged_leg_is_kept_by_name_with_its_seed_and_left_out_of_statistics(monkeypatch, tmp_path):
     import aerotruth.truth.flight as flight
+    import aerotruth.truth.store as truth_store
 
     calls = []
 
@@ -97,22 +100,26 @@ def test_diverged_leg_is_kept_by_name_with_its_seed_and_left_out_of_statistics(m
         return real_fly_leg(plan, seed=seed, **kw)
 
     real_fly_leg = flight.fly_leg
-    monkeypatch.setattr(flight, "fly_leg", fake_fly_leg)
+    monkeypatch.setattr(truth_store, "fly_leg", fake_fly_leg)
     text = FIXED.replace("  - {from: KMSP, to: KRST, departure_utc: \"13:00\"}",
                          "  - {from: KMSP, to: KRST, departure_utc: \"13:00\"}\n      - {from: KRST, to: KMSP, departure_utc: \"15:00\"}")
-    task = expand(parse_campaign(text))[0]
-    study = get_study("truth")
-    rows = study.run(task, task.rng(7))
+    campaign = parse_campaign(text)
+    task = expand(campaign)[0]
+    rows = TRUTH.run(task, TaskContext(task, 7, str(tmp_path / "store")))
     assert list(rows["diverged"]) == [False, True]
     bad = rows.iloc[1]
     assert bad["seed"] == calls[1] and bad["diverge_reason"].startswith("attitude limit") and bad["diverge_time_s"] == 812.5
     assert np.isnan(bad["distance_nm"])
     rows.insert(0, "task_id", task.id)
-    m = study.aggregate(rows)
+    summary = TRUTH.summarize(rows, {}, campaign.section("truth"))
+    m = summary.metrics
     assert (m["legs"], m["legs_flown"], m["legs_diverged"]) == (2, 1, 1)
     assert m["cruise_tas_error_max_kt.max"] == pytest.approx(rows.iloc[0]["cruise_tas_error_max_kt"])
-    div = study.tables(rows, m)["diverged_legs"]
+    div = summary.tables["diverged_legs"]
     assert list(div["flight_id"]) == ["N1-20090815-2"] and list(div["seed"]) == [calls[1]]
+    # the store remembers the divergence: asked again, it reports it without flying
+    again = TRUTH.run(task, TaskContext(task, 7, str(tmp_path / "store")))
+    assert len(calls) == 2 and list(again["diverged"]) == [False, True]
 
 
 def test_unknown_aircraft_type_is_one_line_from_validate(tmp_path, capsys):
@@ -122,5 +129,5 @@ def test_unknown_aircraft_type_is_one_line_from_validate(tmp_path, capsys):
     path.write_text(FIXED.replace("{name: f, aircraft: [N1, N2]}", "{name: f, aircraft_type: concorde, aircraft: [N1]}"))
     assert main(["validate", str(path)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err.startswith(f"aerotruth validate: {path}: studies.truth: fleets[0].aircraft_type: aircraft: unknown aircraft 'concorde'")
+    assert err == f'aerotruth validate: {path}: fleets[0].aircraft_type: expected an aircraft type (737, saab340), got "concorde" (line 4)'
     assert "\n" not in err

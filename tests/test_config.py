@@ -57,8 +57,8 @@ def test_valid_campaign_resolves_defaults_and_period_days():
     c = parse_campaign(VALID)
     assert c.executor.kind == "local" and c.outputs.report is True
     assert c.period("sep").days() == [dt.date(2009, 9, 1), dt.date(2009, 9, 2), dt.date(2009, 9, 3)]
-    assert c.studies.wind_climatology.hours_utc == [0.0, 6.0, 12.0, 18.0]
-    assert list(c.studies.present()) == ["truth", "wind_climatology"]
+    assert c.studies["wind_climatology"].hours_utc == [0.0, 6.0, 12.0, 18.0]
+    assert list(c.studies) == ["truth", "wind_climatology"]
 
 
 def test_resolved_yaml_reads_back_to_the_same_campaign_and_hash():

@@ -12,7 +12,8 @@ import pytest
 
 from aerotruth.truth.airframes import airframe
 from aerotruth.truth.flight import FlightDiverged, fly_leg
-from aerotruth.truth.weather import UniformAtmosphere, plan_in_weather
+from aerotruth.truth.days import plan_in_weather
+from aerotruth.truth.weather import UniformAtmosphere
 from aerotruth.truth.routes import plan_leg
 from aerotruth.truth.track import TruthTrack, air_velocity_ned
 from aerotruth.units import FT, KT
@@ -22,13 +23,13 @@ DEPARTURE = datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc)
 
 @pytest.fixture(scope="module")
 def msp_dlh():
-    plan = plan_in_weather("KMSP", "KDLH", DEPARTURE, seed=1)
+    plan = plan_in_weather("KMSP", "KDLH", DEPARTURE, weather_seed=1)
     return plan, fly_leg(plan, seed=1)
 
 
 @pytest.fixture(scope="module")
 def anc_dlg():
-    plan = plan_in_weather("PANC", "PADL", DEPARTURE, seed=2)
+    plan = plan_in_weather("PANC", "PADL", DEPARTURE, weather_seed=2)
     return plan, fly_leg(plan, seed=2)
 
 

@@ -11,7 +11,7 @@ import argparse
 from datetime import datetime, timezone
 
 from aerotruth.truth.flight import fly_leg
-from aerotruth.truth.weather import plan_in_weather
+from aerotruth.truth.days import plan_in_weather
 
 
 def main() -> None:
@@ -23,7 +23,7 @@ def main() -> None:
     dep = datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc)
     for ac in args.aircraft:
         for a, b in (("KMSP", "KDLH"), ("PANC", "PADL")):
-            plan = plan_in_weather(a, b, dep, seed=args.seed)
+            plan = plan_in_weather(a, b, dep, weather_seed=args.seed)
             s = fly_leg(plan, seed=args.seed, aircraft=ac, turbulence=args.turbulence).summary()
             tag = f"{ac}_{a}_{b}"
             for key in ("cruise_tas_error_max_kt", "cruise_xtrack_max_nm", "arrival_centreline_offset_nm",

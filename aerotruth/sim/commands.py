@@ -1,33 +1,14 @@
 """The campaign subcommands of `aerotruth` (run, validate, figures, report, regress).
-Expected problems (bad YAML, wrong run directory, bad baseline, failed task) become one
-line through aerotruth.cli.UserError."""
+Expected problems (bad YAML, wrong run directory, bad baseline, failed task) are
+aerotruth.errors.UserError subclasses, printed by the command line as one line."""
 
 from __future__ import annotations
 
 import argparse
 import signal
 import sys
-from collections.abc import Callable
-from functools import wraps
 
-from aerotruth.cli import UserError
 from aerotruth.config import ConfigError, load_campaign
-from aerotruth.sim.regress import BaselineError
-from aerotruth.sim.store import RunDirError
-
-
-def _user_errors(fn: Callable[[argparse.Namespace], int]) -> Callable[[argparse.Namespace], int]:
-    @wraps(fn)
-    def wrapper(args: argparse.Namespace) -> int:
-        from aerotruth.sim.campaign import TaskFailed
-        from aerotruth.sim.executors import ExecutorError
-
-        try:
-            return fn(args)
-        except (ConfigError, RunDirError, BaselineError, TaskFailed, ExecutorError) as e:
-            raise UserError(str(e)) from None
-
-    return wrapper
 
 
 def _terminate(signum: int, frame: object) -> None:
@@ -38,7 +19,6 @@ def _err(msg: str) -> None:
     print(msg, file=sys.stderr)
 
 
-@_user_errors
 def run_cli(args: argparse.Namespace) -> int:
     """aerotruth run CAMPAIGN.yaml [--out DIR] [--workers N] [--executor local|dask] [--scheduler ADDR]"""
     from aerotruth.sim.campaign import run_campaign
@@ -56,7 +36,7 @@ def run_cli(args: argparse.Namespace) -> int:
         raise ConfigError(f"{args.campaign}: {e}") from None
     finally:
         signal.signal(signal.SIGTERM, previous)
-    _err(f"{campaign.name}: {summary.n_tasks} tasks ({summary.reused} reused, {summary.ran} run) in {summary.seconds:.1f} s")
+    _err(f"{campaign.name}: {summary.n_tasks} tasks ({summary.reused} reused, {summary.ran} run, {summary.legs_flown} legs flown) in {summary.seconds:.1f} s")
     outputs = campaign.outputs
     if outputs.report and not args.no_report:
         from aerotruth.sim.report import write_report
@@ -70,7 +50,6 @@ def run_cli(args: argparse.Namespace) -> int:
     return 0
 
 
-@_user_errors
 def validate_cli(args: argparse.Namespace) -> int:
     """aerotruth validate CAMPAIGN.yaml: check the schema and expand the tasks."""
     from aerotruth.sim.campaign import expand
@@ -80,12 +59,11 @@ def validate_cli(args: argparse.Namespace) -> int:
         tasks = expand(campaign)
     except ConfigError as e:
         raise ConfigError(f"{args.campaign}: {e}") from None
-    counts = ", ".join(f"{s} {sum(t.study == s for t in tasks)}" for s in campaign.studies.present())
+    counts = ", ".join(f"{s} {sum(t.study == s for t in tasks)}" for s in campaign.studies)
     print(f"{args.campaign}: ok, campaign {campaign.name}, {len(tasks)} tasks ({counts}), config hash {campaign.config_hash()[:12]}")
     return 0
 
 
-@_user_errors
 def figures_cli(args: argparse.Namespace) -> int:
     """aerotruth figures RUN_DIR"""
     from aerotruth.sim.figures import make_figures
@@ -97,7 +75,6 @@ def figures_cli(args: argparse.Namespace) -> int:
     return 0
 
 
-@_user_errors
 def report_cli(args: argparse.Namespace) -> int:
     """aerotruth report RUN_DIR"""
     from aerotruth.sim.report import write_report
@@ -106,7 +83,6 @@ def report_cli(args: argparse.Namespace) -> int:
     return 0
 
 
-@_user_errors
 def regress_cli(args: argparse.Namespace) -> int:
     """aerotruth regress RUN_DIR BASELINE.json: exit 1 and a table when a metric moved."""
     from aerotruth.sim.regress import format_checks, regress, write_baseline

@@ -22,13 +22,14 @@ from concurrent.futures import Executor, ProcessPoolExecutor
 from contextlib import contextmanager
 from dataclasses import dataclass
 
+from aerotruth.errors import UserError
 from aerotruth.sim.worker import ignore_sigint
 
 DEFAULT_DASK_LOCAL_WORKERS = 2
 _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
 
 
-class ExecutorError(ValueError):
+class ExecutorError(UserError):
     """Executor settings that cannot be used (bad combination, unreachable scheduler)."""
 
 

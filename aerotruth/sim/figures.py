@@ -1,4 +1,5 @@
-"""Figures of a finished run: each study draws its own into RUN_DIR/figures (PNG + PDF)."""
+"""Figures of a finished run: each study draws its own into RUN_DIR/figures (PNG + PDF)
+from its stored rows, summary tables and learned states (nothing is recomputed)."""
 
 from __future__ import annotations
 
@@ -6,7 +7,7 @@ from pathlib import Path
 
 from aerotruth.sim.campaign import expand
 from aerotruth.sim.store import RunStore
-from aerotruth.sim.studies import Figure, get_study
+from aerotruth.sim.studies import Figure, Summary, campaign_registry
 
 
 def make_figures(run_dir: str | Path) -> dict[str, list[Figure]]:
@@ -20,16 +21,17 @@ def make_figures(run_dir: str | Path) -> dict[str, list[Figure]]:
     campaign = store.campaign()
     store.read_manifest()
     metrics = store.read_metrics()["metrics"]
-    tasks = expand(campaign)
+    reg = campaign_registry(campaign)
+    tasks = expand(campaign, reg)
     store.figures_dir.mkdir(parents=True, exist_ok=True)
     out: dict[str, list[Figure]] = {}
-    for name in campaign.studies.present():
-        study = get_study(name)
+    for name in campaign.studies:
+        study = reg.get(name)
         rows = store.read_rows([t for t in tasks if t.study == name])
         prefix = f"{name}."
-        mine = {k[len(prefix):]: v for k, v in metrics.items() if k.startswith(prefix)}
+        summary = Summary({k[len(prefix):]: v for k, v in metrics.items() if k.startswith(prefix)}, store.read_tables(name))
         try:
-            out[name] = study.figures(rows, mine, store.figures_dir)
+            out[name] = study.figures(rows, summary, store.learned_of(name), store.figures_dir)
         finally:
             plt.close("all")
     return out

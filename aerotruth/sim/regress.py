@@ -19,10 +19,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from aerotruth.sim.store import RunStore, atomic_write_text
+from aerotruth.errors import UserError
+from aerotruth.files import atomic_write_text
+from aerotruth.sim.store import RunStore
 
 
-class BaselineError(ValueError):
+class BaselineError(UserError):
     """A baseline file that cannot be used (one line naming the problem)."""
 
 

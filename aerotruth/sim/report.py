@@ -7,11 +7,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from aerotruth.sim.campaign import expand
+from aerotruth.files import atomic_write_text
 from aerotruth.sim.figures import make_figures
 from aerotruth.sim.markdown import to_markdown
-from aerotruth.sim.store import RunStore, atomic_write_text
-from aerotruth.sim.studies import get_study
+from aerotruth.sim.store import RunStore
+from aerotruth.sim.studies import campaign_registry
 
 
 def write_report(run_dir: str | Path) -> Path:
@@ -21,7 +21,7 @@ def write_report(run_dir: str | Path) -> Path:
     manifest = store.read_manifest()
     doc = store.read_metrics()
     figures = make_figures(store.root)
-    tasks = expand(campaign)
+    reg = campaign_registry(campaign)
 
     lines = [f"# Campaign `{campaign.name}`", ""]
     if campaign.description:
@@ -35,13 +35,12 @@ def write_report(run_dir: str | Path) -> Path:
         "Metrics are in `metrics.json`; tables as CSV in `tables/`; figures as PNG and PDF in `figures/`.",
         "",
     ]
-    for name in campaign.studies.present():
-        study = get_study(name)
+    for name in campaign.studies:
+        study = reg.get(name)
         prefix = f"{name}."
         mine = {k[len(prefix):]: v for k, v in doc["metrics"].items() if k.startswith(prefix)}
-        rows = store.read_rows([t for t in tasks if t.study == name])
         lines += [f"## {study.title}", ""]
-        for tname, table in study.tables(rows, mine).items():
+        for tname, table in store.read_tables(name).items():
             lines += [f"### {tname.replace('_', ' ')}", "", to_markdown(table), ""]
         for fig in figures.get(name, []):
             lines += [f"![{fig.caption}](figures/{fig.stem}.png)", "", f"*{fig.caption}* ([PDF](figures/{fig.stem}.pdf))", ""]

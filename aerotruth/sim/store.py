@@ -2,26 +2,26 @@
 
     RUN_DIR/config.resolved.yaml   the campaign with every default filled in
     RUN_DIR/manifest.json          config hash, seed, task ids, package versions
-    RUN_DIR/tasks/<task_id>.parquet  one table per finished task
+    RUN_DIR/tasks/<task_id>.parquet  one table per finished task, tagged with its key
+    RUN_DIR/learned/<study>.<name>.parquet  a fitted state (and .csv), tagged with its input digest
     RUN_DIR/failed/<task_id>.log   traceback of a task that raised
     RUN_DIR/metrics.json           aggregated metrics (deterministic bytes)
-    RUN_DIR/tables/*.csv|*.md      metric and per-task tables
+    RUN_DIR/tables/<study>.<name>.parquet|.csv|.md, tables/index.json   the studies' tables
     RUN_DIR/figures/*.png|*.pdf, RUN_DIR/report.md
 
-Every file is written to a temporary name in the same directory and renamed over the
-final name (os.replace is atomic on POSIX), so a run killed at any moment leaves either a
-complete file or none; temporaries (`*.tmp`) are never read and are removed on resume. A
-run directory belongs to one configuration: resuming it with a different config hash is
-refused.
+Every file is written through aerotruth.files (temporary name, then rename), so a run
+killed at any moment leaves either a complete file or none; temporaries are never read
+and are removed on resume. A stored task table is reused only when its key (task
+identity, the study's resolved configuration, campaign seed, the digest of the code and
+data the study depends on, library versions, learned states it applied) matches: an
+edited configuration, source constant or XML file reruns exactly the tasks it affects.
 """
 
 from __future__ import annotations
 
 import json
 import math
-import os
 import platform
-import uuid
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -32,34 +32,14 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from aerotruth.config import Campaign, load_campaign
+from aerotruth.errors import RunDirError
+from aerotruth.files import atomic_write_bytes, atomic_write_text, remove_stale_temporaries
 from aerotruth.sim.tasks import Task
-from aerotruth.sim.worker import META_CONFIG_HASH, META_TASK_ID
+from aerotruth.sim.worker import META_TASK_ID, META_TASK_KEY
 
 METRIC_SIGNIFICANT_DIGITS = 10
-_VERSIONED = ("aerotruth", "numpy", "pandas", "pyarrow", "pydantic", "jsbsim", "dask", "distributed", "pyproj")
-
-
-class RunDirError(ValueError):
-    """A run directory that cannot be used as asked (other config, incomplete run, ...)."""
-
-
-def atomic_write_bytes(path: Path, data: bytes) -> None:
-    """Write `data` to `path` via a temporary file in the same directory and os.replace."""
-    tmp = path.with_name(f"{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}.tmp")
-    try:
-        with open(tmp, "wb") as f:
-            f.write(data)
-            f.flush()
-            os.fsync(f.fileno())
-        os.replace(tmp, path)
-    finally:
-        if tmp.exists():
-            tmp.unlink()
-
-
-def atomic_write_text(path: Path, text: str) -> None:
-    """Text version of atomic_write_bytes (UTF-8)."""
-    atomic_write_bytes(path, text.encode("utf-8"))
+_VERSIONED = ("aerotruth", "numpy", "scipy", "pandas", "pyarrow", "pydantic", "jsbsim", "ppigrf", "dask", "distributed", "pyproj")
+META_INPUT_DIGEST = b"aerotruth.input_digest"
 
 
 def round_significant(x: float, digits: int = METRIC_SIGNIFICANT_DIGITS) -> float | None:
@@ -104,6 +84,15 @@ def package_versions() -> dict[str, str]:
     return out
 
 
+def _table_bytes(df: pd.DataFrame, meta: dict[bytes, bytes] | None = None) -> bytes:
+    table = pa.Table.from_pandas(df, preserve_index=False)
+    if meta:
+        table = table.replace_schema_metadata({**(table.schema.metadata or {}), **meta})
+    sink = pa.BufferOutputStream()
+    pq.write_table(table, sink)
+    return sink.getvalue().to_pybytes()
+
+
 class RunStore:
     """A run directory (see the module docstring)."""
 
@@ -111,6 +100,7 @@ class RunStore:
         self.root = Path(root)
 
     tasks_dir = property(lambda self: self.root / "tasks")
+    learned_dir = property(lambda self: self.root / "learned")
     failed_dir = property(lambda self: self.root / "failed")
     tables_dir = property(lambda self: self.root / "tables")
     figures_dir = property(lambda self: self.root / "figures")
@@ -126,28 +116,24 @@ class RunStore:
     # -- opening a run ---------------------------------------------------------------
 
     def prepare(self, campaign: Campaign, tasks: list[Task]) -> None:
-        """Create or reopen the run directory for `campaign`; refuse one of another config."""
-        config_hash = campaign.config_hash()
-        if self.manifest_path.exists():
-            old = self.read_manifest()
-            if old.get("config_hash") != config_hash:
-                raise RunDirError(
-                    f"{self.root} holds a run of a different configuration (config hash {str(old.get('config_hash'))[:12]}, "
-                    f"this campaign {config_hash[:12]}); choose another --out or delete the directory"
-                )
-        elif self.tasks_dir.exists() and any(self.tasks_dir.glob("*.parquet")):
+        """Create or reopen the run directory for `campaign`: write the resolved config and
+        the manifest, drop temporaries and the tables of tasks the campaign no longer has."""
+        if not self.manifest_path.exists() and self.tasks_dir.exists() and any(self.tasks_dir.glob("*.parquet")):
             raise RunDirError(f"{self.root} has task results but no manifest.json; choose another --out or delete the directory")
         self.tasks_dir.mkdir(parents=True, exist_ok=True)
-        for stale in self.tasks_dir.glob("*.tmp"):
-            stale.unlink()
+        remove_stale_temporaries(self.tasks_dir)
         ids = sorted(t.id for t in tasks)
         if len(set(ids)) != len(ids):
             raise RunDirError("campaign expands into repeated task identities")
+        keep = set(ids)
+        for old in self.tasks_dir.glob("*.parquet"):
+            if old.stem not in keep:
+                old.unlink()
         manifest = {
             "campaign": campaign.name,
-            "config_hash": config_hash,
+            "config_hash": campaign.config_hash(),
             "seed": campaign.seed,
-            "studies": {s: sum(t.study == s for t in tasks) for s in campaign.studies.present()},
+            "studies": {s: sum(t.study == s for t in tasks) for s in campaign.studies},
             "tasks": ids,
             "versions": package_versions(),
         }
@@ -171,24 +157,76 @@ class RunStore:
 
     # -- task results ----------------------------------------------------------------
 
-    def is_done(self, task: Task, config_hash: str) -> bool:
-        """True if the task's table exists, is readable and belongs to this config; a file
-        that fails these checks is removed (it will be recomputed)."""
+    def is_done(self, task: Task, key: str) -> bool:
+        """True if the task's table exists, is readable and was made with `key`; any other
+        file is removed (the task reruns)."""
         path = self.task_path(task.id)
         if not path.exists():
             return False
         try:
             meta = pq.read_schema(path).metadata or {}
         except (pa.ArrowInvalid, OSError):
-            path.unlink()
-            return False
-        if meta.get(META_TASK_ID) != task.id.encode() or meta.get(META_CONFIG_HASH) != config_hash.encode():
-            raise RunDirError(f"{path} was written by another task or configuration; delete the run directory or choose another --out")
-        return True
+            meta = {}
+        if meta.get(META_TASK_ID) == task.id.encode() and meta.get(META_TASK_KEY) == key.encode():
+            return True
+        path.unlink()
+        return False
 
     def write_task(self, task_id: str, parquet_bytes: bytes) -> None:
         """Store a finished task's table atomically."""
         atomic_write_bytes(self.task_path(task_id), parquet_bytes)
+
+    # -- learned states ----------------------------------------------------------------
+
+    def learned_path(self, study: str, name: str) -> Path:
+        return self.learned_dir / f"{study}.{name}.parquet"
+
+    def read_learned(self, study: str, name: str, digest: str | None = None) -> pd.DataFrame | None:
+        """A stored fitted state; with `digest`, only if it was fitted on those inputs."""
+        path = self.learned_path(study, name)
+        if not path.exists():
+            return None
+        try:
+            table = pq.read_table(path)
+        except (pa.ArrowInvalid, OSError):
+            return None
+        if digest is not None and (table.schema.metadata or {}).get(META_INPUT_DIGEST) != digest.encode():
+            return None
+        return table.to_pandas()
+
+    def write_learned(self, study: str, name: str, digest: str, state: pd.DataFrame) -> None:
+        """Store a fitted state (Parquet for the program, CSV for people)."""
+        self.learned_dir.mkdir(parents=True, exist_ok=True)
+        atomic_write_bytes(self.learned_path(study, name), _table_bytes(state, {META_INPUT_DIGEST: digest.encode()}))
+        atomic_write_text(self.learned_dir / f"{study}.{name}.csv", state.to_csv(index=False))
+
+    def learned_of(self, study: str) -> dict[str, pd.DataFrame]:
+        """Every stored state of `study`, by name."""
+        out = {}
+        for p in sorted(self.learned_dir.glob(f"{study}.*.parquet")) if self.learned_dir.exists() else []:
+            out[p.stem[len(study) + 1:]] = pq.read_table(p).to_pandas()
+        return out
+
+    # -- tables ------------------------------------------------------------------------
+
+    def write_tables(self, study: str, tables: dict[str, pd.DataFrame], to_markdown) -> None:
+        """A study's summary tables: Parquet (read back by figures and report), CSV, Markdown."""
+        self.tables_dir.mkdir(parents=True, exist_ok=True)
+        for name, table in tables.items():
+            base = self.tables_dir / f"{study}.{name}"
+            atomic_write_bytes(f"{base}.parquet", _table_bytes(table))
+            atomic_write_text(f"{base}.csv", table.to_csv(index=False))
+            atomic_write_text(f"{base}.md", to_markdown(table) + "\n")
+        index_path = self.tables_dir / "index.json"
+        index = json.loads(index_path.read_text()) if index_path.exists() else {}
+        index[study] = list(tables)
+        atomic_write_text(index_path, json.dumps(index, indent=2, sort_keys=True) + "\n")
+
+    def read_tables(self, study: str) -> dict[str, pd.DataFrame]:
+        """The summary tables of `study`, in the order the study gave them."""
+        index_path = self.tables_dir / "index.json"
+        names = json.loads(index_path.read_text()).get(study, []) if index_path.exists() else []
+        return {n: pq.read_table(self.tables_dir / f"{study}.{n}.parquet").to_pandas() for n in names}
 
     def write_failure(self, task_id: str, text: str) -> Path:
         """Keep the traceback of a failed task; returns its path."""
@@ -202,14 +240,16 @@ class RunStore:
         return sorted(t.id for t in tasks if not self.task_path(t.id).exists())
 
     def read_rows(self, tasks: list[Task]) -> pd.DataFrame:
-        """All tables of `tasks` concatenated in task-id order, with a leading task_id column."""
+        """All tables of `tasks` concatenated in task-id order, with leading task_id and
+        stage columns."""
         frames = []
         for t in sorted(tasks, key=lambda t: t.id):
             df = pq.read_table(self.task_path(t.id)).to_pandas()
             df.insert(0, "task_id", t.id)
+            df.insert(1, "stage", t.stage)
             frames.append(df)
         if not frames:
-            return pd.DataFrame({"task_id": pd.Series([], dtype=str)})
+            return pd.DataFrame({"task_id": pd.Series([], dtype=str), "stage": pd.Series([], dtype=str)})
         return pd.concat(frames, ignore_index=True)
 
     # -- metrics ---------------------------------------------------------------------

@@ -1,10 +1,15 @@
 """Tasks: the independent units a campaign expands into, and their random streams.
 
-A task is named by its *identity* (study name plus a few key/value pairs such as fleet,
-aircraft and date). Its random stream is `SeedSequence(campaign_seed, spawn_key=k)` with
-`k` four 32-bit words of the sha256 digest of the canonical JSON of the identity
-(DESIGN.md, "Random streams"): results depend neither on the order of the task list nor
-on which worker runs it, and never on Python's per-process salted `hash()`.
+A task is named by its *identity* (study name, its stage when it has one, plus a few
+key/value pairs such as fleet, aircraft and date). Its random stream is
+`SeedSequence(campaign_seed, spawn_key=k)` with `k` four 32-bit words of the sha256
+digest of the canonical JSON of the identity (DESIGN.md, "Random streams"); each consumer
+inside the task draws from its own named child of that stream (`TaskContext.rng`).
+Results depend neither on the order of the task list nor on which worker runs it, and
+never on Python's per-process salted `hash()`.
+
+A task of a study that learns (fit on one stage, apply to another) names the learned
+states it `needs`; the runner gives them to it once they are fitted.
 """
 
 from __future__ import annotations
@@ -18,17 +23,25 @@ from typing import Any
 
 import numpy as np
 
+from aerotruth import seeds
+
 IdentityValue = str | int
+MAIN_STAGE = "main"
 
 
 @dataclass(frozen=True)
 class Task:
-    """One unit of work: `study` and `identity` name it, `params` carries what `run` needs
-    (picklable; not part of the identity, so it never changes the random stream)."""
+    """One unit of work: `study`, `stage` and `identity` name it; `params` carries what
+    `run` needs (picklable; not part of the identity, so it never changes the random
+    stream); `needs` names learned states of the study the task applies; `source` says
+    where workers import the study from (set by the runner)."""
 
     study: str
     identity: tuple[tuple[str, IdentityValue], ...]
     params: dict[str, Any] = field(default_factory=dict, compare=False, hash=False)
+    stage: str = MAIN_STAGE
+    needs: tuple[str, ...] = ()
+    source: str = field(default="", compare=False, hash=False)
 
     def __post_init__(self) -> None:
         for k, v in self.identity:
@@ -37,32 +50,33 @@ class Task:
 
     @property
     def identity_json(self) -> str:
-        """Canonical JSON of study + identity: the input of the digest."""
-        return json.dumps({"study": self.study, **dict(self.identity)}, sort_keys=True, separators=(",", ":"))
-
-    @property
-    def digest(self) -> bytes:
-        """sha256 of the canonical identity."""
-        return hashlib.sha256(self.identity_json.encode("utf-8")).digest()
+        """Canonical JSON of study (+ stage) + identity: the input of the digest."""
+        head: dict[str, Any] = {"study": self.study}
+        if self.stage != MAIN_STAGE:
+            head["stage"] = self.stage
+        return json.dumps({**head, **dict(self.identity)}, sort_keys=True, separators=(",", ":"))
 
     @property
     def id(self) -> str:
-        """File-safe, human-readable, unique name: `study--value--value--<8 hex digest>`."""
-        parts = [self.study] + [_safe(str(v)) for _, v in self.identity]
-        return "--".join(parts + [self.digest.hex()[:8]])
+        """File-safe, human-readable, unique name: `study--[stage--]value--...--<8 hex digest>`."""
+        parts = [self.study] + ([self.stage] if self.stage != MAIN_STAGE else []) + [_safe(str(v)) for _, v in self.identity]
+        return "--".join(parts + [self._digest_hex()[:8]])
 
-    def spawn_key(self) -> tuple[int, int, int, int]:
+    def _digest_hex(self) -> str:
+        return hashlib.sha256(self.identity_json.encode("utf-8")).hexdigest()
+
+    def spawn_key(self) -> tuple[int, ...]:
         """Four 32-bit words of the identity digest."""
-        d = self.digest
-        return tuple(int.from_bytes(d[4 * i : 4 * i + 4], "little") for i in range(4))  # type: ignore[return-value]
+        return seeds.digest_words(self.identity_json)
 
     def seed_sequence(self, campaign_seed: int) -> np.random.SeedSequence:
         """The task's SeedSequence: SeedSequence(campaign_seed, spawn_key=digest words)."""
-        return np.random.SeedSequence(campaign_seed, spawn_key=self.spawn_key())
+        return seeds.seed_sequence(campaign_seed, self.spawn_key())
 
-    def rng(self, campaign_seed: int) -> np.random.Generator:
-        """The task's random generator (PCG64 on its SeedSequence)."""
-        return np.random.Generator(np.random.PCG64(self.seed_sequence(campaign_seed)))
+    def rng(self, campaign_seed: int, *name: IdentityValue) -> np.random.Generator:
+        """The task's random generator, or that of its child stream `name` (PCG64)."""
+        seq = self.seed_sequence(campaign_seed)
+        return seeds.generator(seeds.child(seq, *name) if name else seq)
 
 
 def _safe(s: str) -> str:
@@ -71,17 +85,15 @@ def _safe(s: str) -> str:
 
 
 def keyed_seed_sequence(campaign_seed: int, *key: IdentityValue) -> np.random.SeedSequence:
-    """A SeedSequence for a shared draw named by `key` (e.g. ("weather", "2009-08-15"): the
-    same day's weather for every task of a campaign), derived like a task's stream."""
-    text = json.dumps(list(key), separators=(",", ":"))
-    d = hashlib.sha256(text.encode("utf-8")).digest()
-    return np.random.SeedSequence(campaign_seed, spawn_key=tuple(int.from_bytes(d[4 * i : 4 * i + 4], "little") for i in range(4)))
+    """A SeedSequence for a draw shared by name (e.g. ("weather", "2009-08-15"): the same
+    day's weather for every task of a campaign)."""
+    return seeds.named_sequence(campaign_seed, *key)
 
 
 def keyed_seed(campaign_seed: int, *key: IdentityValue) -> int:
     """An int seed (63 bits, usable on a command line such as `aerotruth fly --seed`) for a
-    shared draw named by `key`."""
-    return int(keyed_seed_sequence(campaign_seed, *key).generate_state(1, np.uint64)[0]) >> 1
+    draw shared by name."""
+    return seeds.int_seed(keyed_seed_sequence(campaign_seed, *key))
 
 
 def weather_seed(campaign_seed: int, day: dt.date) -> int:

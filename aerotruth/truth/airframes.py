@@ -120,6 +120,11 @@ def airframe(name: str | None) -> Airframe:
         raise ValueError(f"aircraft: unknown aircraft {key!r}; expected one of {sorted(AIRFRAMES)}") from None
 
 
+def airframe_names() -> list[str]:
+    """Names of the known aircraft types, sorted."""
+    return sorted(AIRFRAMES)
+
+
 def _cache_dir() -> Path:
     base = os.environ.get("AEROTRUTH_CACHE")
     root = Path(base) if base else Path(tempfile.gettempdir()) / f"aerotruth-cache-{os.getuid()}"

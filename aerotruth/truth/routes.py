@@ -285,12 +285,14 @@ def plan_leg(
     wind_uv: WindUV | None = None,
     arrival_wind_uv: WindUV | None | object = SAME_AS_DEPARTURE,
     flight_id: str = "",
+    cruise_flight_level: int | None = None,
 ) -> LegPlan:
     """Plan one leg: runways into the surface wind (``wind_uv`` at the origin,
     ``arrival_wind_uv`` at the destination, by default the same as ``wind_uv``; None:
     longest runway), the lateral path, the cruise level (by length, semicircular rule, lowered if the
     climb and descent would not fit), initial/arrival ellipsoidal heights and the block
-    time. ``rng`` only moves the cruise level (see :func:`cruise_altitude_ft`)."""
+    time. ``rng`` only moves the cruise level (see :func:`cruise_altitude_ft`);
+    ``cruise_flight_level`` sets it instead (re-flying a recorded leg)."""
     org = _as_airport(origin, "origin")
     dst = _as_airport(destination, "destination")
     if org.icao == dst.icao:
@@ -314,7 +316,7 @@ def plan_leg(
     far = org.runway(dep.reciprocal_ident)
     initial_msl_ft = far.elevation_m / FT + INITIAL_HEIGHT_AGL_FT
     arrival_msl_ft = arr.elevation_m / FT + ARRIVAL_HEIGHT_AGL_FT
-    cruise_ft = cruise_altitude_ft(distance, course, rng=rng)
+    cruise_ft = cruise_altitude_ft(distance, course, rng=rng) if cruise_flight_level is None else 100.0 * cruise_flight_level
     ceiling_ft = feasible_cruise_ceiling_ft(sum(segments), initial_msl_ft, arrival_msl_ft)
     if cruise_ft > ceiling_ft:
         if ceiling_ft < LOWEST_CRUISE_FT + 2000.0:

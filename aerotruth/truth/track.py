@@ -30,6 +30,11 @@ COLUMNS = (
     "leg_index", "phase",
 )
 PHASES = ("climb", "cruise", "descent", "approach")
+# Stored as float64: time (50 Hz samples over hours need < 1 ms) and position (float32
+# degrees are ~1 m coarse; float32 heights ~1 mm at 10 km, kept double with them). Every
+# other column is stored as float32: its relative precision of 6e-8 is far below any
+# sensor error modelled (0.01 kt, 1e-5 deg of attitude, 0.01 Pa).
+FLOAT64_COLUMNS = ("time_s", "lat_deg", "lon_deg", "h_ellipsoid_m")
 _META_KEY = b"aerotruth"
 
 
@@ -71,16 +76,24 @@ class TruthTrack:
         return len(self.df)
 
     # --- storage -----------------------------------------------------------------
+    def compact_frame(self) -> pd.DataFrame:
+        """The samples as stored: float64 for FLOAT64_COLUMNS, float32 for other floats."""
+        df = self.df.copy()
+        for c in df.columns:
+            if c not in FLOAT64_COLUMNS and df[c].dtype == np.float64:
+                df[c] = df[c].astype(np.float32)
+        return df
+
     def to_parquet(self, path: str | Path) -> None:
-        """Write atomically (temp file + rename) with the metadata in the Parquet schema."""
-        path = Path(path)
-        table = pa.Table.from_pandas(self.df, preserve_index=False)
+        """Write atomically (temp file + rename) in the compact storage form, with the
+        metadata in the Parquet schema."""
+        from aerotruth.files import atomic_write
+
+        table = pa.Table.from_pandas(self.compact_frame(), preserve_index=False)
         schema_meta = dict(table.schema.metadata or {})
         schema_meta[_META_KEY] = json.dumps(self.meta, sort_keys=True).encode()
         table = table.replace_schema_metadata(schema_meta)
-        tmp = path.with_name(path.name + ".tmp")
-        pq.write_table(table, tmp, compression="zstd")
-        tmp.replace(path)
+        atomic_write(path, lambda tmp: pq.write_table(table, tmp, compression="zstd"))
 
     @classmethod
     def read_parquet(cls, path: str | Path) -> "TruthTrack":

@@ -5,7 +5,7 @@ realization for a network, and leg planning with runways into the day's surface 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from datetime import datetime, timedelta, timezone
+from datetime import datetime, timezone
 from typing import Protocol
 
 import numpy as np
@@ -84,19 +84,3 @@ def surface_wind_from(atmosphere, day) -> "callable":
         return float(np.asarray(u)), float(np.asarray(v))
 
     return wind
-
-
-def plan_in_weather(origin: str, destination: str, departure_utc: datetime, *, seed, rng=None):
-    """A LegPlan whose runways face the truth surface wind of the day (seed's realization)."""
-    from aerotruth.truth.airports import airport
-    from aerotruth.truth.atmosphere import TruthAtmosphere
-    from aerotruth.truth.routes import block_time_s, plan_leg
-    from aerotruth import geo
-
-    day = departure_utc.astimezone(timezone.utc).date()
-    atm = TruthAtmosphere.for_day(day, seed, region_for_airport(origin))
-    wind = surface_wind_from(atm, day)
-    org, dst = airport(origin), airport(destination)
-    eta = departure_utc + timedelta(seconds=block_time_s(float(geo.inverse(org.lat, org.lon, dst.lat, dst.lon)[2])))
-    return plan_leg(org, dst, departure_utc, rng=rng, wind_uv=wind(org, departure_utc),
-                    arrival_wind_uv=wind(dst, eta))

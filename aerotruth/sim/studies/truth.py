@@ -5,8 +5,9 @@ One task per aircraft-day. The day's legs are the aircraft's generated schedule 
 fleet's network (`aerotruth.truth.routes.day_schedule`, runways into the day's surface
 wind) or the campaign's fixed `legs:` list; `max_legs_per_day` keeps the first N. All
 legs of one date fly through the same truth-atmosphere realization per region (seeded by
-the campaign seed and the date, shared with the wind climatology). Each leg gets its own
-int seed from the task's stream (recorded, so a leg can be re-flown alone).
+the campaign seed and the date, shared with the wind climatology). Legs come from the
+truth store (aerotruth.truth.store), flown only when missing; every seed is recorded
+with the leg, and `fly_command` re-flies it alone with `aerotruth fly`.
 
 One output row per leg: identity, planned and flown distance, duration, cruise TAS error
 (max, mean, RMS against the target), maximum cruise cross-track, arrival offset from the
@@ -17,17 +18,16 @@ silently).
 
 from __future__ import annotations
 
-import dataclasses
-import datetime as dt
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 import pandas as pd
 
-from aerotruth.config import Campaign
-from aerotruth.sim.studies import Figure
-from aerotruth.sim.tasks import Task, weather_seed
+from aerotruth.config import Campaign, References
+from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_flights, day_cost, day_task
+from aerotruth.sim.studies import Figure, Study, Summary
+from aerotruth.sim.tasks import Task
 from aerotruth.units import KT, NM
 
 # Foundation acceptance (issue 2): leg metric -> upper limit
@@ -38,41 +38,6 @@ ACCEPTANCE = {
     "wind_triangle_residual_max_kt": 0.5,
 }
 LEG_METRICS = tuple(ACCEPTANCE) + ("cruise_tas_error_rms_kt", "distance_nm", "duration_s")
-
-
-def _day_atmosphere(day: dt.date, seed: int, region: str, cache: dict):
-    from aerotruth.truth.atmosphere import TruthAtmosphere
-
-    if region not in cache:
-        cache[region] = TruthAtmosphere.for_day(day, seed, region)
-    return cache[region]
-
-
-def plan_day(task: Task, rng: np.random.Generator) -> list[tuple[Any, Any]]:
-    """(LegPlan, atmosphere) of each leg of the task's aircraft-day, in flying order."""
-    from aerotruth.truth.routes import day_schedule
-    from aerotruth.truth.weather import NETWORK_REGION, plan_in_weather, region_for_airport, surface_wind_from
-
-    p = task.params
-    ident = dict(task.identity)
-    day = dt.date.fromisoformat(str(ident["date"]))
-    aircraft = str(ident["aircraft"])
-    cache: dict = {}
-    out = []
-    if p["legs"] is None:
-        atm = _day_atmosphere(day, p["weather_seed"], NETWORK_REGION[p["network"]], cache)
-        plans = day_schedule(p["network"], day, rng, aircraft_id=aircraft, surface_wind=surface_wind_from(atm, day))
-        out = [(plan, atm) for plan in plans]
-    else:
-        for k, leg in enumerate(p["legs"]):
-            dep = dt.datetime.combine(day, dt.time.fromisoformat(leg["departure_utc"]), tzinfo=dt.timezone.utc)
-            # runways into the day's surface wind of the same realization the leg flies through
-            plan = plan_in_weather(leg["from"], leg["to"], dep, seed=p["weather_seed"], rng=rng)
-            plan = dataclasses.replace(plan, flight_id=f"{aircraft}-{day:%Y%m%d}-{k + 1}")
-            out.append((plan, _day_atmosphere(day, p["weather_seed"], region_for_airport(plan.origin.icao), cache)))
-    if p["max_legs_per_day"] is not None:
-        out = out[: p["max_legs_per_day"]]
-    return out
 
 
 def leg_row(track) -> dict[str, float]:
@@ -96,92 +61,54 @@ _NUMERIC = ("distance_nm", "duration_s", "cruise_tas_error_max_kt", "cruise_tas_
             "cruise_xtrack_max_nm", "arrival_centreline_offset_nm", "wind_triangle_residual_max_kt", "cruise_wind_mean_kt")
 
 
-class TruthFlights:
+class TruthFlights(Study):
     """The `truth` study (see the module docstring)."""
 
     name = "truth"
     title = "Truth flights (JSBSim)"
+    Config = FlightSelection
 
-    def expand(self, campaign: Campaign) -> list[Task]:
-        from aerotruth.truth.airframes import airframe
+    def check(self, campaign: Campaign, refs: References) -> None:
+        check_flights(campaign, refs, campaign.section(self.name))
 
-        cfg = campaign.studies.truth
-        if cfg is None:
-            return []
-        days = campaign.days(cfg.periods)
-        legs = None if cfg.legs is None else [
-            {"from": leg.origin, "to": leg.destination, "departure_utc": leg.departure_utc.isoformat(timespec="minutes")}
-            for leg in cfg.legs
-        ]
-        tasks = []
-        for name in cfg.fleets:
-            fleet = campaign.fleet(name)
-            try:
-                airframe(fleet.aircraft_type)
-            except ValueError as e:
-                i = [f.name for f in campaign.fleets].index(name)
-                raise ValueError(f"fleets[{i}].aircraft_type: {e}") from None
-            for aircraft in fleet.aircraft:
-                for day in days:
-                    tasks.append(Task(self.name, (("fleet", fleet.name), ("aircraft", aircraft), ("date", day.isoformat())), params={
-                        "network": fleet.network,
-                        "aircraft_type": fleet.aircraft_type,
-                        "legs": legs,
-                        "max_legs_per_day": cfg.max_legs_per_day,
-                        "turbulence": cfg.turbulence,
-                        "weather_seed": weather_seed(campaign.seed, day),
-                    }))
-        return tasks
+    def expand(self, campaign: Campaign, section: FlightSelection) -> list[Task]:
+        return [day_task(self.name, fleet, day) for fleet, day in aircraft_days(campaign, section)]
 
     def cost(self, task: Task) -> float:
-        """Run-time estimate (s): ~1.6 s per 100 nm flown plus 0.5 s per leg (interim
-        aircraft, measured here), over the fixed legs or the expected schedule (6 legs of
-        the network's mean hub-spoke distance)."""
-        from aerotruth import geo
-        from aerotruth.truth.airports import airport, network
+        return day_cost(task.params["day"])
 
-        p = task.params
-        if p["legs"] is not None:
-            pairs = [(leg["from"], leg["to"]) for leg in p["legs"]]
-        else:
-            net = network(p["network"])
-            pairs = [(h, s) for h, spokes in net.spokes_by_hub.items() for s in spokes]
-        dist_nm = [geo.inverse(airport(a).lat, airport(a).lon, airport(b).lat, airport(b).lon)[2] / NM for a, b in pairs]
-        n_legs = len(pairs) if p["legs"] is not None else 6
-        if p["max_legs_per_day"] is not None:
-            n_legs = min(n_legs, p["max_legs_per_day"])
-        return n_legs * (0.5 + 1.6 * float(np.mean(dist_nm)) / 100.0)
-
-    def run(self, task: Task, rng: np.random.Generator) -> pd.DataFrame:
-        from aerotruth.truth.flight import FlightDiverged, fly_leg
-
+    def run(self, task: Task, ctx) -> pd.DataFrame:
+        day = task.params["day"]
         ident = dict(task.identity)
-        p = task.params
         rows = []
-        for k, (plan, atm) in enumerate(plan_day(task, rng)):
-            seed = int(rng.integers(0, 2**63 - 1))
+        for k, out in enumerate(ctx.truth.day(day)):
+            leg, plan = out.leg, out.leg.plan
             row: dict[str, Any] = {
                 "fleet": ident["fleet"], "aircraft": ident["aircraft"], "date": ident["date"], "leg": k + 1,
                 "flight_id": plan.flight_id, "origin": plan.origin.icao, "destination": plan.destination.icao,
                 "departure_utc": plan.departure_utc.isoformat(timespec="seconds"), "departure_runway": plan.departure_runway.ident,
                 "arrival_runway": plan.arrival_runway.ident, "cruise_fl": plan.cruise_flight_level,
-                "great_circle_nm": plan.distance_m / NM, "seed": seed, "weather_seed": p["weather_seed"],
-                "atmosphere_region": str(getattr(atm, "region_key", "")),
+                "great_circle_nm": plan.distance_m / NM, "seed": leg.flight_seed, "weather_seed": leg.weather_seed,
+                "day_seed": day.day_seed, "atmosphere_region": leg.region, "truth_key": out.key,
+                "fly_command": "aerotruth fly " + " ".join(leg.replay_args(day.aircraft_type, day.turbulence)),
             }
-            try:
-                track = fly_leg(plan, seed=seed, aircraft=p["aircraft_type"], turbulence=p["turbulence"], atmosphere=atm)
-            except FlightDiverged as e:
+            if out.diverged is not None:
+                e = out.diverged
                 row.update({c: float("nan") for c in _NUMERIC})
                 row.update({"diverged": True, "diverge_reason": e.reason,
                             "diverge_time_s": float("nan") if e.time_s is None else float(e.time_s)})
             else:
-                s = leg_row(track)
+                s = leg_row(out.track)
                 row.update({c: float(s.get(c, float("nan"))) for c in _NUMERIC})
                 row.update({"diverged": False, "diverge_reason": "", "diverge_time_s": float("nan")})
             rows.append(row)
         return pd.DataFrame(rows)
 
-    def aggregate(self, rows: pd.DataFrame) -> dict[str, Any]:
+    def summarize(self, rows: pd.DataFrame, learned, section) -> Summary:
+        metrics = self._metrics(rows)
+        return Summary(metrics, self._tables(rows, metrics))
+
+    def _metrics(self, rows: pd.DataFrame) -> dict[str, Any]:
         flown = rows[~rows["diverged"].astype(bool)] if len(rows) else rows
         out: dict[str, Any] = {
             "aircraft_days": int(rows["task_id"].nunique()) if len(rows) else 0,
@@ -206,7 +133,7 @@ class TruthFlights:
         out["cruise_tas_error_rms_kt.rms"] = float(np.sqrt(np.mean(rms**2))) if len(rms) else None
         return out
 
-    def tables(self, rows: pd.DataFrame, metrics: dict[str, Any]) -> dict[str, pd.DataFrame]:
+    def _tables(self, rows: pd.DataFrame, metrics: dict[str, Any]) -> dict[str, pd.DataFrame]:
         summary = pd.DataFrame({
             "leg metric": list(ACCEPTANCE),
             "mean": [metrics.get(f"{m}.mean") for m in ACCEPTANCE],
@@ -229,7 +156,7 @@ class TruthFlights:
             out["diverged_legs"] = div[["flight_id", "origin", "destination", "seed", "weather_seed", "diverge_time_s", "diverge_reason"]].reset_index(drop=True)
         return out
 
-    def figures(self, rows: pd.DataFrame, metrics: dict[str, Any], out_dir: Path) -> list[Figure]:
+    def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
         from aerotruth.sim.figures import save
@@ -256,7 +183,7 @@ class TruthFlights:
             ax.set_ylabel("fraction of legs")
             ax.set_ylim(0, 1.02)
             ax.grid(alpha=0.3)
-        fig.suptitle(f"Leg metrics of {len(flown)} flown legs ({metrics['legs_diverged']} diverged)")
+        fig.suptitle(f"Leg metrics of {len(flown)} flown legs ({summary.metrics['legs_diverged']} diverged)")
         fig.tight_layout()
         save(fig, out_dir, "truth_leg_metrics")
         figs.append(Figure("truth_leg_metrics", "Cumulative distribution of the per-leg truth metrics, with the foundation acceptance limits"))

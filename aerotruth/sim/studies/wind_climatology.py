@@ -22,12 +22,70 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from aerotruth.config import Campaign, RegionBox
-from aerotruth.sim.studies import Figure
+from pydantic import Field, StrictInt, field_validator, model_validator
+
+from aerotruth.config import Campaign, References, Section
+from aerotruth.sim.studies import Figure, Study, Summary
 from aerotruth.sim.tasks import Task, weather_seed
 from aerotruth.units import FT, KT
 
 NETWORK_MARGIN_DEG = 1.0  # a network's region box extends this far beyond its airports
+
+
+class RegionBox(Section):
+    """A latitude/longitude box (degrees) sampled by the wind climatology: given as
+    `lat_deg: [south, north]` and `lon_deg: [west, east]`, or as `network:` (the box around
+    that route network's airports, NETWORK_MARGIN_DEG wider on each side)."""
+
+    name: str = Field(min_length=1)
+    network: str | None = None
+    lat_deg: tuple[float, float] | None = None
+    lon_deg: tuple[float, float] | None = None
+
+    @model_validator(mode="after")
+    def _ordered(self) -> RegionBox:
+        if self.network is not None:
+            if self.lat_deg is not None or self.lon_deg is not None:
+                raise ValueError("give either network or lat_deg/lon_deg, not both")
+            return self
+        if self.lat_deg is None or self.lon_deg is None:
+            raise ValueError("expected network: NAME or both lat_deg: [south, north] and lon_deg: [west, east]")
+        (la0, la1), (lo0, lo1) = self.lat_deg, self.lon_deg
+        if not (-90.0 <= la0 < la1 <= 90.0):
+            raise ValueError(f"lat_deg: expected [south, north] within [-90, 90], got [{la0}, {la1}]")
+        if not (-180.0 <= lo0 < lo1 <= 180.0):
+            raise ValueError(f"lon_deg: expected [west, east] within [-180, 180], got [{lo0}, {lo1}]")
+        return self
+
+
+class WindClimatologyConfig(Section):
+    """Wind statistics of the truth atmosphere: each region is sampled at random points at the
+    given flight levels and UTC hours, one task per region and day."""
+
+    regions: list[RegionBox] = Field(min_length=1)
+    periods: list[str] = Field(min_length=1)
+    flight_levels: list[StrictInt] = Field(default=[50, 100, 150, 200, 250], min_length=1, description="hundreds of feet")
+    hours_utc: list[float] = Field(default=[0.0, 6.0, 12.0, 18.0], min_length=1)
+    points: StrictInt = Field(default=36, ge=1, le=1_000_000, description="random sample points per level and hour, uniform over the box area")
+
+    @field_validator("flight_levels")
+    @classmethod
+    def _levels(cls, v: list[int]) -> list[int]:
+        for fl in v:
+            if not 0 <= fl <= 450:
+                raise ValueError(f"expected flight levels within 0..450, got {fl}")
+        if len(set(v)) != len(v):
+            raise ValueError("flight levels must be unique")
+        return v
+
+    @field_validator("hours_utc")
+    @classmethod
+    def _hours(cls, v: list[float]) -> list[float]:
+        for h in v:
+            if not 0.0 <= h < 24.0:
+                raise ValueError(f"expected hours within [0, 24), got {h}")
+        return v
+
 
 
 def region_box(region: RegionBox) -> tuple[float, float, float, float]:
@@ -63,16 +121,29 @@ def atmosphere_region(region: RegionBox) -> str | tuple[float, float]:
     return (0.5 * (s + n), 0.5 * (w + e))
 
 
-class WindClimatology:
+class WindClimatology(Study):
     """The `wind_climatology` study (see the module docstring)."""
 
     name = "wind_climatology"
     title = "Wind climatology of the truth atmosphere"
+    Config = WindClimatologyConfig
 
-    def expand(self, campaign: Campaign) -> list[Task]:
-        cfg = campaign.studies.wind_climatology
-        if cfg is None:
-            return []
+    def check(self, campaign: Campaign, refs: References) -> None:
+        cfg = campaign.section(self.name)
+        refs.periods()
+        names = [r.name for r in cfg.regions]
+        for i, n in enumerate(names):
+            if names.index(n) != i:
+                raise refs.error(("regions", i, "name"), f"duplicate name {n!r}")
+        if any(r.network is not None for r in cfg.regions):
+            from aerotruth.truth.airports import networks
+
+            known = networks()
+            for i, r in enumerate(cfg.regions):
+                if r.network is not None and r.network not in known:
+                    raise refs.error(("regions", i, "network"), f"expected a route network ({', '.join(sorted(known))}), got {refs.value(r.network)}")
+
+    def expand(self, campaign: Campaign, cfg: WindClimatologyConfig) -> list[Task]:
         days = campaign.days(cfg.periods)
         tasks = []
         for region in cfg.regions:
@@ -93,7 +164,7 @@ class WindClimatology:
         p = task.params
         return 0.3 + 3e-5 * p["points"] * len(p["flight_levels"]) * len(p["hours_utc"])
 
-    def run(self, task: Task, rng: np.random.Generator) -> pd.DataFrame:
+    def run(self, task: Task, ctx) -> pd.DataFrame:
         from aerotruth.truth.atmosphere import TruthAtmosphere
 
         ident = dict(task.identity)
@@ -101,6 +172,7 @@ class WindClimatology:
         day = dt.date.fromisoformat(str(ident["date"]))
         atm = TruthAtmosphere.for_day(day, p["weather_seed"], p["atmosphere_region"])
         n = int(p["points"])
+        rng = ctx.rng("sample_points")
         frames = []
         for fl in p["flight_levels"]:
             for hour in p["hours_utc"]:
@@ -116,7 +188,11 @@ class WindClimatology:
                 }))
         return pd.concat(frames, ignore_index=True)
 
-    def aggregate(self, rows: pd.DataFrame) -> dict[str, Any]:
+    def summarize(self, rows: pd.DataFrame, learned, section) -> Summary:
+        metrics = self._metrics(rows)
+        return Summary(metrics, self._tables(metrics))
+
+    def _metrics(self, rows: pd.DataFrame) -> dict[str, Any]:
         out: dict[str, Any] = {"samples": int(len(rows)), "tasks": int(rows["task_id"].nunique()) if len(rows) else 0}
         for fl, g in _by_level(rows):
             speed = np.hypot(g["u_mps"].to_numpy(), g["v_mps"].to_numpy())
@@ -134,7 +210,7 @@ class WindClimatology:
             out[f"{key}.mesoscale_vector_rms_mps"] = float(np.sqrt(np.mean(du**2 + dv**2)))
         return out
 
-    def tables(self, rows: pd.DataFrame, metrics: dict[str, Any]) -> dict[str, pd.DataFrame]:
+    def _tables(self, metrics: dict[str, Any]) -> dict[str, pd.DataFrame]:
         levels = sorted({int(k[2:5]) for k in metrics if k.startswith("FL")})
         table = pd.DataFrame({
             "flight level": [f"FL{fl:03d}" for fl in levels],
@@ -150,7 +226,7 @@ class WindClimatology:
         })
         return {"wind_by_level": table}
 
-    def figures(self, rows: pd.DataFrame, metrics: dict[str, Any], out_dir: Path) -> list[Figure]:
+    def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
         from aerotruth.sim.figures import save

@@ -1,0 +1,158 @@
+"""What a stored result depends on, as digests: the source of a study and of every
+aerotruth module it imports (found by reading the import statements, lazy ones inside
+functions included), the data files beside those modules (aircraft and autopilot XML,
+airport tables), and the versions of the libraries that shape numbers. A stored task
+result or fitted state is reused only while its digest matches: an edited constant or
+XML file reruns what depends on it, with no version bump."""
+
+from __future__ import annotations
+
+import ast
+import hashlib
+import importlib.util
+import platform
+from functools import lru_cache
+from importlib import metadata
+from pathlib import Path
+
+import aerotruth
+
+PACKAGE_ROOT = Path(aerotruth.__file__).resolve().parent
+RESULT_LIBRARIES = ("jsbsim", "numpy", "scipy", "pandas", "pyarrow", "ppigrf", "pyproj")
+# Orchestration: how tasks are scheduled, stored and reported never changes a task's
+# numbers (the resolved configuration is digested separately), so these are not followed.
+ORCHESTRATION = frozenset({
+    "aerotruth.cli", "aerotruth.config", "aerotruth.sim.campaign", "aerotruth.sim.commands", "aerotruth.sim.executors",
+    "aerotruth.sim.figures", "aerotruth.sim.markdown", "aerotruth.sim.regress", "aerotruth.sim.report",
+    "aerotruth.sim.store", "aerotruth.sim.worker", "aerotruth.digests",
+})
+
+
+def _module_file(name: str, root: Path = PACKAGE_ROOT) -> Path | None:
+    """File of an aerotruth module name, without importing it."""
+    parts = name.split(".")
+    if parts[0] != "aerotruth":
+        return None
+    base = root.joinpath(*parts[1:])
+    for cand in (base.with_suffix(".py"), base / "__init__.py"):
+        if cand.is_file():
+            return cand
+    return None
+
+
+def _module_name(path: Path, root: Path = PACKAGE_ROOT) -> str | None:
+    try:
+        rel = path.resolve().relative_to(root)
+    except ValueError:
+        return None
+    parts = list(rel.with_suffix("").parts)
+    if parts[-1] == "__init__":
+        parts = parts[:-1]
+    return ".".join(["aerotruth", *parts])
+
+
+def _imports(path: Path, own_name: str | None) -> set[str]:
+    """Absolute names of the aerotruth modules `path` imports (module-level or inside functions)."""
+    tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
+    is_package = path.name == "__init__.py"
+    out: set[str] = set()
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            out.update(a.name for a in node.names)
+        elif isinstance(node, ast.ImportFrom):
+            if node.level:
+                if own_name is None:
+                    continue
+                pkg = own_name.split(".") if is_package else own_name.split(".")[:-1]
+                pkg = pkg[: len(pkg) - (node.level - 1)]
+                base = ".".join(pkg + ([node.module] if node.module else []))
+            else:
+                base = node.module or ""
+            out.add(base)
+            out.update(f"{base}.{a.name}" for a in node.names)
+    return {n for n in out if (n == "aerotruth" or n.startswith("aerotruth.")) and n not in ORCHESTRATION}
+
+
+def dependency_files(start: Path, root: Path = PACKAGE_ROOT) -> list[Path]:
+    """`start` and every aerotruth module it reaches by imports (with their parent
+    packages' __init__; orchestration modules excluded), plus the data files those
+    modules name: a file beside a module whose name appears as a string in it, or a
+    whole non-package subfolder (truth/aircraft/**, truth/data/*) whose name appears as
+    a string in a module of that folder."""
+    seen: set[Path] = set()
+    todo = [start.resolve()]
+    while todo:
+        p = todo.pop()
+        if p in seen:
+            continue
+        seen.add(p)
+        name = _module_name(p, root)
+        for dep in _imports(p, name):
+            parts = dep.split(".")
+            for i in range(1, len(parts) + 1):  # parent packages run on import too
+                if ".".join(parts[:i]) in ORCHESTRATION:
+                    break
+                f = _module_file(".".join(parts[:i]), root)
+                if f is not None and f.resolve() not in seen:
+                    todo.append(f.resolve())
+    files = set(seen)
+    for p in list(seen):
+        if _module_name(p, root) is not None:
+            files.update(_named_data_files(p))
+    return sorted(files)
+
+
+def _strings(path: Path) -> set[str]:
+    return {n.value for n in ast.walk(ast.parse(path.read_text(encoding="utf-8"))) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+
+
+def _named_data_files(module: Path) -> list[Path]:
+    """Data files beside `module` (or in non-package subfolders) that it names in a string."""
+    folder, names = module.parent, _strings(module)
+    out = []
+    for item in folder.iterdir():
+        if item.is_file() and item.suffix not in (".py", ".pyc") and item.name in names:
+            out.append(item)
+        elif item.is_dir() and item.name in names and not (item / "__init__.py").exists():
+            out += [f for f in item.rglob("*") if f.is_file() and f.suffix != ".pyc" and "__pycache__" not in f.parts]
+    return out
+
+
+def library_versions() -> dict[str, str]:
+    """Versions of Python and of the libraries that shape results."""
+    out = {"python": platform.python_version()}
+    for name in RESULT_LIBRARIES:
+        try:
+            out[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            out[name] = "absent"
+    return out
+
+
+def source_file(source: str) -> Path:
+    """The file behind a study source (`module:NAME` or `file:PATH`)."""
+    kind, _, ref = source.partition(":")
+    if kind == "file":
+        return Path(ref)
+    f = _module_file(ref)
+    if f is not None:
+        return f
+    spec = importlib.util.find_spec(ref)
+    if spec is None or spec.origin is None:
+        raise ValueError(f"study module {ref}: not found")
+    return Path(spec.origin)
+
+
+@lru_cache(maxsize=None)
+def code_digest(source: str) -> str:
+    """sha256 over the files a study's results depend on and the library versions."""
+    h = hashlib.sha256()
+    for f in dependency_files(source_file(source)):
+        try:
+            label = f.relative_to(PACKAGE_ROOT).as_posix()
+        except ValueError:
+            label = f.name
+        h.update(label.encode() + b"\0" + f.read_bytes() + b"\0")
+    for k, v in sorted(library_versions().items()):
+        h.update(f"{k}={v}\n".encode())
+    return h.hexdigest()

@@ -1,0 +1,157 @@
+"""The truth store: flown legs cached on disk as TruthTrack Parquet files and shared by
+every study, run and campaign on the machine. A leg is flown only when missing.
+
+Key: sha256 of everything that changes a flight — the leg plan (airports, runways,
+waypoints, departure time, cruise level, heights), the flight seed, the aircraft (its
+dataclass), turbulence, the atmosphere (date, weather seed, region), and a digest of
+the truth code and data it runs on (aerotruth.truth modules, aircraft and autopilot XML,
+airport table) with the JSBSim/NumPy/... versions (aerotruth.digests). Editing any of
+them re-flies; changing a sensor never does.
+
+Layout: ROOT/<key[:2]>/<key>.parquet, ROOT/<key[:2]>/<key>.diverged.json for a leg that
+diverged (reason and seed: reported again, not re-flown silently), ROOT/flown.log (one
+line per leg flown: key, flight id, seconds). Storage is compact (TruthTrack.to_parquet:
+float64 only for time and position, float32 for the rest, zstd). A size cap is kept by
+`evict`, least recently used first (a read touches the file).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import json
+import os
+import time
+from dataclasses import dataclass
+from datetime import timezone
+from pathlib import Path
+
+from aerotruth.digests import code_digest
+from aerotruth.files import atomic_write_text
+from aerotruth.truth.airframes import airframe
+from aerotruth.truth.days import AircraftDay, PlannedLeg
+from aerotruth.truth.flight import FlightDiverged, fly_leg
+from aerotruth.truth.track import TruthTrack
+
+TRUTH_CODE = "module:aerotruth.truth.store"  # this module reaches everything a flight runs on
+
+
+def default_root() -> Path:
+    """$AEROTRUTH_CACHE/truth, else $XDG_CACHE_HOME/aerotruth/truth, else ~/.cache/aerotruth/truth."""
+    base = os.environ.get("AEROTRUTH_CACHE")
+    if base:
+        return Path(base) / "truth"
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    return (Path(xdg) if xdg else Path.home() / ".cache") / "aerotruth" / "truth"
+
+
+def plan_identity(plan) -> dict:
+    """The parts of a LegPlan that determine its flight."""
+    return {
+        "flight_id": plan.flight_id,
+        "origin": plan.origin.icao, "destination": plan.destination.icao,
+        "departure_runway": plan.departure_runway.ident, "arrival_runway": plan.arrival_runway.ident,
+        "departure_utc": plan.departure_utc.astimezone(timezone.utc).isoformat(),
+        "cruise_pressure_altitude_m": round(float(plan.cruise_pressure_altitude_m), 3),
+        "waypoints": [(w.name, round(float(w.lat), 9), round(float(w.lon), 9)) for w in plan.waypoints],
+        "initial_height_m": round(float(plan.initial_height_m), 3),
+        "arrival_height_m": round(float(plan.arrival_height_m), 3),
+    }
+
+
+def truth_key(leg: PlannedLeg, aircraft_type: str | None, turbulence: bool) -> str:
+    """Stable digest (hashlib) of all inputs that determine a leg's truth."""
+    ident = {
+        "plan": plan_identity(leg.plan),
+        "flight_seed": int(leg.flight_seed),
+        "atmosphere": {"weather_seed": int(leg.weather_seed), "region": leg.region},
+        "aircraft": dataclasses.asdict(airframe(aircraft_type)),
+        "turbulence": bool(turbulence),
+        "code": code_digest(TRUTH_CODE),
+    }
+    return hashlib.sha256(json.dumps(ident, sort_keys=True, default=str).encode()).hexdigest()[:32]
+
+
+@dataclass
+class LegOutcome:
+    """A planned leg and what the store returned: its track, or why it diverged."""
+
+    leg: PlannedLeg
+    key: str
+    track: TruthTrack | None
+    diverged: FlightDiverged | None
+    flown_now: bool
+
+
+class TruthStore:
+    """A folder of cached truth legs (see the module docstring)."""
+
+    def __init__(self, root: str | Path | None = None):
+        self.root = Path(root) if root is not None else default_root()
+
+    def _paths(self, key: str) -> tuple[Path, Path]:
+        d = self.root / key[:2]
+        return d / f"{key}.parquet", d / f"{key}.diverged.json"
+
+    def leg(self, leg: PlannedLeg, *, aircraft_type: str | None = None, turbulence: bool = False) -> LegOutcome:
+        """The leg's truth from the store, flown now if missing."""
+        key = truth_key(leg, aircraft_type, turbulence)
+        path, failed = self._paths(key)
+        if path.exists():
+            os.utime(path)  # recently used: evicted last
+            return LegOutcome(leg, key, TruthTrack.read_parquet(path), None, False)
+        if failed.exists():
+            info = json.loads(failed.read_text())
+            return LegOutcome(leg, key, None, FlightDiverged(info["reason"], info["seed"], info.get("time_s")), False)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        t0 = time.monotonic()
+        try:
+            track = fly_leg(leg.plan, seed=leg.flight_seed, aircraft=aircraft_type, turbulence=turbulence,
+                            atmosphere=leg.atmosphere())
+        except FlightDiverged as e:
+            atomic_write_text(failed, json.dumps({"reason": e.reason, "seed": e.seed, "time_s": e.time_s}))
+            self._log(key, leg, time.monotonic() - t0, "diverged")
+            return LegOutcome(leg, key, None, e, True)
+        track.to_parquet(path)
+        self._log(key, leg, time.monotonic() - t0, "flown")
+        # hand back exactly what a later read returns (compact storage), so results do
+        # not depend on whether the leg was flown now or read from the store
+        return LegOutcome(leg, key, TruthTrack.read_parquet(path), None, True)
+
+    def day(self, day: AircraftDay) -> list[LegOutcome]:
+        """Every leg of an aircraft-day, in flying order."""
+        return [self.leg(p, aircraft_type=day.aircraft_type, turbulence=day.turbulence) for p in day.plans()]
+
+    def _log(self, key: str, leg: PlannedLeg, seconds: float, what: str) -> None:
+        self.root.mkdir(parents=True, exist_ok=True)
+        line = json.dumps({"key": key, "flight_id": leg.plan.flight_id, "what": what, "seconds": round(seconds, 3), "pid": os.getpid()})
+        with open(self.root / "flown.log", "a", encoding="utf-8") as f:  # O_APPEND: lines from several workers do not interleave
+            f.write(line + "\n")
+
+    def flown_count(self) -> int:
+        """Legs flown into this store so far (lines of flown.log)."""
+        log = self.root / "flown.log"
+        return sum(1 for _ in open(log, encoding="utf-8")) if log.exists() else 0
+
+    def files(self) -> list[Path]:
+        """Stored flights (Parquet), any order."""
+        return list(self.root.glob("*/*.parquet")) if self.root.exists() else []
+
+    def size_bytes(self) -> int:
+        """Bytes held by stored flights."""
+        return sum(p.stat().st_size for p in self.files())
+
+    def evict(self, max_bytes: int) -> tuple[int, int]:
+        """Delete least recently used flights until at most `max_bytes` remain; returns
+        (files removed, bytes freed)."""
+        files = sorted(((p.stat().st_mtime, p.stat().st_size, p) for p in self.files()), key=lambda x: (x[0], str(x[2])))
+        total = sum(s for _, s, _ in files)
+        removed = freed = 0
+        for _, size, p in files:
+            if total <= max_bytes:
+                break
+            p.unlink(missing_ok=True)
+            total -= size
+            freed += size
+            removed += 1
+        return removed, freed
