@@ -51,12 +51,28 @@ def _module_name(path: Path, root: Path = PACKAGE_ROOT) -> str | None:
     return ".".join(["aerotruth", *parts])
 
 
+def _is_type_checking(node: ast.AST) -> bool:
+    return isinstance(node, ast.If) and (
+        (isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING")
+        or (isinstance(node.test, ast.Attribute) and node.test.attr == "TYPE_CHECKING"))
+
+
+def _walk_runtime(tree: ast.AST):
+    """ast.walk without `if TYPE_CHECKING:` blocks (imports for type hints never run)."""
+    todo = [tree]
+    while todo:
+        node = todo.pop()
+        yield node
+        todo.extend(c for c in ast.iter_child_nodes(node) if not _is_type_checking(c))
+
+
 def _imports(path: Path, own_name: str | None) -> set[str]:
-    """Absolute names of the aerotruth modules `path` imports (module-level or inside functions)."""
+    """Absolute names of the aerotruth modules `path` imports at run time (module-level or
+    inside functions; not under `if TYPE_CHECKING:`)."""
     tree = ast.parse(path.read_text(encoding="utf-8"), filename=str(path))
     is_package = path.name == "__init__.py"
     out: set[str] = set()
-    for node in ast.walk(tree):
+    for node in _walk_runtime(tree):
         if isinstance(node, ast.Import):
             out.update(a.name for a in node.names)
         elif isinstance(node, ast.ImportFrom):

@@ -1,5 +1,6 @@
 """The truth a fleet study stands on: which aircraft fly which days, as AircraftDays from
-the campaign's fleets and periods, and the task that carries one. Any study that works
+the campaign's fleets and periods, the task that carries one, and its legs from the truth
+store. Any study that works
 on flights (truth metrics, sensors, the methods) expands through here, so every study of a
 campaign asks the truth store for the same aircraft-days and none re-flies another's.
 """
@@ -13,6 +14,7 @@ from pydantic import Field, StrictBool, StrictInt, field_validator
 from aerotruth.config import Campaign, References, Section
 from aerotruth.sim.tasks import MAIN_STAGE, Task
 from aerotruth.truth.days import AircraftDay, FixedLeg
+from aerotruth.truth.store import LegOutcome
 
 
 class LegSpec(Section):
@@ -87,6 +89,12 @@ def day_task(study: str, fleet: str, day: AircraftDay, *, stage: str = MAIN_STAG
     """The task of one aircraft-day (identity: fleet, aircraft, date)."""
     return Task(study, (("fleet", fleet), ("aircraft", day.aircraft), ("date", day.date.isoformat())),
                 params={"day": day, **params}, stage=stage, needs=needs)
+
+
+def flown_legs(ctx, day: AircraftDay) -> list[LegOutcome]:
+    """The day's legs from the truth store of the task's context (flown if missing). The
+    results of a study that calls this depend on the truth code through this module."""
+    return ctx.truth.day(day)
 
 
 def day_cost(day: AircraftDay) -> float:

@@ -25,7 +25,7 @@ import numpy as np
 import pandas as pd
 
 from aerotruth.config import Campaign, References
-from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_flights, day_cost, day_task
+from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_flights, day_cost, day_task, flown_legs
 from aerotruth.sim.studies import Figure, Study, Summary
 from aerotruth.sim.tasks import Task
 from aerotruth.units import KT, NM
@@ -81,7 +81,7 @@ class TruthFlights(Study):
         day = task.params["day"]
         ident = dict(task.identity)
         rows = []
-        for k, out in enumerate(ctx.truth.day(day)):
+        for k, out in enumerate(flown_legs(ctx, day)):
             leg, plan = out.leg, out.leg.plan
             row: dict[str, Any] = {
                 "fleet": ident["fleet"], "aircraft": ident["aircraft"], "date": ident["date"], "leg": k + 1,
