@@ -174,3 +174,43 @@ def test_bounds_and_strict_integers():
     assert error_of(VALID.replace("max_legs_per_day: 2", "max_legs_per_day: 2.5")).startswith(
         "studies.truth.max_legs_per_day: expected an integer, got 2.5")
     assert error_of(VALID.replace("name: t1", "name: my run")).startswith("name: expected a name of letters, digits")
+
+
+# ---- bugs met on the way (composable-studies issue): each failed before its fix
+
+
+FIXED_LEG = VALID.replace("    max_legs_per_day: 2\n", "    legs:\n      - {from: kmsp, to: KRST, departure_utc: 13:00}\n")
+
+
+def test_unquoted_departure_time_is_13_00_not_the_sexagesimal_number_780():
+    (leg,) = parse_campaign(FIXED_LEG).studies["truth"].legs
+    assert leg.departure_utc == dt.time(13, 0)
+
+
+def test_a_number_where_a_time_belongs_is_refused_with_its_line():
+    text = FIXED_LEG.replace("departure_utc: 13:00", "departure_utc: 780")
+    assert error_of(text) == f"studies.truth.legs[0].departure_utc: expected a time HH:MM, got the number 780 (line {line_of(text, '780')})"
+
+
+def test_lowercase_icao_codes_are_taken_as_upper_case_like_fly_does():
+    (leg,) = parse_campaign(FIXED_LEG).studies["truth"].legs
+    assert (leg.origin, leg.destination) == ("KMSP", "KRST")
+
+
+def test_validate_of_a_path_below_a_file_is_one_line(tmp_path, capsys):
+    f = tmp_path / "quick.yaml"
+    f.write_text(VALID)
+    assert main(["validate", str(f / "x")]) == 2
+    err = capsys.readouterr().err
+    assert err == f"aerotruth validate: {f / 'x'}: no such campaign file ({f} is not a folder)\n"
+
+
+def test_an_unknown_study_names_the_available_ones_and_its_line():
+    text = VALID + "  sensors_of_the_future: {}\n"
+    assert error_of(text) == ("studies.sensors_of_the_future: unknown study (available: truth, wind_climatology) "
+                              f"(line {line_of(text, 'sensors_of_the_future')})")
+
+
+def test_a_study_module_file_that_does_not_exist_is_named():
+    text = "study_modules: [no_such_study.py]\n" + VALID
+    assert error_of(text).startswith("study_modules[0]: expected a study module file")

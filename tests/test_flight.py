@@ -8,6 +8,7 @@ import sys
 from datetime import datetime, timezone
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from aerotruth.truth.airframes import airframe
@@ -157,3 +158,48 @@ def test_running_out_of_fuel_ends_the_flight_with_that_reason():
     with pytest.raises(FlightDiverged, match="fuel exhausted") as err:
         fly_leg(plan, seed=5, aircraft=dry, atmosphere=UniformAtmosphere())
     assert err.value.seed == 5 and err.value.time_s < 300.0
+
+
+def test_fly_refuses_a_folder_as_out_before_flying(tmp_path, capsys):
+    from aerotruth.cli import main
+
+    assert main(["fly", "--from", "KMSP", "--to", "KRST", "--date", "2009-08-15", "--out", str(tmp_path)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"aerotruth fly: --out: {tmp_path} is a folder, expected a file name")
+    assert not list(tmp_path.parent.glob("*.tmp")) and not list(tmp_path.glob("*"))
+
+
+def test_negative_seed_is_refused_by_the_argument_parser(capsys):
+    from aerotruth.cli import main
+
+    with pytest.raises(SystemExit) as e:
+        main(["fly", "--from", "KMSP", "--to", "KRST", "--date", "2009-08-15", "--seed", "-1", "--out", "x.parquet"])
+    assert e.value.code == 2
+    assert "argument --seed: expected a non-negative integer, got -1" in capsys.readouterr().err
+
+
+def test_fly_re_flies_a_campaign_leg_bit_for_bit_from_its_recorded_seeds(tmp_path):
+    """A mesaba schedule leg (drawn hub, spoke, time and cruise level) re-flown alone by
+    `aerotruth fly` with the fly_command of its truth row, in another process."""
+    import shlex
+
+    from aerotruth.config import parse_campaign
+    from aerotruth.sim.campaign import run_campaign
+    from aerotruth.sim.executors import ExecutorChoice
+    from aerotruth.sim.store import RunStore
+    from aerotruth.truth.store import TruthStore
+
+    text = ("name: refly\nseed: 17\nfleets:\n  - {name: m, network: mesaba, aircraft: [N9]}\n"
+            "periods:\n  - {name: d, dates: [2009-08-15]}\nstudies:\n  truth: {fleets: [m], periods: [d], max_legs_per_day: 1}\n")
+    run_campaign(parse_campaign(text), ExecutorChoice("local", workers=1), out=tmp_path / "run", progress=False, log=lambda m: None)
+    (row,) = pd.read_parquet(next((tmp_path / "run" / "tasks").glob("truth--*.parquet"))).to_dict("records")
+    args = shlex.split(row["fly_command"])[1:] + ["--out", str(tmp_path / "again.parquet")]
+    subprocess.run([sys.executable, "-m", "aerotruth.cli", *args], check=True, capture_output=True)
+    again = TruthTrack.read_parquet(tmp_path / "again.parquet")
+    stored = next(p for p in TruthStore().files() if p.stem == row["truth_key"])
+    original = TruthTrack.read_parquet(stored)
+    assert again.meta == original.meta and again.meta["flight_id"] == row["flight_id"]
+    assert list(again.df.columns) == list(original.df.columns)
+    for c in original.df.columns:
+        assert again.df[c].equals(original.df[c]), c
+    assert again.df.drop(columns=["phase"]).to_numpy().tobytes() == original.df.drop(columns=["phase"]).to_numpy().tobytes()
