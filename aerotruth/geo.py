@@ -7,6 +7,8 @@ table of the project); distances in metres.
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 from pyproj import Geod, Transformer
 
@@ -42,15 +44,18 @@ def ecef(lat_deg, lon_deg, h_ellipsoid_m):
 
 
 def enu(lat_deg, lon_deg, h_m, lat0_deg: float, lon0_deg: float, h0_m: float):
-    """East, north, up (m) of points relative to the origin (lat0, lon0, h0), all ellipsoidal."""
-    x, y, z = (np.asarray(c, dtype=float) for c in ecef(lat_deg, lon_deg, h_m))
-    x0, y0, z0 = ecef(lat0_deg, lon0_deg, h0_m)
-    la, lo = np.radians(lat0_deg), np.radians(lon0_deg)
-    dx, dy, dz = x - x0, y - y0, z - z0
-    e = -np.sin(lo) * dx + np.cos(lo) * dy
-    n = -np.sin(la) * np.cos(lo) * dx - np.sin(la) * np.sin(lo) * dy + np.cos(la) * dz
-    u = np.cos(la) * np.cos(lo) * dx + np.cos(la) * np.sin(lo) * dy + np.sin(la) * dz
+    """East, north, up (m) of points relative to the origin (lat0, lon0, h0), all
+    ellipsoidal: PROJ's topocentric conversion of the ECEF coordinates (EPSG 9837)."""
+    t = _topocentric(float(lat0_deg), float(lon0_deg), float(h0_m))
+    e, n, u = t.transform(np.asarray(lon_deg, dtype=float), np.asarray(lat_deg, dtype=float), np.asarray(h_m, dtype=float))
     return e, n, u
+
+
+@lru_cache(maxsize=64)
+def _topocentric(lat0_deg: float, lon0_deg: float, h0_m: float) -> Transformer:
+    return Transformer.from_pipeline(
+        "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad +step +proj=cart +ellps=WGS84 "
+        f"+step +proj=topocentric +ellps=WGS84 +lat_0={lat0_deg!r} +lon_0={lon0_deg!r} +h_0={h0_m!r}")
 
 
 def wrap180(angle_deg):

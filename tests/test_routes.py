@@ -23,7 +23,6 @@ from aerotruth.truth.routes import (
     plan_leg,
     runway_frame_xy_m,
     semicircular_altitude_ft,
-    us_daylight_time,
 )
 from aerotruth.units import FT, KT, NM
 
@@ -300,17 +299,6 @@ def test_block_time_is_distance_at_250_kt_plus_15_min():
     assert block_time_s(250 * NM) == pytest.approx(75 * 60.0)
     assert block_time_s(0.0) == pytest.approx(15 * 60.0)
     assert 250 * KT == pytest.approx(128.611, abs=1e-3)
-
-
-def test_us_daylight_time_rule_matches_the_tz_database():
-    import zoneinfo  # the tz database comes with the dev extra's tzdata package
-
-    chicago = zoneinfo.ZoneInfo("America/Chicago")
-    day = date(2005, 1, 1)
-    while day < date(2011, 1, 1):
-        noon = datetime(day.year, day.month, day.day, 12, tzinfo=chicago)
-        assert us_daylight_time(day) == bool(noon.dst()), day
-        day += timedelta(days=1)
 
 
 def test_hub_offsets_by_hand():

@@ -98,15 +98,14 @@ class Airport:
 @dataclass(frozen=True)
 class Network:
     """An airline network of 2009–2010: hubs, the spokes flown from each hub, and
-    each hub's standard-time UTC offset (hours; US daylight time is added by the
-    schedule generator)."""
+    each hub's time zone (IANA name; local times come from the tz database)."""
 
     name: str
     operator: str
     aircraft_type: str
     hubs: tuple[str, ...]
     spokes_by_hub: Mapping[str, tuple[str, ...]]
-    utc_offset_standard_h: Mapping[str, int]
+    hub_timezone: Mapping[str, str]
 
     @property
     def spokes(self) -> tuple[str, ...]:
@@ -119,14 +118,14 @@ class Network:
         return self.hubs + tuple(s for s in self.spokes if s not in self.hubs)
 
 
-def _network(name, operator, aircraft_type, spokes_by_hub, utc_offsets) -> Network:
+def _network(name, operator, aircraft_type, spokes_by_hub, timezones) -> Network:
     return Network(
         name=name,
         operator=operator,
         aircraft_type=aircraft_type,
         hubs=tuple(spokes_by_hub),
         spokes_by_hub=MappingProxyType({h: tuple(s) for h, s in spokes_by_hub.items()}),
-        utc_offset_standard_h=MappingProxyType(dict(utc_offsets)),
+        hub_timezone=MappingProxyType(dict(timezones)),
     )
 
 
@@ -148,14 +147,14 @@ _NETWORKS: dict[str, Network] = {
             "KDTW": ("KTVC", "KMBS", "KFNT", "KLAN", "KGRR", "KAZO", "KSAW", "KESC", "KPLN"),
             "KMEM": ("KLIT", "KXNA", "KTYS", "KCHA", "KHSV", "KJAN", "KTUP", "KMLU"),
         },
-        {"KMSP": -6, "KDTW": -5, "KMEM": -6},
+        {"KMSP": "America/Chicago", "KDTW": "America/Detroit", "KMEM": "America/Chicago"},
     ),
     "penair": _network(
         "penair",
         "PenAir (Peninsula Airways)",
         "SAAB 340B",
         {"PANC": ("PADL", "PAKN", "PADU", "PACD", "PASD")},
-        {"PANC": -9},
+        {"PANC": "America/Anchorage"},
     ),
     "chautauqua": _network(
         "chautauqua",
@@ -167,7 +166,8 @@ _NETWORKS: dict[str, Network] = {
             "KSTL": ("KBNA", "KMKE", "KCLE", "KTYS", "KCHA", "KDSM", "KMCI", "KOMA"),
             "KORD": ("KPIT", "KCLE", "KBNA", "KBUF", "KROC", "KDAY", "KSDF", "KTYS"),
         },
-        {"KIND": -5, "KCMH": -5, "KSTL": -6, "KORD": -6},
+        {"KIND": "America/Indiana/Indianapolis", "KCMH": "America/New_York", "KSTL": "America/Chicago",
+         "KORD": "America/Chicago"},
     ),
 }
 

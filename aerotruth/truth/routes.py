@@ -25,6 +25,7 @@ import math
 from dataclasses import dataclass
 from datetime import date, datetime, time, timedelta, timezone
 from typing import Callable
+from zoneinfo import ZoneInfo
 
 import numpy as np
 
@@ -350,31 +351,17 @@ def block_time_s(distance_m: float) -> float:
     return distance_m / (BLOCK_SPEED_KT * KT) + BLOCK_OVERHEAD_MIN * 60.0
 
 
-def _nth_sunday(year: int, month: int, n: int) -> date:
-    first = date(year, month, 1)
-    return first + timedelta(days=(6 - first.weekday()) % 7 + 7 * (n - 1))
-
-
-def us_daylight_time(day: date) -> bool:
-    """Whether US daylight saving time is in force on this date (from the second Sunday
-    of March to the first Sunday of November, the rule since 2007, Energy Policy Act of
-    2005; before 2007, first Sunday of April to last Sunday of October). Judged by the
-    calendar date, ignoring the 02:00 switch."""
-    if day.year >= 2007:
-        start, end = _nth_sunday(day.year, 3, 2), _nth_sunday(day.year, 11, 1)
-    else:
-        start = _nth_sunday(day.year, 4, 1)
-        end = _nth_sunday(day.year, 11, 1) - timedelta(days=7)  # last Sunday of October
-    return start <= day < end
+def hub_timezone(net: Network, hub: str) -> ZoneInfo:
+    """The time zone of a network's hub (tz database, via zoneinfo and tzdata)."""
+    if hub not in net.hub_timezone:
+        raise ValueError(f"hub: {hub!r} is not a hub of network {net.name}; hubs are {', '.join(net.hubs)}")
+    return ZoneInfo(net.hub_timezone[hub])
 
 
 def hub_utc_offset_h(net: Network, hub: str, day: date) -> int:
-    """Local time minus UTC (h) at a hub on a date: the hub's standard offset (Central
-    -6 for KMSP, KMEM, KSTL, KORD; Eastern -5 for KDTW, KIND, KCMH; Alaska -9 for PANC)
-    plus one hour in US daylight time."""
-    if hub not in net.utc_offset_standard_h:
-        raise ValueError(f"hub: {hub!r} is not a hub of network {net.name}; hubs are {', '.join(net.hubs)}")
-    return net.utc_offset_standard_h[hub] + (1 if us_daylight_time(day) else 0)
+    """Local time minus UTC (h) at a hub at local noon of a date (daylight time included)."""
+    offset = datetime.combine(day, time(12, 0), tzinfo=hub_timezone(net, hub)).utcoffset()
+    return int(offset.total_seconds() // 3600)
 
 
 SurfaceWind = Callable[[Airport, datetime], "WindUV | None"]
@@ -407,7 +394,7 @@ def day_schedule(
     spokes = net.spokes_by_hub[hub]
     n_legs = int(rng.integers(4, 9))
     local_first = datetime.combine(day, time(6, 0)) + timedelta(minutes=5 * int(rng.integers(0, 25)))
-    t = (local_first - timedelta(hours=hub_utc_offset_h(net, hub, day))).replace(tzinfo=timezone.utc)
+    t = local_first.replace(tzinfo=hub_timezone(net, hub)).astimezone(timezone.utc)
     legs: list[LegPlan] = []
     here = hub
     for k in range(n_legs):
