@@ -57,7 +57,9 @@ studies:
 
 
 def timed_run(text: str, choice: ExecutorChoice, out: Path) -> float:
-    """Wall seconds of one complete run into a fresh directory."""
+    """Wall seconds of one complete run into a fresh directory with an empty truth store
+    of its own (a cold run: every leg is flown)."""
+    text += f"truth_store: {{path: {out / 'truth'}}}\n"
     t0 = time.perf_counter()
     run_campaign(parse_campaign(text), choice, out=out, progress=False, log=lambda msg: None)
     return time.perf_counter() - t0
