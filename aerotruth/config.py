@@ -16,6 +16,7 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import json
+import re
 import typing
 from pathlib import Path
 from typing import Any, Literal
@@ -439,26 +440,21 @@ class _CampaignLoader(yaml.SafeLoader):
     sexagesimal numbers (unquoted `13:00` would otherwise be the integer 780)."""
 
 
-_SEXAGESIMAL = ":"
+_NUMBER_TAGS = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
 _CampaignLoader.yaml_implicit_resolvers = {
-    ch: [
-        (tag, rx) for tag, rx in resolvers
-        if tag != "tag:yaml.org,2002:timestamp"
-        and not (tag in ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float") and _SEXAGESIMAL in rx.pattern)
-    ]
+    ch: [(tag, rx) for tag, rx in resolvers
+         if tag != "tag:yaml.org,2002:timestamp" and not (tag in _NUMBER_TAGS and ":" in rx.pattern)]
     for ch, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
 }
-# ints and floats without the base-60 alternative of YAML 1.1
-import re as _re  # noqa: E402
-
+# YAML 1.1 ints and floats again, without their base-60 alternatives
 _CampaignLoader.add_implicit_resolver(
     "tag:yaml.org,2002:int",
-    _re.compile(r"""^(?:[-+]?0b[0-1_]+|[-+]?0[0-7_]+|[-+]?(?:0|[1-9][0-9_]*)|[-+]?0x[0-9a-fA-F_]+)$""", _re.X),
+    re.compile(r"^(?:[-+]?0b[0-1_]+|[-+]?0[0-7_]+|[-+]?(?:0|[1-9][0-9_]*)|[-+]?0x[0-9a-fA-F_]+)$"),
     list("-+0123456789"),
 )
 _CampaignLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
-    _re.compile(r"""^(?:[-+]?(?:[0-9][0-9_]*)\.[0-9_]*(?:[eE][-+][0-9]+)?|\.[0-9][0-9_]*(?:[eE][-+][0-9]+)?|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$""", _re.X),
+    re.compile(r"^(?:[-+]?[0-9][0-9_]*\.[0-9_]*(?:[eE][-+][0-9]+)?|\.[0-9][0-9_]*(?:[eE][-+][0-9]+)?|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"),
     list("-+0123456789."),
 )
 
