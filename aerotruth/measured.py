@@ -1,0 +1,147 @@
+"""Measured data files: recognise what a file holds from its content and load it as a
+table, so that `diagnose` and the tests can take a user's data as it comes.
+
+Kinds (DESIGN.md data contracts and ../shared/real-data/README.md):
+
+* `observation_table` — aircraft reports (CSV or Parquet): aircraft, time, lat, lon,
+  pressure_altitude_ft, wind_speed_kt, wind_dir_deg, ref_wind_speed_kt, ref_wind_dir_deg;
+* `approach_log` — FITS approach epochs (CSV or Parquet): approach, time_s, waas_x_m, ...;
+* `modes_raw` — decoded Mode-S / ADS-B messages, one JSON object per line (or a JSON
+  list), each with `timestamp`, `df` and the hex `frame`;
+* `modes_track` — a trajectory with Mode-S enhanced-surveillance fields (JSON list of
+  records with `heading` (magnetic, BDS 6,0) and `TAS` (BDS 5,0) besides position);
+* `adsb_track` — an ADS-B trajectory (JSON list of records with latitude, longitude,
+  groundspeed, track; no heading or TAS);
+* `qar` — a flight-data-recorder extract (column-oriented JSON: {column: {row: value}})
+  with attitude (`pitch`, `roll`).
+
+Gzip is recognised by its magic bytes. Times become UTC epoch seconds (`time_s`). A file
+that is none of these gets one DataError naming the file and what was expected.
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from aerotruth.errors import DataError
+
+OBSERVATION_COLUMNS = ("aircraft", "time", "lat", "lon", "pressure_altitude_ft", "wind_speed_kt", "wind_dir_deg",
+                       "ref_wind_speed_kt", "ref_wind_dir_deg")
+APPROACH_COLUMNS = ("approach", "time_s", "waas_x_m", "waas_y_m", "waas_z_m")
+KINDS = ("observation_table", "approach_log", "modes_raw", "modes_track", "adsb_track", "qar")
+_EXPECTED = ("an observation table (CSV/Parquet with columns " + ", ".join(OBSERVATION_COLUMNS) + "), an approach log "
+             "(CSV/Parquet with " + ", ".join(APPROACH_COLUMNS) + ", ...), Mode-S/ADS-B messages (JSONL with timestamp, df, "
+             "frame), a Mode-S or ADS-B trajectory (JSON records with timestamp, latitude, longitude) or a QAR extract "
+             "(column-oriented JSON with timestamp, pitch, roll)")
+
+
+@dataclass
+class Measured:
+    """A recognised measured-data file: its kind and its rows."""
+
+    kind: str
+    df: pd.DataFrame
+    path: Path
+
+
+def real_data_dir() -> Path:
+    """$AEROTRUTH_REAL_DATA, else ../shared/real-data beside the project checkout."""
+    env = os.environ.get("AEROTRUTH_REAL_DATA")
+    if env:
+        return Path(env)
+    return Path(__file__).resolve().parents[2] / "shared" / "real-data"
+
+
+def _raw_bytes(path: Path) -> bytes:
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise DataError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise DataError(f"{path}: is a folder, expected a data file") from None
+    except OSError as e:
+        raise DataError(f"{path}: cannot read ({e.strerror})") from None
+    if data[:2] == b"\x1f\x8b":
+        try:
+            data = gzip.decompress(data)
+        except (OSError, EOFError) as e:
+            raise DataError(f"{path}: a damaged gzip file ({e})") from None
+    return data
+
+
+def _table(path: Path, data: bytes) -> pd.DataFrame | None:
+    """A CSV or Parquet table, or None when the bytes are neither."""
+    if data[:4] == b"PAR1":
+        try:
+            return pd.read_parquet(io.BytesIO(data))
+        except Exception as e:  # noqa: BLE001 - a damaged Parquet file is one line
+            raise DataError(f"{path}: a damaged Parquet file ({e})") from None
+    head = data[:4096].decode("utf-8", errors="replace").lstrip()
+    if not head or head[0] in "[{":
+        return None
+    try:
+        return pd.read_csv(io.BytesIO(data))
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError):
+        return None
+
+
+def _json(data: bytes):
+    text = data.decode("utf-8", errors="replace").strip()
+    if not text:
+        return None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        pass
+    try:  # JSON lines
+        return [json.loads(line) for line in text.splitlines() if line.strip()]
+    except json.JSONDecodeError:
+        return None
+
+
+def _epoch_seconds(ts: pd.Series) -> pd.Series:
+    """Epoch times in s or ms (recognised by size) as seconds."""
+    t = pd.to_numeric(ts, errors="coerce").astype(float)
+    return t / 1000.0 if t.abs().median() > 1e11 else t
+
+
+def load_measured(path: str | Path) -> Measured:
+    """Recognise and load a measured-data file (see the module docstring)."""
+    path = Path(path)
+    data = _raw_bytes(path)
+    table = _table(path, data)
+    if table is not None:
+        cols = set(table.columns)
+        if set(OBSERVATION_COLUMNS) <= cols:
+            return Measured("observation_table", table, path)
+        if set(APPROACH_COLUMNS) <= cols:
+            return Measured("approach_log", table, path)
+        raise DataError(f"{path}: a table with columns {', '.join(map(str, table.columns[:12]))}; expected {_EXPECTED}")
+    obj = _json(data)
+    if isinstance(obj, dict) and {"timestamp", "pitch", "roll"} <= set(obj) and all(isinstance(v, dict) for v in obj.values()):
+        df = pd.DataFrame({k: pd.Series(v) for k, v in obj.items()})
+        df.index = df.index.astype(int)
+        df = df.sort_index().reset_index(drop=True)
+        df.insert(0, "time_s", _epoch_seconds(df["timestamp"]))
+        return Measured("qar", df, path)
+    if isinstance(obj, list) and obj and all(isinstance(r, dict) for r in obj):
+        df = pd.DataFrame(obj)
+        cols = set(df.columns)
+        if {"timestamp", "df", "frame"} <= cols:
+            kind = "modes_raw"
+        elif {"timestamp", "latitude", "longitude", "heading", "TAS"} <= cols:
+            kind = "modes_track"
+        elif {"timestamp", "latitude", "longitude", "groundspeed", "track"} <= cols:
+            kind = "adsb_track"
+        else:
+            raise DataError(f"{path}: JSON records with keys {', '.join(sorted(cols)[:12])}; expected {_EXPECTED}")
+        df.insert(0, "time_s", _epoch_seconds(df["timestamp"]))
+        return Measured(kind, df.sort_values("time_s", kind="stable").reset_index(drop=True), path)
+    raise DataError(f"{path}: not measured data aerotruth knows; expected {_EXPECTED}")

@@ -1,0 +1,76 @@
+"""Measured data is recognised from its content (not its name) and loaded as a table;
+anything else is one clear error naming the file."""
+
+from __future__ import annotations
+
+import gzip
+import json
+
+import pandas as pd
+import pytest
+
+from aerotruth.errors import DataError
+from aerotruth.measured import load_measured, real_data_dir
+
+REAL = real_data_dir()
+needs_real = pytest.mark.skipif(not REAL.is_dir(), reason=f"real flight data not found at {REAL} (set AEROTRUTH_REAL_DATA)")
+
+
+def test_observation_table_and_approach_log_are_told_apart_by_their_columns(tmp_path):
+    obs = pd.DataFrame({"aircraft": ["N1"], "time": [1.25e9], "lat": [45.0], "lon": [-93.0], "pressure_altitude_ft": [15000.0],
+                        "wind_speed_kt": [30.0], "wind_dir_deg": [270.0], "ref_wind_speed_kt": [28.0], "ref_wind_dir_deg": [265.0]})
+    obs.to_csv(tmp_path / "reports.dat", index=False)  # the name says nothing
+    assert load_measured(tmp_path / "reports.dat").kind == "observation_table"
+    log = pd.DataFrame({"approach": [1, 1], "time_s": [0.0, 1.0], "waas_x_m": [0.0, 1.0], "waas_y_m": [0.0, 0.0], "waas_z_m": [9.0, 9.0]})
+    log.to_parquet(tmp_path / "log.bin")
+    got = load_measured(tmp_path / "log.bin")
+    assert got.kind == "approach_log" and list(got.df["waas_x_m"]) == [0.0, 1.0]
+
+
+def test_gzipped_json_lines_of_mode_s_messages_are_raw_messages_in_seconds(tmp_path):
+    lines = [{"timestamp": 1720248189.5, "df": "17", "frame": "8f39", "bds": "05"}, {"timestamp": 1720248189.0, "df": "20", "frame": "a000"}]
+    (tmp_path / "m").write_bytes(gzip.compress("\n".join(json.dumps(x) for x in lines).encode()))
+    got = load_measured(tmp_path / "m")
+    assert got.kind == "modes_raw" and list(got.df["time_s"]) == [1720248189.0, 1720248189.5]  # sorted by time
+
+
+def test_millisecond_timestamps_become_seconds_and_trajectories_are_classified(tmp_path):
+    rec = {"timestamp": 1593069386000, "latitude": 44.8, "longitude": -0.7, "groundspeed": 155.0, "track": 224.0}
+    (tmp_path / "a.json").write_text(json.dumps([rec]))
+    assert load_measured(tmp_path / "a.json").kind == "adsb_track"
+    (tmp_path / "b.json").write_text(json.dumps([{**rec, "heading": 224.5, "TAS": 165.8}]))
+    got = load_measured(tmp_path / "b.json")
+    assert got.kind == "modes_track" and got.df["time_s"].iloc[0] == 1593069386.0
+
+
+@pytest.mark.parametrize("content, expected", [
+    (b"", "not measured data aerotruth knows"),
+    (b"a,b\n1,2\n", "a table with columns a, b; expected an observation table"),
+    (b'[{"x": 1}]', "JSON records with keys x; expected"),
+])
+def test_anything_else_is_one_line_naming_the_file(tmp_path, content, expected):
+    f = tmp_path / "mystery"
+    f.write_bytes(content)
+    with pytest.raises(DataError) as e:
+        load_measured(f)
+    assert str(e.value).startswith(f"{f}: ") and expected in str(e.value) and "\n" not in str(e.value)
+
+
+def test_missing_file_and_folder_are_named(tmp_path):
+    with pytest.raises(DataError, match="no such file"):
+        load_measured(tmp_path / "nope.csv")
+    with pytest.raises(DataError, match="is a folder"):
+        load_measured(tmp_path)
+
+
+@needs_real
+@pytest.mark.parametrize("name, kind, rows", [
+    ("zero_gravity.json.gz", "modes_track", 10367),
+    ("full_flight_short.jsonl.gz", "modes_raw", 57793),
+    ("fuelflow_a320.json.gz", "qar", 11808),
+    ("calibration/brussels_ils.json.gz", "adsb_track", 1905),
+])
+def test_the_real_flights_are_recognised(name, kind, rows):
+    got = load_measured(REAL / name)
+    assert (got.kind, len(got.df)) == (kind, rows)
+    assert got.df["time_s"].is_monotonic_increasing and 1.2e9 < got.df["time_s"].iloc[0] < 1.8e9
