@@ -134,10 +134,10 @@ def _named_data_files(module: Path) -> list[Path]:
     return out
 
 
-def library_versions() -> dict[str, str]:
-    """Versions of Python and of the libraries that shape results."""
+def library_versions(names: tuple[str, ...] = RESULT_LIBRARIES) -> dict[str, str]:
+    """Versions of Python and of the named installed packages (default: those that shape results)."""
     out = {"python": platform.python_version()}
-    for name in RESULT_LIBRARIES:
+    for name in names:
         try:
             out[name] = metadata.version(name)
         except metadata.PackageNotFoundError:

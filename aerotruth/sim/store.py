@@ -21,8 +21,6 @@ from __future__ import annotations
 
 import json
 import math
-import platform
-from importlib import metadata
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +30,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from aerotruth.config import Campaign, load_campaign
+from aerotruth.digests import library_versions
 from aerotruth.errors import RunDirError
 from aerotruth.files import atomic_write_bytes, atomic_write_text, remove_stale_temporaries
 from aerotruth.sim.tasks import Task
@@ -74,14 +73,8 @@ def metrics_json(metrics: dict[str, Any]) -> str:
 
 
 def package_versions() -> dict[str, str]:
-    """Versions of the packages that shape results, plus Python's."""
-    out = {"python": platform.python_version()}
-    for name in _VERSIONED:
-        try:
-            out[name] = metadata.version(name)
-        except metadata.PackageNotFoundError:
-            out[name] = "absent"
-    return out
+    """Versions of the packages that shape results (and of aerotruth, Dask, pydantic), plus Python's."""
+    return library_versions(_VERSIONED)
 
 
 def _table_bytes(df: pd.DataFrame, meta: dict[bytes, bytes] | None = None) -> bytes:
