@@ -1,0 +1,136 @@
+"""Winds from Mode-S enhanced surveillance, and a reference-free check of the heading and
+airspeed the aircraft reports.
+
+Wind (wind paper eq. 1): W = V_G - V_A, with V_G from track and ground speed (BDS 5,0 or
+ADS-B) and V_A = TAS (cos psi, sin psi) (north, east) from TAS (BDS 5,0) and the true
+heading psi = magnetic heading (BDS 6,0) + declination (IGRF for the date at the
+aircraft: ppigrf).
+
+Consistency model (no reference wind needed): the wind is smooth in time along the
+flight, W(t) = sum_j c_j phi_j(t) (cubic B-splines, knots every `knot_s`), while errors
+of the aircraft's heading and airspeed move the derived wind with the heading, so they
+show up when the aircraft turns. The unknowns are corrections to the reported values:
+true heading = reported + A + B sin psi + C cos psi + D r (A an offset, e.g. a stale
+variation table; B, C a one-cycle deviation as wind paper eq. 2; D the lag of the heading
+samples behind the ground track, r the heading rate: a heading sampled D seconds late
+reads psi - r D), true TAS = (1 + k) reported TAS. Linearised about the reported air
+vector V_A (dV_A/dpsi = TAS (-sin psi, cos psi)):
+
+    V_G - V_A = W(t) + k V_A + TAS (-sin psi, cos psi) (A + B sin psi + C cos psi + D r).
+
+All unknowns enter linearly: one least-squares solve.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+
+import numpy as np
+import pandas as pd
+from scipy.interpolate import BSpline
+
+from aerotruth.units import KT
+
+EFFECT_COLUMNS = {
+    "heading_offset": ("A_deg",),
+    "heading_deviation_1psi": ("B_deg", "C_deg"),
+    "tas_scale": ("k",),
+    "heading_time_offset": ("D_s",),
+}
+
+
+def declination_deg(lat, lon, alt_m, when: dt.datetime) -> np.ndarray:
+    """IGRF declination (deg, east positive) at the points for the date (ppigrf)."""
+    import ppigrf
+
+    lat, lon, alt = (np.atleast_1d(np.asarray(a, float)) for a in (lat, lon, alt_m))
+    # the field changes little over a flight: evaluate on a coarse set and interpolate
+    idx = np.linspace(0, len(lat) - 1, min(len(lat), 50)).astype(int)
+    be, bn, _ = ppigrf.igrf(lon[idx], lat[idx], alt[idx] / 1000.0, when)
+    dec = np.degrees(np.arctan2(np.ravel(be), np.ravel(bn)))
+    return np.interp(np.arange(len(lat)), idx, dec) if len(idx) > 1 else np.full(len(lat), dec[0])
+
+
+def _spline_basis(t: np.ndarray, knot_s: float) -> np.ndarray:
+    t0, t1 = float(t.min()), float(t.max())
+    n_int = max(1, int(np.ceil((t1 - t0) / knot_s)))
+    inner = np.linspace(t0, t1, n_int + 1)
+    knots = np.r_[[t0] * 3, inner, [t1] * 3]
+    n = len(knots) - 4
+    return BSpline.design_matrix(np.clip(t, t0, t1), knots, 3).toarray()[:, :n]
+
+
+def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(X, y, names) of the stacked north/east equations for the chosen effects.
+    track: time_s, tas_mps, heading_rad (true), vn_mps, ve_mps, heading_rate_rad_s."""
+    t = track["time_s"].to_numpy(float)
+    tas, psi = track["tas_mps"].to_numpy(float), track["heading_rad"].to_numpy(float)
+    van, vae = tas * np.cos(psi), tas * np.sin(psi)
+    y = np.r_[track["vn_mps"].to_numpy(float) - van, track["ve_mps"].to_numpy(float) - vae]
+    basis = _spline_basis(t, knot_s)
+    nb = basis.shape[1]
+    zeros = np.zeros_like(basis)
+    cols = [np.vstack([basis, zeros]), np.vstack([zeros, basis])]
+    names = [f"wind_n_{j}" for j in range(nb)] + [f"wind_e_{j}" for j in range(nb)]
+    dn, de = -tas * np.sin(psi), tas * np.cos(psi)  # dV_A/dpsi per radian
+    rad = np.pi / 180.0
+    for eff in effects:
+        if eff == "heading_offset":
+            cols.append(np.r_[dn, de][:, None] * rad)
+        elif eff == "heading_deviation_1psi":
+            cols.append(np.column_stack([np.r_[dn * np.sin(psi), de * np.sin(psi)], np.r_[dn * np.cos(psi), de * np.cos(psi)]]) * rad)
+        elif eff == "tas_scale":
+            cols.append(np.r_[van, vae][:, None])
+        elif eff == "heading_time_offset":
+            r = track["heading_rate_rad_s"].to_numpy(float)
+            cols.append(np.r_[dn * r, de * r][:, None])  # correction + r D
+        else:
+            raise ValueError(f"effects: unknown effect {eff!r}; expected one of {', '.join(EFFECT_COLUMNS)}")
+        names += list(EFFECT_COLUMNS[eff])
+    return np.column_stack(cols), y, names
+
+
+def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (), rows: np.ndarray | None = None) -> dict:
+    """Least-squares fit of the smooth wind and the chosen effects (on `rows` if given):
+    coefficients with standard errors (residual-variance scaled), residual RMS (m/s, per
+    component) and the number of equations."""
+    X, y, names = design(track, knot_s, effects)
+    if rows is not None:
+        sel = np.r_[rows, rows]
+        X, y = X[sel], y[sel]
+    coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    res = y - X @ coef
+    dof = max(len(y) - X.shape[1], 1)
+    s2 = float(res @ res / dof)
+    cov = s2 * np.linalg.pinv(X.T @ X)
+    se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    return {"names": names, "coef": coef, "se": se, "rms": float(np.sqrt(np.mean(res**2))), "n": len(y), "p": X.shape[1],
+            "rss": float(res @ res)}
+
+
+def predict_rms(track: pd.DataFrame, fitted: dict, knot_s: float, effects: tuple[str, ...], rows: np.ndarray) -> float:
+    """Held-out check: the effect parameters learned elsewhere are applied to `rows`; the
+    wind spline there is refitted (it is nuisance, local in time): RMS of the residual."""
+    X, y, names = design(track, knot_s, effects)
+    sel = np.r_[rows, rows]
+    X, y = X[sel], y[sel]
+    eff = [i for i, n in enumerate(names) if not n.startswith("wind_")]
+    y_adj = y - (X[:, eff] @ fitted["coef"][eff] if eff else 0.0)
+    wind = [i for i, n in enumerate(names) if n.startswith("wind_")]
+    coef, *_ = np.linalg.lstsq(X[:, wind], y_adj, rcond=None)
+    res = y_adj - X[:, wind] @ coef
+    return float(np.sqrt(np.mean(res**2)))
+
+
+def modes_track_to_wind_frame(df: pd.DataFrame, when: dt.datetime) -> pd.DataFrame:
+    """A Mode-S trajectory (decoded fields in knots/degrees, heading magnetic) as the
+    table `design` needs, in SI, with true heading and heading rate."""
+    dec = declination_deg(df["latitude"], df["longitude"], df["altitude"].to_numpy(float) * 0.3048, when)
+    psi = np.radians(df["heading"].to_numpy(float) + dec)
+    trk = np.radians(df["track"].to_numpy(float))
+    gs = df["groundspeed"].to_numpy(float) * KT
+    t = df["time_s"].to_numpy(float)
+    psi_u = np.unwrap(psi)
+    rate = np.gradient(psi_u, t)
+    return pd.DataFrame({"time_s": t, "tas_mps": df["TAS"].to_numpy(float) * KT, "heading_rad": psi, "vn_mps": gs * np.cos(trk),
+                         "ve_mps": gs * np.sin(trk), "heading_rate_rad_s": rate, "declination_deg": dec})
