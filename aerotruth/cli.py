@@ -69,6 +69,33 @@ def _cmd_fly(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_diagnose(args: argparse.Namespace) -> int:
+    from aerotruth.analysis.diagnose import Diagnosis, diagnose_track, track_from_measured, write_diagnosis
+    from aerotruth.config import load_campaign
+    from aerotruth.measured import load_measured
+
+    load_campaign(args.model)  # the simulation the data are compared with must be a valid campaign
+    measured = load_measured(args.measured)
+    track, excluded = track_from_measured(measured)
+    findings, baseline = diagnose_track(track)
+    for f in findings:
+        if f.effect == "heading_offset" and measured.kind in ("modes_track", "modes_raw"):  # BDS 6,0 heading is magnetic
+            import datetime as dt
+
+            from aerotruth.analysis.diagnose import variation_table_epoch
+
+            df = measured.df
+            when = dt.datetime.fromtimestamp(float(track["time_s"].iloc[0]), tz=dt.timezone.utc).replace(tzinfo=None)
+            f.evidence["variation_table"] = (variation_table_epoch(f.parameters["A_deg"]["value"], track, float(df["latitude"].median()),
+                                                      float(df["longitude"].median()), float(df["altitude"].median()) * 0.3048, when))
+    diag = Diagnosis(str(args.measured), measured.kind, len(track), excluded, findings, baseline)
+    out = Path(args.out)
+    write_diagnosis(diag, track, out)
+    names = ", ".join(f.effect for f in findings) or "none"
+    print(f"{args.measured}: {measured.kind}, {len(track)} samples; findings: {names} -> {out / 'diagnosis.json'}")
+    return 0
+
+
 def _add_campaign_commands(sub) -> None:
     """run / validate / figures / report / regress: implemented in aerotruth.sim.commands."""
 
@@ -133,6 +160,14 @@ def build_parser() -> argparse.ArgumentParser:
     fly.add_argument("--out", required=True, help="output Parquet file")
     fly.set_defaults(func=_cmd_fly)
     _add_campaign_commands(sub)
+
+    dia = sub.add_parser("diagnose", help="show where measured data disagree with the simulation's sensor model, and why",
+                         description="Recognises the measured file from its content (Mode-S message logs and trajectories "
+                                     "today) and writes DIR/diagnosis.json and DIR/report.md with a figure.")
+    dia.add_argument("measured", help="measured data file (Mode-S JSON/JSONL, observation table, approach log, ...)")
+    dia.add_argument("--model", required=True, help="campaign YAML of the simulation the data are compared with")
+    dia.add_argument("--out", required=True, help="output folder")
+    dia.set_defaults(func=_cmd_diagnose)
     return p
 
 

@@ -124,7 +124,9 @@ def predict_rms(track: pd.DataFrame, fitted: dict, knot_s: float, effects: tuple
 
 def modes_track_to_wind_frame(df: pd.DataFrame, when: dt.datetime) -> pd.DataFrame:
     """A Mode-S trajectory (decoded fields in knots/degrees, heading magnetic) as the
-    table `design` needs, in SI, with true heading and heading rate."""
+    table `design` needs, in SI, with true heading and heading rate (rows sorted by time,
+    repeated times dropped)."""
+    df = df.sort_values("time_s", kind="stable").drop_duplicates("time_s")
     dec = declination_deg(df["latitude"], df["longitude"], df["altitude"].to_numpy(float) * 0.3048, when)
     psi = np.radians(df["heading"].to_numpy(float) + dec)
     trk = np.radians(df["track"].to_numpy(float))

@@ -1,0 +1,264 @@
+"""`aerotruth diagnose`: where measured data disagree with the simulation's sensor model,
+which effect explains it, by how much, and what the extension gains on held-out data.
+
+Now built for Mode-S data (raw message logs and 1-s Mode-S trajectories): the model of a
+real flight is the Mode-S sensor run on the flight's own trajectory with ideal heading
+and airspeed (aerotruth.sensors.modes); its prediction is that the derived wind
+(aerotruth.analysis.modes_wind) is smooth in time. Residual structure that follows the
+heading, the airspeed or the turn rate is an effect of the aircraft's sensors.
+
+Only near-level flight is used: the smooth-wind assumption holds in time at a level,
+not through the shear of a climb (measured on the CDG flight: with climbs and descents
+kept, a spurious TAS "scale factor" of -18 % absorbed the wind's change with height).
+
+The loop (forward selection): start from the smooth-wind model; for each candidate effect
+not yet in the model, fit on the whole record and score it by (a) dBIC on all data and
+(b) the held-out residual RMS: K folds of contiguous time blocks, the effect's
+parameters learned on K-1 folds and applied to the held-out fold (whose nuisance wind is
+refitted locally). The best candidate enters when dBIC < -10 (very strong, Kass & Raftery
+1995) and its held-out RMS is lower than without it; repeat until none does. An empty
+list is the answer when nothing is there.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import json
+import math
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from aerotruth.analysis.modes_wind import EFFECT_COLUMNS, fit, modes_track_to_wind_frame, predict_rms
+from aerotruth.errors import DataError
+from aerotruth.files import atomic_write_text
+from aerotruth.measured import Measured
+from aerotruth.units import KT
+
+CAUSES = {
+    "heading_offset": "the reported heading is off by a constant: a stale or wrong magnetic-variation table, or an alignment/mounting error",
+    "heading_deviation_1psi": "the heading error goes once round with the heading: a compass (flux-valve) deviation, as the wind paper's hard iron",
+    "tas_scale": "the true airspeed is off by a constant factor: air-data calibration (static source, temperature)",
+    "heading_time_offset": "heading and ground track are sampled at different instants: registers held for different times",
+}
+DBIC_THRESHOLD = -10.0
+PARABOLA_FPM = 1500.0  # vertical rates of a zero-g parabola; level and normal climbs stay far below
+PARABOLA_MARGIN_S = 60.0
+LEVEL_FPM = 500.0  # the wind is smooth in time at a level; climbing through shear it changes with height
+
+
+@dataclass
+class Finding:
+    effect: str
+    cause: str
+    parameters: dict
+    evidence: dict
+    gain: dict
+
+
+@dataclass
+class Diagnosis:
+    measured: str
+    kind: str
+    samples_used: int
+    samples_excluded: dict
+    findings: list[Finding] = field(default_factory=list)
+    baseline: dict = field(default_factory=dict)
+
+
+def _on_grid(x: np.ndarray, lsb: float) -> np.ndarray:
+    r = np.mod(x / lsb, 1.0)
+    return (r < 1e-3) | (r > 1 - 1e-3)
+
+
+def track_from_measured(m: Measured) -> tuple[pd.DataFrame, dict]:
+    """The Mode-S wind frame of a measured flight and what was excluded (with the reason)."""
+    if m.kind == "modes_track":
+        d = m.df.dropna(subset=["heading", "TAS", "track", "groundspeed", "latitude", "longitude", "altitude"])
+        excluded = {"missing fields": int(len(m.df) - len(d))}
+    elif m.kind == "modes_raw":
+        d = _track_from_raw(m.df)
+        excluded = {"BDS 6,0 replies without BDS 5,0 / ADS-B neighbours": int((m.df["bds"] == "60").sum() - len(d))}
+    else:
+        raise DataError(f"{m.path}: diagnose of a {m.kind.replace('_', ' ')} needs the simulation's own sensors for it "
+                        "(wind-report and FITS sensors), which aerotruth does not have yet; Mode-S data is supported")
+    vr = d["vertical_rate"].to_numpy(float) if "vertical_rate" in d else np.zeros(len(d))
+    t = d["time_s"].to_numpy(float)
+    steep = np.abs(vr) > PARABOLA_FPM
+    near = np.zeros(len(d), bool)
+    for ts in t[steep]:
+        near |= np.abs(t - ts) <= PARABOLA_MARGIN_S
+    excluded[f"within {PARABOLA_MARGIN_S:.0f} s of |vertical rate| > {PARABOLA_FPM:.0f} ft/min (parabolas)"] = int(near.sum())
+    keep = ~near
+    climbing = keep & (np.abs(vr) > LEVEL_FPM)
+    excluded[f"climbing or descending faster than {LEVEL_FPM:.0f} ft/min (wind shear with height)"] = int(climbing.sum())
+    keep &= ~climbing
+    if m.kind == "modes_track":
+        fresh = _on_grid(d["heading"].to_numpy(float), 90 / 512) & _on_grid(d["TAS"].to_numpy(float), 2.0)
+        excluded["heading or TAS off its register LSB grid (interpolated by the resampler)"] = int((keep & ~fresh).sum())
+        keep &= fresh
+    d = d[keep]
+    if len(d) < 200:
+        raise DataError(f"{m.path}: only {len(d)} usable samples after exclusions ({excluded}); need at least 200")
+    when = dt.datetime.fromtimestamp(float(d["time_s"].iloc[0]), tz=dt.timezone.utc).replace(tzinfo=None)
+    return modes_track_to_wind_frame(d, when), excluded
+
+
+def _track_from_raw(raw: pd.DataFrame) -> pd.DataFrame:
+    """One row per BDS 6,0 reply: its heading, the latest BDS 5,0 TAS, the ADS-B velocity
+    and position interpolated to the reply time."""
+    def sel(dfs, bds):
+        return raw[raw["df"].astype(str).isin(dfs) & (raw["bds"] == bds)].sort_values("time_s")
+
+    b60, b50, vel, pos = sel(("20", "21"), "60"), sel(("20", "21"), "50"), sel(("17",), "09"), sel(("17",), "05")
+    b60 = b60.dropna(subset=["heading"])
+    t = b60["time_s"].to_numpy(float)
+    out = pd.DataFrame({"time_s": t, "heading": b60["heading"].to_numpy(float)})
+    i = np.searchsorted(b50["time_s"].to_numpy(), t, side="right") - 1
+    ok = i >= 0
+    out["TAS"] = np.where(ok, b50["TAS"].to_numpy(float)[np.clip(i, 0, None)], np.nan)
+    vt = vel["time_s"].to_numpy(float)
+    trk = np.unwrap(np.radians(vel["track"].to_numpy(float)))
+    out["track"] = np.degrees(np.interp(t, vt, trk)) % 360
+    out["groundspeed"] = np.interp(t, vt, vel["groundspeed"].to_numpy(float))
+    out["vertical_rate"] = np.interp(t, vt, vel["vertical_rate"].to_numpy(float))
+    pt = pos["time_s"].to_numpy(float)
+    for c in ("latitude", "longitude", "altitude"):
+        out[c] = np.interp(t, pt, pos[c].to_numpy(float))
+    # keep replies with fresh neighbours: ADS-B velocity within 1 s, BDS 5,0 within 5 s
+    near_v = np.abs(vt[np.clip(np.searchsorted(vt, t), 0, len(vt) - 1)] - t) <= 1.0
+    age50 = np.where(ok, t - b50["time_s"].to_numpy(float)[np.clip(i, 0, None)], np.inf)
+    return out[near_v & (age50 <= 5.0)].dropna().reset_index(drop=True)
+
+
+def _folds(t: np.ndarray, block_s: float, k: int) -> np.ndarray:
+    return (np.floor((t - t.min()) / block_s).astype(int)) % k
+
+
+def _cv_rms(track: pd.DataFrame, effects: tuple[str, ...], knot_s: float, folds: np.ndarray, k: int) -> float:
+    sq, n = 0.0, 0
+    for f in range(k):
+        test = folds == f
+        if test.sum() < 20:
+            continue
+        fitted = fit(track, knot_s, effects, rows=~test)
+        r = predict_rms(track, fitted, knot_s, effects, test)
+        sq += r**2 * test.sum()
+        n += test.sum()
+    return math.sqrt(sq / n)
+
+
+def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float = 900.0, k: int = 4) -> tuple[list[Finding], dict]:
+    """Forward selection of effects on a wind frame (see the module docstring)."""
+    t = track["time_s"].to_numpy(float)
+    folds = _folds(t, block_s, k)
+    current: tuple[str, ...] = ()
+    base_fit = fit(track, knot_s, current)
+    base_cv = _cv_rms(track, current, knot_s, folds, k)
+    baseline = {"rms_kt": base_fit["rms"] / KT, "held_out_rms_kt": base_cv / KT, "equations": base_fit["n"]}
+    findings: list[Finding] = []
+    cur_fit, cur_cv = base_fit, base_cv
+    while True:
+        best = None
+        for eff in EFFECT_COLUMNS:
+            if eff in current:
+                continue
+            trial = current + (eff,)
+            f = fit(track, knot_s, trial)
+            n = f["n"]
+            dbic = n * math.log(f["rss"] / cur_fit["rss"]) + (f["p"] - cur_fit["p"]) * math.log(n)
+            cv = _cv_rms(track, trial, knot_s, folds, k)
+            if dbic < DBIC_THRESHOLD and cv < cur_cv and (best is None or dbic < best[1]):
+                best = (eff, dbic, f, cv)
+        if best is None:
+            break
+        eff, dbic, f, cv = best
+        params = {name: {"value": float(f["coef"][f["names"].index(name)]), "se": float(f["se"][f["names"].index(name)])}
+                  for name in EFFECT_COLUMNS[eff]}
+        findings.append(Finding(
+            effect=eff, cause=CAUSES[eff], parameters=params,
+            evidence={"delta_bic": float(dbic), "held_out_folds": k, "fold_block_s": block_s},
+            gain={"metric": "wind-vector residual RMS per component (kt)", "before": cur_fit["rms"] / KT, "after": f["rms"] / KT,
+                  "held_out_before": cur_cv / KT, "held_out_after": cv / KT}))
+        current, cur_fit, cur_cv = current + (eff,), f, cv
+    return findings, baseline
+
+
+def variation_table_epoch(offset_deg: float, track: pd.DataFrame, lat: float, lon: float, alt_m: float, when: dt.datetime) -> dict:
+    """For a heading-offset finding on magnetic heading: the variation the aircraft's own
+    table must hold (today's IGRF declination + the offset) and the IGRF epoch in which
+    the declination there had that value (a stale table is a real, common error)."""
+    from aerotruth.analysis.modes_wind import declination_deg
+
+    now = float(np.mean(track["declination_deg"]))
+    implied = now + offset_deg
+    years = np.arange(1950, when.year + 1)
+    decs = np.array([declination_deg([lat], [lon], [alt_m], dt.datetime(int(y), 1, 1))[0] for y in years])
+    out = {"declination_now_deg": now, "implied_table_variation_deg": implied}
+    between = np.flatnonzero(np.diff(np.sign(decs - implied)) != 0)
+    if len(between):
+        i = between[-1]
+        out["igrf_epoch_with_that_variation"] = float(years[i] + (implied - decs[i]) / (decs[i + 1] - decs[i]))
+    return out
+
+
+def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s: float = 600.0) -> None:
+    """DIR/diagnosis.json, DIR/report.md and DIR/figures/residual_vs_heading.png."""
+    out_dir.mkdir(parents=True, exist_ok=True)
+    doc = asdict(diag)
+    atomic_write_text(out_dir / "diagnosis.json", json.dumps(doc, indent=2, sort_keys=False) + "\n")
+    lines = [f"# Diagnosis of `{diag.measured}`", "", f"Kind: {diag.kind}; samples used: {diag.samples_used}.", "",
+             "Excluded: " + "; ".join(f"{k}: {v}" for k, v in diag.samples_excluded.items()), "",
+             f"Baseline (ideal sensor, smooth wind): residual {diag.baseline['rms_kt']:.2f} kt per component, "
+             f"held out {diag.baseline['held_out_rms_kt']:.2f} kt.", ""]
+    if not diag.findings:
+        lines += ["**No finding**: no candidate effect improves the held-out fit with strong evidence.", ""]
+    for i, f in enumerate(diag.findings, 1):
+        ps = ", ".join(f"{k} = {v['value']:.4g} ± {v['se']:.2g}" for k, v in f.parameters.items())
+        vt = f.evidence.get("variation_table")
+        if vt is not None:
+            ps += (f"; the aircraft's variation table must hold {vt['implied_table_variation_deg']:.1f} deg where IGRF gives "
+                   f"{vt['declination_now_deg']:.1f} deg today" + (f", the declination there in {vt['igrf_epoch_with_that_variation']:.0f}"
+                                                                   if "igrf_epoch_with_that_variation" in vt else ""))
+        lines += [f"## {i}. {f.effect}", "", f.cause, "", f"* parameters: {ps}", f"* ΔBIC {f.evidence['delta_bic']:.1f}",
+                  f"* residual {f.gain['before']:.2f} → {f.gain['after']:.2f} kt; held out {f.gain['held_out_before']:.2f} → "
+                  f"{f.gain['held_out_after']:.2f} kt", ""]
+    _figure(diag, track, out_dir, knot_s)
+    lines += ["![Wind residual along the heading before and after](figures/residual_vs_heading.png)", ""]
+    atomic_write_text(out_dir / "report.md", "\n".join(lines))
+
+
+def _figure(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s: float) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from aerotruth.analysis.modes_wind import design
+
+    effects = tuple(f.effect for f in diag.findings)
+    psi = np.degrees(track["heading_rad"].to_numpy()) % 360
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
+    for ax, effs, title in ((axes[0], (), "ideal sensor"), (axes[1], effects, "with the findings")):
+        X, y, names = design(track, knot_s, effs)
+        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+        res = (y - X @ coef) / KT
+        n = len(track)
+        # the residual across the air vector: its heading-dependent part is what a heading error makes
+        cross = -res[:n] * np.sin(np.radians(psi)) + res[n:] * np.cos(np.radians(psi))
+        ax.plot(psi, cross, ".", ms=1.5, alpha=0.4)
+        bins = np.arange(0, 361, 22.5)
+        idx = np.digitize(psi, bins) - 1
+        med = [np.median(cross[idx == i]) if (idx == i).sum() > 10 else np.nan for i in range(len(bins) - 1)]
+        ax.plot(0.5 * (bins[1:] + bins[:-1]), med, "r-o", ms=3, label="median per 22.5 deg")
+        ax.set_xlabel("true heading (deg)")
+        ax.set_title(title)
+        ax.grid(alpha=0.3)
+    axes[0].set_ylabel("wind residual across the air vector (kt)")
+    axes[0].legend(fontsize="small")
+    (out_dir / "figures").mkdir(exist_ok=True)
+    fig.tight_layout()
+    fig.savefig(out_dir / "figures" / "residual_vs_heading.png", dpi=130)
+    plt.close(fig)
