@@ -47,7 +47,7 @@ def test_cli_writes_the_contract_files_and_refuses_unknown_data(tmp_path, capsys
     assert [f["effect"] for f in doc["findings"]][:1] == ["heading_offset"]
     f = doc["findings"][0]
     assert set(f) >= {"effect", "cause", "parameters", "evidence", "gain"} and "se" in f["parameters"]["A_deg"]
-    assert (out / "report.md").exists() and (out / "figures" / "residual_vs_heading.png").exists()
+    assert (out / "report.md").exists() and (out / "figures" / "wind_along_flight.png").exists()
     bad = tmp_path / "x.json"
     bad.write_text('[{"a": 1}]')
     capsys.readouterr()

@@ -205,7 +205,7 @@ def variation_table_epoch(offset_deg: float, track: pd.DataFrame, lat: float, lo
 
 
 def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s: float = 600.0) -> None:
-    """DIR/diagnosis.json, DIR/report.md and DIR/figures/residual_vs_heading.png."""
+    """DIR/diagnosis.json, DIR/report.md and DIR/figures/wind_along_flight.png."""
     out_dir.mkdir(parents=True, exist_ok=True)
     doc = asdict(diag)
     atomic_write_text(out_dir / "diagnosis.json", json.dumps(doc, indent=2, sort_keys=False) + "\n")
@@ -226,11 +226,14 @@ def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s:
                   f"* residual {f.gain['before']:.2f} → {f.gain['after']:.2f} kt; held out {f.gain['held_out_before']:.2f} → "
                   f"{f.gain['held_out_after']:.2f} kt", ""]
     _figure(diag, track, out_dir, knot_s)
-    lines += ["![Wind residual along the heading before and after](figures/residual_vs_heading.png)", ""]
+    lines += ["![The derived wind along the flight, coloured by heading, before and after](figures/wind_along_flight.png)", ""]
     atomic_write_text(out_dir / "report.md", "\n".join(lines))
 
 
 def _figure(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s: float) -> None:
+    """The derived wind along the flight, coloured by heading, with the ideal sensor and
+    with the findings applied: a heading or airspeed error makes the wind jump when the
+    aircraft turns; corrected, it runs on smoothly."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -239,26 +242,23 @@ def _figure(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s: float) 
     from aerotruth.analysis.modes_wind import design
 
     effects = tuple(f.effect for f in diag.findings)
+    t_min = (track["time_s"].to_numpy() - track["time_s"].iloc[0]) / 60.0
     psi = np.degrees(track["heading_rad"].to_numpy()) % 360
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
-    for ax, effs, title in ((axes[0], (), "ideal sensor"), (axes[1], effects, "with the findings")):
+    n = len(track)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 6), sharex=True, sharey="row")
+    for col, (effs, title) in enumerate((((), "ideal sensor"), (effects, "with the findings" if effects else "no finding"))):
         X, y, names = design(track, knot_s, effs)
         coef, *_ = np.linalg.lstsq(X, y, rcond=None)
-        res = (y - X @ coef) / KT
-        n = len(track)
-        # the residual across the air vector: its heading-dependent part is what a heading error makes
-        cross = -res[:n] * np.sin(np.radians(psi)) + res[n:] * np.cos(np.radians(psi))
-        ax.plot(psi, cross, ".", ms=1.5, alpha=0.4)
-        bins = np.arange(0, 361, 22.5)
-        idx = np.digitize(psi, bins) - 1
-        med = [np.median(cross[idx == i]) if (idx == i).sum() > 10 else np.nan for i in range(len(bins) - 1)]
-        ax.plot(0.5 * (bins[1:] + bins[:-1]), med, "r-o", ms=3, label="median per 22.5 deg")
-        ax.set_xlabel("true heading (deg)")
-        ax.set_title(title)
-        ax.grid(alpha=0.3)
-    axes[0].set_ylabel("wind residual across the air vector (kt)")
-    axes[0].legend(fontsize="small")
+        eff_cols = [i for i, nm in enumerate(names) if not nm.startswith("wind_")]
+        wind = (y - (X[:, eff_cols] @ coef[eff_cols] if eff_cols else 0.0)) / KT  # V_G - corrected V_A
+        for row, (part, label) in enumerate(((slice(0, n), "north"), (slice(n, 2 * n), "east"))):
+            ax = axes[row, col]
+            sc = ax.scatter(t_min, wind[part], c=psi, cmap="twilight", s=3, vmin=0, vmax=360)
+            ax.set_ylabel(f"wind {label} (kt)") if col == 0 else None
+            ax.grid(alpha=0.3)
+        axes[0, col].set_title(title)
+        axes[1, col].set_xlabel("minutes from the first sample used")
+    fig.colorbar(sc, ax=axes, label="true heading (deg)")
     (out_dir / "figures").mkdir(exist_ok=True)
-    fig.tight_layout()
-    fig.savefig(out_dir / "figures" / "residual_vs_heading.png", dpi=130)
+    fig.savefig(out_dir / "figures" / "wind_along_flight.png", dpi=130, bbox_inches="tight")
     plt.close(fig)
