@@ -63,3 +63,33 @@ def test_the_a310_heading_is_offset_as_a_stale_variation_table_would_make_it(tmp
     first = doc["findings"][0]
     assert first["effect"] == "heading_offset" and -3.5 < first["parameters"]["A_deg"]["value"] < -2.0
     assert first["gain"]["held_out_after"] < first["gain"]["held_out_before"]
+
+
+# ---- hidden in simulated data: JSBSim truth -> Mode-S sensor -> decoded trajectory -> diagnose
+
+def _day():
+    import datetime as dt
+
+    from aerotruth.truth.days import AircraftDay, FixedLeg
+
+    legs = (("KMSP", "KDLH", "13:00"), ("KDLH", "KMSP", "14:30"), ("KMSP", "KRST", "16:00"), ("KRST", "KMSP", "17:15"))
+    return AircraftDay.for_campaign(7, "N1", dt.date(2009, 8, 15), legs=tuple(FixedLeg(*leg) for leg in legs))
+
+
+@pytest.mark.parametrize("hidden, effect, param, size", [
+    ({}, None, None, None),
+    ({"table_error_deg": 2.0}, "heading_offset", "A_deg", 2.0),
+    ({"heading_lag_s": 2.0}, "heading_time_offset", "D_s", 2.0),
+])
+def test_effects_hidden_in_a_simulated_mode_s_day_are_found_and_nothing_else(hidden, effect, param, size):
+    from aerotruth.analysis.diagnose import track_from_measured
+    from aerotruth.sim.modes_data import simulated_modes_day
+
+    frame, _ = track_from_measured(simulated_modes_day(_day(), rng=np.random.default_rng(0), **hidden))
+    findings, _ = diagnose_track(frame)
+    if effect is None:
+        assert findings == []
+    else:
+        assert findings[0].effect == effect
+        assert findings[0].parameters[param]["value"] == pytest.approx(size, rel=0.25)
+        assert findings[0].gain["held_out_after"] < findings[0].gain["held_out_before"]

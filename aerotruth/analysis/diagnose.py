@@ -11,12 +11,16 @@ Only near-level flight is used: the smooth-wind assumption holds in time at a le
 not through the shear of a climb (measured on the CDG flight: with climbs and descents
 kept, a spurious TAS "scale factor" of -18 % absorbed the wind's change with height).
 
+A candidate is considered only where the data can identify it (heading octants occupied,
+MIN_OCTANTS) and kept only with a physically plausible size (PLAUSIBLE): on a single leg
+that flies one heading, a "deviation" of 40 deg is the wind, not the compass.
+
 The loop (forward selection): start from the smooth-wind model; for each candidate effect
 not yet in the model, fit on the whole record and score it by (a) dBIC on all data and
 (b) the held-out residual RMS: K folds of contiguous time blocks, the effect's
 parameters learned on K-1 folds and applied to the held-out fold (whose nuisance wind is
 refitted locally). The best candidate enters when dBIC < -10 (very strong, Kass & Raftery
-1995) and its held-out RMS is lower than without it; repeat until none does. An empty
+1995) and its held-out RMS is at least 1 % lower than without it; repeat until none does. An empty
 list is the answer when nothing is there.
 """
 
@@ -44,6 +48,12 @@ CAUSES = {
     "heading_time_offset": "heading and ground track are sampled at different instants: registers held for different times",
 }
 DBIC_THRESHOLD = -10.0
+MIN_HELD_OUT_GAIN = 0.01  # relative drop of the held-out RMS an effect must bring
+# identifiability: a heading effect is told from the wind only across turns; a one-cycle
+# deviation needs headings spread round the compass (the wind-method issue's refusal)
+MIN_OCTANTS = {"heading_offset": 2, "heading_deviation_1psi": 6, "tas_scale": 2, "heading_time_offset": 1}
+OCTANT_MIN_SHARE = 0.03
+PLAUSIBLE = {"A_deg": 20.0, "B_deg": 10.0, "C_deg": 10.0, "k": 0.1, "D_s": 10.0}  # beyond: a model failure, not an effect
 PARABOLA_FPM = 1500.0  # vertical rates of a zero-g parabola; level and normal climbs stay far below
 PARABOLA_MARGIN_S = 60.0
 LEVEL_FPM = 500.0  # the wind is smooth in time at a level; climbing through shear it changes with height
@@ -160,17 +170,23 @@ def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float
     baseline = {"rms_kt": base_fit["rms"] / KT, "held_out_rms_kt": base_cv / KT, "equations": base_fit["n"]}
     findings: list[Finding] = []
     cur_fit, cur_cv = base_fit, base_cv
+    octant = (np.floor((np.degrees(track["heading_rad"].to_numpy()) % 360) / 45.0)).astype(int)
+    occupied = int(np.sum(np.bincount(octant, minlength=8) >= OCTANT_MIN_SHARE * len(track)))
+    baseline["heading_octants_occupied"] = occupied
     while True:
         best = None
         for eff in EFFECT_COLUMNS:
-            if eff in current:
+            if eff in current or occupied < MIN_OCTANTS[eff]:
                 continue
             trial = current + (eff,)
             f = fit(track, knot_s, trial)
+            vals = {n: f["coef"][f["names"].index(n)] for n in EFFECT_COLUMNS[eff]}
+            if any(abs(v) > PLAUSIBLE[n] for n, v in vals.items()):
+                continue
             n = f["n"]
             dbic = n * math.log(f["rss"] / cur_fit["rss"]) + (f["p"] - cur_fit["p"]) * math.log(n)
             cv = _cv_rms(track, trial, knot_s, folds, k)
-            if dbic < DBIC_THRESHOLD and cv < cur_cv and (best is None or dbic < best[1]):
+            if dbic < DBIC_THRESHOLD and cv < (1 - MIN_HELD_OUT_GAIN) * cur_cv and (best is None or dbic < best[1]):
                 best = (eff, dbic, f, cv)
         if best is None:
             break

@@ -7,7 +7,8 @@ heading psi = magnetic heading (BDS 6,0) + declination (IGRF for the date at the
 aircraft: ppigrf).
 
 Consistency model (no reference wind needed): the wind is smooth in time along the
-flight, W(t) = sum_j c_j phi_j(t) (cubic B-splines, knots every `knot_s`), while errors
+flight, W(t) = sum_j c_j phi_j(t) (cubic B-splines, knots every `knot_s`, restarted after
+each gap longer than SEGMENT_GAP_S: a level change or another leg), while errors
 of the aircraft's heading and airspeed move the derived wind with the heading, so they
 show up when the aircraft turns. The unknowns are corrections to the reported values:
 true heading = reported + A + B sin psi + C cos psi + D r (A an offset, e.g. a stale
@@ -51,13 +52,35 @@ def declination_deg(lat, lon, alt_m, when: dt.datetime) -> np.ndarray:
     return np.interp(np.arange(len(lat)), idx, dec) if len(idx) > 1 else np.full(len(lat), dec[0])
 
 
-def _spline_basis(t: np.ndarray, knot_s: float) -> np.ndarray:
+SEGMENT_GAP_S = 30.0
+RATE_HALF_WINDOW_S = 3.0  # a longer gap (a climb, a descent, another leg) starts a new wind segment
+
+
+def _one_spline(t: np.ndarray, knot_s: float) -> np.ndarray:
     t0, t1 = float(t.min()), float(t.max())
+    if t1 - t0 < 1e-6:
+        return np.ones((len(t), 1))
     n_int = max(1, int(np.ceil((t1 - t0) / knot_s)))
     inner = np.linspace(t0, t1, n_int + 1)
     knots = np.r_[[t0] * 3, inner, [t1] * 3]
     n = len(knots) - 4
     return BSpline.design_matrix(np.clip(t, t0, t1), knots, 3).toarray()[:, :n]
+
+
+def _spline_basis(t: np.ndarray, knot_s: float) -> np.ndarray:
+    """Cubic B-splines in time, one independent set per segment: the wind is smooth along
+    a stretch of flight at one level, not across a gap where the aircraft changed level or
+    leg (the wind at another height is another wind)."""
+    order = np.argsort(t, kind="stable")
+    ts = t[order]
+    cuts = np.flatnonzero(np.diff(ts) > SEGMENT_GAP_S) + 1
+    blocks = [_one_spline(seg, knot_s) for seg in np.split(ts, cuts)]
+    basis = np.zeros((len(t), sum(b.shape[1] for b in blocks)))
+    r = c = 0
+    for b in blocks:
+        basis[order[r:r + len(b)], c:c + b.shape[1]] = b
+        r, c = r + len(b), c + b.shape[1]
+    return basis
 
 
 def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, list[str]]:
@@ -133,6 +156,8 @@ def modes_track_to_wind_frame(df: pd.DataFrame, when: dt.datetime) -> pd.DataFra
     gs = df["groundspeed"].to_numpy(float) * KT
     t = df["time_s"].to_numpy(float)
     psi_u = np.unwrap(psi)
-    rate = np.gradient(psi_u, t)
+    # heading rate over +-RATE_HALF_WINDOW_S: a held, quantized heading differenced
+    # sample to sample is a staircase, and a noisy regressor biases D towards zero
+    rate = (np.interp(t + RATE_HALF_WINDOW_S, t, psi_u) - np.interp(t - RATE_HALF_WINDOW_S, t, psi_u)) / (2 * RATE_HALF_WINDOW_S)
     return pd.DataFrame({"time_s": t, "tas_mps": df["TAS"].to_numpy(float) * KT, "heading_rad": psi, "vn_mps": gs * np.cos(trk),
                          "ve_mps": gs * np.sin(trk), "heading_rate_rad_s": rate, "declination_deg": dec})

@@ -231,3 +231,45 @@ def _resample(grid: np.ndarray, ts: np.ndarray, v: np.ndarray, hold: bool) -> np
     if not hold:
         return np.interp(grid, ts, v)
     return v[np.clip(np.searchsorted(ts, grid, side="right") - 1, 0, len(v) - 1)]
+
+
+def avionics_from_truth(df: pd.DataFrame, variation_deg) -> pd.DataFrame:
+    """What the aircraft's systems feed the transponder, from a TruthTrack's samples:
+    the IRS's true heading turned magnetic with the aircraft's own variation table
+    (`variation_deg`, east positive, per sample or one value: the table's epoch is the
+    caller's choice), air data from the truth, GNSS/IRS velocities."""
+    from aerotruth.units import FT, KT
+
+    t = df["time_s"].to_numpy(float)
+    vn, ve, vd = (df[c].to_numpy(float) for c in ("vn_mps", "ve_mps", "vd_mps"))
+    track = np.degrees(np.arctan2(ve, vn))
+    heading = np.degrees(df["heading_rad"].to_numpy(float))
+    palt = df["pressure_altitude_m"].to_numpy(float)
+    return pd.DataFrame({
+        "time_s": t, "roll_deg": np.degrees(df["roll_rad"].to_numpy(float)), "track_deg": track % 360,
+        "groundspeed_kt": np.hypot(vn, ve) / KT,
+        "track_rate_deg_s": np.gradient(np.degrees(np.unwrap(np.radians(track))), t),
+        "tas_kt": df["tas_mps"].to_numpy(float) / KT,
+        "heading_mag_deg": (heading - np.asarray(variation_deg, float)) % 360,
+        "ias_kt": df["cas_mps"].to_numpy(float) / KT,
+        # speed of sound sqrt(gamma R T), gamma 1.4, R 287.05287 J/(kg K) (ICAO Doc 7488)
+        "mach": df["tas_mps"].to_numpy(float) / np.sqrt(1.4 * 287.05287 * df["temperature_k"].to_numpy(float)),
+        "vrate_baro_fpm": np.gradient(palt, t) / FT * 60.0, "vrate_inertial_fpm": -vd / FT * 60.0,
+        "v_east_kt": ve / KT, "v_north_kt": vn / KT, "vertical_rate_fpm": -vd / FT * 60.0,
+        "altitude_ft": palt / FT, "lat": df["lat_deg"].to_numpy(float), "lon": df["lon_deg"].to_numpy(float),
+    })
+
+
+def decoded_track(messages: pd.DataFrame, start_epoch_s: float, rate_hz: float = 1.0) -> pd.DataFrame:
+    """The messages as a 1-s trajectory with the column names of decoded Mode-S data
+    (`timestamp` in ms, heading magnetic from BDS 6,0, TAS from BDS 5,0, track and ground
+    speed from ADS-B velocity), as the A310 sample file holds them: what `diagnose` and
+    `aerotruth.measured` take as a Mode-S trajectory."""
+    h = held_track(messages, rate_hz).dropna()
+    return pd.DataFrame({
+        "timestamp": (start_epoch_s + h["time_s"]) * 1000.0, "latitude": h["lat"], "longitude": h["lon"],
+        "altitude": h["altitude_ft"], "heading": h["heading_mag_deg"], "TAS": h["tas_kt"],
+        "track": np.degrees(np.arctan2(h["v_east_kt"], h["v_north_kt"])) % 360,
+        "groundspeed": np.hypot(h["v_east_kt"], h["v_north_kt"]), "vertical_rate": h["vertical_rate_fpm"],
+        "roll": h["roll_deg"], "IAS": h["ias_kt"], "Mach": h["mach"],
+    }).reset_index(drop=True)
