@@ -57,6 +57,11 @@ PLAUSIBLE = {"A_deg": 20.0, "B_deg": 10.0, "C_deg": 10.0, "k": 0.1, "D_s": 10.0}
 PARABOLA_FPM = 1500.0  # vertical rates of a zero-g parabola; level and normal climbs stay far below
 PARABOLA_MARGIN_S = 60.0
 LEVEL_FPM = 500.0  # the wind is smooth in time at a level; climbing through shear it changes with height
+# The wind paper rejects roll > 10 deg (banked, the nose is not where the aircraft goes).
+# Here it is optional and off: turns are what identify a heading lag, and measured on
+# simulated Mesaba days the filter left the decaying sideslip after roll-out to alias into
+# a lag of -0.5 to -0.9 s and lost a hidden 2-s lag entirely; without it the SAAB's
+# sideslip spikes in its fast roll-ins (the truth-realism issue) read as a TAS scale.
 
 
 @dataclass
@@ -83,8 +88,9 @@ def _on_grid(x: np.ndarray, lsb: float) -> np.ndarray:
     return (r < 1e-3) | (r > 1 - 1e-3)
 
 
-def track_from_measured(m: Measured) -> tuple[pd.DataFrame, dict]:
-    """The Mode-S wind frame of a measured flight and what was excluded (with the reason)."""
+def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple[pd.DataFrame, dict]:
+    """The Mode-S wind frame of a measured flight and what was excluded (with the reason);
+    `max_roll_deg` applies the wind paper's roll filter where the data carry roll."""
     if m.kind == "modes_track":
         d = m.df.dropna(subset=["heading", "TAS", "track", "groundspeed", "latitude", "longitude", "altitude"])
         excluded = {"missing fields": int(len(m.df) - len(d))}
@@ -105,6 +111,10 @@ def track_from_measured(m: Measured) -> tuple[pd.DataFrame, dict]:
     climbing = keep & (np.abs(vr) > LEVEL_FPM)
     excluded[f"climbing or descending faster than {LEVEL_FPM:.0f} ft/min (wind shear with height)"] = int(climbing.sum())
     keep &= ~climbing
+    if max_roll_deg is not None and "roll" in d:
+        banked = keep & (np.abs(d["roll"].to_numpy(float)) > max_roll_deg)
+        excluded[f"roll beyond {max_roll_deg:g} deg (wind paper)"] = int(banked.sum())
+        keep &= ~banked
     if m.kind == "modes_track":
         fresh = _on_grid(d["heading"].to_numpy(float), 90 / 512) & _on_grid(d["TAS"].to_numpy(float), 2.0)
         excluded["heading or TAS off its register LSB grid (interpolated by the resampler)"] = int((keep & ~fresh).sum())

@@ -9,7 +9,8 @@ airport table) with the JSBSim/NumPy/... versions (aerotruth.digests). Editing a
 them re-flies; changing a sensor never does.
 
 Layout: ROOT/<key[:2]>/<key>.parquet, ROOT/<key[:2]>/<key>.diverged.json for a leg that
-diverged (reason and seed: reported again, not re-flown silently), ROOT/flown.log (one
+diverged (reason and seed: reported again, not re-flown silently), <key>.lock (held while
+the leg is looked up or flown, so concurrent workers fly it once), ROOT/flown.log (one
 line per leg flown: key, flight id, seconds). Storage is compact (TruthTrack.to_parquet:
 float64 only for time and position, float32 for the rest, zstd). A size cap is kept by
 `evict`, least recently used first (a read touches the file).
@@ -18,6 +19,7 @@ float64 only for time and position, float32 for the rest, zstd). A size cap is k
 from __future__ import annotations
 
 import dataclasses
+import fcntl
 import hashlib
 import json
 import os
@@ -94,8 +96,17 @@ class TruthStore:
         return d / f"{key}.parquet", d / f"{key}.diverged.json"
 
     def leg(self, leg: PlannedLeg, *, aircraft_type: str | None = None, turbulence: bool = False) -> LegOutcome:
-        """The leg's truth from the store, flown now if missing."""
+        """The leg's truth from the store, flown now if missing. Two workers asking for the
+        same missing leg (e.g. two studies of one aircraft-day) fly it once: the second
+        waits on the leg's lock file and then reads it."""
         key = truth_key(leg, aircraft_type, turbulence)
+        path, _ = self._paths(key)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path.with_suffix(".lock"), "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, or by the OS if the process dies
+            return self._leg_locked(leg, key, aircraft_type, turbulence)
+
+    def _leg_locked(self, leg: PlannedLeg, key: str, aircraft_type: str | None, turbulence: bool) -> LegOutcome:
         path, failed = self._paths(key)
         if path.exists():
             os.utime(path)  # recently used: evicted last
@@ -103,7 +114,6 @@ class TruthStore:
         if failed.exists():
             info = json.loads(failed.read_text())
             return LegOutcome(leg, key, None, FlightDiverged(info["reason"], info["seed"], info.get("time_s")), False)
-        path.parent.mkdir(parents=True, exist_ok=True)
         t0 = time.monotonic()
         try:
             track = fly_leg(leg.plan, seed=leg.flight_seed, aircraft=aircraft_type, turbulence=turbulence,
@@ -151,6 +161,7 @@ class TruthStore:
             if total <= max_bytes:
                 break
             p.unlink(missing_ok=True)
+            p.with_suffix(".lock").unlink(missing_ok=True)
             total -= size
             freed += size
             removed += 1

@@ -1,0 +1,70 @@
+"""Null control and detection power of `diagnose` on simulated Mode-S data (JSBSim truth
+from the truth store -> Mode-S sensor -> decoded 1-s trajectory).
+
+Prints `label: value` lines:
+  null_datasets, null_findings (target: <= 5 per 100 with nothing hidden), null_false_rate;
+  power_<effect>_<size>: the share of datasets in which the hidden effect is ranked first.
+Datasets: Mesaba schedule days (first 4 legs) of distinct aircraft, each with its own
+sensor seed; truth is flown once into the truth store and reused.
+
+    python benchmarks/diagnose_null.py [--days 20] [--seeds 5] [--power 10]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+
+import numpy as np
+
+from aerotruth.analysis.diagnose import diagnose_track, track_from_measured
+from aerotruth.errors import DataError
+from aerotruth.sim.modes_data import simulated_modes_day
+from aerotruth.truth.days import AircraftDay
+
+
+def days(n: int) -> list[AircraftDay]:
+    return [AircraftDay.for_campaign(2009, f"N{400 + i}XJ", dt.date(2009, 8, 15), network="mesaba", max_legs=4) for i in range(n)]
+
+
+def findings(day, rng, **hidden):
+    try:
+        frame, _ = track_from_measured(simulated_modes_day(day, rng=rng, **hidden))
+    except DataError:
+        return None
+    return diagnose_track(frame)[0]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+    ap.add_argument("--days", type=int, default=20)
+    ap.add_argument("--seeds", type=int, default=5)
+    ap.add_argument("--power", type=int, default=10, help="datasets per effect size")
+    args = ap.parse_args()
+    ds = days(args.days)
+    n = k = 0
+    for i, day in enumerate(ds):
+        for s in range(args.seeds):
+            got = findings(day, np.random.default_rng(1000 * i + s))
+            if got is None:
+                continue
+            n += 1
+            k += len(got)
+    print(f"null_datasets: {n}")
+    print(f"null_findings: {k}")
+    print(f"null_false_rate: {k / max(n, 1):.3f}")
+    for effect, key, sizes in (("heading_offset", "table_error_deg", (0.25, 0.5, 1.0, 2.0)),
+                               ("heading_time_offset", "heading_lag_s", (0.5, 1.0, 2.0))):
+        for size in sizes:
+            hit = m = 0
+            for i, day in enumerate(ds[: args.power]):
+                got = findings(day, np.random.default_rng(7 + i), **{key: size})
+                if got is None:
+                    continue
+                m += 1
+                hit += bool(got) and got[0].effect == effect
+            print(f"power_{effect}_{size:g}: {hit / max(m, 1):.2f}")
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,35 @@
+"""The modes_diagnose study: the truth study's aircraft-days through the Mode-S sensor with
+a hidden variation-table error, diagnosed inside a campaign (truth shared, streams named)."""
+
+import json
+
+import pytest
+
+from aerotruth.config import parse_campaign
+from aerotruth.sim.campaign import run_campaign
+from aerotruth.sim.executors import ExecutorChoice
+
+LEGS = ('[{from: KMSP, to: KDLH, departure_utc: "13:00"}, {from: KDLH, to: KMSP, departure_utc: "14:30"}, '
+        '{from: KMSP, to: KRST, departure_utc: "16:00"}, {from: KRST, to: KMSP, departure_utc: "17:15"}]')
+CAMPAIGN = f"""\
+name: modes_diag
+seed: 7
+fleets:
+  - {{name: f, aircraft: [N1]}}
+periods:
+  - {{name: d, dates: [2009-08-15]}}
+studies:
+  truth: {{fleets: [f], periods: [d], legs: {LEGS}}}
+  modes_diagnose:
+    flights: {{fleets: [f], periods: [d], legs: {LEGS}}}
+    table_error_deg: 2.0
+"""
+
+
+def test_hidden_table_error_is_found_in_the_campaign_and_truth_is_flown_once(tmp_path):
+    s = run_campaign(parse_campaign(CAMPAIGN), ExecutorChoice("local", workers=2), out=tmp_path / "run",
+                     progress=False, log=lambda m: None)
+    m = json.loads((tmp_path / "run" / "metrics.json").read_text())["metrics"]
+    assert m["modes_diagnose.detection_rate"] == 1.0
+    assert m["modes_diagnose.estimate_mean"] == pytest.approx(2.0, rel=0.25)
+    assert s.legs_flown <= 4  # the two studies share the aircraft-day's four legs
