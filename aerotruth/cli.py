@@ -74,7 +74,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from aerotruth.config import load_campaign
     from aerotruth.measured import load_measured
 
-    load_campaign(args.model)  # the simulation the data are compared with must be a valid campaign
+    model = load_campaign(args.model)  # the simulation the data are compared with
     measured = load_measured(args.measured)
     track, excluded = track_from_measured(measured)
     findings, baseline = diagnose_track(track)
@@ -91,6 +91,12 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     diag = Diagnosis(str(args.measured), measured.kind, len(track), excluded, findings, baseline)
     out = Path(args.out)
     write_diagnosis(diag, track, out)
+    from aerotruth.files import atomic_write_text
+    from aerotruth.sim.studies.modes_diagnose import extended_campaign
+
+    extended = extended_campaign(model, findings) if findings else None
+    if extended is not None:  # the simulation with the found effects: run it to see them reproduced
+        atomic_write_text(out / "extended_model.yaml", extended.to_yaml())
     names = ", ".join(f.effect for f in findings) or "none"
     print(f"{args.measured}: {measured.kind}, {len(track)} samples; findings: {names} -> {out / 'diagnosis.json'}")
     return 0

@@ -207,7 +207,7 @@ def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float
             effect=eff, cause=CAUSES[eff], parameters=params,
             evidence={"delta_bic": float(dbic), "held_out_folds": k, "fold_block_s": block_s},
             gain={"metric": "wind-vector residual RMS per component (kt)", "before": cur_fit["rms"] / KT, "after": f["rms"] / KT,
-                  "held_out_before": cur_cv / KT, "held_out_after": cv / KT}))
+                  "held_out": cv / KT, "held_out_before": cur_cv / KT, "held_out_after": cv / KT}))
         current, cur_fit, cur_cv = current + (eff,), f, cv
     return findings, baseline
 

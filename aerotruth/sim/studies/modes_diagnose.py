@@ -121,3 +121,25 @@ class ModesDiagnose(Study):
 
 
 STUDY = ModesDiagnose()
+
+
+def extended_campaign(campaign: Campaign, findings) -> Campaign | None:
+    """The model campaign extended by what diagnose found in Mode-S data: its
+    `modes_diagnose` section (added on the first fleet and period when absent) carrying the
+    found variation-table error (A, the correction diagnose reports, is the table error)
+    and heading lag. None when the campaign has no fleet with a network to fly."""
+    values = {f.effect: next(iter(f.parameters.values()))["value"] for f in findings}
+    update = {}
+    if "heading_offset" in values:
+        update["table_error_deg"] = round(float(values["heading_offset"]), 3)
+    if values.get("heading_time_offset", -1.0) >= 0.0:
+        update["heading_lag_s"] = round(float(values["heading_time_offset"]), 3)
+    section = campaign.studies.get(STUDY.name)
+    if section is None:
+        fleet = next((f for f in campaign.fleets if f.network is not None), None)
+        if fleet is None or not campaign.periods:
+            return None
+        section = ModesDiagnoseConfig(flights=FlightSelection(fleets=[fleet.name], periods=[campaign.periods[0].name], max_legs_per_day=4))
+    studies = dict(campaign.studies)
+    studies[STUDY.name] = section.model_copy(update=update)
+    return campaign.model_copy(update={"studies": studies})
