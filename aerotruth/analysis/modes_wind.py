@@ -115,8 +115,11 @@ def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...]) -> tupl
 
 def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (), rows: np.ndarray | None = None) -> dict:
     """Least-squares fit of the smooth wind and the chosen effects (on `rows` if given):
-    coefficients with standard errors (residual-variance scaled), residual RMS (m/s, per
-    component) and the number of equations."""
+    coefficients with standard errors, residual RMS (m/s, per component) and the number
+    of equations. The standard errors are the least-squares ones scaled by the residual
+    variance and inflated for serial correlation: successive samples of held, quantized
+    registers are not independent; with the residuals' lag-1 autocorrelation rho the
+    variance of a mean grows by (1 + rho) / (1 - rho) (AR(1))."""
     X, y, names = design(track, knot_s, effects)
     if rows is not None:
         sel = np.r_[rows, rows]
@@ -126,7 +129,11 @@ def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (
     dof = max(len(y) - X.shape[1], 1)
     s2 = float(res @ res / dof)
     cov = s2 * np.linalg.pinv(X.T @ X)
-    se = np.sqrt(np.maximum(np.diag(cov), 0.0))
+    half = len(res) // 2
+    r_n, r_e = res[:half], res[half:]
+    rho = float(np.mean([np.corrcoef(r[:-1], r[1:])[0, 1] for r in (r_n, r_e) if len(r) > 3 and np.std(r) > 0] or [0.0]))
+    rho = min(max(rho, 0.0), 0.95)
+    se = np.sqrt(np.maximum(np.diag(cov), 0.0) * (1 + rho) / (1 - rho))
     return {"names": names, "coef": coef, "se": se, "rms": float(np.sqrt(np.mean(res**2))), "n": len(y), "p": X.shape[1],
             "rss": float(res @ res)}
 
