@@ -102,6 +102,17 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_fits(args: argparse.Namespace) -> int:
+    from aerotruth.analysis.fits import FitsSpec
+    from aerotruth.analysis.fits_log import fits_main
+
+    spec = FitsSpec(ra_lever_arm_m=args.ra_lever_arm)
+    try:
+        return fits_main(args.log, args.out, spec)
+    except ValueError as e:  # DataError and other bad-input errors: one line
+        raise UserError(str(e)) from None
+
+
 def _add_campaign_commands(sub) -> None:
     """run / validate / figures / report / regress: implemented in aerotruth.sim.commands."""
 
@@ -174,6 +185,16 @@ def build_parser() -> argparse.ArgumentParser:
     dia.add_argument("--model", required=True, help="campaign YAML of the simulation the data are compared with")
     dia.add_argument("--out", required=True, help="output folder")
     dia.set_defaults(func=_cmd_diagnose)
+
+    fits = sub.add_parser("fits", help="the WAAS-aided FITS (FITS paper) on an approach log -> DIR/trajectory.csv",
+                          description="Removes the 12-s cyclic WAAS noise through the INS (triangular zero-phase filter, "
+                                      "eqs. 7-17), fixes the bias at the threshold from radar altimeter and TVPS (eq. 18) "
+                                      "and writes the trajectory (eq. 19); with DGPS in the log, the errors and the "
+                                      "requirement figure too.")
+    fits.add_argument("log", help="approach log (CSV or Parquet, docs/data-formats.md)")
+    fits.add_argument("--out", required=True, help="output folder")
+    fits.add_argument("--ra-lever-arm", type=float, default=0.0, help="height of the log's reference point above the radar-altimeter antenna (m)")
+    fits.set_defaults(func=_cmd_fits)
     return p
 
 
