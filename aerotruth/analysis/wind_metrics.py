@@ -1,0 +1,252 @@
+"""Wind metrics of aircraft reports against a reference (the wind paper, section 6), and
+the 3-report ground track they need (section 5.1).
+
+Ground track of report k from reports k-1, k, k+1 (wind paper section 5.1: "latitude,
+longitude and time of adjacent observations ... when three observations are collinear
+and the airspeed is constant"): positions in the local east/north plane of report k
+(ECEF differences rotated to ENU: a great circle through report k projects onto a
+straight line), then from the end reports
+
+    V_G = (P_{k+1} - P_{k-1}) / (t_{k+1} - t_{k-1}),   track eta = atan2(E, N).
+
+For equally spaced times this is also the least-squares line through the three points.
+Gates (thresholds are ours; the paper gives none): collinear when the turn between the
+legs k-1 -> k and k -> k+1 is at most `max_turn_deg`; constant speed when the two leg
+ground speeds differ by at most `max_speed_change` of their mean (only ground speed can
+be checked from reports: TAS is not downlinked); both legs shorter than `max_gap_s` and
+within one aircraft. With lat/lon quantized to q deg (uniform error, sigma = q/sqrt(12)
+per coordinate) and baseline L = |P_{k+1} - P_{k-1}|, the track error is
+sigma_eta^2 = 2 (sigma_E^2 cos^2 eta + sigma_N^2 sin^2 eta) / L^2 and the speed error
+sigma_V^2 = 2 (sigma_E^2 sin^2 eta + sigma_N^2 cos^2 eta) / T^2 + 2 V^2 sigma_t^2 / T^2
+(T = t_{k+1} - t_{k-1}, sigma_t from the time quantization); valid while L >> the step.
+
+Metrics (wind paper section 6): per report the vector difference dW = W_report - W_ref
+(u east, v north); total = sqrt(mean |dW|^2) (RMS vector magnitude error). Longitudinal
+and transverse components project dW on the aircraft axis and its right-hand normal,
+the axis being estimated from the report track (section 8.2.1: "the heading is estimated
+from the track of the observations"): by default the air track of eq. 3,
+V_A = V_G - V_W,TAM, i.e. the heading the aircraft used.
+
+Why the paper's components do not add up (Table II RSS(5.4, 9.8) = 11.2 > 10.8; Table IV
+transverse 32.1 > total 30.0): an orthogonal split of the same vectors always adds up,
+whatever the axis error. The mechanism modelled here (`total_over="all"`, the default):
+the components exist only for reports with a usable 3-report track, the total is over
+every report. Climb and descent reports come every 10 hPa, seconds apart, so their
+baselines are comparable to the lat/lon step and their tracks fail the gates; the reports
+that keep a track are mostly level and fast, where a heading error makes the largest
+wind error, so the component RMS can exceed the total. `total_over="track_subset"`
+computes the total on the same reports (then RSS = total exactly).
+
+"Combined references" pools every (report, reference) pair: an observation table with one
+row per pair (same report, different `ref_source`) summarised without `ref_source` in `by`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Literal, Sequence
+
+import numpy as np
+from numpy.typing import ArrayLike
+import pandas as pd
+from pydantic import Field
+
+from aerotruth.config import Section
+from aerotruth.sensors.air_data import WGS84_E2, wgs84_radii_m
+from aerotruth.sensors.tamdar import wind_components
+from aerotruth.units import DEG, FT, KT
+
+AXES = ("air_track", "ground_track", "reported_heading")
+GROUPINGS = ("aircraft", "fleet", "phase", "ref_source", "altitude_band")
+_OBS_REQUIRED = ("aircraft", "time", "lat", "lon", "wind_speed_kt", "wind_dir_deg", "ref_wind_speed_kt", "ref_wind_dir_deg")
+
+
+class TrackGates(Section):
+    """Which 3-report tracks are usable (thresholds chosen here; the paper gives none)."""
+
+    max_turn_deg: float = Field(default=10.0, gt=0, description="largest turn between the two legs (collinearity)")
+    max_speed_change: float = Field(default=0.10, gt=0, description="largest |v2 - v1| / mean(v1, v2) of the leg ground speeds")
+    max_gap_s: float = Field(default=900.0, gt=0, description="longest time between adjacent reports of one flight")
+
+
+@dataclass(frozen=True)
+class GroundTrack:
+    """Per-report 3-report ground track (NaN at the first and last report) and gate flags."""
+
+    track_rad: np.ndarray
+    ground_speed_mps: np.ndarray
+    turn_rad: np.ndarray
+    speed_change: np.ndarray
+    collinear: np.ndarray
+    constant_speed: np.ndarray
+    usable: np.ndarray
+
+
+def _ecef(lat_rad: np.ndarray, lon_rad: np.ndarray, h_m: np.ndarray) -> np.ndarray:
+    _, n = wgs84_radii_m(lat_rad)
+    cl = np.cos(lat_rad)
+    return np.stack([(n + h_m) * cl * np.cos(lon_rad), (n + h_m) * cl * np.sin(lon_rad),
+                     (n * (1.0 - WGS84_E2) + h_m) * np.sin(lat_rad)])
+
+
+def track_from_triples(time_s: ArrayLike, lat_deg: ArrayLike, lon_deg: ArrayLike, height_m: ArrayLike = 0.0,
+                       gates: TrackGates = TrackGates(), aircraft: ArrayLike | None = None) -> GroundTrack:
+    """Ground track, ground speed and gate flags of every report from its neighbours
+    (wind paper section 5.1); reports in time order, `aircraft` (optional) marks flights."""
+    t = np.asarray(time_s, dtype=float)
+    n = t.size
+    lat, lon = np.radians(np.asarray(lat_deg, dtype=float)), np.radians(np.asarray(lon_deg, dtype=float))
+    if lat.shape != (n,) or lon.shape != (n,):
+        raise ValueError(f"lat_deg, lon_deg: expected {n} values like time_s, got {lat.shape} and {lon.shape}")
+    h = np.broadcast_to(np.asarray(height_m, dtype=float), (n,))
+    out = {k: np.full(n, np.nan) for k in ("track", "speed", "turn", "change")}
+    flags = {k: np.zeros(n, dtype=bool) for k in ("collinear", "constant", "usable")}
+    if n >= 3:
+        xyz = _ecef(lat, lon, h)
+        la, lo = lat[1:-1], lon[1:-1]
+        sl, cl, so, co = np.sin(la), np.cos(la), np.sin(lo), np.cos(lo)
+
+        def enu(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+            return -so * d[0] + co * d[1], -sl * co * d[0] - sl * so * d[1] + cl * d[2]
+
+        ae, an = enu(xyz[:, 1:-1] - xyz[:, :-2])  # leg k-1 -> k
+        be, bn = enu(xyz[:, 2:] - xyz[:, 1:-1])  # leg k -> k+1
+        dt1, dt2 = t[1:-1] - t[:-2], t[2:] - t[1:-1]
+        with np.errstate(divide="ignore", invalid="ignore"):
+            span = dt1 + dt2
+            out["track"][1:-1] = np.mod(np.arctan2(ae + be, an + bn), 2 * np.pi)  # section 5.1, end reports
+            out["speed"][1:-1] = np.hypot(ae + be, an + bn) / span
+            out["turn"][1:-1] = np.angle(np.exp(1j * (np.arctan2(be, bn) - np.arctan2(ae, an))))
+            v1, v2 = np.hypot(ae, an) / dt1, np.hypot(be, bn) / dt2
+            out["change"][1:-1] = np.abs(v2 - v1) / (0.5 * (v1 + v2))
+        flags["collinear"][1:-1] = np.abs(out["turn"][1:-1]) <= gates.max_turn_deg * DEG
+        flags["constant"][1:-1] = out["change"][1:-1] <= gates.max_speed_change
+        ok = (dt1 > 0) & (dt2 > 0) & (dt1 <= gates.max_gap_s) & (dt2 <= gates.max_gap_s)
+        if aircraft is not None:
+            a = np.asarray(aircraft)
+            ok &= (a[:-2] == a[1:-1]) & (a[2:] == a[1:-1])
+        flags["usable"][1:-1] = ok & flags["collinear"][1:-1] & flags["constant"][1:-1]
+    return GroundTrack(out["track"], out["speed"], out["turn"], out["change"],
+                       flags["collinear"], flags["constant"], flags["usable"])
+
+
+def air_track_heading(vg_east: ArrayLike, vg_north: ArrayLike, u: ArrayLike, v: ArrayLike) -> np.ndarray:
+    """Heading (rad, [0, 2 pi)) of V_A = V_G - V_W (wind paper eq. 3 with the reported
+    wind, eq. 4 with a reference wind); any consistent speed unit."""
+    return np.mod(np.arctan2(np.asarray(vg_east) - np.asarray(u), np.asarray(vg_north) - np.asarray(v)), 2 * np.pi)
+
+
+def longitudinal_transverse(du: ArrayLike, dv: ArrayLike, axis_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
+    """Components of the vector difference (du east, dv north) along the axis (bearing,
+    rad from true north) and across it, positive to the right of the axis."""
+    s, c = np.sin(axis_rad), np.cos(axis_rad)
+    du, dv = np.asarray(du, dtype=float), np.asarray(dv, dtype=float)
+    return du * s + dv * c, du * c - dv * s
+
+
+def rms_vector_difference(du: ArrayLike, dv: ArrayLike) -> float:
+    """sqrt(mean(du^2 + dv^2)) (wind paper section 6, total RMS vector magnitude error)."""
+    du, dv = np.asarray(du, dtype=float), np.asarray(dv, dtype=float)
+    return float(np.sqrt(np.mean(du * du + dv * dv))) if du.size else float("nan")
+
+
+def _epoch_seconds(time: pd.Series) -> np.ndarray:
+    if pd.api.types.is_numeric_dtype(time):
+        return time.to_numpy(dtype=float)
+    try:
+        stamps = pd.to_datetime(time, utc=True)
+    except (ValueError, TypeError) as exc:
+        raise ValueError(f"time: expected UTC epoch seconds or ISO-8601 strings ({exc})") from None
+    return (stamps - pd.Timestamp("1970-01-01", tz="UTC")).dt.total_seconds().to_numpy()
+
+
+def wind_errors(obs: pd.DataFrame, axis: str = "air_track", gates: TrackGates = TrackGates()) -> pd.DataFrame:
+    """Per (report, reference) row: vector difference report - reference (kt), its
+    magnitude, the axis (deg) and the longitudinal/transverse components (NaN where the
+    report has no axis). Tracks come from the reports of each aircraft in time order (rows
+    repeated for several references count once). Keeps the grouping columns present."""
+    missing = [c for c in _OBS_REQUIRED if c not in obs.columns]
+    if missing:
+        raise ValueError(f"observation table: missing columns {missing}")
+    if axis not in AXES:
+        raise ValueError(f"axis: expected one of {AXES}, got {axis!r}")
+    if axis == "reported_heading" and "heading_deg" not in obs.columns:
+        raise ValueError("axis='reported_heading' needs a heading_deg column")
+    t = _epoch_seconds(obs["time"])
+    u_rep, v_rep = wind_components(obs["wind_speed_kt"].to_numpy(dtype=float), obs["wind_dir_deg"].to_numpy(dtype=float) * DEG)
+    u_ref, v_ref = wind_components(obs["ref_wind_speed_kt"].to_numpy(dtype=float),
+                                   obs["ref_wind_dir_deg"].to_numpy(dtype=float) * DEG)
+    du, dv = u_rep - u_ref, v_rep - v_ref
+
+    if axis == "reported_heading":
+        axis_rad = obs["heading_deg"].to_numpy(dtype=float) * DEG
+        usable = np.isfinite(axis_rad)
+    else:
+        height = obs["pressure_altitude_ft"].to_numpy(dtype=float) * FT if "pressure_altitude_ft" in obs else np.zeros(len(obs))
+        rows = pd.DataFrame({"aircraft": obs["aircraft"].to_numpy(), "t": t, "lat": obs["lat"].to_numpy(dtype=float),
+                             "lon": obs["lon"].to_numpy(dtype=float), "h": np.nan_to_num(height)})
+        reports = rows.drop_duplicates(["aircraft", "t"]).sort_values(["aircraft", "t"], kind="stable").reset_index(drop=True)
+        lookup = rows[["aircraft", "t"]].merge(reports[["aircraft", "t"]].reset_index(), on=["aircraft", "t"],
+                                               how="left")["index"].to_numpy()
+        gt = track_from_triples(reports["t"].to_numpy(), reports["lat"].to_numpy(), reports["lon"].to_numpy(),
+                                reports["h"].to_numpy(), gates, aircraft=reports["aircraft"].to_numpy())
+        track, speed_kt, usable = gt.track_rad[lookup], gt.ground_speed_mps[lookup] / KT, gt.usable[lookup]
+        if axis == "ground_track":
+            axis_rad = track
+        else:  # wind paper eq. 3: V_A = V_G - V_W,TAM
+            axis_rad = air_track_heading(speed_kt * np.sin(track), speed_kt * np.cos(track), u_rep, v_rep)
+    axis_rad = np.where(usable, axis_rad, np.nan)
+    lon_kt, tra_kt = longitudinal_transverse(du, dv, axis_rad)
+    out = pd.DataFrame({c: obs[c].to_numpy() for c in ("aircraft", "fleet", "phase", "ref_source", "pressure_altitude_ft")
+                        if c in obs.columns})
+    out["time_s"] = t
+    out["du_kt"], out["dv_kt"], out["error_kt"] = du, dv, np.hypot(du, dv)
+    out["axis_deg"] = np.degrees(axis_rad)
+    out["longitudinal_kt"], out["transverse_kt"] = lon_kt, tra_kt
+    out["has_axis"] = usable
+    return out
+
+
+def wind_error_summary(errors: pd.DataFrame, by: Sequence[str] = (), altitude_bands_ft: Sequence[float] | None = None,
+                       total_over: Literal["all", "track_subset"] = "all") -> pd.DataFrame:
+    """RMS vector error and its longitudinal/transverse RMS per group of `wind_errors` rows.
+
+    by: any of GROUPINGS ("altitude_band" needs `altitude_bands_ft`, ascending edges; a band
+    is [lo, hi)); empty pools every row (all aircraft, all references). total_over: "all"
+    (the total over every row, components over rows with an axis; the mechanism by which
+    the paper's components need not add up) or "track_subset" (total over the same rows as
+    the components). Columns: the group keys, n, n_components, rms_kt, longitudinal_rms_kt,
+    transverse_rms_kt, rss_components_kt.
+    """
+    by = list(by)
+    bad = [b for b in by if b not in GROUPINGS]
+    if bad:
+        raise ValueError(f"by: expected names from {GROUPINGS}, got {bad}")
+    if total_over not in ("all", "track_subset"):
+        raise ValueError(f"total_over: expected 'all' or 'track_subset', got {total_over!r}")
+    df = errors[["error_kt", "longitudinal_kt", "transverse_kt", "has_axis"]].copy()
+    for b in by:
+        if b == "altitude_band":
+            if altitude_bands_ft is None or len(altitude_bands_ft) < 2 or np.any(np.diff(altitude_bands_ft) <= 0):
+                raise ValueError("altitude_bands_ft: expected at least two ascending edges (ft) to group by altitude_band")
+            edges = np.asarray(altitude_bands_ft, dtype=float)
+            labels = [f"{lo:g}-{hi:g}" for lo, hi in zip(edges[:-1], edges[1:])]
+            df[b] = pd.cut(errors["pressure_altitude_ft"], edges, right=False, labels=labels)
+        elif b not in errors.columns:
+            raise ValueError(f"by: column {b!r} is not in the errors table")
+        else:
+            df[b] = errors[b].to_numpy()
+    e2 = df["error_kt"] ** 2
+    df["e2"] = e2.where(df["has_axis"]) if total_over == "track_subset" else e2
+    df["l2"], df["t2"] = df["longitudinal_kt"] ** 2, df["transverse_kt"] ** 2
+    agg = dict(n=("e2", "count"), e2=("e2", "mean"), n_components=("l2", "count"), l2=("l2", "mean"), t2=("t2", "mean"))
+    if by:
+        g = df.groupby(by, observed=True, sort=True).agg(**agg).reset_index()
+    else:
+        g = pd.DataFrame([{"n": int(df["e2"].count()), "e2": df["e2"].mean(), "n_components": int(df["l2"].count()),
+                           "l2": df["l2"].mean(), "t2": df["t2"].mean()}])
+    g["rms_kt"] = np.sqrt(g.pop("e2"))
+    g["longitudinal_rms_kt"] = np.sqrt(g.pop("l2"))
+    g["transverse_rms_kt"] = np.sqrt(g.pop("t2"))
+    g["rss_components_kt"] = np.hypot(g["longitudinal_rms_kt"], g["transverse_rms_kt"])
+    return g
