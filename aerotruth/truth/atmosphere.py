@@ -409,8 +409,10 @@ class TruthAtmosphere:
         return psi
 
     # full wind ------------------------------------------------------------------------
-    def _profiles(self, z, zg):
-        """Mesoscale envelope e(z), boundary-layer factor b(z_agl), w taper (arrays or floats)."""
+    def profiles(self, z, zg):
+        """Mesoscale envelope e(z), boundary-layer factor b(z_agl), w taper (arrays or
+        floats) at geometric height z over ground at zg (m): the factors `wind` applies,
+        public for models derived from the truth (aerotruth.sensors.weather_model)."""
         s = self.spec
         env = s.mesoscale_surface_fraction + (1 - s.mesoscale_surface_fraction) * np.clip(
             z / self.jet_altitude_m, 0.0, 1.0)
@@ -439,7 +441,7 @@ class TruthAtmosphere:
         us, vs = self.synoptic_wind(lat, lon, z, t)
         x, y = self.plane_xy(lat, lon)
         um, vm, wm = self.mesoscale.wind_xy(x, y, z, t)
-        env, bl, taper = self._profiles(z, zg)
+        env, bl, taper = self.profiles(z, zg)
         return bl * (us + env * um), bl * (vs + env * vm), taper * env * wm
 
     # thermodynamics -------------------------------------------------------------------
