@@ -113,6 +113,12 @@ def _cmd_fits(args: argparse.Namespace) -> int:
         raise UserError(str(e)) from None
 
 
+def _cmd_heading_fit(args: argparse.Namespace) -> int:
+    from aerotruth.analysis.heading_fit import heading_fit_main
+
+    return heading_fit_main(args.obs, args.out)
+
+
 def _add_campaign_commands(sub) -> None:
     """run / validate / figures / report / regress: implemented in aerotruth.sim.commands."""
 
@@ -195,6 +201,13 @@ def build_parser() -> argparse.ArgumentParser:
     fits.add_argument("--out", required=True, help="output folder")
     fits.add_argument("--ra-lever-arm", type=float, default=0.0, help="height of the log's reference point above the radar-altimeter antenna (m)")
     fits.set_defaults(func=_cmd_fits)
+
+    heading = sub.add_parser("heading", help="the wind paper's heading-deviation method on your own reports")
+    hsub = heading.add_subparsers(dest="heading_command", required=True)
+    hfit = hsub.add_parser("fit", help="fit eq. 2 per aircraft from an observation table -> DIR/deviation.csv, figures, report")
+    hfit.add_argument("obs", help="observation table (CSV or Parquet, docs/data-formats.md)")
+    hfit.add_argument("--out", required=True, help="output folder")
+    hfit.set_defaults(func=_cmd_heading_fit)
     return p
 
 

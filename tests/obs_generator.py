@@ -1,0 +1,220 @@
+"""Independent synthetic generator of aircraft wind reports (observation tables) with a
+known heading deviation, for testing the wind paper's method. It uses none of
+aerotruth's truth, sensor or analysis code: geodesy through pyproj, the rest here.
+
+What it simulates, per flight (hub-and-spoke: out to a spoke, back to the hub):
+
+* the route is the WGS-84 geodesic hub -> spoke; the aircraft climbs at 1500 ft/min to a
+  cruise level, cruises, descends at 1500 ft/min; TAS ramps from 0.6 x cruise TAS on the
+  ground to the aircraft's cruise TAS at its level; ground speed from the wind triangle, integrated along the route
+  on a 5-s grid; true heading = direction of V_A = V_G - V_W (no crab errors);
+* truth wind per flight: a random base vector, stronger with altitude, with a slow
+  40-min oscillation of 2 m/s;
+* the measured heading psi_m solves psi_m = psi_true + d(psi_m - declination) with
+  d = A + B sin z' + C cos z' + D sin 2z' + E cos 2z' (wind paper eq. 2, z' the measured
+  magnetic heading), plus 0.1 deg white noise; TAS measured with 0.5 kt white noise;
+* the onboard (TAMDAR) wind is V_W = V_G - V_A(psi_m, TAS_m) with the instantaneous GPS
+  ground velocity (wind paper eq. 1), i.e. computed from the deviated heading;
+* reports as TAMDAR sends them: every 10 hPa up to 100 hPa above ground, then every
+  50 hPa, or after 3 min (below 20,000 ft) / 7 min (above) without one; lat/lon rounded
+  to 0.01 deg, wind speed to 1 kt and direction to 1 deg; no heading, no TAS unless asked;
+* reference models: truth wind + an error per model, per component an Ornstein-Uhlenbeck
+  process (4 kt standard deviation, 30-min e-folding time) restarted each flight,
+  independent between models; one row per (report, model) with `ref_source`.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from pyproj import Geod
+
+KT_MS = 1852.0 / 3600.0
+FT_M = 0.3048
+HUB = (44.88, -93.22)  # lat, lon of the hub (Minneapolis)
+GEOD = Geod(ellps="WGS84")
+
+
+@dataclass(frozen=True)
+class AircraftTruth:
+    """The hidden deviation of one aircraft (degrees, function of magnetic measured heading)."""
+
+    aircraft: str
+    A: float
+    B: float
+    C: float
+    D: float = 0.0
+    E: float = 0.0
+    cruise_tas_kt: float = 280.0
+    one_heading: bool = False
+
+    def deviation(self, z_deg: np.ndarray) -> np.ndarray:
+        z = np.radians(z_deg)
+        return self.A + self.B * np.sin(z) + self.C * np.cos(z) + self.D * np.sin(2 * z) + self.E * np.cos(2 * z)
+
+
+def fleet(n: int, rng: np.random.Generator, *, de_every: int = 3, one_heading_last: bool = True,
+          tas_kt: tuple[float, float] = (260.0, 300.0)) -> list[AircraftTruth]:
+    """n aircraft: offsets U(-3, 3) deg, sinusoid amplitude U(0.5, 3) deg at a random phase;
+    every `de_every`-th aircraft also has D, E of amplitude U(0.6, 1.2) deg; the last one
+    (if asked) flies one heading only."""
+    out = []
+    for i in range(n):
+        amp, ph = rng.uniform(0.5, 3.0), rng.uniform(0, 2 * np.pi)
+        d = e = 0.0
+        if de_every and i % de_every == 1:
+            amp2, ph2 = rng.uniform(0.6, 1.2), rng.uniform(0, 2 * np.pi)
+            d, e = amp2 * np.cos(ph2), amp2 * np.sin(ph2)
+        out.append(AircraftTruth(f"N{401 + i}XJ", float(rng.uniform(-3, 3)), float(amp * np.cos(ph)), float(amp * np.sin(ph)),
+                                 float(d), float(e), float(rng.uniform(*tas_kt)), one_heading_last and i == n - 1))
+    return out
+
+
+def declination(lat: np.ndarray, lon: np.ndarray) -> np.ndarray:
+    """A smooth made-up declination field (deg east): +1 deg at the hub, 0.5 deg less per
+    degree of longitude eastwards."""
+    return 1.0 - 0.5 * (np.asarray(lon) - HUB[1]) + 0.1 * (np.asarray(lat) - HUB[0])
+
+
+def _pressure_hpa(alt_ft: np.ndarray) -> np.ndarray:
+    return 1013.25 * (1.0 - 6.87559e-6 * alt_ft) ** 5.25588  # ISA troposphere in feet
+
+
+def _spokes(rng: np.random.Generator, km: tuple[float, float], n: int = 16) -> list[tuple[float, float]]:
+    """Spoke airports around the hub: bearings spread round the compass, distances U(km)."""
+    bearings = (np.arange(n) * 360.0 / n + rng.uniform(0, 360.0 / n, n)) % 360.0
+    dists = rng.uniform(km[0] * 1e3, km[1] * 1e3, n)
+    lon, lat, _ = GEOD.fwd(np.full(n, HUB[1]), np.full(n, HUB[0]), bearings, dists)
+    return list(zip(lat, lon))
+
+
+def _fly(a: AircraftTruth, start: tuple[float, float], end: tuple[float, float], t0: float,
+         rng: np.random.Generator, cruise_ft_range: tuple[float, float]) -> dict[str, np.ndarray]:
+    """5-s samples of one flight: time, position, altitude, truth wind, V_G, true heading, TAS."""
+    az0, _, dist = GEOD.inv(start[1], start[0], end[1], end[0])
+    cruise_ft = rng.uniform(*cruise_ft_range)
+    rate_fps = 1500.0 / 60.0
+    t_climb = cruise_ft / rate_fps
+    w_speed, w_dir = rng.uniform(5.0, 25.0), rng.uniform(0, 2 * np.pi)
+    w0 = w_speed * np.array([np.sin(w_dir), np.cos(w_dir)])
+    osc_phase = rng.uniform(0, 2 * np.pi, 2)
+    tas_cruise = a.cruise_tas_kt * KT_MS
+
+    def profile(total_s: float):
+        t = np.arange(0.0, total_s, 5.0)
+        alt = np.minimum(np.minimum(t, total_s - t) * rate_fps, cruise_ft)
+        alt = np.maximum(alt, 0.0)
+        tas = tas_cruise * (0.6 + 0.4 * alt / cruise_ft)
+        wind = (w0[None, :] * (1.0 + 0.5 * alt[:, None] * FT_M / 6000.0)
+                + 2.0 * np.sin(2 * np.pi * t[:, None] / 2400.0 + osc_phase[None, :]))
+        return t, alt, tas, wind
+
+    total = 2 * t_climb + max(dist - 2 * t_climb * 0.8 * tas_cruise, 0.0) / tas_cruise
+    for _ in range(4):  # adjust the cruise time until the integrated distance is the route length
+        t, alt, tas, wind = profile(total)
+        course = np.radians(az0)
+        along = np.array([np.sin(course), np.cos(course)])
+        w_along = wind @ along
+        w_perp = wind @ np.array([np.cos(course), -np.sin(course)])
+        gs = np.sqrt(np.maximum(tas**2 - w_perp**2, 1.0)) + w_along
+        s = np.concatenate([[0.0], np.cumsum(0.5 * (gs[1:] + gs[:-1]) * 5.0)])
+        total += (dist - s[-1]) / max(np.mean(gs), 50.0)
+    keep = s <= dist
+    t, alt, tas, wind, gs, s = t[keep], alt[keep], tas[keep], wind[keep], gs[keep], s[keep]
+    lon, lat, back = GEOD.fwd(np.full(len(s), start[1]), np.full(len(s), start[0]), np.full(len(s), az0), s)
+    course = np.radians((np.asarray(back) + 180.0) % 360.0)
+    vg = gs[:, None] * np.column_stack([np.sin(course), np.cos(course)])
+    va = vg - wind  # wind paper eq. 1, truth
+    psi_true = np.degrees(np.arctan2(va[:, 0], va[:, 1])) % 360.0
+    phase = np.where(t < t_climb, "ascent", np.where(t > t[-1] - t_climb, "descent", "level"))
+    return dict(time=t0 + t, lat=np.asarray(lat), lon=np.asarray(lon), alt_ft=alt, wind=wind, vg=vg,
+                psi_true=psi_true, tas=np.hypot(va[:, 0], va[:, 1]), phase=phase)
+
+
+def _report_indices(alt_ft: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """TAMDAR reporting: 10 hPa steps up to 100 hPa above ground, then 50 hPa, else 3/7 min."""
+    p = _pressure_hpa(alt_ft)
+    p_ground = p[0]
+    idx = [0]
+    p_r, t_r = p[0], t[0]
+    for k in range(1, len(t)):
+        step = 10.0 if p_ground - p[k] < 100.0 else 50.0
+        wait = 180.0 if alt_ft[k] < 20000.0 else 420.0
+        if abs(p[k] - p_r) >= step or t[k] - t_r >= wait:
+            idx.append(k)
+            p_r, t_r = p[k], t[k]
+    return np.asarray(idx)
+
+
+def _ou(times: np.ndarray, sigma: float, tau: float, rng: np.random.Generator) -> np.ndarray:
+    """Two independent OU components at the given times (exact discretisation); tau = 0: white."""
+    out = np.empty((len(times), 2))
+    out[0] = rng.normal(0.0, sigma, 2)
+    for k in range(1, len(times)):
+        phi = np.exp(-(times[k] - times[k - 1]) / tau) if tau > 0 else 0.0
+        out[k] = phi * out[k - 1] + sigma * np.sqrt(1 - phi**2) * rng.normal(size=2)
+    return out
+
+
+def _from_dir(vec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Speed (kt) and meteorological direction ("from", deg) of towards-vectors (m/s)."""
+    speed = np.hypot(vec[:, 0], vec[:, 1]) / KT_MS
+    return speed, np.degrees(np.arctan2(-vec[:, 0], -vec[:, 1])) % 360.0
+
+
+def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: int = 40,
+             models: tuple[str, ...] = ("rr", "rtfdda"), ref_sigma_kt: float = 4.0, ref_tau_s: float = 1800.0,
+             quant_deg: float = 0.01, include_heading: bool = False, t_start: float = 1_249_084_800.0,
+             spoke_km: tuple[float, float] = (250.0, 650.0), cruise_ft: tuple[float, float] = (12000.0, 22000.0),
+             exact: bool = False) -> pd.DataFrame:
+    """An observation table: one row per (report, reference model). Defaults: a SAAB-340-like
+    turboprop network; regional jets: spoke_km (400, 1000), cruise_ft (25000, 35000) and
+    fleet(tas_kt=(400, 450)). exact=True: no onboard heading/TAS/GPS noise and no rounding of
+    the reported winds, so the reference-model error is the only noise (Cramer-Rao checks)."""
+    spokes = _spokes(rng, spoke_km)
+    rows = []
+    for a in truths:
+        t0 = t_start + rng.uniform(0, 3600)
+        fixed = spokes[3]
+        order = np.concatenate([rng.permutation(len(spokes)) for _ in range(flights // (2 * len(spokes)) + 1)])
+        for f in range(flights):
+            if a.one_heading:
+                start, end = HUB, fixed
+            else:  # the aircraft rotates through the spokes: out, back, next spoke
+                spoke = spokes[order[f // 2]]
+                start, end = (HUB, spoke) if f % 2 == 0 else (spoke, HUB)
+            fl = _fly(a, start, end, t0, rng, cruise_ft)
+            t0 = fl["time"][-1] + rng.uniform(2400, 20000)
+            psi_t = fl["psi_true"]
+            decl = declination(fl["lat"], fl["lon"])
+            psi_m = psi_t.copy()
+            for _ in range(8):  # fixed point of psi_m = psi_true + d(psi_m - decl)
+                psi_m = psi_t + a.deviation(psi_m - decl)
+            noise = 0.0 if exact else 1.0
+            psi_m = (psi_m + noise * rng.normal(0, 0.1, len(psi_m))) % 360.0
+            tas_m = fl["tas"] + noise * rng.normal(0, 0.5 * KT_MS, len(psi_m))
+            va_m = tas_m[:, None] * np.column_stack([np.sin(np.radians(psi_m)), np.cos(np.radians(psi_m))])
+            w_onboard = fl["vg"] + noise * rng.normal(0, 0.1, fl["vg"].shape) - va_m  # wind paper eq. 1 onboard
+            k = _report_indices(fl["alt_ft"], fl["time"])
+            spd, drc = _from_dir(w_onboard[k])
+            base = dict(aircraft=a.aircraft, time=fl["time"][k],
+                        lat=np.round(fl["lat"][k] / quant_deg) * quant_deg, lon=np.round(fl["lon"][k] / quant_deg) * quant_deg,
+                        pressure_altitude_ft=np.round(fl["alt_ft"][k], -1), wind_speed_kt=spd if exact else np.round(spd),
+                        wind_dir_deg=drc if exact else np.round(drc) % 360.0, roll_deg=np.round(rng.normal(0, 1.0, len(k)), 1),
+                        phase=fl["phase"][k], declination_deg=np.round(decl[k], 2))
+            if include_heading:
+                base["heading_deg"] = np.round(psi_m[k], 2)
+                base["tas_kt"] = np.round(tas_m[k] / KT_MS, 1)
+            for m in models:
+                err = _ou(fl["time"][k], ref_sigma_kt * KT_MS, ref_tau_s, rng)
+                rs, rd = _from_dir(fl["wind"][k] + err)
+                rows.append(pd.DataFrame({**base, "ref_wind_speed_kt": np.round(rs, 2), "ref_wind_dir_deg": np.round(rd, 2),
+                                          "ref_source": m}))
+    return pd.concat(rows, ignore_index=True)
+
+
+def truth_table(truths: list[AircraftTruth]) -> pd.DataFrame:
+    """The hidden coefficients, one row per aircraft."""
+    return pd.DataFrame([a.__dict__ for a in truths]).set_index("aircraft")

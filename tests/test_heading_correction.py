@@ -1,0 +1,267 @@
+"""The wind paper's heading-deviation method (aerotruth.analysis.heading_correction and the
+`heading fit` command function) against reports from an independent generator
+(tests/obs_generator.py) whose deviation, noise and reference errors are known."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import obs_generator as gen
+from aerotruth.analysis.heading_correction import (TABLE_COLUMNS, FleetHeadingFit, HeadingDeviationFit, heading_errors,
+                                                   towards_from_report)
+from aerotruth.analysis.heading_fit import heading_fit_main
+
+REQUIRED_HEAD = ("aircraft, status, reason, n_used, A_deg, B_deg, C_deg, D_deg, E_deg, A_se_deg, B_se_deg, C_se_deg, "
+                 "D_se_deg, E_se_deg, lut_000_deg, lut_045_deg, lut_090_deg, lut_135_deg, lut_180_deg, lut_225_deg, "
+                 "lut_270_deg, lut_315_deg, valid_from, valid_to").split(", ")
+
+
+@pytest.fixture(scope="module")
+def fleet_run(tmp_path_factory):
+    """12 regional jets x 40 hub-and-spoke flights (1000-1800 km legs), three reference
+    models; the last aircraft flies one heading. Written as Parquet and run through the
+    command's function. (Reference errors correlated over 30 min leave ~one independent
+    error per half hour of flight: the standard errors reach 0.07 deg only with long, fast
+    legs and three models; SAAB-like legs of 250-650 km with two models give ~0.11.)"""
+    rng = np.random.default_rng(1)
+    truths = gen.fleet(12, rng, tas_kt=(430.0, 480.0))
+    obs = gen.generate(truths, rng, models=("rr", "rtfdda", "nam"), spoke_km=(1000.0, 1800.0), cruise_ft=(25000.0, 35000.0))
+    d = tmp_path_factory.mktemp("heading")
+    obs.to_parquet(d / "obs.parquet")
+    assert heading_fit_main(str(d / "obs.parquet"), str(d / "out")) == 0
+    return truths, obs, d / "out"
+
+
+def _z_scores(row: pd.Series, truth: gen.AircraftTruth, terms: str) -> dict[str, float]:
+    return {t: (row[f"{t}_deg"] - getattr(truth, t)) / row[f"{t}_se_deg"] for t in terms}
+
+
+def test_heading_fit_recovers_each_aircrafts_deviation_within_three_standard_errors(fleet_run):
+    truths, _, out = fleet_run
+    table = pd.read_csv(out / "deviation_mag.csv").set_index("aircraft")  # the generator's frame: magnetic
+    worst_z, worst_se = 0.0, 0.0
+    for a in truths:
+        row = table.loc[a.aircraft]
+        if a.one_heading:
+            continue
+        assert row["status"] == "fitted", row["reason"]
+        terms = "ABCDE" if (a.D, a.E) != (0.0, 0.0) else "ABC"
+        assert row["terms"].startswith(terms), (a.aircraft, row["terms"], row["reason"])
+        z = _z_scores(row, a, row["terms"])
+        worst_z = max(worst_z, *map(abs, z.values()))
+        worst_se = max(worst_se, *(row[f"{t}_se_deg"] for t in row["terms"]))
+        assert all(abs(v) <= 3.0 for v in z.values()), (a.aircraft, z)
+        assert all(row[f"{t}_se_deg"] <= 0.07 for t in row["terms"]), (a.aircraft, row[[f"{t}_se_deg" for t in "ABCDE"]])
+    print(f"worst |z| {worst_z:.2f}, worst se {worst_se:.3f} deg")
+
+
+def test_an_aircraft_flying_one_heading_gets_the_offset_only_never_a_sinusoid(fleet_run):
+    truths, _, out = fleet_run
+    one = next(a for a in truths if a.one_heading)
+    for name in ("deviation.csv", "deviation_mag.csv"):
+        row = pd.read_csv(out / name).set_index("aircraft").loc[one.aircraft]
+        assert row["status"] in ("offset_only", "refused")
+        assert "coverage" in row["reason"]
+        assert row[["B_deg", "C_deg", "D_deg", "E_deg"]].abs().max() == 0.0
+        assert row[["B_se_deg", "C_se_deg"]].isna().all()
+        luts = row[[c for c in TABLE_COLUMNS if c.startswith("lut_")]].to_numpy(dtype=float)
+        assert np.allclose(luts, -row["A_deg"])
+
+
+def test_deviation_csv_has_the_documented_columns_and_a_figure_per_aircraft(fleet_run):
+    truths, _, out = fleet_run
+    table = pd.read_csv(out / "deviation.csv")
+    assert list(table.columns[: len(REQUIRED_HEAD)]) == REQUIRED_HEAD
+    assert len(table) == len(truths)
+    assert set(table["status"]) <= {"fitted", "offset_only", "refused"}
+    assert (table["valid_from"] <= table["valid_to"]).all()
+    for a in truths:
+        assert (out / "figures" / f"{a.aircraft}.png").stat().st_size > 10_000
+    report = (out / "report.md").read_text()
+    assert "after the lookup tables" in report and "three-report ground-track gates" in report
+
+
+def test_true_heading_fit_equals_the_magnetic_one_turned_by_the_declination(fleet_run):
+    """On true heading z = z' + delta the same curve has B, C turned by delta (the generator's
+    declination, +1 deg at the hub, varies by a few degrees: a small blur)."""
+    truths, _, out = fleet_run
+    tru = pd.read_csv(out / "deviation.csv").set_index("aircraft")
+    mag = pd.read_csv(out / "deviation_mag.csv").set_index("aircraft")
+    for a in truths:
+        if a.one_heading or (a.D, a.E) != (0.0, 0.0):
+            continue
+        dl = np.radians(1.0)
+        b_true = a.B * np.cos(dl) + a.C * np.sin(dl)
+        c_true = a.C * np.cos(dl) - a.B * np.sin(dl)
+        r = tru.loc[a.aircraft]
+        assert abs(r["A_deg"] - mag.loc[a.aircraft, "A_deg"]) < 0.02
+        assert abs(r["B_deg"] - b_true) < 3 * r["B_se_deg"] + 0.05
+        assert abs(r["C_deg"] - c_true) < 3 * r["C_se_deg"] + 0.05
+
+
+def test_correcting_the_reports_removes_the_transverse_wind_error(fleet_run):
+    """The paper's signature (Tables II-IV): the transverse component falls, the longitudinal
+    does not. Reference errors are 4 kt per component, so ~4 kt is the floor."""
+    _, _, out = fleet_run
+    text = (out / "report.md").read_text()
+    before = [float(x) for x in text.split("| before |")[1].split("\n")[0].strip(" |").split(" | ")]
+    after = [float(x) for x in text.split("| after the lookup tables |")[1].split("\n")[0].strip(" |").split(" | ")]
+    assert before[2] > 8.0 and after[2] < 4.6
+    assert abs(after[1] - before[1]) < 0.3
+
+
+def _cramer_rao(rows: pd.DataFrame, sigma_ms: float) -> np.ndarray:
+    """CRB of (A, B, C) in deg^2 for independent Gaussian reference-wind errors of sd sigma
+    per component: psi' moves by e_perp / |V_A| (rad), so d_i = x_i b + n_i with
+    n_i ~ N(0, sigma^2/V_i^2) independent over (report, model) rows; the Fisher information
+    is sum x_i x_i^T V_i^2 / sigma^2 (rad^-2), and its inverse is the bound."""
+    u = rows[rows["gate"] == "used"]
+    z = np.radians(u["heading_mag_deg"].to_numpy())
+    X = np.column_stack([np.ones_like(z), np.sin(z), np.cos(z)])
+    info = (X * (u["tas_ms"].to_numpy() ** 2 / sigma_ms**2)[:, None]).T @ X
+    return np.linalg.inv(info) * np.degrees(1.0) ** 2
+
+
+def test_standard_errors_are_within_1_2_of_the_cramer_rao_bound():
+    a = gen.AircraftTruth("N450XJ", A=1.5, B=-2.0, C=1.0, cruise_tas_kt=280.0)
+    sigma_kt = 4.0
+    zs, ratio = [], []
+    for r in range(60):
+        rng = np.random.default_rng([5, r])
+        obs = gen.generate([a], rng, flights=12, models=("rr",), ref_tau_s=0.0, exact=True, ref_sigma_kt=sigma_kt)
+        rows = heading_errors(obs)
+        fit = HeadingDeviationFit(terms="sinusoid", heading="magnetic", min_flights=5).fit(rows)
+        crb = np.sqrt(np.diag(_cramer_rao(rows, sigma_kt * 1852 / 3600)))
+        est = np.array([fit.coef_[t] for t in "ABC"])
+        zs.append((est - [a.A, a.B, a.C]) / crb)
+        ratio.append(np.array([fit.se_[t] for t in "ABC"]) / crb)
+    spread = np.std(zs, axis=0, ddof=1)  # the estimator's sd in units of the bound
+    print("sd / CRB", spread.round(3), "mean se / CRB", np.mean(ratio, axis=0).round(3))
+    assert np.all(spread <= 1.2)
+    assert np.all((np.mean(ratio, axis=0) > 0.8) & (np.mean(ratio, axis=0) <= 1.2))
+
+
+def test_bootstrap_intervals_run_and_cover_in_a_loose_band():
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    import heading_coverage
+
+    res = heading_coverage.coverage(reps=12, n_boot=60, flights=16, seed=3)
+    for t in "ABC":
+        assert 0.6 <= res[f"coverage_{t}"] <= 1.0, res
+
+
+def test_reference_model_with_a_wind_bias_is_flagged_by_the_consistency_check():
+    """A model that is 10 kt too strong from the west moves psi' by a sinusoid in heading:
+    the two models' curves differ and the fit says so."""
+    rng = np.random.default_rng(11)
+    a = gen.AircraftTruth("N460XJ", A=0.5, B=1.0, C=0.5, cruise_tas_kt=280.0)
+    obs = gen.generate([a], rng, flights=20)
+    rr = obs["ref_source"] == "rr"
+    u, v = towards_from_report(obs.loc[rr, "ref_wind_speed_kt"], obs.loc[rr, "ref_wind_dir_deg"])
+    u = u + 10 * 1852 / 3600
+    obs.loc[rr, "ref_wind_speed_kt"] = np.hypot(u, v) / (1852 / 3600)
+    obs.loc[rr, "ref_wind_dir_deg"] = np.degrees(np.arctan2(-u, -v)) % 360
+    fit = HeadingDeviationFit(terms="sinusoid", heading="magnetic").fit(obs)
+    assert "disagree" in fit.reason_ and fit.consistency_p_ < 1e-4
+    clean = HeadingDeviationFit(terms="sinusoid", heading="magnetic").fit(gen.generate([a], np.random.default_rng(11), flights=20))
+    assert "agree" in clean.reason_ and "disagree" not in clean.reason_
+
+
+def test_true_heading_aircraft_get_an_offset_only_table():
+    rng = np.random.default_rng(12)
+    a = gen.AircraftTruth("N470XJ", A=-3.0, B=1.5, C=0.0, cruise_tas_kt=280.0)
+    obs = gen.generate([a], rng, flights=16).assign(heading_input="true")
+    fit = FleetHeadingFit(heading="magnetic").fit(obs).fits_["N470XJ"]
+    assert fit.status_ == "offset_only" and "true heading" in fit.reason_
+    assert fit.coef_["B"] == 0.0 and np.isnan(fit.se_["B"])
+    assert abs(fit.coef_["A"] - a.A) < 4 * fit.se_["A"]  # hub-and-spoke headings average the sinusoid out
+    assert np.allclose(fit.lut_, -fit.coef_["A"])
+
+
+def test_heading_error_equals_the_deviation_on_noise_free_reports():
+    """Eqs. 3 and 4 with a perfect reference: psi - psi' is the deviation at the measured heading.
+    Only the 0.01-deg position quantisation blurs the heading axis: <= ~1.1 km over a >= 10-km
+    baseline is up to ~6 deg of heading, times the curve's slope (<= 4.2 deg/rad here) ~0.45 deg."""
+    a = gen.AircraftTruth("N480XJ", A=2.0, B=-1.0, C=3.0, D=0.5, cruise_tas_kt=280.0)
+    obs = gen.generate([a], np.random.default_rng(13), flights=6, ref_sigma_kt=0.0, exact=True)
+    rows = heading_errors(obs)
+    u = rows[rows["gate"] == "used"]
+    resid = u["error_deg"].to_numpy() - a.deviation(u["heading_mag_deg"].to_numpy())
+    assert np.median(np.abs(resid)) < 0.05 and np.max(np.abs(resid)) < 0.45
+
+
+def test_reported_wind_from_the_west_blows_towards_the_east():
+    u, v = towards_from_report([10.0, 10.0], [270.0, 0.0])
+    assert np.allclose(u, [10 * 1852 / 3600, 0.0], atol=1e-12) and np.allclose(v, [0.0, -10 * 1852 / 3600], atol=1e-12)
+
+
+def test_lookup_table_correction_is_piecewise_linear_round_the_circle():
+    """A = 1, C = 2: d(0) = 3, d(45) = 1 + sqrt 2, d(315) = 1 + sqrt 2; corrections are -d."""
+    row = {c: 0.0 for c in TABLE_COLUMNS}
+    row.update(aircraft="X", status="fitted", reason="", n_used=100, A_deg=1.0, C_deg=2.0, valid_from="2009-01-01",
+               valid_to="2009-02-01", A_se_deg=0.1, B_se_deg=0.1, C_se_deg=0.1, D_se_deg=np.nan, E_se_deg=np.nan)
+    z = np.radians(np.arange(0, 360, 45))
+    for c, val in zip([c for c in TABLE_COLUMNS if c.startswith("lut_")], -(1 + 2 * np.cos(z))):
+        row[c] = val
+    fit = HeadingDeviationFit.from_table(pd.DataFrame([row]))
+    s2 = np.sqrt(2)
+    assert fit.correct(22.5) == pytest.approx(22.5 - (3 + 1 + s2) / 2)
+    assert fit.correct(350.0) == pytest.approx(350.0 - ((1 + s2) * (10 / 45) + 3 * (35 / 45)))
+    assert fit.correct(0.5) == pytest.approx((0.5 - (3 * (44.5 / 45) + (1 + s2) * (0.5 / 45))) % 360.0)
+    assert fit.correct(90.0) == pytest.approx(89.0)  # d(90) = 1
+    assert fit.correct(1.0) == pytest.approx(fit.correct(361.0))
+
+
+def test_learned_state_survives_to_table_and_from_table():
+    obs = gen.generate([gen.AircraftTruth("N490XJ", A=1.0, B=2.0, C=-1.0)], np.random.default_rng(14), flights=12)
+    fleet = FleetHeadingFit(heading="magnetic").fit(obs)
+    back = FleetHeadingFit.from_table(fleet.to_table())
+    h = np.linspace(0, 359, 50)
+    assert np.allclose(back.correct("N490XJ", h), fleet.correct("N490XJ", h))
+    assert back.fits_["N490XJ"].status_ == fleet.fits_["N490XJ"].status_
+    assert np.allclose(fleet.correct("unknown", h), h)  # no table, no correction
+
+
+def test_shuffled_table_with_repeated_rows_gives_the_same_fit():
+    obs = gen.generate([gen.AircraftTruth("N500XJ", A=1.0, B=2.0, C=-1.0)], np.random.default_rng(15), flights=10)
+    shuffled = pd.concat([obs, obs.iloc[:50]]).sample(frac=1.0, random_state=1)
+    shuffled["time"] = pd.to_datetime(shuffled["time"], unit="s", utc=True).dt.strftime("%Y-%m-%dT%H:%M:%SZ")
+    a = HeadingDeviationFit(heading="magnetic").fit(obs)
+    b = HeadingDeviationFit(heading="magnetic").fit(shuffled)
+    assert a.coef_ == pytest.approx(b.coef_)
+
+
+@pytest.mark.parametrize("mutate, words", [
+    (lambda df: df.drop(columns="wind_dir_deg"), ["obs.csv", "missing column 'wind_dir_deg'"]),
+    (lambda df: df.assign(ref_wind_speed_kt=df["ref_wind_speed_kt"].astype(object).where(df.index != 3, "calm")),
+     ["obs.csv", "column 'ref_wind_speed_kt'", "data row 4", "'calm'"]),
+    (lambda df: df.assign(time=df["time"].astype(object).where(df.index != 2, "yesterday")), ["obs.csv", "column 'time'", "'yesterday'"]),
+    (lambda df: df.assign(lat=df["lat"].where(df.index != 0, 123.0)), ["obs.csv", "column 'lat'", "outside"]),
+])
+def test_bad_observation_tables_raise_one_line_naming_file_and_column(tmp_path, mutate, words):
+    obs = gen.generate([gen.AircraftTruth("N510XJ", A=0.0, B=0.0, C=0.0)], np.random.default_rng(16), flights=2)
+    mutate(obs).to_csv(tmp_path / "obs.csv", index=False)
+    with pytest.raises(ValueError) as e:
+        heading_fit_main(str(tmp_path / "obs.csv"), str(tmp_path / "out"))
+    msg = str(e.value)
+    assert "\n" not in msg and all(w in msg for w in words), msg
+
+
+def test_missing_file_and_wrong_extension_are_named(tmp_path):
+    with pytest.raises(ValueError, match=r"nothere\.csv: no such file"):
+        heading_fit_main(str(tmp_path / "nothere.csv"), str(tmp_path / "out"))
+    (tmp_path / "obs.json").write_text("{}")
+    with pytest.raises(ValueError, match=r"obs\.json: expected a \.csv or \.parquet"):
+        heading_fit_main(str(tmp_path / "obs.json"), str(tmp_path / "out"))
+
+
+def test_estimator_parameters_are_checked():
+    with pytest.raises(ValueError, match="terms"):
+        HeadingDeviationFit(terms="cubic").fit(pd.DataFrame())
+    with pytest.raises(ValueError, match="heading"):
+        FleetHeadingFit(heading="grid")
