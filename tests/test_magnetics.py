@@ -290,6 +290,26 @@ def test_gyro_drift_is_held_by_slaving_at_drift_times_tau():
     assert out[-1] - 2.0 == pytest.approx(drift * 60.0, rel=2e-3)  # 0.1 deg
 
 
+def test_valve_spinning_a_full_turn_does_not_drag_the_gyro_round():
+    # a violent transient: the valve reading sweeps a whole turn in 2 s, then settles 10 deg
+    # right of the gyro; the slaving loop acts on the wrapped difference, so the system
+    # converges on +10 deg with time constant tau (a chase of 370 deg would run away)
+    t = np.arange(6000) * 0.1
+    psi = np.full(t.size, 1.0)
+    sweep = np.clip((t - 10.0) / 2.0, 0.0, 1.0) * 2 * np.pi
+    valve = np.mod(1.0 + sweep + np.where(t >= 12.0, 10 * DEG, 0.0), 2 * np.pi)
+    roll = np.zeros(t.size)
+    out = slaved_heading(t, valve, psi, roll, tau_s=60.0, cutout_bank_rad=10 * DEG)
+    after = t >= 100.0
+    err = np.degrees(_wrap(out - psi))
+    # bounded by a few degrees during the sweep (integrating <= 180 deg over 2 s / 60 s) and
+    # then the first-order approach to +10 deg
+    assert np.max(np.abs(err)) < 12.0
+    expected = 10.0 * (1 - np.exp(-(t[after] - 12.0) / 60.0))
+    assert np.max(np.abs(err[after] - expected)) < 3.0
+    assert err[-1] == pytest.approx(10.0, abs=0.1)
+
+
 def test_slaving_needs_equally_spaced_samples():
     with pytest.raises(ValueError, match="time_s"):
         slaved_heading([0.0, 0.1, 0.3], [0.0] * 3, [0.0] * 3, [0.0] * 3, tau_s=60.0, cutout_bank_rad=0.2)

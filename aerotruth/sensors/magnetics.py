@@ -73,7 +73,10 @@ e is a gated first-order low-pass of u = psi_valve - psi_g. Exact discretisation
 readings held over a sample interval: e_k = e_{k-1} + s_{k-1} alpha (u_{k-1} - e_{k-1}),
 alpha = 1 - exp(-dt/tau); at power-up the gyro is slewed to the valve (e_0 = u_0).
 Gated-out intervals leave e unchanged, so the filter runs (scipy lfilter) over the
-slaved intervals only.
+slaved intervals only. The valve-minus-gyro difference is an angle: the loop acts on it
+wrapped to (-pi, pi] (a synchro error signal), so u is unwrapped relative to e — where
+the valve spins a full turn against the gyro (a violent transient tilting the pendulum)
+the gyro does not chase it round.
 
 True heading (wind paper section 4): psi_true,reported = psi_mag + D_table, D_table the
 declination of the receiver's model for its epoch (`declination_epoch`); a stale table
@@ -306,15 +309,19 @@ class FluxValveFleetSpec(Section):
 
     def draw(self, rng: np.random.Generator) -> FluxValveSpec:
         """One aircraft's valve: class, hard iron (3), soft iron (9), mounting, in that order."""
+        return self.draw_with_class(rng)[1]
+
+    def draw_with_class(self, rng: np.random.Generator) -> tuple[str, FluxValveSpec]:
+        """("poor" | "healthy", valve) of one aircraft; the same draws as `draw`."""
         poor = rng.random() < self.poor_fraction
         sigma = self.poor_hard_iron_sigma_nT if poor else self.healthy_hard_iron_sigma_nT
         p = rng.normal(0.0, 1.0, 3) * sigma
         s = np.clip(rng.normal(0.0, 1.0, (3, 3)) * self.soft_iron_sigma, -0.5, 0.5)
         mount = float(np.clip(rng.normal() * self.mounting_sigma_deg, -180.0, 180.0))
-        return FluxValveSpec(hard_iron_nT=tuple(p.tolist()), soft_iron=tuple(tuple(r) for r in s.tolist()),
-                             mounting_deg=mount, slaving_tau_s=self.slaving_tau_s,
-                             slaving_cutout_bank_deg=self.slaving_cutout_bank_deg,
-                             gyro_drift_deg_h=self.gyro_drift_deg_h, declination_epoch=self.declination_epoch)
+        return ("poor" if poor else "healthy"), FluxValveSpec(
+            hard_iron_nT=tuple(p.tolist()), soft_iron=tuple(tuple(r) for r in s.tolist()), mounting_deg=mount,
+            slaving_tau_s=self.slaving_tau_s, slaving_cutout_bank_deg=self.slaving_cutout_bank_deg,
+            gyro_drift_deg_h=self.gyro_drift_deg_h, declination_epoch=self.declination_epoch)
 
 
 # ----------------------------------------------------------------------------- physics
@@ -464,8 +471,21 @@ def slaved_heading(time_s: ArrayLike, valve_heading_mag_rad: ArrayLike, heading_
         raise ValueError("time_s: expected strictly increasing, equally spaced samples")
     alpha = -math.expm1(-step / tau_s)
     on = np.abs(roll[:-1]) <= cutout_bank_rad  # slaving during interval k-1 -> k
+    x = u[:-1][on].copy()  # inputs of the slaved intervals
     e0 = u[0]
-    e_on = lfilter([alpha], [1.0, alpha - 1.0], u[:-1][on], zi=[(1.0 - alpha) * e0])[0]
+    e_on = np.empty_like(x)
+    start, state = 0, (1.0 - alpha) * e0  # lfilter state = (1 - alpha) x the previous output
+    while start < x.size:  # one more pass per full turn of the valve against the gyro
+        y = lfilter([alpha], [1.0, alpha - 1.0], x[start:], zi=[state])[0]
+        before = np.concatenate(([state / (1.0 - alpha)], y[:-1]))  # e ahead of each input
+        far = np.flatnonzero(np.abs(x[start:] - before) > np.pi)
+        if far.size == 0:
+            e_on[start:] = y
+            break
+        k = int(far[0])
+        e_on[start:start + k] = y[:k]
+        x[start + k:] -= TWO_PI * np.round((x[start + k] - before[k]) / TWO_PI)  # wrapped error from here on
+        start, state = start + k, (1.0 - alpha) * before[k]
     e = np.concatenate(([e0], e_on))[np.concatenate(([0], np.cumsum(on)))]
     return _mod_2pi(psi_g + e)
 

@@ -274,6 +274,7 @@ def summarize(store: RunStore, campaign: Campaign, reg: Registry, tasks: list[Ta
                 raise TypeError(f"study {name}: metric {key} must be a number, got {type(value).__name__}")
             metrics[f"{name}.{key}"] = value
         store.write_tables(name, summary.tables, to_markdown)
+        store.write_exports(name, summary.exports)
     return {"campaign": campaign.name, "config_hash": campaign.config_hash(), "seed": campaign.seed, "tasks": counts, "metrics": metrics}
 
 

@@ -7,6 +7,7 @@
     RUN_DIR/failed/<task_id>.log   traceback of a task that raised
     RUN_DIR/metrics.json           aggregated metrics (deterministic bytes)
     RUN_DIR/tables/<study>.<name>.parquet|.csv|.md, tables/index.json   the studies' tables
+    RUN_DIR/data/<study>.<name>.parquet|.csv   the studies' data exports (e.g. observation tables)
     RUN_DIR/figures/*.png|*.pdf, RUN_DIR/report.md
 
 Every file is written through aerotruth.files (temporary name, then rename), so a run
@@ -96,6 +97,7 @@ class RunStore:
     learned_dir = property(lambda self: self.root / "learned")
     failed_dir = property(lambda self: self.root / "failed")
     tables_dir = property(lambda self: self.root / "tables")
+    data_dir = property(lambda self: self.root / "data")
     figures_dir = property(lambda self: self.root / "figures")
     manifest_path = property(lambda self: self.root / "manifest.json")
     config_path = property(lambda self: self.root / "config.resolved.yaml")
@@ -214,6 +216,16 @@ class RunStore:
         index = json.loads(index_path.read_text()) if index_path.exists() else {}
         index[study] = list(tables)
         atomic_write_text(index_path, json.dumps(index, indent=2, sort_keys=True) + "\n")
+
+    def write_exports(self, study: str, exports: dict[str, pd.DataFrame]) -> None:
+        """A study's data exports: Parquet and CSV under RUN_DIR/data."""
+        if not exports:
+            return
+        self.data_dir.mkdir(parents=True, exist_ok=True)
+        for name, table in exports.items():
+            base = self.data_dir / f"{study}.{name}"
+            atomic_write_bytes(f"{base}.parquet", _table_bytes(table))
+            atomic_write_text(f"{base}.csv", table.to_csv(index=False))
 
     def read_tables(self, study: str) -> dict[str, pd.DataFrame]:
         """The summary tables of `study`, in the order the study gave them."""

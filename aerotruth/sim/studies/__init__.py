@@ -17,7 +17,8 @@ A study module defines `STUDY`, an instance of a `Study` subclass with
   DataFrame`: the runner calls it once every task of those stages is done, stores the
   table in the run directory and hands it to the tasks that need it (fit on a "before"
   period, apply to an "after" period); never recomputed while its inputs are unchanged;
-* `summarize(rows, learned, section) -> Summary` — metrics (numbers) and named tables from
+* `summarize(rows, learned, section) -> Summary` — metrics (numbers), named tables and data
+  exports from
   every task's rows (concatenated in task-id order with a leading `task_id` column and a
   `stage` column); written once to the run directory and read back by figures and report;
 * optionally `figures(rows, summary, learned, out_dir) -> list[Figure]` and `cost(task)`
@@ -74,6 +75,9 @@ class Summary:
 
     metrics: dict[str, Any]
     tables: dict[str, pd.DataFrame] = field(default_factory=dict)
+    exports: dict[str, pd.DataFrame] = field(default_factory=dict)
+    """Data products for the user (e.g. the observation table), written to
+    RUN_DIR/data/<study>.<name>.parquet and .csv but not shown in the report."""
 
 
 class Study(ABC):

@@ -1,0 +1,123 @@
+"""The wind_reports study: truth legs from the store through the heading system, air data,
+TAMDAR reports and weather-model analyses, inside a campaign.
+
+Expectations are independent of the code under test: the truth wind itself (an ideal
+sensor and a reference model with no error must reproduce it), and the hand formula of a
+hard-iron deviation in level flight evaluated on IGRF from ppigrf directly."""
+
+import datetime as dt
+import json
+
+import numpy as np
+import pandas as pd
+import ppigrf
+import pytest
+
+from aerotruth.config import ConfigError, parse_campaign
+from aerotruth.sim.campaign import run_campaign
+from aerotruth.sim.executors import ExecutorChoice
+from aerotruth.sim.wind_observations import aircraft_heading
+from aerotruth.sensors.magnetics import FluxValveFleetSpec
+
+LEGS = '[{from: KMSP, to: KDLH, departure_utc: "13:00"}, {from: KDLH, to: KMSP, departure_utc: "14:30"}]'
+IDEAL_REFERENCE = ("{name: exact, grid_spacing_m: 1, effective_resolution_m: 1, analysis_interval_s: 10, "
+                   "sigma_levels: [[1000, 0.0]], horizontal_correlation_m: 1.0e5, vertical_correlation_m: 1000, "
+                   "temporal_correlation_s: 3600}")
+
+
+def campaign(heading: str, air: str, references: str = f"[{IDEAL_REFERENCE}]", extra: str = "") -> str:
+    return f"""\
+name: wr
+seed: 11
+fleets:
+  - {{name: f, aircraft: [N1]}}
+periods:
+  - {{name: d, dates: [2009-08-15]}}
+studies:
+  wind_reports:
+    flights: {{fleets: [f], periods: [d], legs: {LEGS}}}
+    sensors:
+      fleets:
+        f: {{heading: {heading}, air_data: {air}}}
+      references: {references}
+{extra}"""
+
+
+PERFECT_VALVE = "{poor_fraction: 0, healthy_hard_iron_sigma_nT: 0, soft_iron_sigma: 0, mounting_sigma_deg: 0}"
+HARD_IRON_VALVE = "{poor_fraction: 1, poor_hard_iron_sigma_nT: 500, soft_iron_sigma: 0, mounting_sigma_deg: 0}"
+NO_NOISE = "{tas_noise_kt: 0, pressure_altitude_noise_ft: 0, gps_position_sigma_m: 0, gps_velocity_sigma_mps: 0}"
+
+
+def _run(text, out):
+    s = run_campaign(parse_campaign(text), ExecutorChoice("local", workers=2), out=out, progress=False, log=lambda m: None)
+    obs = pd.read_parquet(out / "data" / "wind_reports.observations.parquet")
+    return s, obs, json.loads((out / "metrics.json").read_text())["metrics"]
+
+
+def _steady_level(obs):
+    return obs[(obs["phase"] == "level") & (obs["roll_deg"].abs() < 2.0)]
+
+
+def test_ideal_sensors_report_the_truth_wind_and_a_sensor_change_reflies_nothing(tmp_path):
+    s1, obs, m = _run(campaign(PERFECT_VALVE, NO_NOISE), tmp_path / "a")
+    assert s1.legs_flown == 2 and m["wind_reports.legs_diverged"] == 0
+    level = _steady_level(obs)
+    assert len(level) >= 8
+    # report vs truth at the trigger sample: 1-kt/1-deg quantization and a 10-s mean of a slowly varying wind
+    du = (level["wind_speed_kt"] * np.sin(np.radians(level["wind_dir_deg"]))
+          - level["truth_wind_speed_kt"] * np.sin(np.radians(level["truth_wind_dir_deg"])))
+    dv = (level["wind_speed_kt"] * np.cos(np.radians(level["wind_dir_deg"]))
+          - level["truth_wind_speed_kt"] * np.cos(np.radians(level["truth_wind_dir_deg"])))
+    assert np.sqrt(np.mean(du ** 2 + dv ** 2)) < 1.5
+    # the error-free reference is the truth wind at the report's pressure level
+    dref = np.hypot(level["ref_wind_speed_kt"] - level["truth_wind_speed_kt"],
+                    ((level["ref_wind_dir_deg"] - level["truth_wind_dir_deg"] + 180) % 360 - 180) * level["truth_wind_speed_kt"] * np.pi / 180)
+    assert np.median(dref) < 1.0
+
+    # only the sensors change: the same two legs come from the store, nothing is flown
+    s2, obs2, _ = _run(campaign(HARD_IRON_VALVE, NO_NOISE), tmp_path / "b")
+    assert s2.legs_flown == 0
+    level = _steady_level(obs2)
+    # after five slaving time constants of level flight (the climb's tilt errors decayed)
+    settled = level["time"] - level.groupby("flight")["time"].transform("min") >= 300.0
+    level = level[settled]
+    assert len(level) >= 4
+    _, valve = aircraft_heading(11, "f", "N1", FluxValveFleetSpec(poor_fraction=1, soft_iron_sigma=0, mounting_sigma_deg=0))
+    px, py, _ = valve.hard_iron_nT
+    # level flight, magnetic heading psi: body field (H cos psi, -H sin psi); the valve reads
+    # atan2(H sin psi - py, H cos psi + px)
+    be, bn, _ = ppigrf.igrf(level["lon"].to_numpy(), level["lat"].to_numpy(),
+                            level["pressure_altitude_ft"].to_numpy() * 0.3048 / 1000, dt.datetime(2009, 8, 15))
+    h = np.hypot(be, bn).ravel()
+    dec = np.degrees(np.arctan2(be, bn)).ravel()
+    psi = np.radians(level["truth_heading_deg"].to_numpy() - dec)
+    expected = np.degrees(np.arctan2(h * np.sin(psi) - py, h * np.cos(psi) + px) - psi)
+    expected = (expected + 180) % 360 - 180
+    measured = (level["heading_deg"] - level["truth_heading_deg"] + 180) % 360 - 180
+    assert np.max(np.abs(expected)) > 0.5  # the hard iron is large enough to matter
+    # what remains is the pendulum's tilt under the truth's gusts, filtered by the slaving
+    # (~0.1 deg in cruise) and the 10-s mean of the reported heading
+    residual = measured.to_numpy() - expected
+    assert np.max(np.abs(residual)) < 0.3 and abs(np.mean(residual)) < 0.1
+
+
+@pytest.mark.parametrize("edit, field", [
+    ("heading: {soft_iron_sigma: -0.1}", "soft_iron_sigma"),
+    ("air_data: {tas_noise_kt: -1}", "tas_noise_kt"),
+])
+def test_bad_fleet_sensor_spec_names_the_field(edit, field):
+    text = campaign(PERFECT_VALVE, NO_NOISE).replace(f"f: {{heading: {PERFECT_VALVE}, air_data: {NO_NOISE}}}", f"f: {{{edit}}}")
+    with pytest.raises(ConfigError) as e:
+        parse_campaign(text)
+    msg = str(e.value)
+    assert "\n" not in msg and f"studies.wind_reports.sensors.fleets.f." in msg and field in msg
+
+
+def test_unknown_reference_model_and_zero_quantization_and_unknown_fleet_are_one_line_errors():
+    with pytest.raises(ConfigError, match=r"sensors\.references.*not a preset"):
+        parse_campaign(campaign(PERFECT_VALVE, NO_NOISE, references="[{name: gfs}]"))
+    zero_step = campaign(PERFECT_VALVE, NO_NOISE).replace("      references:", "      reports: {lat_lon_step_deg: 0}\n      references:")
+    with pytest.raises(ConfigError, match=r"sensors\.reports\.lat_lon_step_deg.*quantization step"):
+        parse_campaign(zero_step)
+    with pytest.raises(ConfigError, match=r"sensors\.fleets\.g.*fleet of the campaign"):
+        parse_campaign(campaign(PERFECT_VALVE, NO_NOISE).replace("        f: {heading", "        g: {heading"))
