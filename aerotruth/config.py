@@ -50,12 +50,15 @@ class OutputsConfig(Section):
 
 
 class Period(Section):
-    """A named set of UTC days: either `dates:` (a list) or `start:`/`end:` (inclusive)."""
+    """A named set of UTC days: either `dates:` (a list) or `start:`/`end:` (inclusive),
+    optionally every `every_days`-th day from start."""
 
     name: str = Field(min_length=1)
     dates: list[_dt.date] | None = None
     start: _dt.date | None = None
     end: _dt.date | None = None
+    every_days: StrictInt = Field(default=1, ge=1, description="with start/end: keep every N-th day from start "
+                                  "(a long period subsampled)")
 
     @model_validator(mode="after")
     def _one_form(self) -> Period:
@@ -68,6 +71,8 @@ class Period(Section):
             raise ValueError("expected dates: [...] or both start: and end:")
         elif self.end < self.start:
             raise ValueError(f"end {self.end} is before start {self.start}")
+        if self.dates is not None and self.every_days != 1:
+            raise ValueError("every_days subsamples start/end periods; list the dates instead")
         return self
 
     def days(self) -> list[_dt.date]:
@@ -75,7 +80,7 @@ class Period(Section):
         if self.dates is not None:
             return sorted(set(self.dates))
         n = (self.end - self.start).days + 1  # type: ignore[operator]
-        return [self.start + _dt.timedelta(days=i) for i in range(n)]  # type: ignore[operator]
+        return [self.start + _dt.timedelta(days=i) for i in range(0, n, self.every_days)]  # type: ignore[operator]
 
 
 class Fleet(Section):

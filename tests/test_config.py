@@ -9,6 +9,9 @@ import pytest
 
 from aerotruth.cli import main
 from aerotruth.config import ConfigError, load_campaign, parse_campaign
+from aerotruth.sim.studies import builtin_sources
+
+BUILTIN = ", ".join(sorted(builtin_sources()))  # the installed built-in studies, as the message lists them
 
 VALID = """\
 name: t1
@@ -149,7 +152,7 @@ def test_duplicate_yaml_key_is_an_error_not_last_wins():
 
 def test_no_study_and_yaml_syntax_errors():
     text = VALID[: VALID.index("studies:")] + "studies: {}\n"
-    assert error_of(text).startswith("studies: expected at least one study (modes_diagnose, truth, wind_climatology)")
+    assert error_of(text).startswith(f"studies: expected at least one study ({BUILTIN})")
     assert error_of("name: [unclosed\n").startswith("not valid YAML:")
     assert error_of("- just\n- a list\n") == 'expected a mapping of campaign fields at the top level, got a list of 2'
 
@@ -207,7 +210,7 @@ def test_validate_of_a_path_below_a_file_is_one_line(tmp_path, capsys):
 
 def test_an_unknown_study_names_the_available_ones_and_its_line():
     text = VALID + "  sensors_of_the_future: {}\n"
-    assert error_of(text) == ("studies.sensors_of_the_future: unknown study (available: modes_diagnose, truth, wind_climatology) "
+    assert error_of(text) == (f"studies.sensors_of_the_future: unknown study (available: {BUILTIN}) "
                               f"(line {line_of(text, 'sensors_of_the_future')})")
 
 

@@ -1,0 +1,345 @@
+"""Heading-correction study: the wind paper's method end to end on a simulated fleet —
+fit each aircraft's deviation on a long period, select the poor and control aircraft by
+their before-period wind RMS as the airline did, upload the 8-point tables to the poor
+ones, and compare the after period with the before (wind paper section 8, Tables I-IV).
+
+Stages (aircraft-day tasks, truth from the store; each airframe keeps its sensors in
+every period because its sensor streams are named by the aircraft, not the day):
+
+* `fit`    — reports of the fit period, uncorrected;
+* `before` — reports of the before period, uncorrected;
+* learned `corrections` (fitted once both are done, stored in RUN_DIR/learned): per
+  aircraft the deviation fit of `aerotruth.analysis.heading_correction` on the fit
+  period (true heading, the paper's choice, or magnetic: `fit_heading`), its before-period
+  RMS vector difference against the combined references, and its group: the `poor`
+  aircraft with the largest before RMS, the `control` aircraft with the smallest
+  (selection by the noisy before RMS itself, so regression to the mean is part of the
+  result), `other` for the rest;
+* `after`  — reports of the after period; poor aircraft carry their uploaded table:
+  8-point lookup on the measured magnetic heading (SAAB 340), or the offset alone where
+  the avionics hand over true heading (ERJ-145, Table IV); refused fits upload nothing.
+
+Control-group adjustment (wind paper Table II: after 9.0 kn - control change 0.6 kn =
+8.4 kn): each after cell of the poor group minus the control group's change in the same
+cell (total, longitudinal, transverse, each by subtraction). Table IV subtracts 1.2 kn
+where its control moved 1.3; here always the control's own change.
+
+Metrics: per group and period the total, longitudinal and transverse RMS (combined
+references, reports banked over `max_roll_deg` left out), the poor group's adjusted after
+cells and improvement (kn and %), the trustworthy share of aircraft (before-period RMS
+under `trustworthy_rms_kt`, wind paper Fig. 10) before and after, and — available only
+in simulation — the poor group's residual heading error against the truth.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, Literal
+
+import numpy as np
+import pandas as pd
+from pydantic import Field, StrictInt, model_validator
+
+from aerotruth.config import Campaign, References, Section
+from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, day_cost, day_task
+from aerotruth.sim.studies import Figure, Study, Summary
+from aerotruth.sim.studies.wind_reports import check_sensors, diverged_rows, observations_only
+from aerotruth.sim.tasks import Task
+from aerotruth.sim.wind_observations import WindSensors
+
+STAGES = ("fit", "before", "after")
+COMPONENTS = (("rms_kt", "total"), ("longitudinal_rms_kt", "longitudinal"), ("transverse_rms_kt", "transverse"))
+
+
+class PeriodRoles(Section):
+    """Which campaign periods play the fit, before and after roles."""
+
+    fit: str = Field(min_length=1)
+    before: str = Field(min_length=1)
+    after: str = Field(min_length=1)
+
+
+class Selection(Section):
+    """How many aircraft get tables (largest before RMS) and how many are controls (smallest)."""
+
+    poor: StrictInt = Field(ge=1, description="aircraft with the largest before-period RMS get tables")
+    control: StrictInt = Field(ge=1, description="aircraft with the smallest before-period RMS are the control group")
+
+
+class HeadingCorrectionConfig(Section):
+    """Fleets, periods, sensors, selection and method options of the study."""
+
+    fleets: list[str] = Field(min_length=1)
+    periods: PeriodRoles
+    max_legs_per_day: StrictInt | None = Field(default=None, ge=1)
+    sensors: WindSensors = Field(default_factory=WindSensors)
+    selection: Selection
+    fit_heading: Literal["true", "magnetic"] = Field(
+        default="true", description="frame of the fitted table: true (the paper's shortcut) or magnetic (the frame "
+        "the onboard table is indexed by)")
+    max_roll_deg: float = Field(default=10.0, gt=0, le=90, description="reports banked more are not scored")
+    trustworthy_rms_kt: float = Field(default=10.0, gt=0, description="an aircraft is trustworthy when its RMS vector "
+                                      "difference is below this (assumption: the paper's flag threshold is not given)")
+
+    @model_validator(mode="after")
+    def _distinct_roles(self) -> HeadingCorrectionConfig:
+        if self.periods.before == self.periods.after:
+            raise ValueError("periods: before and after must be different periods")
+        return self
+
+    def flights(self, role: str) -> FlightSelection:
+        """The aircraft-days of one role."""
+        return FlightSelection(fleets=self.fleets, periods=[getattr(self.periods, role)],
+                               max_legs_per_day=self.max_legs_per_day)
+
+
+def scored(obs: pd.DataFrame, max_roll_deg: float) -> pd.DataFrame:
+    """Reports the metrics use: unbanked."""
+    return obs[obs["roll_deg"].abs() <= max_roll_deg].reset_index(drop=True)
+
+
+def group_rms(obs: pd.DataFrame) -> dict[str, float]:
+    """Total/longitudinal/transverse RMS and report count of an observation table."""
+    from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
+
+    if obs.empty:
+        return {"n": 0, **{c: np.nan for c, _ in COMPONENTS}}
+    s = wind_error_summary(wind_errors(obs)).iloc[0]
+    return {"n": int(obs.drop_duplicates(["aircraft", "time"]).shape[0]), **{c: float(s[c]) for c, _ in COMPONENTS}}
+
+
+def per_aircraft_rms(obs: pd.DataFrame) -> pd.DataFrame:
+    """RMS vector difference (combined references) per aircraft."""
+    from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
+
+    if obs.empty:
+        return pd.DataFrame(columns=["aircraft", "n", "rms_kt"])
+    return wind_error_summary(wind_errors(obs), by=["aircraft"])[["aircraft", "n", "rms_kt"]]
+
+
+class HeadingCorrection(Study):
+    """The `heading_correction` study (see the module docstring)."""
+
+    name = "heading_correction"
+    title = "Heading-deviation correction: fit, select, upload, compare (wind paper Tables I-IV)"
+    Config = HeadingCorrectionConfig
+    learns = {"corrections": ("fit", "before")}
+
+    def check(self, campaign: Campaign, refs: References) -> None:
+        section: HeadingCorrectionConfig = campaign.section(self.name)
+        refs.names(("fleets",), "fleets")
+        for role in STAGES:
+            refs.names(("periods", role), "periods")
+        for name in section.fleets:
+            j = next(k for k, f in enumerate(campaign.fleets) if f.name == name)
+            if campaign.fleets[j].network is None:
+                raise refs.error(("fleets", j, "network"), f"required by {refs.where} (aircraft fly their network's "
+                                 "daily schedule), expected a route network name", absolute=True)
+        check_sensors(campaign, refs, section.sensors, prefix=("sensors",))
+        n = sum(len(campaign.fleet(f).aircraft) for f in section.fleets)
+        if section.selection.poor + section.selection.control > n:
+            raise refs.error(("selection",), f"poor + control = {section.selection.poor + section.selection.control} "
+                             f"exceeds the {n} aircraft of the fleets")
+
+    def expand(self, campaign: Campaign, section: HeadingCorrectionConfig) -> list[Task]:
+        tasks = []
+        for role in STAGES:
+            needs = ("corrections",) if role == "after" else ()
+            for fleet, day in aircraft_days(campaign, section.flights(role)):
+                tasks.append(day_task(self.name, fleet, day, stage=role, needs=needs, sensors=section.sensors.only(fleet),
+                                      campaign_seed=campaign.seed))
+        return tasks
+
+    def cost(self, task: Task) -> float:
+        return day_cost(task.params["day"]) + 1.0
+
+    def run(self, task: Task, ctx) -> pd.DataFrame:
+        from aerotruth.sim.wind_observations import day_observations
+
+        day, fleet = task.params["day"], dict(task.identity)["fleet"]
+        correction = None
+        if task.stage == "after":
+            correction = uploaded_correction(ctx.learned["corrections"], day.aircraft)
+        outcomes = ctx.truth.day(day)
+        obs, _ = day_observations(task.params["campaign_seed"], fleet, day, task.params["sensors"], ctx,
+                                  correction=correction, legs=outcomes)
+        if len(obs):
+            obs["corrected"] = correction is not None
+        return pd.concat([obs, diverged_rows(fleet, day.aircraft, day.date.isoformat(), outcomes)], ignore_index=True)
+
+    def fit(self, name: str, rows: pd.DataFrame, section: HeadingCorrectionConfig, rng) -> pd.DataFrame:
+        from aerotruth.analysis.heading_correction import FleetHeadingFit, GateSpec
+
+        fit_obs = observations_only(rows[rows["stage"] == "fit"])
+        before = scored(observations_only(rows[rows["stage"] == "before"]), section.max_roll_deg)
+        table = FleetHeadingFit(heading=section.fit_heading, gates=GateSpec(max_roll_deg=section.max_roll_deg)).fit(
+            fit_obs, source="fit-period reports").to_table()
+        rms = per_aircraft_rms(before).rename(columns={"n": "before_n", "rms_kt": "before_rms_kt"})
+        info = fit_obs.drop_duplicates("aircraft")[["aircraft", "fleet", "heading_input", "heading_class"]]
+        out = info.merge(rms, on="aircraft", how="left").merge(table, on="aircraft", how="left")
+        out["aircraft"] = out["aircraft"].astype(str)
+        ranked = out.sort_values(["before_rms_kt", "aircraft"], ascending=[False, True], na_position="last")["aircraft"].tolist()
+        have = [a for a in ranked if np.isfinite(out.set_index("aircraft").loc[a, "before_rms_kt"])]
+        poor = set(have[:section.selection.poor])
+        control = set(have[::-1][:section.selection.control]) - poor
+        out["group"] = np.where(out["aircraft"].isin(poor), "poor", np.where(out["aircraft"].isin(control), "control", "other"))
+        out["status"] = out["status"].fillna("refused")
+        out["reason"] = out["reason"].fillna("no fit-period reports")
+        return out.sort_values("aircraft").reset_index(drop=True)
+
+    def summarize(self, rows: pd.DataFrame, learned, section: HeadingCorrectionConfig) -> Summary:
+        corr = learned.get("corrections")
+        m: dict[str, Any] = {"aircraft_days": int(rows["task_id"].nunique()) if "task_id" in rows else 0,
+                             "legs_diverged": int((rows.get("trigger") == "leg_diverged").sum()) if "trigger" in rows else 0}
+        if corr is None or rows.empty:
+            return Summary(m, {})
+        group_of = corr.set_index("aircraft")["group"]
+        cells, per_ac = [], []
+        for stage in ("before", "after"):
+            obs = scored(observations_only(rows[rows["stage"] == stage]), section.max_roll_deg)
+            if obs.empty:
+                continue
+            obs = obs.assign(group=obs["aircraft"].astype(str).map(group_of).fillna("other"))
+            for g in ("poor", "control"):
+                cells.append({"group": g, "period": stage, **group_rms(obs[obs["group"] == g])})
+            per_ac.append(per_aircraft_rms(obs).assign(period=stage))
+        table = pd.DataFrame(cells)
+        table = adjusted_table(table)
+        for r in table.itertuples():
+            for col, label in COMPONENTS:
+                m[f"{r.group}.{r.period}.{label}_rms_kt"] = None if pd.isna(getattr(r, col)) else float(getattr(r, col))
+        imp = table[(table.group == "poor") & (table.period == "improvement")]
+        bef = table[(table.group == "poor") & (table.period == "before")]
+        if len(imp) and len(bef):
+            m["poor.improvement_pct"] = float(100.0 * imp["rms_kt"].iloc[0] / bef["rms_kt"].iloc[0])
+        bars = pd.concat(per_ac, ignore_index=True) if per_ac else pd.DataFrame()
+        if len(bars):
+            bars["group"] = bars["aircraft"].astype(str).map(group_of).fillna("other")
+            wide = bars.pivot_table(index=["aircraft", "group"], columns="period", values="rms_kt").reset_index()
+            for p in ("before", "after"):
+                if p in wide:
+                    m[f"trustworthy_share.{p}"] = float((wide[p] < section.trustworthy_rms_kt).mean())
+        else:
+            wide = pd.DataFrame()
+        residual = residual_heading_error(rows, group_of, section.max_roll_deg)
+        for r in residual.itertuples():
+            m[f"{r.group}.{r.period}.heading_error_rms_deg"] = float(r.heading_error_rms_deg)
+        fits = corr[[c for c in ("aircraft", "fleet", "group", "heading_class", "heading_input", "before_rms_kt", "status",
+                                 "A_deg", "B_deg", "C_deg", "D_deg", "E_deg", "A_se_deg", "B_se_deg", "C_se_deg", "reason")
+                     if c in corr.columns]]
+        m["aircraft_fitted"] = int((corr["status"] == "fitted").sum())
+        m["aircraft_offset_only"] = int((corr["status"] == "offset_only").sum())
+        m["aircraft_refused"] = int((corr["status"] == "refused").sum())
+        return Summary(m, {"groups": table, "per_aircraft": wide, "heading_error_vs_truth": residual, "fits": fits},
+                       exports={"observations": observations_only(rows)})
+
+    def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
+        import matplotlib.pyplot as plt
+
+        from aerotruth.sim.figures import save
+
+        figs = []
+        wide = summary.tables.get("per_aircraft")
+        if wide is not None and len(wide) and "before" in wide:
+            w = wide[wide["group"].isin(["poor", "control"])].sort_values(["group", "before"], ascending=[False, False])
+            fig, ax = plt.subplots(figsize=(max(6, 0.35 * len(w)), 4))
+            x = np.arange(len(w))
+            ax.bar(x - 0.2, w["before"], 0.4, color="maroon", label="before")
+            if "after" in w:
+                colors = np.where(w["group"] == "poor", "green", "white")
+                ax.bar(x + 0.2, w["after"], 0.4, color=colors, edgecolor="k", label="after (green: table uploaded)")
+            ax.set_xticks(x, w["aircraft"], rotation=90, fontsize=7)
+            ax.set_ylabel("RMS vector difference (kt)")
+            ax.legend(fontsize=8)
+            ax.set_title("Per aircraft before/after, combined references (wind paper Fig. 9)")
+            save(fig, out_dir, "heading_correction_per_aircraft")
+            figs.append(Figure("heading_correction_per_aircraft", "RMS vector difference per aircraft before and after "
+                               "(poor: table uploaded; control: unchanged)"))
+        corr = learned.get("corrections")
+        fit_obs = observations_only(rows[rows["stage"] == "fit"]) if "stage" in rows else pd.DataFrame()
+        if corr is not None and len(fit_obs):
+            from aerotruth.analysis.heading_correction import GateSpec, heading_errors
+
+            poor = corr[(corr["group"] == "poor") & (corr["status"] != "refused")].sort_values("before_rms_kt", ascending=False)
+            show = poor["aircraft"].tolist()[:4]
+            if show:
+                errs = heading_errors(fit_obs[fit_obs["aircraft"].astype(str).isin(show)], GateSpec())
+                fig, axes = plt.subplots(1, len(show), figsize=(3.2 * len(show), 3.2), squeeze=False, sharey=True)
+                z = np.linspace(0, 360, 181)
+                for ax, ac in zip(axes[0], show):
+                    e = errs[(errs["aircraft"].astype(str) == ac) & (errs["gate"] == "used")]
+                    ax.plot(e["heading_deg"], e["error_deg"], ".", ms=2, alpha=0.4)
+                    r = corr.set_index("aircraft").loc[ac]
+                    zr = np.radians(z)
+                    d = (r["A_deg"] + r["B_deg"] * np.sin(zr) + r["C_deg"] * np.cos(zr) + r["D_deg"] * np.sin(2 * zr)
+                         + r["E_deg"] * np.cos(2 * zr))
+                    ax.plot(z, d, "r-", lw=2)
+                    ax.set_title(f"{ac} ({r['status']})", fontsize=9)
+                    ax.set_xlabel("measured heading (deg)")
+                    ax.set_xlim(0, 360)
+                    ax.set_ylim(-15, 15)
+                    ax.grid(alpha=0.3)
+                axes[0][0].set_ylabel("heading error (deg)")
+                fig.suptitle("Heading error vs measured heading with the fit (wind paper Figs. 3/8)")
+                save(fig, out_dir, "heading_correction_fits")
+                figs.append(Figure("heading_correction_fits", "Fit-period heading errors of the poorest aircraft "
+                                   "with the fitted eq. 2 curve"))
+        return figs
+
+
+def uploaded_correction(corrections: pd.DataFrame, aircraft: str):
+    """The correction uploaded to `aircraft`: its 8-point table (magnetic-heading systems)
+    or its offset (true-heading avionics) when it is in the poor group and was fitted;
+    None otherwise."""
+    from aerotruth.analysis.heading_correction import LUT_COLUMNS
+    from aerotruth.sensors.tamdar import LookupTableCorrection, OffsetCorrection
+
+    rows = corrections[corrections["aircraft"].astype(str) == aircraft]
+    if rows.empty:
+        return None
+    r = rows.iloc[0]
+    if r["group"] != "poor" or r["status"] not in ("fitted", "offset_only"):
+        return None
+    lut = [float(r[c]) for c in LUT_COLUMNS]
+    if r["heading_input"] == "true":
+        return OffsetCorrection(offset_deg=float(np.mean(lut)))
+    return LookupTableCorrection(lut_deg=lut)
+
+
+def adjusted_table(cells: pd.DataFrame) -> pd.DataFrame:
+    """Add the poor group's adjusted after cells and improvements (module docstring)."""
+    if cells.empty:
+        return cells
+    idx = cells.set_index(["group", "period"])
+    cols = [c for c, _ in COMPONENTS]
+    extra = []
+    if ("control", "before") in idx.index and ("control", "after") in idx.index:
+        change = idx.loc[("control", "after"), cols] - idx.loc[("control", "before"), cols]
+        extra.append({"group": "control", "period": "change", **change.to_dict()})
+        if ("poor", "after") in idx.index:
+            adj = idx.loc[("poor", "after"), cols] - change
+            extra.append({"group": "poor", "period": "after_adjusted", **adj.to_dict()})
+            extra.append({"group": "poor", "period": "improvement", **(idx.loc[("poor", "before"), cols] - adj).to_dict()})
+    return pd.concat([cells, pd.DataFrame(extra)], ignore_index=True)
+
+
+def residual_heading_error(rows: pd.DataFrame, group_of: pd.Series, max_roll_deg: float) -> pd.DataFrame:
+    """RMS of reported minus true heading in steady level flight per group and period
+    (simulation only: the truth is known)."""
+    out = []
+    for stage in ("before", "after"):
+        obs = observations_only(rows[rows["stage"] == stage]) if "stage" in rows else pd.DataFrame()
+        if obs.empty:
+            continue
+        obs = obs[(obs["ref_source"] == obs["ref_source"].iloc[0]) & (obs["phase"] == "level") & (obs["roll_deg"].abs() < 5.0)]
+        d = (obs["heading_deg"] - obs["truth_heading_deg"] + 180.0) % 360.0 - 180.0
+        g = obs["aircraft"].astype(str).map(group_of).fillna("other")
+        for name in ("poor", "control"):
+            x = d[g == name]
+            if len(x):
+                out.append({"group": name, "period": stage, "n": int(len(x)), "heading_error_rms_deg": float(np.sqrt(np.mean(x ** 2))),
+                            "heading_error_mean_deg": float(np.mean(x))})
+    return pd.DataFrame(out)
+
+
+STUDY = HeadingCorrection()
