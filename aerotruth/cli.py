@@ -132,6 +132,7 @@ def _add_campaign_commands(sub) -> None:
 
     run = sub.add_parser("run", help="run a campaign (seeded Monte-Carlo) into a run directory")
     run.add_argument("campaign", help="campaign YAML file")
+    run.add_argument("--size", default=None, help="apply the campaign's `sizes: NAME:` overrides (e.g. reduced); runs/<name>-<size>")
     run.add_argument("--out", default=None, help="run directory (default runs/<campaign name>)")
     run.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: cores)")
     run.add_argument("--executor", choices=["local", "dask"], default=None, help="executor (default: the YAML's, else local)")
@@ -142,6 +143,7 @@ def _add_campaign_commands(sub) -> None:
 
     val = sub.add_parser("validate", help="check a campaign YAML and expand its tasks")
     val.add_argument("campaign", help="campaign YAML file")
+    val.add_argument("--size", default=None, help="validate with the campaign's `sizes: NAME:` overrides applied")
     val.set_defaults(func=lazy("validate_cli"))
 
     fig = sub.add_parser("figures", help="draw the figures of a run directory")

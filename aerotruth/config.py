@@ -122,6 +122,10 @@ class Campaign(Section):
     truth_store: TruthStoreConfig = TruthStoreConfig()
     executor: ExecutorConfig = ExecutorConfig()
     outputs: OutputsConfig = OutputsConfig()
+    sizes: dict[str, dict[str, Any]] = Field(
+        default_factory=dict, description="named reduced (or other) sizes: overrides merged into the campaign by "
+        "`aerotruth run --size NAME` (mappings merge key by key, lists and values replace)")
+    size: str | None = Field(default=None, description="the size applied (set by --size; not written by hand)")
 
     def fleet(self, name: str) -> Fleet:
         """The fleet called `name`."""
@@ -464,9 +468,39 @@ _CampaignLoader.add_implicit_resolver(
 )
 
 
-def parse_campaign(text: str, base_dir: str | Path | None = None) -> Campaign:
+def _merged(base: Any, override: Any) -> Any:
+    """`override` merged into `base`: mappings key by key, anything else replaced."""
+    if isinstance(base, dict) and isinstance(override, dict):
+        out = dict(base)
+        for k, v in override.items():
+            out[k] = _merged(base.get(k), v) if k in base else v
+        return out
+    return override
+
+
+def _apply_size(data: dict, size: str) -> dict:
+    """The campaign data with the overrides of `sizes[size]` merged in, named <name>-<size>."""
+    sizes = data.get("sizes") or {}
+    if not isinstance(sizes, dict) or size not in sizes:
+        have = ", ".join(sorted(sizes)) if isinstance(sizes, dict) and sizes else "none"
+        raise ConfigError(f"--size {size}: the campaign defines no such size (sizes: {have})")
+    override = sizes[size]
+    if not isinstance(override, dict):
+        raise ConfigError(f"sizes.{size}: expected a mapping of campaign fields to override, got {_describe(override)}")
+    bad = sorted(set(override) - {"fleets", "periods", "studies", "description", "executor", "truth_store", "outputs"})
+    if bad:
+        raise ConfigError(f"sizes.{size}: cannot override {', '.join(bad)} (fleets, periods, studies, description, "
+                          "executor, truth_store, outputs)")
+    out = _merged({k: v for k, v in data.items()}, override)
+    out["name"] = f"{data.get('name')}-{size}"
+    out["size"] = size
+    return out
+
+
+def parse_campaign(text: str, base_dir: str | Path | None = None, size: str | None = None) -> Campaign:
     """Validate campaign YAML text; any problem raises ConfigError with one line.
-    `base_dir` is where relative `study_modules:` files are found (the YAML's folder)."""
+    `base_dir` is where relative `study_modules:` files are found (the YAML's folder);
+    `size` applies the overrides of that entry of `sizes:` (a reduced campaign)."""
     try:
         root = yaml.compose(text, Loader=_CampaignLoader)
         data = yaml.load(text, Loader=_CampaignLoader)
@@ -479,6 +513,8 @@ def parse_campaign(text: str, base_dir: str | Path | None = None) -> Campaign:
     if not isinstance(data, dict):
         raise ConfigError(f"expected a mapping of campaign fields at the top level, got {_describe(data)}")
     _check_duplicate_keys(root)
+    if size is not None:
+        data = _apply_size(data, size)
     try:
         campaign = Campaign.model_validate(data)
     except ValidationError as e:
@@ -487,8 +523,9 @@ def parse_campaign(text: str, base_dir: str | Path | None = None) -> Campaign:
     return _validate_studies(campaign, root, Path(base_dir) if base_dir is not None else None)
 
 
-def load_campaign(path: str | Path) -> Campaign:
-    """Read and validate a campaign YAML file (ConfigError with one line on any problem)."""
+def load_campaign(path: str | Path, size: str | None = None) -> Campaign:
+    """Read and validate a campaign YAML file (ConfigError with one line on any problem);
+    `size` as in parse_campaign."""
     p = Path(path)
     try:
         text = p.read_text(encoding="utf-8")
@@ -501,6 +538,6 @@ def load_campaign(path: str | Path) -> Campaign:
     except (OSError, UnicodeDecodeError) as e:
         raise ConfigError(f"{p}: cannot read campaign file ({e})") from None
     try:
-        return parse_campaign(text, base_dir=p.resolve().parent)
+        return parse_campaign(text, base_dir=p.resolve().parent, size=size)
     except ConfigError as e:
         raise ConfigError(f"{p}: {e}") from None

@@ -11,12 +11,19 @@ The default campaign is a wind climatology with tasks of ~5 s each (8 tasks:
 2 regions x 4 days). `--truth` uses truth flights instead (4 aircraft-days of 2 legs:
 heavier, JSBSim).
 
-    python benchmarks/campaign_scaling.py [--points 12000] [--no-dask] [--truth]
+`--mesaba` instead times the reduced Mesaba campaign (campaigns/mesaba_2009.yaml --size
+reduced) on 2 workers twice, into an empty truth store: `mesaba_cold` (every leg flown)
+and `mesaba_warm` (a sensor parameter changed: the poor hard-iron sigma; every leg from
+the truth store, every report, fit and metric recomputed), plus `mesaba_legs_flown_warm`
+(0 when truth is reused).
+
+    python benchmarks/campaign_scaling.py [--points 12000] [--no-dask] [--truth] [--mesaba]
 """
 
 from __future__ import annotations
 
 import argparse
+import os
 import tempfile
 import time
 from pathlib import Path
@@ -65,12 +72,36 @@ def timed_run(text: str, choice: ExecutorChoice, out: Path) -> float:
     return time.perf_counter() - t0
 
 
+def mesaba(root: Path) -> None:
+    """Cold and warm wall times of the reduced Mesaba campaign (module docstring)."""
+    from aerotruth.config import load_campaign
+
+    os.environ["AEROTRUTH_CACHE"] = str(root / "cache")  # an empty truth store
+    path = Path(__file__).resolve().parents[1] / "campaigns" / "mesaba_2009.yaml"
+    cold = load_campaign(path, size="reduced")
+    section = cold.studies["heading_correction"]
+    fleet = section.sensors.fleets["mesaba"]
+    heading = fleet.heading.model_copy(update={"poor_hard_iron_sigma_nT": fleet.heading.poor_hard_iron_sigma_nT * 1.2})
+    sensors = section.sensors.model_copy(update={"fleets": {"mesaba": fleet.model_copy(update={"heading": heading})}})
+    warm = cold.model_copy(update={"studies": {"heading_correction": section.model_copy(update={"sensors": sensors})}})
+    for label, campaign, out in (("cold", cold, "cold"), ("warm", warm, "warm")):
+        t0 = time.perf_counter()
+        s = run_campaign(campaign, ExecutorChoice("local", workers=2), out=root / out, progress=False, log=lambda m: None)
+        print(f"mesaba_{label}: {time.perf_counter() - t0:.1f}")
+        print(f"mesaba_legs_flown_{label}: {s.legs_flown}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--points", type=int, default=12000, help="wind samples per level and hour (task weight)")
     ap.add_argument("--no-dask", action="store_true", help="skip the Dask LocalCluster run")
     ap.add_argument("--truth", action="store_true", help="time truth flights instead of the wind climatology")
+    ap.add_argument("--mesaba", action="store_true", help="time the reduced Mesaba campaign cold and warm instead")
     args = ap.parse_args()
+    if args.mesaba:
+        with tempfile.TemporaryDirectory() as tmp:
+            mesaba(Path(tmp))
+        return
     text = TRUTH if args.truth else WIND.format(points=args.points)
     n_tasks = 4 if args.truth else 8
     with tempfile.TemporaryDirectory() as tmp:

@@ -217,3 +217,29 @@ def test_an_unknown_study_names_the_available_ones_and_its_line():
 def test_a_study_module_file_that_does_not_exist_is_named():
     text = "study_modules: [no_such_study.py]\n" + VALID
     assert error_of(text).startswith("study_modules[0]: expected a study module file")
+
+
+SIZED = VALID + """sizes:
+  reduced:
+    fleets:
+      - {name: north, network: mesaba, aircraft: [N401XJ]}
+      - {name: alaska, network: penair, aircraft: [N672PA]}
+    periods:
+      - {name: aug, dates: [2009-08-15]}
+      - {name: sep, start: 2009-09-01, end: 2009-09-03, every_days: 2}
+"""
+
+
+def test_a_named_size_overrides_fields_and_renames_the_campaign():
+    full = parse_campaign(SIZED)
+    small = parse_campaign(SIZED, size="reduced")
+    assert full.name == "t1" and small.name == "t1-reduced" and small.size == "reduced"
+    assert [f.aircraft for f in small.fleets] == [["N401XJ"], ["N672PA"]]
+    assert [d.isoformat() for d in small.period("sep").days()] == ["2009-09-01", "2009-09-03"]
+    assert small.studies.keys() == full.studies.keys() and small.seed == full.seed
+    # the resolved YAML of a sized campaign reads back as the same campaign
+    assert parse_campaign(small.to_yaml()).config_hash() == small.config_hash()
+    with pytest.raises(ConfigError, match=r"^--size huge: the campaign defines no such size \(sizes: reduced\)$"):
+        parse_campaign(SIZED, size="huge")
+    with pytest.raises(ConfigError, match=r"^sizes\.reduced: cannot override seed"):
+        parse_campaign(SIZED + "    seed: 3\n", size="reduced")

@@ -105,3 +105,16 @@ def test_every_days_subsamples_a_period_and_the_selection_must_fit_the_fleet():
         parse_campaign(PERIODS.replace("dates: [2009-08-15]}", "dates: [2009-08-15], every_days: 2}"))
     with pytest.raises(ConfigError, match=r"studies\.heading_correction\.periods\.after: expected the name of one of the periods"):
         parse_campaign(PERIODS.replace("after: c}", "after: z}"))
+
+
+def test_published_cells_sit_beside_the_simulated_ones_with_their_role():
+    from aerotruth.sim.studies.heading_correction import PaperTable, versus_paper
+
+    sim = pd.DataFrame([{"group": "poor", "period": "before", "rms_kt": 11.0, "longitudinal_rms_kt": 5.0, "transverse_rms_kt": 9.0}])
+    paper = PaperTable(source="Table II", cells=[
+        {"group": "poor", "period": "before", "rms_kt": 10.8, "longitudinal_rms_kt": 5.4, "role": "calibrated"},
+        {"group": "poor", "period": "after", "rms_kt": 9.0, "role": "predicted"}])
+    t = versus_paper(sim, paper)
+    assert t[["component", "paper_kt", "role"]].values.tolist() == [["total", 10.8, "calibrated"], ["longitudinal", 5.4, "calibrated"],
+                                                                    ["total", 9.0, "predicted"]]
+    assert t["difference_kt"].iloc[:2].tolist() == pytest.approx([0.2, -0.4]) and np.isnan(t["simulated_kt"].iloc[2])

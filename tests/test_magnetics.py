@@ -310,6 +310,21 @@ def test_valve_spinning_a_full_turn_does_not_drag_the_gyro_round():
     assert err[-1] == pytest.approx(10.0, abs=0.1)
 
 
+def test_gyro_starts_from_the_power_up_reading_not_the_first_sample():
+    # the first samples read a swinging valve (+30 deg); the gyro was slewed on the ground
+    # to the static reading (+2 deg): the error starts at 2 deg and decays towards the
+    # valve with tau (no 30-deg start)
+    t = np.arange(600) * 0.1
+    psi = np.full(t.size, 1.0)
+    valve = np.where(t < 1.0, 1.0 + 30 * DEG, 1.0 + 2 * DEG)
+    out = slaved_heading(t, valve, psi, np.zeros(t.size), tau_s=60.0, cutout_bank_rad=10 * DEG,
+                         initial_valve_rad=1.0 + 2 * DEG)
+    assert np.degrees(out[0] - 1.0) == pytest.approx(2.0, abs=1e-9)
+    # 1 s of +28 deg excess moves it by ~28 / 60 deg, then it holds at 2 deg + that decaying
+    assert np.degrees(out[10] - 1.0) == pytest.approx(2.0 + 28.0 * (1 - math.exp(-1.0 / 60.0)), abs=1e-3)
+    assert np.max(np.abs(np.degrees(out - 1.0))) < 2.5
+
+
 def test_slaving_needs_equally_spaced_samples():
     with pytest.raises(ValueError, match="time_s"):
         slaved_heading([0.0, 0.1, 0.3], [0.0] * 3, [0.0] * 3, [0.0] * 3, tau_s=60.0, cutout_bank_rad=0.2)

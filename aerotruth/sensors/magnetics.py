@@ -71,7 +71,9 @@ r_gyro = dpsi_true/dt + drift (the gyro's azimuth rate; Earth and transport rate
 as compensated). Written as psi = psi_g + e with psi_g = integral of r_gyro, the error
 e is a gated first-order low-pass of u = psi_valve - psi_g. Exact discretisation for
 readings held over a sample interval: e_k = e_{k-1} + s_{k-1} alpha (u_{k-1} - e_{k-1}),
-alpha = 1 - exp(-dt/tau); at power-up the gyro is slewed to the valve (e_0 = u_0).
+alpha = 1 - exp(-dt/tau); at power-up the gyro is slewed to the valve (e_0 = u_0; `HeadingSystem`
+uses the valve's static reading at the first heading: a track starts airborne, long after
+the gyro was slaved on the ground).
 Gated-out intervals leave e unchanged, so the filter runs (scipy lfilter) over the
 slaved intervals only. The valve-minus-gyro difference is an angle: the loop acts on it
 wrapped to (-pi, pi] (a synchro error signal), so u is unwrapped relative to e — where
@@ -302,6 +304,8 @@ class FluxValveFleetSpec(Section):
     healthy_hard_iron_sigma_nT: Finite = Field(default=100.0, ge=0, description="per-axis hard-iron sigma, healthy valves")
     soft_iron_sigma: Finite = Field(default=0.005, ge=0, le=0.1, description="sigma of each soft-iron element")
     mounting_sigma_deg: Finite = Field(default=1.0, ge=0, description="sigma of the mounting error")
+    poor_mounting_sigma_deg: Finite | None = Field(default=None, ge=0, description="sigma of the mounting (offset) "
+                                                   "error of poor systems (default: mounting_sigma_deg)")
     slaving_tau_s: Finite = Field(default=60.0, gt=0)
     slaving_cutout_bank_deg: Finite = Field(default=10.0, gt=0, le=90)
     gyro_drift_deg_h: Finite = 0.0
@@ -317,7 +321,8 @@ class FluxValveFleetSpec(Section):
         sigma = self.poor_hard_iron_sigma_nT if poor else self.healthy_hard_iron_sigma_nT
         p = rng.normal(0.0, 1.0, 3) * sigma
         s = np.clip(rng.normal(0.0, 1.0, (3, 3)) * self.soft_iron_sigma, -0.5, 0.5)
-        mount = float(np.clip(rng.normal() * self.mounting_sigma_deg, -180.0, 180.0))
+        m_sigma = self.poor_mounting_sigma_deg if poor and self.poor_mounting_sigma_deg is not None else self.mounting_sigma_deg
+        mount = float(np.clip(rng.normal() * m_sigma, -180.0, 180.0))
         return ("poor" if poor else "healthy"), FluxValveSpec(
             hard_iron_nT=tuple(p.tolist()), soft_iron=tuple(tuple(r) for r in s.tolist()), mounting_deg=mount,
             slaving_tau_s=self.slaving_tau_s, slaving_cutout_bank_deg=self.slaving_cutout_bank_deg,
@@ -447,11 +452,13 @@ def _unwrap(x: np.ndarray) -> np.ndarray:
 
 
 def slaved_heading(time_s: ArrayLike, valve_heading_mag_rad: ArrayLike, heading_rad: ArrayLike, roll_rad: ArrayLike,
-                   tau_s: float, cutout_bank_rad: float, drift_rad_s: float = 0.0) -> np.ndarray:
+                   tau_s: float, cutout_bank_rad: float, drift_rad_s: float = 0.0,
+                   initial_valve_rad: float | None = None) -> np.ndarray:
     """Magnetic heading (rad, [0, 2 pi)) of a directional gyro slaved to the valve:
     dpsi/dt = r_gyro + s (psi_valve - psi)/tau, s = 0 while |roll| > cutout (module
     docstring). `heading_rad` is the true heading whose rate the gyro senses; samples
-    must be equally spaced in time."""
+    must be equally spaced in time. `initial_valve_rad`: the valve reading the gyro was
+    slewed to at power-up (default: the first sample's reading)."""
     t = np.asarray(time_s, dtype=float)
     fv, psi, roll = (np.asarray(a, dtype=float) for a in (valve_heading_mag_rad, heading_rad, roll_rad))
     n = t.size
@@ -464,6 +471,9 @@ def slaved_heading(time_s: ArrayLike, valve_heading_mag_rad: ArrayLike, heading_
         return fv.copy()
     psi_g = _unwrap(psi) + drift_rad_s * (t - t[0])
     u = _unwrap(_mod_2pi(fv - psi_g + np.pi) - np.pi)
+    if initial_valve_rad is not None:
+        e_init = float(_mod_2pi(np.asarray(initial_valve_rad - psi_g[0] + np.pi)) - np.pi)
+        u = u - TWO_PI * np.round((u[0] - e_init) / TWO_PI)  # same branch as the initial error
     if n == 1:
         return _mod_2pi(psi_g + u)
     step = _uniform_step(t)
@@ -471,23 +481,40 @@ def slaved_heading(time_s: ArrayLike, valve_heading_mag_rad: ArrayLike, heading_
         raise ValueError("time_s: expected strictly increasing, equally spaced samples")
     alpha = -math.expm1(-step / tau_s)
     on = np.abs(roll[:-1]) <= cutout_bank_rad  # slaving during interval k-1 -> k
-    x = u[:-1][on].copy()  # inputs of the slaved intervals
-    e0 = u[0]
-    e_on = np.empty_like(x)
-    start, state = 0, (1.0 - alpha) * e0  # lfilter state = (1 - alpha) x the previous output
-    while start < x.size:  # one more pass per full turn of the valve against the gyro
-        y = lfilter([alpha], [1.0, alpha - 1.0], x[start:], zi=[state])[0]
-        before = np.concatenate(([state / (1.0 - alpha)], y[:-1]))  # e ahead of each input
-        far = np.flatnonzero(np.abs(x[start:] - before) > np.pi)
-        if far.size == 0:
-            e_on[start:] = y
-            break
-        k = int(far[0])
-        e_on[start:start + k] = y[:k]
-        x[start + k:] -= TWO_PI * np.round((x[start + k] - before[k]) / TWO_PI)  # wrapped error from here on
-        start, state = start + k, (1.0 - alpha) * before[k]
+    e0 = u[0] if initial_valve_rad is None else e_init
+    e_on = _slaving_filter(u[:-1][on], alpha, e0)
     e = np.concatenate(([e0], e_on))[np.concatenate(([0], np.cumsum(on)))]
     return _mod_2pi(psi_g + e)
+
+
+_SLAVING_BLOCK = 50  # samples per block where the error must be re-wrapped (5 s at 10 Hz)
+
+
+def _slaving_filter(x: np.ndarray, alpha: float, e0: float) -> np.ndarray:
+    """e_k = e_{k-1} + alpha wrap(x_{k-1} - e_{k-1}), outputs after each input (lfilter).
+
+    One lfilter pass when the unwrapped input never gets more than pi from e (the normal
+    case). Otherwise, from the first such input on, blocks of _SLAVING_BLOCK inputs are
+    wrapped to within pi of e at the block's start: e moves at most alpha x pi per
+    sample (0.26 rad per block at tau = 60 s, 10 Hz), so this differs from the exact
+    per-sample wrap only for inputs within that of the synchro's unstable null, 180 deg
+    off. Cost O(n) whatever the input (a valve swinging wildly in noise included)."""
+    b, a = [alpha], [1.0, alpha - 1.0]
+    if x.size == 0:
+        return x.copy()
+    y = lfilter(b, a, x, zi=[(1.0 - alpha) * e0])[0]
+    before = np.concatenate(([e0], y[:-1]))
+    far = np.flatnonzero(np.abs(x - before) > np.pi)
+    if far.size == 0:
+        return y
+    k0 = int(far[0])
+    e = before[k0]
+    for s in range(k0, x.size, _SLAVING_BLOCK):
+        xb = x[s:s + _SLAVING_BLOCK]
+        xb = e + (np.mod(xb - e + np.pi, TWO_PI) - np.pi)
+        y[s:s + _SLAVING_BLOCK] = lfilter(b, a, xb, zi=[(1.0 - alpha) * e])[0]
+        e = y[s + xb.size - 1]
+    return y
 
 
 class HeadingSystem:
@@ -511,8 +538,14 @@ class HeadingSystem:
         fv = self.valve.measure(df, comps)
         roll = df["roll_rad"].to_numpy(float)
         cutout = self.spec.slaving_cutout_bank_deg * DEG
+        # the gyro was slaved on the ground, level and unaccelerated, long before the
+        # track starts: its initial error is the valve's static deviation at the first
+        # heading, not the reading of a pendulum swinging in the first second of a climb
+        psi0 = df["heading_rad"].to_numpy(float)[:1]
+        fv0 = float(self.valve.heading_mag(comps.ned_nT()[:1], 0.0, 0.0, psi0)[0])
         psi_mag = slaved_heading(df["time_s"].to_numpy(float), fv, df["heading_rad"].to_numpy(float), roll,
-                                 self.spec.slaving_tau_s, cutout, self.spec.gyro_drift_deg_h * DEG / 3600.0)
+                                 self.spec.slaving_tau_s, cutout, self.spec.gyro_drift_deg_h * DEG / 3600.0,
+                                 initial_valve_rad=fv0)
         epoch = self.spec.declination_epoch
         want = field.when if epoch == "truth" else _as_datetime(epoch)
         if receiver_field is not None and receiver_field.when != want:

@@ -20,11 +20,11 @@ def _err(msg: str) -> None:
 
 
 def run_cli(args: argparse.Namespace) -> int:
-    """aerotruth run CAMPAIGN.yaml [--out DIR] [--workers N] [--executor local|dask] [--scheduler ADDR]"""
+    """aerotruth run CAMPAIGN.yaml [--size NAME] [--out DIR] [--workers N] [--executor local|dask] [--scheduler ADDR]"""
     from aerotruth.sim.campaign import run_campaign
     from aerotruth.sim.executors import resolve
 
-    campaign = load_campaign(args.campaign)
+    campaign = load_campaign(args.campaign, size=args.size)
     ex = campaign.executor
     # SIGTERM (e.g. a batch system's kill) unwinds like Ctrl-C: the executor stops its
     # workers instead of leaving them orphaned; finished tasks stay stored for a resume.
@@ -54,7 +54,7 @@ def validate_cli(args: argparse.Namespace) -> int:
     """aerotruth validate CAMPAIGN.yaml: check the schema and expand the tasks."""
     from aerotruth.sim.campaign import expand
 
-    campaign = load_campaign(args.campaign)
+    campaign = load_campaign(args.campaign, size=args.size)
     try:
         tasks = expand(campaign)
     except ConfigError as e:

@@ -53,7 +53,10 @@ CRUISE_CEILING_FT = 25000.0
 CLIMB_GRADIENT_FT_PER_NM = 350.0
 DESCENT_PATH_DEG = 3.0
 MIN_CRUISE_NM = 10.0
-LOWEST_CRUISE_FT = 6000.0
+# the lowest level a leg is planned at: 4,000 ft keeps the shortest network legs
+# (KDTW-KFNT, 48 nm, flown at 4,000-6,000 ft by the airline) while 2,000 ft of cruise
+# above the profile's floor remain
+LOWEST_CRUISE_FT = 4000.0
 
 BLOCK_SPEED_KT = 250.0  # schedule: block time = distance / 250 kt + 15 min
 BLOCK_OVERHEAD_MIN = 15.0

@@ -66,6 +66,25 @@ class Selection(Section):
     control: StrictInt = Field(ge=1, description="aircraft with the smallest before-period RMS are the control group")
 
 
+class PaperCell(Section):
+    """A published table cell, shown beside the simulated one (never used to compute it)."""
+
+    group: Literal["poor", "control"]
+    period: Literal["before", "after", "after_adjusted", "improvement", "change"]
+    rms_kt: float
+    longitudinal_rms_kt: float | None = None
+    transverse_rms_kt: float | None = None
+    role: Literal["calibrated", "predicted"] = Field(description="calibrated: a cell the campaign's parameters were "
+                                                     "tuned on; predicted: a cell left to the simulation")
+
+
+class PaperTable(Section):
+    """The published table the campaign predicts (for the side-by-side report table)."""
+
+    source: str = Field(min_length=1, description="where the numbers are printed, e.g. 'wind paper Table II'")
+    cells: list[PaperCell] = Field(min_length=1)
+
+
 class HeadingCorrectionConfig(Section):
     """Fleets, periods, sensors, selection and method options of the study."""
 
@@ -80,6 +99,7 @@ class HeadingCorrectionConfig(Section):
     max_roll_deg: float = Field(default=10.0, gt=0, le=90, description="reports banked more are not scored")
     trustworthy_rms_kt: float = Field(default=10.0, gt=0, description="an aircraft is trustworthy when its RMS vector "
                                       "difference is below this (assumption: the paper's flag threshold is not given)")
+    paper: PaperTable | None = Field(default=None, description="published cells shown beside the simulated ones")
 
     @model_validator(mode="after")
     def _distinct_roles(self) -> HeadingCorrectionConfig:
@@ -230,7 +250,11 @@ class HeadingCorrection(Study):
         m["aircraft_fitted"] = int((corr["status"] == "fitted").sum())
         m["aircraft_offset_only"] = int((corr["status"] == "offset_only").sum())
         m["aircraft_refused"] = int((corr["status"] == "refused").sum())
-        return Summary(m, {"groups": table, "per_aircraft": wide, "heading_error_vs_truth": residual, "fits": fits},
+        tables = {"groups": table}
+        if section.paper is not None:
+            tables["versus_paper"] = versus_paper(table, section.paper)
+        tables.update({"per_aircraft": wide, "heading_error_vs_truth": residual, "fits": fits})
+        return Summary(m, tables,
                        exports={"observations": observations_only(rows)})
 
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
@@ -321,6 +345,21 @@ def adjusted_table(cells: pd.DataFrame) -> pd.DataFrame:
             extra.append({"group": "poor", "period": "after_adjusted", **adj.to_dict()})
             extra.append({"group": "poor", "period": "improvement", **(idx.loc[("poor", "before"), cols] - adj).to_dict()})
     return pd.concat([cells, pd.DataFrame(extra)], ignore_index=True)
+
+
+def versus_paper(table: pd.DataFrame, paper: PaperTable) -> pd.DataFrame:
+    """Each published cell beside the simulated one, marked calibrated or predicted."""
+    sim = table.set_index(["group", "period"]) if len(table) else None
+    rows = []
+    for c in paper.cells:
+        for col, label in COMPONENTS:
+            published = getattr(c, col)
+            if published is None:
+                continue
+            value = float(sim.loc[(c.group, c.period), col]) if sim is not None and (c.group, c.period) in sim.index else np.nan
+            rows.append({"group": c.group, "period": c.period, "component": label, "paper_kt": published,
+                         "simulated_kt": value, "difference_kt": value - published, "role": c.role})
+    return pd.DataFrame(rows).assign(source=paper.source)
 
 
 def residual_heading_error(rows: pd.DataFrame, group_of: pd.Series, max_roll_deg: float) -> pd.DataFrame:
