@@ -49,10 +49,23 @@ class AircraftTruth:
     E: float = 0.0
     cruise_tas_kt: float = 280.0
     one_heading: bool = False
+    h0_nT: float | None = None  # when set, B and C are hard iron: scaled by h0 / H at each position (IGRF)
 
-    def deviation(self, z_deg: np.ndarray) -> np.ndarray:
+    def deviation(self, z_deg: np.ndarray, h_nT: np.ndarray | float | None = None) -> np.ndarray:
         z = np.radians(z_deg)
-        return self.A + self.B * np.sin(z) + self.C * np.cos(z) + self.D * np.sin(2 * z) + self.E * np.cos(2 * z)
+        k = 1.0 if self.h0_nT is None or h_nT is None else self.h0_nT / np.asarray(h_nT)
+        return self.A + k * (self.B * np.sin(z) + self.C * np.cos(z)) + self.D * np.sin(2 * z) + self.E * np.cos(2 * z)
+
+
+def horizontal_field_nT(lat: np.ndarray, lon: np.ndarray, alt_ft: np.ndarray, t_epoch: float) -> np.ndarray:
+    """IGRF horizontal intensity (nT) straight from ppigrf (independent of aerotruth)."""
+    import datetime as dt
+
+    import ppigrf
+
+    when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(t_epoch))
+    be, bn, _ = ppigrf.igrf(np.asarray(lon), np.asarray(lat), np.asarray(alt_ft) * FT_M / 1000.0, when)
+    return np.hypot(be, bn).ravel()
 
 
 def fleet(n: int, rng: np.random.Generator, *, de_every: int = 3, one_heading_last: bool = True,
@@ -190,8 +203,9 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
             psi_t = fl["psi_true"]
             decl = declination(fl["lat"], fl["lon"])
             psi_m = psi_t.copy()
+            h_nt = None if a.h0_nT is None else horizontal_field_nT(fl["lat"], fl["lon"], fl["alt_ft"], fl["time"][0])
             for _ in range(8):  # fixed point of psi_m = psi_true + d(psi_m - decl)
-                psi_m = psi_t + a.deviation(psi_m - decl)
+                psi_m = psi_t + a.deviation(psi_m - decl, h_nt)
             noise = 0.0 if exact else 1.0
             psi_m = (psi_m + noise * rng.normal(0, 0.1, len(psi_m))) % 360.0
             tas_m = fl["tas"] + noise * rng.normal(0, 0.5 * KT_MS, len(psi_m))
