@@ -82,11 +82,12 @@ def diverged_rows(fleet: str, aircraft: str, date: str, outcomes) -> pd.DataFram
 
 
 def observations_only(rows: pd.DataFrame) -> pd.DataFrame:
-    """The observation rows of stored task tables (placeholder rows and bookkeeping columns off)."""
+    """The observation rows of stored task tables (placeholder rows and the task id off;
+    `stage` kept: fit, before, after or main)."""
     if rows.empty or "trigger" not in rows.columns:
         return rows.iloc[0:0]
     obs = rows[rows["trigger"] != DIVERGED]
-    return obs.drop(columns=[c for c in ("task_id", "stage") if c in obs.columns]).reset_index(drop=True)
+    return obs.drop(columns=[c for c in ("task_id",) if c in obs.columns]).reset_index(drop=True)
 
 
 def summary_rows(errors: pd.DataFrame, keys: dict[str, Any], total_over: str) -> dict[str, Any]:
