@@ -491,7 +491,7 @@ def _apply_size(data: dict, size: str) -> dict:
     if bad:
         raise ConfigError(f"sizes.{size}: cannot override {', '.join(bad)} (fleets, periods, studies, description, "
                           "executor, truth_store, outputs)")
-    out = _merged({k: v for k, v in data.items()}, override)
+    out = _merged(data, override)  # a new mapping: `data` is left as it was
     out["name"] = f"{data.get('name')}-{size}"
     out["size"] = size
     return out

@@ -68,8 +68,9 @@ class FieldAwareDeviationFit:
         self.heading, self.robust, self.gates = heading, robust, gates
         self.min_reports, self.min_flights, self.max_scale_correlation = min_reports, min_flights, max_scale_correlation
 
-    def _prepare(self, obs: pd.DataFrame) -> tuple[pd.DataFrame, np.ndarray, np.ndarray]:
-        df = validate_observations(obs, obs.attrs.get("source", "observation table"))
+    def _prepare(self, obs: pd.DataFrame, source: str | None = None) -> tuple[pd.DataFrame, np.ndarray, np.ndarray]:
+        """Validated reports' heading errors (heading_errors rows) and the field at each."""
+        df = validate_observations(obs, source or obs.attrs.get("source", "observation table"))
         rows = heading_errors(df, self.gates)
         h, z = report_field(df)
         return rows, h, z
@@ -149,11 +150,8 @@ def compare_on(fit_obs: pd.DataFrame, test_obs: pd.DataFrame, heading: str = "ma
 
     const = FleetHeadingFit(heading=heading, gates=gates).fit(fit_obs)
     aware = FieldAwareDeviationFit(heading=heading, gates=gates).fit(fit_obs)
-    df = validate_observations(test_obs, "test reports")
-    rows = heading_errors(df, gates)
-    h, zf = report_field(df)
-    col = "heading_deg" if heading == "true" else "heading_mag_deg"
-    zdeg = rows[col].to_numpy()
+    rows, h, zf = aware._prepare(test_obs, "test reports")
+    zdeg = rows[aware.heading_col_].to_numpy()
     used = (rows["gate"].cat.codes.to_numpy() == 0) & np.isfinite(zdeg) & np.isfinite(h)
     ac = rows["aircraft"].astype(str).to_numpy()
     luts = np.vstack([np.nan_to_num(np.asarray(const.fits_[a].lut_, float)) if a in const.fits_ else np.zeros(8) for a in ac])

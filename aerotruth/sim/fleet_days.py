@@ -64,10 +64,16 @@ def check_flights(campaign: Campaign, refs: References, section: FlightSelection
             if leg.origin == leg.destination:
                 raise refs.error(prefix + ("legs", i), f"from and to are the same airport {leg.origin}")
     else:
-        for name in section.fleets:
-            j = next(k for k, f in enumerate(campaign.fleets) if f.name == name)
-            if campaign.fleets[j].network is None:
-                raise refs.error(("fleets", j, "network"), f"required by {refs.where} (no fixed legs given), expected a route network name", absolute=True)
+        check_networks(campaign, refs, section.fleets, "no fixed legs given")
+
+
+def check_networks(campaign: Campaign, refs: References, fleets: list[str], why: str) -> None:
+    """Every named fleet has a route network (its aircraft fly the daily schedule)."""
+    for name in fleets:
+        j = next(k for k, f in enumerate(campaign.fleets) if f.name == name)
+        if campaign.fleets[j].network is None:
+            raise refs.error(("fleets", j, "network"), f"required by {refs.where} ({why}), expected a route network name",
+                             absolute=True)
 
 
 def aircraft_days(campaign: Campaign, section: FlightSelection, periods: list[str] | None = None) -> list[tuple[str, AircraftDay]]:

@@ -38,7 +38,6 @@ from aerotruth.sensors.weather_model import WeatherModelAnalysis, WeatherModelSp
 from aerotruth.truth.days import AircraftDay, PlannedLeg
 from aerotruth.units import HPA, KT
 
-HEADING_INPUTS = ("magnetic", "true")
 _DESCENDING = ("descent", "approach")
 
 
@@ -148,19 +147,17 @@ def with_references(reports: pd.DataFrame, analyses: list[WeatherModelAnalysis])
 
 
 def day_observations(campaign_seed: int, fleet: str, day: AircraftDay, sensors: WindSensors, ctx, *,
-                     correction: HeadingCorrection | None = None, legs=None) -> tuple[pd.DataFrame, dict]:
-    """The observation table of an aircraft-day and what happened to its legs:
-    ({"legs": n, "flown": n_with_track, "diverged": n}). `legs`: the day's LegOutcomes
-    (from `ctx.truth` when None)."""
+                     correction: HeadingCorrection | None = None, legs=None) -> pd.DataFrame:
+    """The observation table of an aircraft-day (empty when no leg has truth). `legs`: the
+    day's LegOutcomes (from `ctx.truth` when None)."""
     fs = sensors.of(fleet)
     heading_class, valve = aircraft_heading(campaign_seed, fleet, day.aircraft, fs.heading)
     system = HeadingSystem(valve)
     air = aircraft_air_data(campaign_seed, fleet, day.aircraft, fs.air_data)
     outcomes = ctx.truth.day(day) if legs is None else legs
     flown = [o for o in outcomes if o.track is not None]
-    info = {"legs": len(outcomes), "flown": len(flown), "diverged": len(outcomes) - len(flown)}
     if not flown:
-        return pd.DataFrame(), info
+        return pd.DataFrame()
     lat = np.concatenate([o.track.df["lat_deg"].to_numpy()[::100] for o in flown])
     lon = np.concatenate([o.track.df["lon_deg"].to_numpy()[::100] for o in flown])
     field = GeomagneticField.covering(lat, lon, day.date)
@@ -174,24 +171,14 @@ def day_observations(campaign_seed: int, fleet: str, day: AircraftDay, sensors: 
             analyses = [analysis_of_day(campaign_seed, spec, o.leg) for spec in (fs.references or sensors.references)]
             frames.append(with_references(reports, analyses))
     if not frames:
-        return pd.DataFrame(), info
+        return pd.DataFrame()
     obs = pd.concat(frames, ignore_index=True)
     obs.insert(1, "fleet", fleet)
     obs["heading_input"] = fs.heading_input
     obs["heading_class"] = heading_class
     obs["date"] = day.date.isoformat()
-    return obs, info
-
-
-def observation_columns() -> tuple[str, ...]:
-    """The columns `day_observations` writes, in order (docs/data-formats.md)."""
-    from aerotruth.sensors.tamdar import REPORT_COLUMNS
-
-    head = (REPORT_COLUMNS[0], "fleet") + REPORT_COLUMNS[1:]
-    return head + ("heading_mag_deg", "declination_deg", "flight", "ground_elevation_m", "truth_heading_deg",
-                   "truth_wind_speed_kt", "truth_wind_dir_deg", "ref_wind_speed_kt", "ref_wind_dir_deg", "ref_source",
-                   "heading_input", "heading_class", "date")
+    return obs
 
 
 __all__ = ["FleetSensors", "WindSensors", "day_observations", "leg_reports", "with_references", "analysis_of_day",
-           "aircraft_heading", "aircraft_air_data", "observation_columns", "HEADING_INPUTS"]
+           "aircraft_heading", "aircraft_air_data"]

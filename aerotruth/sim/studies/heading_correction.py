@@ -41,9 +41,10 @@ import pandas as pd
 from pydantic import Field, StrictInt, model_validator
 
 from aerotruth.config import Campaign, References, Section
-from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, day_cost, day_task
+from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_networks, day_cost, day_task
 from aerotruth.sim.studies import Figure, Study, Summary
-from aerotruth.sim.studies.wind_reports import check_sensors, diverged_rows, observations_only
+from aerotruth.sim.studies.wind_reports import (check_sensors, day_rows, observations_only, steady_heading_error,
+                                                 unbanked)
 from aerotruth.sim.tasks import Task
 from aerotruth.sim.wind_observations import WindSensors
 
@@ -113,11 +114,6 @@ class HeadingCorrectionConfig(Section):
                                max_legs_per_day=self.max_legs_per_day)
 
 
-def scored(obs: pd.DataFrame, max_roll_deg: float) -> pd.DataFrame:
-    """Reports the metrics use: unbanked."""
-    return obs[obs["roll_deg"].abs() <= max_roll_deg].reset_index(drop=True)
-
-
 def group_rms(obs: pd.DataFrame) -> dict[str, float]:
     """Total/longitudinal/transverse RMS and report count of an observation table."""
     from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
@@ -150,11 +146,7 @@ class HeadingCorrection(Study):
         refs.names(("fleets",), "fleets")
         for role in STAGES:
             refs.names(("periods", role), "periods")
-        for name in section.fleets:
-            j = next(k for k, f in enumerate(campaign.fleets) if f.name == name)
-            if campaign.fleets[j].network is None:
-                raise refs.error(("fleets", j, "network"), f"required by {refs.where} (aircraft fly their network's "
-                                 "daily schedule), expected a route network name", absolute=True)
+        check_networks(campaign, refs, section.fleets, "aircraft fly their network's daily schedule")
         check_sensors(campaign, refs, section.sensors, prefix=("sensors",))
         n = sum(len(campaign.fleet(f).aircraft) for f in section.fleets)
         if section.selection.poor + section.selection.control > n:
@@ -174,32 +166,24 @@ class HeadingCorrection(Study):
         return day_cost(task.params["day"]) + 1.0
 
     def run(self, task: Task, ctx) -> pd.DataFrame:
-        from aerotruth.sim.wind_observations import day_observations
-
-        day, fleet = task.params["day"], dict(task.identity)["fleet"]
         correction = None
         if task.stage == "after":
-            correction = uploaded_correction(ctx.learned["corrections"], day.aircraft)
-        outcomes = ctx.truth.day(day)
-        obs, _ = day_observations(task.params["campaign_seed"], fleet, day, task.params["sensors"], ctx,
-                                  correction=correction, legs=outcomes)
-        if len(obs):
-            obs["corrected"] = correction is not None
-        return pd.concat([obs, diverged_rows(fleet, day.aircraft, day.date.isoformat(), outcomes)], ignore_index=True)
+            correction = uploaded_correction(ctx.learned["corrections"], task.params["day"].aircraft)
+        return day_rows(task, ctx, correction, mark_corrected=True)
 
     def fit(self, name: str, rows: pd.DataFrame, section: HeadingCorrectionConfig, rng) -> pd.DataFrame:
         from aerotruth.analysis.heading_correction import FleetHeadingFit, GateSpec
 
         fit_obs = observations_only(rows[rows["stage"] == "fit"])
-        before = scored(observations_only(rows[rows["stage"] == "before"]), section.max_roll_deg)
+        before = unbanked(observations_only(rows[rows["stage"] == "before"]), section.max_roll_deg)
         table = FleetHeadingFit(heading=section.fit_heading, gates=GateSpec(max_roll_deg=section.max_roll_deg)).fit(
             fit_obs, source="fit-period reports").to_table()
         rms = per_aircraft_rms(before).rename(columns={"n": "before_n", "rms_kt": "before_rms_kt"})
         info = fit_obs.drop_duplicates("aircraft")[["aircraft", "fleet", "heading_input", "heading_class"]]
         out = info.merge(rms, on="aircraft", how="left").merge(table, on="aircraft", how="left")
         out["aircraft"] = out["aircraft"].astype(str)
-        ranked = out.sort_values(["before_rms_kt", "aircraft"], ascending=[False, True], na_position="last")["aircraft"].tolist()
-        have = [a for a in ranked if np.isfinite(out.set_index("aircraft").loc[a, "before_rms_kt"])]
+        have = (out.dropna(subset=["before_rms_kt"]).sort_values(["before_rms_kt", "aircraft"], ascending=[False, True])
+                ["aircraft"].tolist())  # worst first; aircraft without before-period reports are never selected
         poor = set(have[:section.selection.poor])
         control = set(have[::-1][:section.selection.control]) - poor
         out["group"] = np.where(out["aircraft"].isin(poor), "poor", np.where(out["aircraft"].isin(control), "control", "other"))
@@ -216,7 +200,7 @@ class HeadingCorrection(Study):
         group_of = corr.set_index("aircraft")["group"]
         cells, per_ac = [], []
         for stage in ("before", "after"):
-            obs = scored(observations_only(rows[rows["stage"] == stage]), section.max_roll_deg)
+            obs = unbanked(observations_only(rows[rows["stage"] == stage]), section.max_roll_deg)
             if obs.empty:
                 continue
             obs = obs.assign(group=obs["aircraft"].astype(str).map(group_of).fillna("other"))
@@ -241,7 +225,7 @@ class HeadingCorrection(Study):
                     m[f"trustworthy_share.{p}"] = float((wide[p] < section.trustworthy_rms_kt).mean())
         else:
             wide = pd.DataFrame()
-        residual = residual_heading_error(rows, group_of, section.max_roll_deg)
+        residual = residual_heading_error(rows, group_of)
         for r in residual.itertuples():
             m[f"{r.group}.{r.period}.heading_error_rms_deg"] = float(r.heading_error_rms_deg)
         fits = corr[[c for c in ("aircraft", "fleet", "group", "heading_class", "heading_input", "before_rms_kt", "status",
@@ -362,7 +346,7 @@ def versus_paper(table: pd.DataFrame, paper: PaperTable) -> pd.DataFrame:
     return pd.DataFrame(rows).assign(source=paper.source)
 
 
-def residual_heading_error(rows: pd.DataFrame, group_of: pd.Series, max_roll_deg: float) -> pd.DataFrame:
+def residual_heading_error(rows: pd.DataFrame, group_of: pd.Series) -> pd.DataFrame:
     """RMS of reported minus true heading in steady level flight per group and period
     (simulation only: the truth is known)."""
     out = []
@@ -370,9 +354,9 @@ def residual_heading_error(rows: pd.DataFrame, group_of: pd.Series, max_roll_deg
         obs = observations_only(rows[rows["stage"] == stage]) if "stage" in rows else pd.DataFrame()
         if obs.empty:
             continue
-        obs = obs[(obs["ref_source"] == obs["ref_source"].iloc[0]) & (obs["phase"] == "level") & (obs["roll_deg"].abs() < 5.0)]
-        d = (obs["heading_deg"] - obs["truth_heading_deg"] + 180.0) % 360.0 - 180.0
-        g = obs["aircraft"].astype(str).map(group_of).fillna("other")
+        steady = steady_heading_error(obs)
+        d = steady["d_deg"]
+        g = steady["aircraft"].astype(str).map(group_of).fillna("other")
         for name in ("poor", "control"):
             x = d[g == name]
             if len(x):

@@ -90,6 +90,35 @@ def observations_only(rows: pd.DataFrame) -> pd.DataFrame:
     return obs.drop(columns=[c for c in ("task_id",) if c in obs.columns]).reset_index(drop=True)
 
 
+def unbanked(obs: pd.DataFrame, max_roll_deg: float) -> pd.DataFrame:
+    """The reports the metrics score: banked no more than max_roll_deg."""
+    return obs[obs["roll_deg"].abs() <= max_roll_deg].reset_index(drop=True)
+
+
+def steady_heading_error(obs: pd.DataFrame) -> pd.DataFrame:
+    """Steady level reports (|roll| < 5 deg), one reference's rows, with `d_deg` = reported
+    minus true heading (simulation only: the truth is known)."""
+    if obs.empty:
+        return obs.assign(d_deg=pd.Series(dtype=float))
+    one = obs[(obs["ref_source"] == obs["ref_source"].iloc[0]) & (obs["phase"] == "level") & (obs["roll_deg"].abs() < 5.0)]
+    return one.assign(d_deg=(one["heading_deg"] - one["truth_heading_deg"] + 180.0) % 360.0 - 180.0)
+
+
+def day_rows(task: Task, ctx, correction=None, mark_corrected: bool = False) -> pd.DataFrame:
+    """A flight study's task table: the aircraft-day's observation table (`correction`
+    uploaded, if any; with a `corrected` column when `mark_corrected`) and one placeholder
+    row per leg without truth."""
+    from aerotruth.sim.wind_observations import day_observations
+
+    day, fleet = task.params["day"], dict(task.identity)["fleet"]
+    outcomes = ctx.truth.day(day)
+    obs = day_observations(task.params["campaign_seed"], fleet, day, task.params["sensors"], ctx, correction=correction,
+                           legs=outcomes)
+    if mark_corrected and len(obs):
+        obs = obs.assign(corrected=correction is not None)
+    return pd.concat([obs, diverged_rows(fleet, day.aircraft, day.date.isoformat(), outcomes)], ignore_index=True)
+
+
 def summary_rows(errors: pd.DataFrame, keys: dict[str, Any], total_over: str) -> dict[str, Any]:
     """One summary row (n, rms, components) of a set of wind_errors rows."""
     from aerotruth.analysis.wind_metrics import wind_error_summary
@@ -122,12 +151,8 @@ def rms_table(errors: pd.DataFrame, obs: pd.DataFrame, total_over: str) -> pd.Da
 def heading_error_table(obs: pd.DataFrame) -> pd.DataFrame:
     """Per aircraft: the heading its system reported minus the truth, in steady level flight
     (|roll| < 5 deg): mean and spread (deg), with its class and the reports used."""
-    one = obs[obs["ref_source"] == obs["ref_source"].iloc[0]] if len(obs) else obs
-    steady = one[(one["phase"] == "level") & (one["roll_deg"].abs() < 5.0)]
-    d = (steady["heading_deg"] - steady["truth_heading_deg"] + 180.0) % 360.0 - 180.0
-    g = steady.assign(d=d).groupby(["fleet", "aircraft", "heading_class"], sort=True)["d"]
-    out = g.agg(n="count", mean_deg="mean", sd_deg="std", min_deg="min", max_deg="max").reset_index()
-    return out
+    g = steady_heading_error(obs).groupby(["fleet", "aircraft", "heading_class"], sort=True)["d_deg"]
+    return g.agg(n="count", mean_deg="mean", sd_deg="std", min_deg="min", max_deg="max").reset_index()
 
 
 class WindReports(Study):
@@ -150,12 +175,7 @@ class WindReports(Study):
         return day_cost(task.params["day"]) + 1.0
 
     def run(self, task: Task, ctx) -> pd.DataFrame:
-        from aerotruth.sim.wind_observations import day_observations
-
-        day, fleet = task.params["day"], dict(task.identity)["fleet"]
-        outcomes = ctx.truth.day(day)
-        obs, _ = day_observations(task.params["campaign_seed"], fleet, day, task.params["sensors"], ctx, legs=outcomes)
-        return pd.concat([obs, diverged_rows(fleet, day.aircraft, day.date.isoformat(), outcomes)], ignore_index=True)
+        return day_rows(task, ctx)
 
     def summarize(self, rows: pd.DataFrame, learned, section: WindReportsConfig) -> Summary:
         from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
@@ -167,9 +187,8 @@ class WindReports(Study):
         if obs.empty:
             return Summary(m, {})
         m["reports"] = int(obs.drop_duplicates(["aircraft", "time"]).shape[0])
-        banked = obs["roll_deg"].abs() > section.max_roll_deg
-        m["reports_banked"] = int(obs[banked].drop_duplicates(["aircraft", "time"]).shape[0])
-        everything, obs = obs, obs[~banked].reset_index(drop=True)
+        everything, obs = obs, unbanked(obs, section.max_roll_deg)
+        m["reports_banked"] = m["reports"] - int(obs.drop_duplicates(["aircraft", "time"]).shape[0])
         if obs.empty:
             return Summary(m, {}, exports={"observations": everything})
         errors = wind_errors(obs)
@@ -181,8 +200,7 @@ class WindReports(Study):
                 m[f"{key}.longitudinal_rms_kt"] = float(r.longitudinal_rms_kt)
                 m[f"{key}.transverse_rms_kt"] = float(r.transverse_rms_kt)
                 m[f"{key}.n"] = int(r.n)
-        bands = wind_error_summary(errors.assign(fleet=obs["fleet"].to_numpy(), heading_class=obs["heading_class"].to_numpy()),
-                                   by=["fleet", "altitude_band"], altitude_bands_ft=section.altitude_bands_ft,
+        bands = wind_error_summary(errors, by=["fleet", "altitude_band"], altitude_bands_ft=section.altitude_bands_ft,
                                    total_over=section.total_over)
         by_class = []
         for klass in ("poor", "healthy"):
@@ -225,11 +243,9 @@ class WindReports(Study):
                                "poor and healthy heading systems (combined references)"))
         obs = observations_only(rows)
         if len(obs):
-            one = obs[(obs["ref_source"] == obs["ref_source"].iloc[0]) & (obs["phase"] == "level") & (obs["roll_deg"].abs() < 5)]
             fig, ax = plt.subplots(figsize=(6, 4))
-            for (ac, klass), g in list(one.groupby(["aircraft", "heading_class"], sort=True))[:8]:
-                d = (g["heading_deg"] - g["truth_heading_deg"] + 180.0) % 360.0 - 180.0
-                ax.plot(g["heading_mag_deg"], d, ".", ms=3, label=f"{ac} ({klass})")
+            for (ac, klass), g in list(steady_heading_error(obs).groupby(["aircraft", "heading_class"], sort=True))[:8]:
+                ax.plot(g["heading_mag_deg"], g["d_deg"], ".", ms=3, label=f"{ac} ({klass})")
             ax.set_xlabel("measured magnetic heading (deg)")
             ax.set_ylabel("measured - true heading (deg)")
             ax.set_xlim(0, 360)
