@@ -10,6 +10,8 @@ cruise 267.6 KTAS at FL150 and 256.7 KTAS at FL250 (12,000 kg, lever 0.85, 1,230
 climb 2,000 ft/min at MTOW, 160 KIAS, ~3,600 ft; rate of climb 268 ft/min at FL250 and
 -64 ft/min at FL300 (service ceiling ~27,500 ft); approach 126.5 KIAS on 3 deg with
 ~550 shp per engine; clean stall 109.7 KCAS (CLmax 1.52) at 13,000 kg and 1.0 kt/s;
+flaps 35 and gear down, idle, forward CG: Vs 83.6/87.3/92.6 KCAS at 10,500/11,500/12,930 kg
+(CLmax 2.11), Vref 108.7/113.5/120.4 KCAS, pitch at Vref on 3 deg +1.0/+1.0/+0.9 deg;
 Dutch roll damping ratio 0.13; spiral convergent at FL150 (doubling ~160 s at 170 KTAS
 low down); 948 shp per engine available at FL250. Step cost against the 737 is a
 benchmark line (benchmarks/truth_speed.py `saab340_vs_737_step_ratio`), not a timed test.
@@ -141,6 +143,36 @@ def test_approach_flaps_35_gear_down_is_stable_on_3_degrees_at_115_135_kias():
     assert abs(s.tas_drift_ms2) < 0.02 * KT
     assert r.gamma_error_max_rad < 0.2 * DEG
     assert s.shaft_power_w < 0.6 * 1750.0 * HP  # well below maximum continuous
+
+
+@pytest.mark.parametrize("mass_kg", [10500.0, 11500.0, 12930.0])
+def test_flaps_35_vref_and_approach_pitch_lie_in_the_published_bands(mass_kg):
+    """Issue 8: 1-g stall (idle, 1 kt/s, forward CG 16 % MAC), flaps 35 and gear down;
+    Vref = 1.3 Vs must lie in the published 115-125 KIAS band at the maximum landing
+    weight (and scale as sqrt(W) below it); the pitch attitude at Vref on a 3 deg path
+    must lie in -1..+3 deg at every landing weight."""
+    s = chk.stall_speed(mass_kg=mass_kg)
+    vref = 1.3 * s.stall_cas_ms
+    a = chk.approach_attitude(vref, mass_kg=mass_kg)
+    _report(f"{mass_kg:.0f} kg Vs KCAS", s.stall_cas_ms / KT)
+    _report(f"{mass_kg:.0f} kg Vref KCAS", vref / KT)
+    _report(f"{mass_kg:.0f} kg pitch at Vref deg", a.pitch_rad / DEG)
+    assert s.decel_ms2 == pytest.approx(1.0 * KT, rel=0.1)
+    assert abs(s.cg_mac - 0.16) < 0.005
+    assert a.gamma_rad == pytest.approx(-3.0 * DEG, abs=0.1 * DEG)
+    assert a.cas_ms == pytest.approx(vref, abs=1.0 * KT)
+    assert -1.0 * DEG <= a.pitch_rad <= 3.0 * DEG
+    # the stall CLmax is a property of the wing: Vs scales with sqrt(mass) (independent check)
+    vs_mlw = 1.3 * chk.stall_speed(mass_kg=chk.MLW_KG).stall_cas_ms
+    assert 115.0 * KT <= vs_mlw <= 125.0 * KT
+    assert vref == pytest.approx(vs_mlw * math.sqrt(mass_kg / chk.MLW_KG), rel=0.01)
+
+
+def test_forward_cg_raises_the_stall_speed():
+    """More tail download at forward CG: Vs(16 % MAC) > Vs(30 % MAC), by ~1-2 %."""
+    fwd = chk.stall_speed(cg_mac=0.16).stall_cas_ms
+    aft = chk.stall_speed(cg_mac=0.30).stall_cas_ms
+    assert 1.005 < fwd / aft < 1.04
 
 
 def test_clean_stall_near_mtow_at_95_115_kcas_and_recovers():

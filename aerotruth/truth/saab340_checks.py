@@ -143,6 +143,7 @@ class Holds:
     def __init__(self, fdm: jsbsim.FGFDMExec, mode: str, target: float, bank_rad: float = 0.0):
         if mode not in ("altitude", "speed", "gamma", "none"):
             raise ValueError(f"mode: expected altitude, speed, gamma or none, got {mode!r}")
+        self.target_rate = 0.0  # 'speed' mode: the target changes at this rate (m/s per s)
         self.n, self.mode, self.target, self.bank = _Nodes(fdm), mode, target, bank_rad
         self.theta_i = self.n.theta.get_double_value()  # outer-loop integrator (rad)
         self.elev_i = self.n.elev.get_double_value()  # inner-loop integrator (norm)
@@ -152,6 +153,7 @@ class Holds:
     def _theta_cmd(self) -> float:
         n = self.n
         if self.mode == "speed":
+            self.target += self.target_rate * DT
             err = n.vc.get_double_value() * FT - self.target  # + too fast: pitch up
             self.theta_i += 0.002 * err * DT
             return self.theta_i + 0.01 * err
@@ -435,3 +437,118 @@ def step_cost_us(fdm: jsbsim.FGFDMExec, steps: int = 5000) -> float:
     for _ in range(steps):
         run()
     return (time.perf_counter() - t0) / steps * 1e6
+
+
+# Landing configuration checks (issue 8). Maximum landing weight 12,930 kg (SAAB 340B
+# type certificate data); forward CG taken as 16 % MAC (est.: the forward limit of the
+# 340B loading envelope lies near 15-17 % MAC at landing weights).
+MLW_KG = 12930.0
+LEMAC_M = 8.097  # x of the MAC leading edge in the model's structural frame (CG 8.40 m = 15 % MAC)
+MAC_M = 2.02
+IDLE_THROTTLE = 0.0
+
+
+def set_cg(fdm: jsbsim.FGFDMExec, cg_mac: float) -> None:
+    """Move the passenger point mass along x so the whole aircraft's CG sits at `cg_mac`
+    (fraction of the MAC). Call after set_mass and before run_ic."""
+    in_per_m = 1.0 / 0.0254
+    target_in = (LEMAC_M + cg_mac * MAC_M) * in_per_m
+    pax = fdm["inertia/pointmass-weight-lbs[0]"]
+    if pax <= 0.0:
+        raise ValueError("cg_mac: no passenger mass to move")
+    fdm.run_ic()  # JSBSim computes the mass properties on initialisation
+    total = fdm["inertia/weight-lbs"]
+    x_now = fdm["inertia/cg-x-in"]
+    fdm["inertia/pointmass-location-X-inches[0]"] += (target_in - x_now) * total / pax
+
+
+@dataclass(frozen=True)
+class StallSpeed:
+    stall_cas_ms: float  # calibrated airspeed at the peak lift coefficient
+    cl_max: float
+    decel_ms2: float  # mean deceleration over the 10 s before the peak
+    cg_mac: float
+
+
+def stall_speed(*, flaps_deg: float = 35.0, gear_down: bool = True, mass_kg: float = MLW_KG,
+                cg_mac: float = 0.16, altitude_m: float = 3000.0 * FT, entry_rate_ms2: float = 1.0 * KT,
+                start_cas_ms: float = 125.0 * KT) -> StallSpeed:
+    """1-g stall speed: trimmed, power lever at flight idle (1,384 rpm), wings level, the
+    elevator slowing the aircraft at `entry_rate_ms2` (1 kt/s: the certification entry
+    rate, 14 CFR 25.103(c)) until the lift coefficient peaks. Vs is the calibrated
+    airspeed at that peak (IAS = CAS: no position error modelled). The speed hold lags its
+    ramp, so the ramp is rescaled once to make the measured entry rate the stated one."""
+    ramp = entry_rate_ms2
+    for _ in range(2):
+        r = _stall_once(flaps_deg, gear_down, mass_kg, cg_mac, altitude_m, ramp, start_cas_ms)
+        ramp *= entry_rate_ms2 / max(r.decel_ms2, 0.1 * entry_rate_ms2)
+    return r
+
+
+def _stall_once(flaps_deg, gear_down, mass_kg, cg_mac, altitude_m, entry_rate_ms2, start_cas_ms) -> StallSpeed:
+    fdm = load_saab340()
+    set_mass(fdm, mass_kg, 800.0)
+    set_cg(fdm, cg_mac)
+    start_airborne(fdm, altitude_m, cas_ms=start_cas_ms, mass_kg=mass_kg, fuel_kg=800.0, flaps_deg=flaps_deg,
+                   gear_down=gear_down, throttle=0.3, advance=1.0, alpha_rad=4.0 * DEG)
+    cg = (fdm["inertia/cg-x-in"] * 0.0254 - LEMAC_M) / MAC_M
+    holds = Holds(fdm, "altitude", altitude_m)
+    _fly(fdm, holds, 15.0)
+    set_levers(fdm, IDLE_THROTTLE, 1.0)
+    holds.mode, holds.target, holds.target_rate = "speed", holds.n.vc.get_double_value() * FT, -entry_rate_ms2
+    holds.theta_i = holds.n.theta.get_double_value()
+    n = holds.n
+    cl_max, hist = 0.0, []
+    while fdm.get_sim_time() < 200.0:
+        holds.step()
+        fdm.run()
+        cas = n.vc.get_double_value() * FT
+        hist.append((fdm.get_sim_time(), cas))
+        cl = math.sqrt(n.cl2.get_double_value())
+        if cl > cl_max:
+            cl_max, v_at, t_at = cl, cas, fdm.get_sim_time()
+        elif cl < cl_max - 0.05 or n.alpha.get_double_value() > 20.0 * DEG:
+            break
+    else:
+        raise RuntimeError("stall_speed: no lift peak within 200 s")
+    h = np.array(hist)
+    sel = (h[:, 0] > t_at - 10.0) & (h[:, 0] <= t_at)
+    decel = -float(np.polyfit(h[sel, 0], h[sel, 1], 1)[0])
+    return StallSpeed(v_at, cl_max, decel, cg)
+
+
+def approach_attitude(cas_ms: float, *, mass_kg: float = MLW_KG, flaps_deg: float = 35.0, cg_mac: float = 0.16,
+                      gamma_rad: float = -3.0 * DEG, altitude_m: float = 3000.0 * FT, seconds: float = 120.0,
+                      window_s: float = 20.0) -> SteadyFlight:
+    """Steady approach at `cas_ms` on `gamma_rad`, flaps and gear down, 1,384 rpm: the
+    elevator holds the flight path and a slow power-lever loop (an autothrottle) holds
+    the speed, so pitch and alpha are what the airframe needs there."""
+    fdm = load_saab340()
+    set_mass(fdm, mass_kg, 800.0)
+    set_cg(fdm, cg_mac)
+    start_airborne(fdm, altitude_m, cas_ms=cas_ms, mass_kg=mass_kg, fuel_kg=800.0, flaps_deg=flaps_deg,
+                   gear_down=True, throttle=APPROACH_THROTTLE, advance=1.0, gamma_rad=gamma_rad, alpha_rad=3.0 * DEG)
+    holds = Holds(fdm, "gamma", gamma_rad)
+    thr_node = [fdm.get_property_manager().get_node(f"fcs/throttle-cmd-norm[{i}]", False) for i in (0, 1)]
+    thr_i = APPROACH_THROTTLE
+    samples = []
+    steps = int(round(seconds / DT))
+    for k in range(steps):
+        err = cas_ms - holds.n.vc.get_double_value() * FT
+        thr_i = min(1.0, max(0.0, thr_i + 0.002 * err * DT))
+        thr = min(1.0, max(0.0, thr_i + 0.03 * err))
+        for node in thr_node:
+            node.set_double_value(thr)
+        holds.step()
+        fdm.run()
+        if k >= steps - int(round(window_s / DT)):
+            samples.append((fdm.get_sim_time(), holds.n.vt.get_double_value() * FT, holds.n.vc.get_double_value() * FT,
+                            holds.n.h.get_double_value() * FT, holds.n.hdot.get_double_value() * FT,
+                            fdm["propulsion/engine/power-hp"] * HP_W, holds.n.alpha.get_double_value(),
+                            holds.n.theta.get_double_value()))
+    a = np.array(samples)
+    vs, tas = float(np.mean(a[:, 4])), float(np.mean(a[:, 1]))
+    return SteadyFlight(tas_ms=tas, cas_ms=float(np.mean(a[:, 2])), altitude_m=float(np.mean(a[:, 3])),
+                        vertical_speed_ms=vs, gamma_rad=math.asin(vs / tas),
+                        tas_drift_ms2=float(np.polyfit(a[:, 0], a[:, 1], 1)[0]), shaft_power_w=float(np.mean(a[:, 5])),
+                        alpha_rad=float(np.mean(a[:, 6])), pitch_rad=float(np.mean(a[:, 7])))
