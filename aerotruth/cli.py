@@ -69,6 +69,38 @@ def _cmd_fly(args: argparse.Namespace) -> int:
     return 0
 
 
+def _cmd_fly_approach(args: argparse.Namespace) -> int:
+    from aerotruth.seeds import child, named_sequence
+    from aerotruth.truth.approach import approach_metrics, approach_spec, find_runway, fly_approach
+    from aerotruth.truth.days import day_atmosphere, parse_departure
+    from aerotruth.truth.flight import FlightDiverged
+    from aerotruth.truth.weather import region_for_airport
+
+    out = _output_file(args.out)
+    icao = args.airport.strip().upper()
+    weather_seed = args.seed if args.weather_seed is None else args.weather_seed
+    flight_seed = args.seed if args.flight_seed is None else args.flight_seed
+    try:
+        runway = find_runway(icao, args.runway)
+        when = parse_departure(args.date, default_hour=15)
+        region = args.region or region_for_airport(icao)
+        atmosphere = None if args.calm else day_atmosphere(when.date(), weather_seed, region)
+        spec = approach_spec(icao, runway.ident, when, profile=args.profile, mass_kg=args.mass_kg,
+                             turbulence=args.turbulence, pass_height_ft=args.pass_height_ft)
+        seed = child(named_sequence(flight_seed, "approach", icao, runway.ident), "flight")
+        track = fly_approach(spec, seed=seed, atmosphere=atmosphere)
+    except (ValueError, FlightDiverged) as e:
+        raise UserError(str(e)) from None
+    track.to_parquet(out)
+    m = approach_metrics(track)
+    print(f"{icao} ILS {runway.ident} ({spec.profile}), {len(track)} samples at 50 Hz "
+          f"({track.df['time_s'].iloc[-1] / 60:.1f} min) -> {out}")
+    print(f"at 1,000 ft: localizer {m['loc_dots_1000ft']:+.2f} dot, glide slope {m['gs_dots_1000ft']:+.2f} dot, "
+          f"Vref{m['cas_minus_vref_kt_1000ft']:+.1f} kt, sink {m['sink_fpm_1000ft']:.0f} fpm; "
+          f"threshold crossed at {m['height_over_threshold_ft']:.0f} ft, {m['cas_threshold_kt']:.0f} KCAS")
+    return 0
+
+
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     from aerotruth.analysis.diagnose import Diagnosis, diagnose_track, track_from_measured, write_diagnosis
     from aerotruth.config import load_campaign
@@ -185,6 +217,23 @@ def build_parser() -> argparse.ArgumentParser:
     fly.add_argument("--out", required=True, help="output Parquet file")
     fly.set_defaults(func=_cmd_fly)
     _add_campaign_commands(sub)
+
+    fa = sub.add_parser("fly-approach", help="fly one ILS approach with JSBSim and write its 50 Hz TruthTrack (Parquet)")
+    fa.add_argument("--airport", required=True, help="airport ICAO code (the embedded airport table)")
+    fa.add_argument("--runway", required=True, help="runway end landed on, e.g. 27")
+    fa.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (start 15:00 UTC) or ISO date-time of the start")
+    fa.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the approach (weather and flight unless given)")
+    fa.add_argument("--weather-seed", type=_non_negative_int, default=None, help="seed of the day's truth atmosphere (default: --seed)")
+    fa.add_argument("--flight-seed", type=_non_negative_int, default=None, help="seed of the flight's own draws, e.g. turbulence (default: --seed)")
+    fa.add_argument("--region", default=None, help="truth-atmosphere region (default: that of the airport)")
+    fa.add_argument("--profile", choices=["afis", "go-around"], default="afis",
+                    help="after the glide path: the AFIS level pass over the runway, or a go-around at 200 ft")
+    fa.add_argument("--pass-height-ft", type=float, default=100.0, help="AFIS level-pass height above the runway (ft)")
+    fa.add_argument("--mass-kg", type=float, default=12000.0, help="landing mass (kg); Vref = 1.3 Vs scales with it")
+    fa.add_argument("--turbulence", action="store_true", help="switch on JSBSim turbulence")
+    fa.add_argument("--calm", action="store_true", help="ISA, no wind (instead of the day's truth atmosphere)")
+    fa.add_argument("--out", required=True, help="output Parquet file")
+    fa.set_defaults(func=_cmd_fly_approach)
 
     dia = sub.add_parser("diagnose", help="show where measured data disagree with the simulation's sensor model, and why",
                          description="Recognises the measured file from its content (Mode-S message logs and trajectories "

@@ -43,12 +43,37 @@ def ecef(lat_deg, lon_deg, h_ellipsoid_m):
     return _ECEF_FROM_GEODETIC.transform(lon_deg, lat_deg, h_ellipsoid_m)
 
 
+def geodetic_from_ecef(x_m, y_m, z_m):
+    """ECEF x, y, z (m) -> WGS-84 geodetic lat, lon (deg) and ellipsoidal height (m)."""
+    lon, lat, h = _ECEF_FROM_GEODETIC.transform(x_m, y_m, z_m, direction="INVERSE")
+    return lat, lon, h
+
+
 def enu(lat_deg, lon_deg, h_m, lat0_deg: float, lon0_deg: float, h0_m: float):
     """East, north, up (m) of points relative to the origin (lat0, lon0, h0), all
     ellipsoidal: PROJ's topocentric conversion of the ECEF coordinates (EPSG 9837)."""
     t = _topocentric(float(lat0_deg), float(lon0_deg), float(h0_m))
     e, n, u = t.transform(np.asarray(lon_deg, dtype=float), np.asarray(lat_deg, dtype=float), np.asarray(h_m, dtype=float))
     return e, n, u
+
+
+def geodetic_from_enu(e_m, n_m, u_m, lat0_deg: float, lon0_deg: float, h0_m: float):
+    """Inverse of :func:`enu`: geodetic lat, lon (deg) and ellipsoidal height (m)."""
+    t = _topocentric(float(lat0_deg), float(lon0_deg), float(h0_m))
+    lon, lat, h = t.transform(np.asarray(e_m, dtype=float), np.asarray(n_m, dtype=float), np.asarray(u_m, dtype=float),
+                              direction="INVERSE")
+    return lat, lon, h
+
+
+def ecef_from_ned_matrix(lat_deg, lon_deg) -> np.ndarray:
+    """Rotation matrices (..., 3, 3) from the local geodetic NED frame at (lat, lon) to ECEF
+    axes: columns are north, east and down expressed in ECEF."""
+    phi, lam = np.radians(np.asarray(lat_deg, float)), np.radians(np.asarray(lon_deg, float))
+    sp, cp, sl, cl = np.sin(phi), np.cos(phi), np.sin(lam), np.cos(lam)
+    north = np.stack([-sp * cl, -sp * sl, cp], axis=-1)
+    east = np.stack([-sl, cl, np.zeros_like(sl)], axis=-1)
+    down = np.stack([-cp * cl, -cp * sl, -sp], axis=-1)
+    return np.stack([north, east, down], axis=-1)
 
 
 @lru_cache(maxsize=64)

@@ -6,7 +6,8 @@ Prints `label: value` lines. `ratio` = bare µs/step / truth µs/step (target >=
 `ratio_vs_unwrapped` compares with the aircraft XML without our autopilot system;
 `realtime_factor` = simulated seconds per wall second of the truth loop;
 `vs_737_step_ratio` = this aircraft's bare step cost over the shipped 737's (both without
-the autopilot). Rounds
+the autopilot); `approach_ratio` = bare µs/step / µs/step of an ILS approach (KDLH 27,
+AFIS profile) with its 50 Hz inertial recording (target >= 0.7). Rounds
 alternate bare and truth runs; the fastest of each is kept (noise only slows), and times
 are this process's CPU time (time.process_time), so other work on the machine does not
 count; `realtime_factor` uses the same CPU time.
@@ -21,6 +22,7 @@ import time
 from datetime import datetime, timezone
 
 from aerotruth.truth.airframes import airframe, new_fdm
+from aerotruth.truth.approach import approach_spec, fly_approach
 from aerotruth.truth.flight import DT, fly_leg
 from aerotruth.truth.days import plan_in_weather
 
@@ -77,7 +79,16 @@ def main() -> None:
     ref737 = new_fdm(airframe("737"), DT, autopilot=False)  # a shipped twin for scale
 
     bare, unwrapped, truth, rt, b737 = [], [], [], [], []
+    appr, appr_bare = [], []
+    spec = approach_spec("KDLH", "27", datetime(2009, 8, 15, 15, 0, tzinfo=timezone.utc))
     for _ in range(args.rounds):
+        if af.name == "saab340":
+            t = time.process_time()
+            a = fly_approach(spec, seed=1, aircraft=af)
+            wall = time.process_time() - t
+            a_steps = round((float(a.df["time_s"].iloc[-1]) + 0.02) / DT)
+            appr.append(wall / a_steps * 1e6)
+            appr_bare.append(bare_us_per_step(wrapped, a_steps))
         t = time.process_time()
         track = fly_leg(plan, seed=1, aircraft=af)
         wall = time.process_time() - t
@@ -101,6 +112,9 @@ def main() -> None:
     print(f"realtime_factor: {max(rt):.1f}")
     print(f"shipped_737_us_per_step: {min(b737):.3f}")
     print(f"vs_737_step_ratio: {u / min(b737):.3f}")
+    if appr:
+        print(f"approach_us_per_step: {min(appr):.3f}")
+        print(f"approach_ratio: {min(appr_bare) / min(appr):.3f}")
 
 
 if __name__ == "__main__":

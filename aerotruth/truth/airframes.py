@@ -131,7 +131,8 @@ def _cache_dir() -> Path:
     return root
 
 
-_SYSTEM_LINES = '    <system file="{gains}"/>\n    <system file="aerotruth_autopilot"/>\n'
+_SYSTEM_LINES = ('    <system file="{gains}"/>\n    <system file="aerotruth_autopilot"/>\n'
+                 '    <system file="aerotruth_imu"/>\n')
 
 
 def with_autopilot(xml: str, gains_file: str) -> str:

@@ -144,13 +144,13 @@ def plan_in_weather(origin: str, destination: str, departure_utc: dt.datetime, *
     return dataclasses.replace(plan, flight_id=flight_id) if flight_id else plan
 
 
-def parse_departure(text: str) -> dt.datetime:
-    """`YYYY-MM-DD` (departure 13:00 UTC, a morning departure in the US Central zone) or an
-    ISO-8601 date-time (UTC unless it carries an offset; a trailing Z is UTC)."""
+def parse_departure(text: str, default_hour: int = 13) -> dt.datetime:
+    """`YYYY-MM-DD` (at `default_hour` UTC: 13:00 is a morning departure in the US Central
+    zone) or an ISO-8601 date-time (UTC unless it carries an offset; a trailing Z is UTC)."""
     try:
         if len(text) == 10:
             d = dt.datetime.strptime(text, "%Y-%m-%d")
-            return d.replace(hour=13, tzinfo=dt.timezone.utc)
+            return d.replace(hour=default_hour, tzinfo=dt.timezone.utc)
         d = dt.datetime.fromisoformat(text.replace("Z", "+00:00"))
     except ValueError:
         raise ValueError(f"--date: expected YYYY-MM-DD or an ISO-8601 date-time, got {text!r}") from None

@@ -254,14 +254,18 @@ def _initial_conditions(fdm, route: Route, af: Airframe, atmosphere: Atmosphere,
     # CAS -> TAS first: an angle set after ic/vc-kts corrupts the speed.
     fdm["ic/vc-kts"] = af.schedule.initial_ias_kt
     tas = fdm["ic/vt-kts"] * KT
+    # the leg starts in the climb it is flown in: the schedule's climb rate at the start
+    # speed; the air-relative velocity then has a horizontal part sqrt(TAS^2 - climb^2)
+    climb = min(0.25 * tas, af.schedule.climb_vs_fpm * FT / 60.0)
+    tas_h = math.sqrt(tas * tas - climb * climb)
     chi = route.start_course_deg * DEG
     cross = -v * math.sin(chi) + u * math.cos(chi)  # wind to the right of the course
-    psi = chi - math.asin(max(-0.5, min(0.5, cross / tas)))
-    gn, ge = tas * math.cos(psi) + v, tas * math.sin(psi) + u
+    psi = chi - math.asin(max(-0.5, min(0.5, cross / tas_h)))
+    gn, ge = tas_h * math.cos(psi) + v, tas_h * math.sin(psi) + u
     fdm["ic/psi-true-deg"] = route.start_course_deg
-    fdm["ic/gamma-deg"] = 0.0
+    fdm["ic/gamma-deg"] = math.degrees(math.atan2(climb, math.hypot(gn, ge)))
     fdm["ic/beta-deg"] = (chi - psi) / DEG
-    fdm["ic/vt-kts"] = math.hypot(gn, ge) / KT
+    fdm["ic/vt-kts"] = math.hypot(math.hypot(gn, ge), climb) / KT
 
 
 def _set_atmosphere(fdm, route: Route, atmosphere: Atmosphere, lat: float, lon: float, t_s: float) -> None:
@@ -293,10 +297,21 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         fdm["atmosphere/turbulence/milspec/severity"] = int(rng.integers(1, 4))
         # JSBSim's own generator drives the turbulence: seed it from the flight's stream
         fdm["simulation/randomseed"] = int(rng.integers(0, 2**31 - 1))
+    # guidance and targets before the initial condition is run: JSBSim evaluates the
+    # autopilot (filters, rate limiters) during initialisation and trim, and stale targets
+    # there (altitude 0, the default leg normal) started every leg with a -1,200 fpm dive
+    # and a 17 deg roll transient
+    guide = _Guide(route, af, fdm)
+    s = af.schedule
+    for prop, value in (("ap/target/use-pressure-altitude", 1), ("ap/target/altitude-ft", route.cruise_pressure_altitude_m / FT),
+                        ("ap/target/vs-max-fpm", s.climb_vs_fpm), ("ap/target/vs-min-fpm", -1000.0),
+                        ("ap/target/speed-mode", 0), ("ap/target/ias-kt", s.initial_ias_kt)):
+        fdm[prop] = value
+    for prop, value in af.phase_properties.get("climb", {}).items():
+        fdm[prop] = value
     fdm.run_ic()
     fdm["propulsion/set-running"] = -1
     _trim(fdm, af)
-    guide = _Guide(route, af, fdm)
     fdm["ap/active"] = 1
 
     total_m = float(sum(guide.lengths))

@@ -32,10 +32,11 @@ COLUMNS = (
 )
 PHASES = ("climb", "cruise", "descent", "approach")
 # Stored as float64: time (50 Hz samples over hours need < 1 ms) and position (float32
-# degrees are ~1 m coarse; float32 heights ~1 mm at 10 km, kept double with them). Every
+# degrees are ~1 m coarse; float32 heights ~1 mm at 10 km, kept double with them; an
+# approach's runway-frame x, y, z likewise). Every
 # other column is stored as float32: its relative precision of 6e-8 is far below any
 # sensor error modelled (0.01 kt, 1e-5 deg of attitude, 0.01 Pa).
-FLOAT64_COLUMNS = ("time_s", "lat_deg", "lon_deg", "h_ellipsoid_m")
+FLOAT64_COLUMNS = ("time_s", "lat_deg", "lon_deg", "h_ellipsoid_m", "x_m", "y_m", "z_m")
 _META_KEY = b"aerotruth"
 
 

@@ -1,0 +1,104 @@
+"""Strapdown inertial navigation in the Earth-centred Earth-fixed frame, from velocity
+and angle increments (dv, dtheta per IMU interval, body axes).
+
+Mechanization (Titterton & Weston, Strapdown Inertial Navigation Technology, 2nd ed.,
+section 3.5, the ECEF-frame equations; Groves, Principles of GNSS, Inertial and
+Multisensor Integrated Navigation Systems, 2nd ed., section 5.2):
+
+    C_eb' = C_eb (I + [w_ib x]) - [w_ie x] C_eb        attitude, body -> ECEF
+    v_e'  = C_eb f_b - 2 w_ie x v_e + g_e(r)           Earth-relative velocity
+    r_e'  = v_e
+
+with g_e = gravitation - w_ie x (w_ie x r) the gravity of the rotating Earth. Each
+interval: attitude by the exact rotation vector of dtheta and the Earth's rotation over
+dt; the specific-force increment rotated by the attitude at the interval's start with
+the first-order rotation correction dv + 1/2 dtheta x dv (Savage's velocity rotation
+compensation); gravity and Coriolis at the interval's midpoint (one predictor pass);
+position by the trapezoid of the velocities.
+
+Gravitation: WGS-84 GM and the J2 zonal term (the model JSBSim flies,
+simulation/gravity-model = 1), so the truth's own recording closes on itself.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from aerotruth import geo
+
+GM = 3.986004418e14  # m^3/s^2, WGS-84 (NIMA TR8350.2)
+J2 = 1.08262982e-3  # as JSBSim's FGInertia
+A_WGS84 = 6378137.0  # m
+OMEGA_IE = 7.292115e-5  # rad/s, WGS-84 Earth rate
+
+
+def gravitation_j2(r: np.ndarray) -> np.ndarray:
+    """Gravitational acceleration (m/s^2, ECEF) of the J2 Earth at ECEF position r (m)."""
+    r = np.asarray(r, float)
+    rn = np.linalg.norm(r, axis=-1, keepdims=True)
+    s2 = (r[..., 2:3] / rn) ** 2
+    k = 1.5 * J2 * (A_WGS84 / rn) ** 2
+    scale = np.concatenate([1.0 + k * (1.0 - 5.0 * s2)] * 2 + [1.0 + k * (3.0 - 5.0 * s2)], axis=-1)
+    return -GM / rn**2 * scale * r / rn
+
+
+def gravity_ecef(r: np.ndarray) -> np.ndarray:
+    """Gravity of the rotating Earth: gravitation minus the centripetal term."""
+    w = np.array([0.0, 0.0, OMEGA_IE])
+    return gravitation_j2(r) - np.cross(w, np.cross(w, r))
+
+
+@dataclass
+class NavState:
+    """Position r (ECEF m), Earth-relative velocity v (ECEF axes, m/s), attitude C_eb."""
+
+    r: np.ndarray
+    v: np.ndarray
+    c_eb: np.ndarray
+
+    @classmethod
+    def from_geodetic(cls, lat_deg: float, lon_deg: float, h_m: float, v_ned: np.ndarray, roll: float, pitch: float,
+                      heading: float) -> NavState:
+        r = np.array(geo.ecef(lat_deg, lon_deg, h_m), float)
+        c_en = geo.ecef_from_ned_matrix(lat_deg, lon_deg)
+        c_nb = Rotation.from_euler("ZYX", [heading, pitch, roll]).as_matrix()
+        return cls(r, c_en @ np.asarray(v_ned, float), c_en @ c_nb)
+
+    def geodetic(self) -> tuple[float, float, float]:
+        lat, lon, h = geo.geodetic_from_ecef(*self.r)
+        return float(lat), float(lon), float(h)
+
+    def euler(self) -> tuple[float, float, float]:
+        """Roll, pitch, heading (rad) in the local geodetic NED frame at the position."""
+        lat, lon, _ = self.geodetic()
+        c_nb = geo.ecef_from_ned_matrix(lat, lon).T @ self.c_eb
+        yaw, pitch, roll = Rotation.from_matrix(c_nb).as_euler("ZYX")
+        return float(roll), float(pitch), float(yaw)
+
+
+def propagate(state: NavState, dv: np.ndarray, dtheta: np.ndarray, dt: float) -> list[NavState]:
+    """Integrate increments dv (n, 3) m/s and dtheta (n, 3) rad, each over dt, from
+    `state`. Returns the n + 1 states (the first is `state`)."""
+    dv, dtheta = np.array(dv, dtype=float), np.array(dtheta, dtype=float)  # own, writable copies
+    if dv.shape != dtheta.shape or dv.ndim != 2 or dv.shape[1] != 3:
+        raise ValueError(f"dv, dtheta: expected two (n, 3) arrays, got {dv.shape} and {dtheta.shape}")
+    w = np.array([0.0, 0.0, OMEGA_IE])
+    earth = Rotation.from_rotvec(-w * dt).as_matrix()
+    body = Rotation.from_rotvec(dtheta).as_matrix()
+    out = [state]
+    r, v, c = state.r.copy(), state.v.copy(), state.c_eb.copy()
+    for k in range(len(dv)):
+        dv_rot = dv[k] + 0.5 * np.cross(dtheta[k], dv[k])
+        # specific force in ECEF: the frame turned by Earth's rotation over half the interval
+        f_dv = Rotation.from_rotvec(-w * dt / 2).as_matrix() @ (c @ dv_rot)
+        v_pred = v + f_dv + (gravity_ecef(r) - 2.0 * np.cross(w, v)) * dt
+        r_mid, v_mid = r + 0.25 * (v + v_pred) * dt, 0.5 * (v + v_pred)
+        v_new = v + f_dv + (gravity_ecef(r_mid) - 2.0 * np.cross(w, v_mid)) * dt
+        r = r + 0.5 * (v + v_new) * dt
+        v = v_new
+        c = earth @ c @ body[k]
+        out.append(NavState(r.copy(), v.copy(), c.copy()))
+    return out

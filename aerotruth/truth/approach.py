@@ -1,0 +1,490 @@
+"""An ILS approach flown by JSBSim to make truth for flight inspection (the FITS paper).
+
+The aircraft starts on the extended centreline `start_nm` out, level below the glide
+path, flaps 15, and flies a coupled localizer and glide-slope approach: the LNAV
+channel of the autopilot XML tracks the centreline great circle with localizer gains,
+and the vertical channel tracks the glide-path cone, whose height Python gives once a
+second as a moving target that the XML extrapolates at its rate every step. The
+configuration follows a crew's schedule: gear down and flaps 20 at glide-path capture,
+flaps 35 below 2,000 ft above the threshold, Vref + 5 kt by 1,000 ft (stabilised).
+Then either the AFIS profile (a level pass over the runway at `pass_height_ft`, as the
+FAA's AFIS flies to update its INS with the radar altimeter and TVPS; FITS paper
+section II) or a go-around at the decision altitude. Recording continues for
+`past_threshold_s` after the threshold (filters need data on both sides).
+
+Geometry is the runway frame (aerotruth.truth.runway) and the glide path of an ILS
+installation (aerotruth.sensors.ils: glide-path mast at x_G = TCH / tan(theta) abeam
+the touchdown zone, offset to the side): the aircraft flies the facility's nominal
+beams; the facility errors an inspection measures are the inspection issue's.
+
+Recording is at 50 Hz: the 10 Hz route columns, plus the runway-frame position of the
+CG, the CG location, and the inertial truth of aircraft/systems/aerotruth_imu.xml as
+increments per 20 ms (dv at the IMU point in body axes, dtheta of the inertial body
+rate), differenced from integrals JSBSim accumulates every step; the strapdown
+self-consistency test (tests/test_approach.py) closes on them.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+from datetime import date as Date
+from datetime import datetime, timezone
+
+import jsbsim
+import numpy as np
+
+from aerotruth.sensors.ils import IlsFacilitySpec
+from aerotruth.truth.airframes import Airframe, airframe, new_fdm
+from aerotruth.truth.airports import Runway, airport
+from aerotruth.truth.flight import (DT, FPS, FlightDiverged, _digest, _Recorder, _set_atmosphere, _trim,
+                                     seed_repr)
+from aerotruth.truth.guidance import GreatCircleLeg
+from aerotruth.truth.runway import RunwayFrame
+from aerotruth.truth.track import TruthTrack
+from aerotruth.truth.weather import Atmosphere, UniformAtmosphere
+from aerotruth.units import DEG, FT, KT, NM
+
+RATE_HZ = 50
+STEPS_PER_SAMPLE = int(round(1.0 / (RATE_HZ * DT)))  # 2 at 100 Hz
+GUIDE_EVERY = 100  # steps: 1 Hz targets
+IN = 0.0254  # m per inch
+ALT_TO_VS_FPM_PER_FT = 4.0  # ap/gain/alt-to-vs of gains_saab340.xml
+PROFILES = ("afis", "go-around")
+
+
+@dataclass(frozen=True)
+class ApproachSchedule:
+    """What a SAAB 340 crew flies on an ILS (speeds KIAS). Vref = 1.3 Vs(flaps 35) scales
+    as sqrt(mass): 120.4 KCAS at the maximum landing weight from the model's own 1-g
+    stall (tests/test_saab340.py). Flap placards are estimates for the class (the
+    published 340B limits are not at hand): VFE 35 140 KIAS, VFE 20 165, VLO 180."""
+
+    vref_mlw_kt: float = 120.4
+    mlw_kg: float = 12930.0
+    initial_ias_kt: float = 160.0
+    capture_ias_kt: float = 150.0
+    vfe35_kt: float = 140.0
+    flaps35_below_ft: float = 2000.0  # above the threshold
+    additive_kt: float = 5.0  # Vapp = Vref + 5
+
+    def vref_kt(self, mass_kg: float) -> float:
+        return self.vref_mlw_kt * math.sqrt(mass_kg / self.mlw_kg)
+
+
+# Sensor points on the airframe, JSBSim structural frame (m: x aft of the nose, y right,
+# z up from the fuselage datum). Estimates for a SAAB 340 installation: GNSS antenna on
+# the crown over the wing box, IMU in the avionics bay under the cabin floor near the CG,
+# radar altimeter and TVPS camera on the belly, localizer and glide-slope antennas in
+# the nose. Documented in docs/data-formats.md.
+DEFAULT_POINTS_M: dict[str, tuple[float, float, float]] = {
+    "gnss": (8.50, 0.0, 1.25),
+    "imu": (8.00, 0.0, -0.60),
+    "radar_altimeter": (9.50, 0.0, -1.15),
+    "tvps": (3.00, 0.0, -1.10),
+    "loc_antenna": (0.50, 0.0, 0.20),
+    "gs_antenna": (0.80, 0.0, -0.10),
+}
+
+
+@dataclass(frozen=True)
+class ApproachSpec:
+    """One approach: where, when, how (heights above the threshold in ft, edges only)."""
+
+    airport: str
+    runway: str
+    start_utc: datetime
+    profile: str = "afis"
+    start_nm: float = 14.0
+    intercept_nm: float = 12.5  # glide path captured from below about here
+    pass_height_ft: float = 100.0  # AFIS level pass over the runway
+    decision_height_ft: float = 200.0  # go-around
+    go_around_height_ft: float = 2000.0
+    past_threshold_s: float = 110.0
+    mass_kg: float = 12000.0
+    turbulence: bool = False
+    ils: IlsFacilitySpec = field(default_factory=IlsFacilitySpec)
+    points_m: dict[str, tuple[float, float, float]] = field(default_factory=lambda: dict(DEFAULT_POINTS_M))
+
+    def __post_init__(self) -> None:
+        if self.profile not in PROFILES:
+            raise ValueError(f"profile: expected one of {PROFILES}, got {self.profile!r}")
+        if not self.start_nm > self.intercept_nm >= 11.0:
+            raise ValueError(f"start_nm/intercept_nm: expected start > intercept >= 11 nm, got {self.start_nm}/{self.intercept_nm}")
+        if "imu" not in self.points_m:
+            raise ValueError("points_m: the IMU point is required")
+
+
+def find_runway(icao: str, ident: str) -> Runway:
+    apt = airport(icao)  # raises ValueError naming the airport
+    key = ident.strip().upper().lstrip("0") or "0"
+    for rw in apt.runways:
+        if rw.ident.upper().lstrip("0") == key:
+            return rw
+    raise ValueError(f"runway: {icao} has no runway {ident!r}; expected one of {sorted(r.ident for r in apt.runways)}")
+
+
+class _GlidePath:
+    """Nominal ILS geometry in the runway frame."""
+
+    def __init__(self, spec: IlsFacilitySpec, runway: Runway):
+        self.theta = spec.glide_path_deg * DEG
+        self.tan = math.tan(self.theta)
+        self.gp_x = spec.tch_m / self.tan
+        self.gp_y = spec.gp_offset_m
+        self.loc_x = runway.length_m + spec.loc_setback_m
+        self.loc_half_sector = math.atan(0.155 / 0.00145 / self.loc_x)  # sensors/ils.py
+
+    def height_m(self, x: float, y: float) -> float:
+        """Height of the glide-path cone above the runway plane at (x, y)."""
+        return math.hypot(x - self.gp_x, y - self.gp_y) * self.tan
+
+    def gs_dots(self, x: float, y: float, z: float) -> float:
+        """Glide-slope deviation in dots (+ above; 1 dot = 75 uA = 0.0875 DDM = 0.12 theta)."""
+        eps = math.atan2(z, math.hypot(x - self.gp_x, y - self.gp_y))
+        return (eps - self.theta) / (0.12 * self.theta)
+
+    def loc_dots(self, x: float, y: float) -> float:
+        """Localizer deviation in dots (+ left; 1 dot = 75 uA = half the half course sector)."""
+        return math.atan2(y, self.loc_x - x) / (0.5 * self.loc_half_sector)
+
+
+INERTIAL_PROPS = tuple(f"imu/v-{a}-fps" for a in "xyz") + tuple(f"imu/theta-{a}-rad" for a in "xyz") + tuple(
+    f"inertia/cg-{a}-in" for a in "xyz")
+
+
+def _ic(fdm, frame: RunwayFrame, gp: _GlidePath, spec: ApproachSpec, af: Airframe, sched: ApproachSchedule,
+        atmosphere: Atmosphere, undulation: float, t0_s: float) -> None:
+    x0 = -spec.start_nm * NM
+    z0 = gp.height_m(-spec.intercept_nm * NM, 0.0)
+    lat, lon, h = (float(v) for v in frame.to_geodetic(x0, 0.0, z0))
+    fdm["ic/lat-geod-deg"] = lat
+    fdm["ic/long-gc-deg"] = lon
+    fdm["ic/h-sl-ft"] = h / FT
+    fdm["ic/terrain-elevation-ft"] = (frame.h0_m - 50.0) / FT
+    for k, v in af.extra_ic.items():
+        fdm[k] = v
+    _set_mass(fdm, spec.mass_kg)
+    fdm["fcs/flap-cmd-norm"] = 15.0 / 35.0
+    fdm["fcs/flap-pos-deg"] = 15.0
+    _set_atmosphere(fdm, _Und(undulation), atmosphere, lat, lon, t0_s)
+    u, v, w = (float(np.asarray(c).ravel()[0]) for c in atmosphere.wind(lat, lon, h - undulation, t0_s))
+    fdm["ap/wind/t0-sec"] = 0.0
+    fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"] = v / FPS, u / FPS, -w / FPS
+    # same construction as the route loop's initial condition (see flight._initial_conditions)
+    fdm["ic/vc-kts"] = sched.initial_ias_kt
+    tas = fdm["ic/vt-kts"] * KT
+    chi = frame.course_deg * DEG
+    cross = -v * math.sin(chi) + u * math.cos(chi)
+    psi = chi - math.asin(max(-0.5, min(0.5, cross / tas)))
+    gn, ge = tas * math.cos(psi) + v, tas * math.sin(psi) + u
+    fdm["ic/psi-true-deg"] = frame.course_deg
+    fdm["ic/gamma-deg"] = 0.0
+    fdm["ic/beta-deg"] = (chi - psi) / DEG
+    fdm["ic/vt-kts"] = math.hypot(gn, ge) / KT
+
+
+@dataclass(frozen=True)
+class _Und:
+    undulation_m: float
+
+
+def _set_mass(fdm, mass_kg: float) -> None:
+    """Gross mass by the passenger point mass, fuel at the model default (1,760 kg)."""
+    kg_per_lb = 0.45359237
+    fdm.run_ic()
+    now = fdm["inertia/weight-lbs"] * kg_per_lb
+    pax = fdm["inertia/pointmass-weight-lbs[0]"] * kg_per_lb + (mass_kg - now)
+    if pax < 0.0:
+        raise ValueError(f"mass_kg: {mass_kg} kg is below the model's empty + fuel + baggage ({now - pax + 0:.0f} kg)")
+    fdm["inertia/pointmass-weight-lbs[0]"] = pax / kg_per_lb
+
+
+class _Guide:
+    """1 Hz guidance: vertical mode, configuration and speed schedule."""
+
+    def __init__(self, fdm, spec: ApproachSpec, sched: ApproachSchedule, gp: _GlidePath, frame: RunwayFrame):
+        self.fdm, self.spec, self.sched, self.gp, self.frame = fdm, spec, sched, gp, frame
+        self.mode = "level"  # level -> glidepath -> pass | go-around
+        self.vapp = sched.vref_kt(spec.mass_kg) + sched.additive_kt
+        self.events: dict[str, float] = {}
+        self.z_level = gp.height_m(-spec.intercept_nm * NM, 0.0)
+        pm = fdm.get_property_manager()
+        self._pm, self._nodes = pm, {}
+
+    def _set(self, prop: str, value: float) -> None:
+        node = self._nodes.get(prop)
+        if node is None:
+            node = self._nodes[prop] = self._pm.get_node(prop)
+        node.set_double_value(float(value))
+
+    def update(self, t: float, x: float, y: float, z: float, h_ell: float, vx: float, vd: float, cas_kt: float) -> None:
+        s, gp = self.spec, self.gp
+        z_gp = gp.height_m(x, y)
+        rate = 0.0
+        if self.mode == "level" and z >= z_gp - 1.0:
+            self.mode = "glidepath"
+            self.events["gs_capture_s"] = t
+            self._set("fcs/gear-cmd-norm", 1.0)
+            self._set("fcs/flap-cmd-norm", 20.0 / 35.0)
+        if self.mode == "glidepath":
+            # level-off where the altitude law's command (4 fpm per ft of error) equals the
+            # sink rate, so the capture is an exponential that never undershoots the pass height
+            if s.profile == "afis" and z - s.pass_height_ft * FT <= max(vd, 0.0) * 60.0 / ALT_TO_VS_FPM_PER_FT:
+                self.mode = "pass"
+                self.events["level_pass_s"] = t
+            elif s.profile == "go-around" and z <= s.decision_height_ft * FT:
+                self.mode = "go-around"
+                self.events["go_around_s"] = t
+                self._set("fcs/flap-cmd-norm", 15.0 / 35.0)
+        if self.mode == "go-around" and "gear_up_s" not in self.events and t - self.events["go_around_s"] > 5.0:
+            self.events["gear_up_s"] = t
+            self._set("fcs/gear-cmd-norm", 0.0)
+        if "threshold_s" not in self.events and x >= 0.0:
+            self.events["threshold_s"] = t
+        # vertical target (ellipsoidal height, moving at the path's rate)
+        if self.mode == "level":
+            target_z = self.z_level
+        elif self.mode == "glidepath":
+            target_z = z_gp
+            rate = vx * gp.tan * (x - gp.gp_x) / max(math.hypot(x - gp.gp_x, y - gp.gp_y), 1.0)
+        elif self.mode == "pass":
+            target_z = s.pass_height_ft * FT
+        else:
+            target_z = s.go_around_height_ft * FT
+        self._set("ap/target/altitude-ft", (h_ell + target_z - z) / FT)
+        self._set("ap/target/altitude-rate-fps", rate / FT)
+        self._set("ap/target/altitude-t0-sec", t)
+        self._set("ap/target/vs-max-fpm", 1500.0 if self.mode == "go-around" else 1000.0)
+        self._set("ap/target/vs-min-fpm", -1500.0)
+        # speed and flaps
+        if self.mode == "level":
+            ias = self.sched.initial_ias_kt
+        elif self.mode == "go-around":
+            ias = self.vapp + 10.0
+        else:
+            ias = self.sched.capture_ias_kt
+            if z < self.sched.flaps35_below_ft * FT:
+                ias = self.vapp
+                if cas_kt <= self.sched.vfe35_kt and "flaps35_s" not in self.events:
+                    self.events["flaps35_s"] = t
+                    self._set("fcs/flap-cmd-norm", 1.0)
+        self._set("ap/target/speed-mode", 0)
+        self._set("ap/target/ias-kt", ias)
+
+
+def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = None,
+                 atmosphere: Atmosphere | None = None, schedule: ApproachSchedule | None = None) -> TruthTrack:
+    """Fly one ILS approach and return its 50 Hz TruthTrack. Raises FlightDiverged."""
+    af = aircraft if isinstance(aircraft, Airframe) else airframe(aircraft)
+    if af.name != "saab340":
+        raise ValueError(f"aircraft: approaches are flown by the saab340 only (its flaps and Vref), got {af.name!r}")
+    sched = schedule or ApproachSchedule()
+    runway = find_runway(spec.airport, spec.runway)
+    frame = RunwayFrame.of(runway)
+    gp = _GlidePath(spec.ils, runway)
+    atmosphere = atmosphere if atmosphere is not None else UniformAtmosphere()
+    rng = np.random.default_rng(seed)
+    day0 = spec.start_utc.replace(hour=0, minute=0, second=0, microsecond=0)
+    t0_s = (spec.start_utc - day0).total_seconds()
+    und = runway.undulation_m
+    fdm = new_fdm(af, DT)
+    _ic(fdm, frame, gp, spec, af, sched, atmosphere, und, t0_s)
+    imu = spec.points_m["imu"]
+    for axis, value in zip("xyz", imu):
+        fdm[f"imu/location-{axis}-in"] = value / IN
+    if spec.turbulence:
+        fdm["atmosphere/turb-type"] = 3
+        fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = float(rng.uniform(5.0, 25.0)) / FPS * KT
+        fdm["atmosphere/turbulence/milspec/severity"] = int(rng.integers(1, 3))
+        fdm["simulation/randomseed"] = int(rng.integers(0, 2**31 - 1))
+    # guidance targets before the initial condition is run: JSBSim evaluates the autopilot
+    # (filters, rate limiters) during initialisation and trim, and stale geometry there
+    # would start the approach with a full-bank command
+    far = frame.to_geodetic(-40 * NM, 0.0, 0.0)
+    end = frame.to_geodetic(runway.length_m + 5 * NM, 0.0, 0.0)
+    leg = GreatCircleLeg("LOC", float(far[0]), float(far[1]), float(end[0]), float(end[1]))
+    for k, c in zip("xyz", leg.normal):
+        fdm[f"ap/nav/n{k}"] = float(c)
+    fdm["ap/nav/mode"] = 1
+    fdm["ap/gain/xtk-to-track"] = 0.00025  # localizer tracking: ~25 s time constant at 130 kt
+    fdm["ap/target/use-pressure-altitude"] = 0
+    fdm["ap/target/altitude-ft"] = fdm["ic/h-sl-ft"]
+    fdm["ap/target/ias-kt"] = sched.initial_ias_kt
+    fdm.run_ic()
+    fdm["propulsion/set-running"] = -1
+    _trim(fdm, af)
+    for prop, value in af.phase_properties.get("approach", {}).items():
+        fdm[prop] = value
+    guide = _Guide(fdm, spec, sched, gp, frame)
+    fdm["ap/active"] = 1
+
+    rec = _Recorder(fdm)
+    pm = fdm.get_property_manager()
+    # one read per sample: the route columns, then the running inertial integrals of
+    # aircraft/systems/aerotruth_imu.xml and the CG, all of the same step (that alignment
+    # closes the strapdown test best: 0.25 m and 0.002 deg after 120 s, against 1.0 m and
+    # 0.005 deg with the integrals one step later)
+    getters = rec.getters + [pm.get_node(p).get_double_value for p in INERTIAL_PROPS]
+    g = {k: pm.get_node(p).get_double_value for k, p in (
+        ("lat", "position/lat-geod-deg"), ("lon", "position/long-gc-deg"), ("h", "position/geod-alt-ft"),
+        ("t", "simulation/sim-time-sec"), ("vn", "velocities/v-north-fps"), ("ve", "velocities/v-east-fps"),
+        ("vd", "velocities/v-down-fps"), ("vc", "velocities/vc-fps"), ("phi", "attitude/phi-rad"),
+        ("theta", "attitude/theta-rad"))}
+    wind_nodes = [pm.get_node(f"ap/wind/{k}") for k in
+                  ("t0-sec", "north-fps", "east-fps", "down-fps", "north-rate-fps2", "east-rate-fps2", "down-rate-fps2")]
+    w_prev = (fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"])
+    seed_id = seed_repr(seed)
+    cc, sc = math.cos(frame.course_deg * DEG), math.sin(frame.course_deg * DEG)
+    rows, tags = [], []
+    run = fdm.run
+    end_t = None
+    t_limit = spec.start_nm * NM / (100 * KT) + spec.past_threshold_s + 300.0
+    while True:
+        t = g["t"]()
+        lat, lon, h = g["lat"](), g["lon"](), g["h"]() * FT
+        phi, theta = g["phi"](), g["theta"]()
+        if not all(map(math.isfinite, (lat, lon, h, phi, theta))):
+            raise FlightDiverged("NaN in the JSBSim state", seed_id, t)
+        if abs(phi) > 45 * DEG or not -15 * DEG < theta < 25 * DEG:
+            raise FlightDiverged(f"attitude limit: roll {phi / DEG:.1f} deg, pitch {theta / DEG:.1f} deg", seed_id, t)
+        x, y, z = (float(v) for v in frame.from_geodetic(lat, lon, h))
+        if z < 3.0:
+            raise FlightDiverged(f"height {z:.1f} m over the runway plane at x = {x:.0f} m", seed_id, t)
+        if t > t_limit:
+            raise FlightDiverged(f"did not pass the threshold within {t_limit:.0f} s", seed_id, t)
+        vn, ve, vd = g["vn"]() * FPS, g["ve"]() * FPS, g["vd"]() * FPS
+        guide.update(t, x, y, z, h, vn * cc + ve * sc, vd, g["vc"]() * FPS / KT)
+        if end_t is None and "threshold_s" in guide.events:
+            end_t = guide.events["threshold_s"] + spec.past_threshold_s
+        if end_t is not None and t >= end_t:
+            break
+        dt_g = GUIDE_EVERY * DT
+        lat1 = lat + vn * dt_g / 6371008.8 / DEG
+        lon1 = lon + ve * dt_g / (6371008.8 * math.cos(lat * DEG)) / DEG
+        h1 = h - vd * dt_g - und
+        u, v, w = (float(np.asarray(c).ravel()[0]) for c in
+                   atmosphere.wind(lat1, lon1, h1, t0_s + t + dt_g, ground_elevation_m=runway.elevation_m))
+        w_next = (v / FPS, u / FPS, -w / FPS)
+        wind_nodes[0].set_double_value(t)
+        for k in range(3):
+            wind_nodes[1 + k].set_double_value(w_prev[k])
+            wind_nodes[4 + k].set_double_value((w_next[k] - w_prev[k]) / dt_g)
+        w_prev = w_next
+        if int(round(t)) % 10 == 0:
+            _set_atmosphere(fdm, _Und(und), atmosphere, lat, lon, t0_s + t)
+        tag = (0, 3)
+        for _ in range(GUIDE_EVERY // STEPS_PER_SAMPLE):
+            rows.append([gg() for gg in getters])
+            tags.append(tag)
+            for _ in range(STEPS_PER_SAMPLE):
+                run()
+    nrec = len(rec.PROPS)
+    data = np.asarray(rows, dtype=float)
+    extra = data[:, nrec:]
+    df = rec.frame(data[:, :nrec], tags)
+    dv, dth = np.diff(extra[:, 0:3] * FT, axis=0), np.diff(extra[:, 3:6], axis=0)
+    # increments over the 20 ms that END at each sample; the first sample has none (NaN)
+    for i, a in enumerate("xyz"):
+        df[f"dv_{a}_mps"] = np.concatenate([[np.nan], dv[:, i]])
+        df[f"dtheta_{a}_rad"] = np.concatenate([[np.nan], dth[:, i]])
+    cgm = extra[:, 6:9] * IN
+    for i, a in enumerate("xyz"):
+        df[f"cg_{a}_m"] = cgm[:, i]
+    xr, yr, zr = frame.from_geodetic(df["lat_deg"].to_numpy(), df["lon_deg"].to_numpy(), df["h_ellipsoid_m"].to_numpy())
+    df["x_m"], df["y_m"], df["z_m"] = xr, yr, zr
+    if not np.isfinite(df.drop(columns=["phase"]).to_numpy()[1:]).all():
+        raise FlightDiverged("NaN in the recorded truth", seed_id)
+    meta = {
+        "kind": "approach",
+        "route": f"{spec.airport}-{runway.ident}-ILS",
+        "aircraft": af.name,
+        "seed": seed_id,
+        "jsbsim_version": jsbsim.__version__,
+        "departure_utc": spec.start_utc.astimezone(timezone.utc).isoformat(),
+        "airport": spec.airport,
+        "runway": runway.ident,
+        "runway_frame": asdict(frame),
+        "runway_length_m": runway.length_m,
+        "undulation_m": und,
+        "glide_path": {"theta_deg": spec.ils.glide_path_deg, "tch_m": spec.ils.tch_m, "gp_x_m": gp.gp_x,
+                       "gp_y_m": gp.gp_y, "loc_x_m": gp.loc_x},
+        "profile": spec.profile,
+        "pass_height_ft": spec.pass_height_ft,
+        "decision_height_ft": spec.decision_height_ft,
+        "mass_kg": spec.mass_kg,
+        "vref_kt": sched.vref_kt(spec.mass_kg),
+        "vapp_kt": guide.vapp,
+        "events_s": guide.events,
+        "points_structural_m": {k: list(v) for k, v in spec.points_m.items()},
+        "imu": "dv_*, dtheta_*: increments over the 20 ms ending at the sample, body axes, at the IMU point",
+        "turbulence": bool(spec.turbulence),
+        "rate_hz": RATE_HZ,
+    }
+    meta["config_hash"] = _digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})
+    return TruthTrack(df, meta)
+
+
+def point_positions(track: TruthTrack, points_m: dict[str, tuple[float, float, float]] | None = None):
+    """Runway-frame positions (m) of named points of the airframe at every sample:
+    p = p_cg + C_rwy<-ned C_ned<-body r_b, with r_b the point's offset from the CG in body
+    axes (structural x aft, z up -> body x forward, z down). Returns {name: (n, 3)}."""
+    from scipy.spatial.transform import Rotation
+
+    df, meta = track.df, track.meta
+    points = points_m or {k: tuple(v) for k, v in meta["points_structural_m"].items()}
+    frame = RunwayFrame(**meta["runway_frame"])
+    c_nb = Rotation.from_euler("ZYX", np.column_stack([df["heading_rad"], df["pitch_rad"], df["roll_rad"]])).as_matrix()
+    c_rn = frame.rotation_from_ned(df["lat_deg"].to_numpy(), df["lon_deg"].to_numpy())
+    c_rb = np.einsum("nij,njk->nik", c_rn, c_nb)
+    cg = df[["cg_x_m", "cg_y_m", "cg_z_m"]].to_numpy()
+    p_cg = df[["x_m", "y_m", "z_m"]].to_numpy()
+    out = {}
+    for name, (xs, ys, zs) in points.items():
+        r_b = np.column_stack([-(xs - cg[:, 0]), ys - cg[:, 1], -(zs - cg[:, 2])])
+        out[name] = p_cg + np.einsum("nij,nj->ni", c_rb, r_b)
+    return out
+
+
+def approach_spec(airport_icao: str, runway: str, day: Date | datetime, **kw) -> ApproachSpec:
+    """An ApproachSpec starting at 15:00 UTC of `day` unless a datetime is given."""
+    when = day if isinstance(day, datetime) else datetime(day.year, day.month, day.day, 15, 0, tzinfo=timezone.utc)
+    if when.tzinfo is None:
+        when = when.replace(tzinfo=timezone.utc)
+    return ApproachSpec(airport=airport_icao.strip().upper(), runway=runway, start_utc=when, **kw)
+
+
+def approach_metrics(track: TruthTrack) -> dict[str, float]:
+    """The issue-8 acceptance figures of one approach: localizer and glide-slope
+    deviations (dots), speed against Vref and sink rate at 1,000 ft above the threshold;
+    deviation RMS inside 1 nm; height, speed, pitch and roll at the threshold."""
+    df, meta = track.df, track.meta
+    g = meta["glide_path"]
+    gp = _GlidePath.__new__(_GlidePath)
+    gp.theta, gp.tan = g["theta_deg"] * DEG, math.tan(g["theta_deg"] * DEG)
+    gp.gp_x, gp.gp_y, gp.loc_x = g["gp_x_m"], g["gp_y_m"], g["loc_x_m"]
+    gp.loc_half_sector = math.atan(0.155 / 0.00145 / gp.loc_x)
+    x, y, z = (df[c].to_numpy(float) for c in ("x_m", "y_m", "z_m"))
+    t = df["time_s"].to_numpy(float)
+    out: dict[str, float] = {}
+    before = np.flatnonzero((x < 0.0) & (z <= 1000.0 * FT))
+    if len(before) == 0:
+        raise ValueError("approach_metrics: the track never descends through 1,000 ft before the threshold")
+    i = int(before[0])
+    out["loc_dots_1000ft"] = gp.loc_dots(x[i], y[i])
+    out["gs_dots_1000ft"] = gp.gs_dots(x[i], y[i], z[i])
+    out["cas_minus_vref_kt_1000ft"] = float(df["cas_mps"].iloc[i] / KT - meta["vref_kt"])
+    out["sink_fpm_1000ft"] = float(df["vd_mps"].iloc[i] / FT * 60.0)
+    inside = (x >= -NM) & (x < 0.0) & (z > 0.0)
+    h_gp = np.hypot(x - gp.gp_x, y - gp.gp_y) * gp.tan
+    out["lateral_rms_m_1nm"] = float(np.sqrt(np.mean(y[inside] ** 2)))
+    out["vertical_rms_m_1nm"] = float(np.sqrt(np.mean((z[inside] - h_gp[inside]) ** 2)))
+    k = int(np.flatnonzero(x >= 0.0)[0]) if (x >= 0.0).any() else -1
+    out["height_over_threshold_ft"] = float(z[k] / FT)
+    out["cas_threshold_kt"] = float(df["cas_mps"].iloc[k] / KT)
+    out["pitch_threshold_deg"] = float(df["pitch_rad"].iloc[k] / DEG)
+    out["roll_threshold_deg"] = float(df["roll_rad"].iloc[k] / DEG)
+    out["recorded_past_threshold_s"] = float(t[-1] - t[k]) if k >= 0 else 0.0
+    out["stabilised"] = float(abs(out["loc_dots_1000ft"]) <= 1.0 and abs(out["gs_dots_1000ft"]) <= 1.0
+                              and -5.0 <= out["cas_minus_vref_kt_1000ft"] <= 10.0 and out["sink_fpm_1000ft"] <= 1000.0)
+    return out
