@@ -88,8 +88,12 @@ def ins_errors(t: np.ndarray, rng: np.random.Generator, accel_bias_ug: float = 5
 
 
 def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before_s: float = 300.0, after_s: float = 60.0,
-                  waveform: str = "sine", lever_arm_m: float = 0.0, t0_s: float = 1000.0, **waas_kw):
-    """One approach: (log rows, truth rows). WAAS on the whole seconds, other sensors every row."""
+                  waveform: str = "sine", lever_arm_m: float = 0.0, t0_s: float = 1000.0, numeric_event: bool = False,
+                  **waas_kw):
+    """One approach: (log rows, truth rows). WAAS on the whole seconds, other sensors every
+    row. Pilot marks as the contract has them: rows of their own at the press time, code
+    'thr' at the threshold and 'end' at the stop end (numeric_event: the old 0/1 flag on
+    the first row after the press instead)."""
     n = int(round((before_s + after_s) * rate_hz)) + 1
     t = t0_s + np.arange(n) / rate_hz
     t_cross = t0_s + before_s + rng.uniform(0.0, 1.0)
@@ -104,8 +108,11 @@ def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before
     ra = np.where(over, p[:, 2] - lever_arm_m + 0.30 / 1.96 * rng.normal(size=n), np.nan)
     seen = (p[:, 0] >= -600.0) & (p[:, 0] <= RUNWAY_M)
     tvps = np.where(seen, p[:, 1] + 0.60 / 1.96 * rng.normal(size=n), np.nan)
+    t_press = t_cross + 0.2 + 0.05 * rng.normal()
+    t_end = t_cross + RUNWAY_M / SPEED + 0.2 + 0.05 * rng.normal()
     event = np.zeros(n, int)
-    event[np.searchsorted(t, t_cross + 0.2 + 0.05 * rng.normal())] = 1
+    if numeric_event:
+        event[np.searchsorted(t, t_press)] = 1
     sv, iono = np.zeros(n, int), np.zeros(n, int)
     sv[w_rows], iono[w_rows] = w["sv"], w["iono"]
     log = pd.DataFrame({"approach": approach, "time_s": t,
@@ -113,6 +120,12 @@ def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before
                         "ins_x_m": ins[:, 0], "ins_y_m": ins[:, 1], "ins_z_m": ins[:, 2],
                         "dgps_x_m": dgps[:, 0], "dgps_y_m": dgps[:, 1], "dgps_z_m": dgps[:, 2],
                         "ra_m": ra, "tvps_y_m": tvps, "event": event, "sv_change": sv, "iono_update": iono})
+    if not numeric_event:
+        marks = pd.DataFrame({"approach": approach, "time_s": [t_press, t_end], "event": ["thr", "end"],
+                              "sv_change": 0, "iono_update": 0})
+        log["event"] = ""
+        log = pd.concat([log, marks[marks["time_s"] <= t[-1]]], ignore_index=True).sort_values("time_s", kind="stable")
+        log = log.reset_index(drop=True)
     cyc = np.full((n, 3), np.nan)
     cyc[w_rows] = w["cyclic"]
     truth = pd.DataFrame({"approach": approach, "time_s": t, "x_m": p[:, 0], "y_m": p[:, 1], "z_m": p[:, 2],

@@ -7,6 +7,8 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import json
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -149,11 +151,11 @@ def test_threshold_fix_recovers_the_bias_from_ra_tvps_and_the_event_mark():
     ins = p + np.array([50.0, 20.0, -7.0])  # an INS offset: cancels
     ra = np.where(x >= 0, p[:, 2] - 2.0, np.nan)  # RA antenna 2 m below the reference point
     tvps = np.where(x >= -600, p[:, 1], np.nan)
-    t_event = t[np.searchsorted(t, 120.03 + 0.2)]  # first row after the press
+    t_mark = 120.03 + 0.2  # the press, at its exact time (an event row of its own)
     spec = FitsSpec(ra_lever_arm_m=2.0)
-    r = fits_approach(t[w_rows], p[w_rows] + bias, ins[w_rows], np.zeros(len(w_rows)), t, ins, ra, tvps, t_event, 0.1, spec)
+    r = fits_approach(t[w_rows], p[w_rows] + bias, ins[w_rows], np.zeros(len(w_rows)), t, ins, ra, tvps, t_mark, spec)
     assert r.bias_m[1:] == pytest.approx(bias[1:], abs=1e-9)
-    assert r.bias_m[0] == pytest.approx(bias[0], abs=65.0 * 0.05)  # the half-row quantization of the mark
+    assert r.bias_m[0] == pytest.approx(bias[0], abs=1e-9)  # the mark minus the mean delay is the crossing
     tg, pg = r.on_grid(t, ins, 8.0)
     assert np.allclose(np.diff(tg), 0.125) and np.allclose(pg[:, 1:], p[0, 1:] + (bias - r.bias_m)[1:], atol=1e-9)
 
@@ -196,7 +198,20 @@ def test_fits_main_on_a_1_hz_csv_log_without_dgps(tmp_path):
     log = log.drop(columns=["dgps_x_m", "dgps_y_m", "dgps_z_m"])
     out = tmp_path / "o"
     assert fits_main(write(log, tmp_path / "log.csv"), str(out)) == 0
-    assert len(pd.read_csv(out / "trajectory.csv")) == len(log) and not (out / "errors.csv").exists()
+    assert len(pd.read_csv(out / "trajectory.csv")) == log["waas_x_m"].notna().sum() and not (out / "errors.csv").exists()
+
+
+def test_legacy_numeric_marks_and_a_runway_sidecar_are_read(tmp_path, capsys):
+    log, truth = gen.make_log(2, seed=24, numeric_event=True)
+    path = write(log, tmp_path / "log.csv")
+    geometry = {"length_m": 2500.0, "loc_x_m": 2800.0, "gp_x_m": 290.0, "gp_y_m": 130.0, "glide_path_deg": 3.0, "tch_m": 15.0}
+    (tmp_path / "log.csv.runway.json").write_text(json.dumps(geometry))
+    assert fits_main(path, str(tmp_path / "o")) == 0
+    assert "log.csv.runway.json" in capsys.readouterr().out
+    errors = pd.read_csv(tmp_path / "o" / "errors.csv")
+    assert np.allclose(errors["range_loc_m"], 2800.0 - errors["x_m"])  # the sidecar's localizer, not the default
+    bias = pd.read_csv(tmp_path / "o" / "bias.csv")
+    assert len(bias) == 2 and np.isfinite(bias[["bias_x_m", "bias_y_m", "bias_z_m"]].to_numpy()).all()
 
 
 @pytest.mark.parametrize("breakage, message", [
@@ -208,11 +223,12 @@ def test_fits_main_on_a_1_hz_csv_log_without_dgps(tmp_path):
     ("missing_column", r"missing column 'iono_update'"),
     ("no_event", r"approach 2.*'event'"),
     ("text", r"column 'ra_m' row \d+: expected a number"),
+    ("bad_event", r"column 'event': expected empty, 'thr' or 'end'"),
 ])
 def test_fits_main_refuses_a_broken_log_with_one_line_naming_the_column(tmp_path, breakage, message):
     log, _ = gen.make_log(2, seed=23)
     two = log["approach"] == 2
-    near = two & (log["time_s"] - log.loc[two & (log["event"] == 1), "time_s"].iloc[0]).abs().lt(5.0)
+    near = two & (log["time_s"] - log.loc[two & (log["event"] == "thr"), "time_s"].iloc[0]).abs().lt(5.0)
     if breakage == "no_ra":
         log.loc[near, "ra_m"] = np.nan
     elif breakage == "no_tvps":
@@ -227,7 +243,9 @@ def test_fits_main_refuses_a_broken_log_with_one_line_naming_the_column(tmp_path
     elif breakage == "missing_column":
         log = log.drop(columns=["iono_update"])
     elif breakage == "no_event":
-        log.loc[two, "event"] = 0
+        log = log[~(two & (log["event"] == "thr"))]
+    elif breakage == "bad_event":
+        log.loc[two & (log["event"] == "end"), "event"] = "far"
     elif breakage == "text":
         log["ra_m"] = log["ra_m"].astype(object)
         log.loc[log.index[5], "ra_m"] = "n/a ft"

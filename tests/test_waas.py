@@ -131,4 +131,4 @@ def test_ins_apply_rotates_ned_error_into_the_runway_frame():
     east_course = e.apply(p, t, 90.0)  # x along east, y left = north, z up
     assert np.allclose(east_course, np.column_stack([e.error_ned_m[:, 1], e.error_ned_m[:, 0], -e.error_ned_m[:, 2]]))
     with pytest.raises(ValueError, match="grade"):
-        InertialErrors.draw(InertialErrorSpec(grade="navigation"), np.random.default_rng(0), t)
+        InertialErrors.draw(InertialErrorSpec(grade="consumer"), np.random.default_rng(0), t)

@@ -53,8 +53,8 @@ jump is not compensated.
 
 Threshold fix (eq. 18): positions between WAAS epochs are carried by the INS (the
 WAAS - INS correction interpolated linearly, plus the INS position). The threshold time
-is the event mark minus the mean pilot reaction minus half a log row (the mark lands on
-the first row after the press). Along-track: B_x = x_nl(t_threshold) (the threshold is
+is the event mark minus the mean pilot reaction (a log's legacy numeric mark lands on
+the first row after the press: the log reader takes half a row off). Along-track: B_x = x_nl(t_threshold) (the threshold is
 x = 0). Vertical: the mean of z_nl - (h_RA + RA lever arm) over the radar-altimeter
 readings within `fix_window_s` of the threshold time (runway surface flat at z = 0).
 Cross-track: the mean of y_nl - y_TVPS over the TVPS readings in the same window.
@@ -272,16 +272,22 @@ def waas_noiseless(t_s, waas_xyz, ins_xyz, jump_flags, spec: FitsSpec = FitsSpec
     return Noiseless(t, flags, steps, n_hat, waas_c - n_hat)  # eq. 17
 
 
-def threshold_bias(nl: Noiseless, t_rows, ins_rows, ra_m, tvps_y_m, t_event_row_s: float, row_dt_s: float,
-                   spec: FitsSpec = FitsSpec()) -> np.ndarray:
+def threshold_bias(nl: Noiseless, t_rows, ins_rows, ra_m, tvps_y_m, t_mark_s: float, spec: FitsSpec = FitsSpec(),
+                   ra_lever_m=None, tvps_lever_m=None) -> np.ndarray:
     """B_hat (3,) of eq. 18 from the event mark (along-track), the radar altimeter
     (vertical) and the TVPS (cross-track) near the threshold; the log's rows (times,
-    INS positions, RA heights, TVPS cross-track) at any rate >= the WAAS rate."""
+    INS positions, RA heights, TVPS cross-track) at any rate >= the WAAS rate. The mark
+    at `t_mark_s` follows the crossing by the pilot's mean delay. `ra_lever_m` (per row,
+    or the spec's constant when None): height of the reference point above the RA
+    antenna; `tvps_lever_m` (per row, or 0): y of the reference point minus the camera's,
+    both as the system computes them from its attitude."""
     t_rows = np.asarray(t_rows, dtype=float)
     ins_rows, ra, tv = np.asarray(ins_rows, float), np.asarray(ra_m, float), np.asarray(tvps_y_m, float)
-    t_thr = t_event_row_s - spec.event_delay_s - 0.5 * row_dt_s
+    lev_ra = np.full(len(t_rows), spec.ra_lever_arm_m) if ra_lever_m is None else np.asarray(ra_lever_m, float)
+    lev_tv = np.zeros(len(t_rows)) if tvps_lever_m is None else np.asarray(tvps_lever_m, float)
+    t_thr = t_mark_s - spec.event_delay_s
     near = np.abs(t_rows - t_thr) <= spec.fix_window_s
-    use_ra, use_tv = near & np.isfinite(ra), near & np.isfinite(tv)
+    use_ra, use_tv = near & np.isfinite(ra) & np.isfinite(lev_ra), near & np.isfinite(tv) & np.isfinite(lev_tv)
     if not use_ra.any():
         raise ValueError(f"ra_m: no radar-altimeter reading within {spec.fix_window_s:g} s of the threshold (t = {t_thr:.2f} s)")
     if not use_tv.any():
@@ -290,8 +296,8 @@ def threshold_bias(nl: Noiseless, t_rows, ins_rows, ra_m, tvps_y_m, t_event_row_
     p = carry_with_ins(tq, nl.t_s, nl.noiseless, t_rows, ins_rows)
     n_ra = int(use_ra.sum())
     b_x = p[0, 0]  # eq. 18, along-track: threshold at x = 0
-    b_z = np.mean(p[1:1 + n_ra, 2] - (ra[use_ra] + spec.ra_lever_arm_m))  # eq. 18, vertical
-    b_y = np.mean(p[1 + n_ra:, 1] - tv[use_tv])  # eq. 18, cross-track
+    b_z = np.mean(p[1:1 + n_ra, 2] - (ra[use_ra] + lev_ra[use_ra]))  # eq. 18, vertical
+    b_y = np.mean(p[1 + n_ra:, 1] - (tv[use_tv] + lev_tv[use_tv]))  # eq. 18, cross-track
     return np.array([b_x, b_y, b_z])
 
 
@@ -311,10 +317,10 @@ class FitsResult:
         return t, carry_with_ins(t, t_w, self.xyz_m, np.asarray(t_ins, float), np.asarray(ins_xyz, float))
 
 
-def fits_approach(t_s, waas_xyz, ins_xyz, jump_flags, t_rows, ins_rows, ra_m, tvps_y_m, t_event_row_s: float,
-                  row_dt_s: float, spec: FitsSpec = FitsSpec()) -> FitsResult:
+def fits_approach(t_s, waas_xyz, ins_xyz, jump_flags, t_rows, ins_rows, ra_m, tvps_y_m, t_mark_s: float,
+                  spec: FitsSpec = FitsSpec(), ra_lever_m=None, tvps_lever_m=None) -> FitsResult:
     """The whole FITS on one approach: eqs. 3, 8-17 on the WAAS epochs, eq. 18 at the
     threshold from the log rows, eq. 19."""
     nl = waas_noiseless(t_s, waas_xyz, ins_xyz, jump_flags, spec)
-    b = threshold_bias(nl, t_rows, ins_rows, ra_m, tvps_y_m, t_event_row_s, row_dt_s, spec)
+    b = threshold_bias(nl, t_rows, ins_rows, ra_m, tvps_y_m, t_mark_s, spec, ra_lever_m, tvps_lever_m)
     return FitsResult(nl, b, nl.noiseless - b)  # eq. 19

@@ -16,14 +16,28 @@ Handling of the log: rows are grouped by `approach` (any order of approaches); w
 approach time_s must increase strictly (unsorted or repeated times are an error, not
 re-sorted); a gap (a row step or a WAAS-epoch step over 1.5 times the typical one) is an
 error; WAAS columns are finite on WAAS epochs and NaN elsewhere (all three together); the
-INS on every row; the first row with event = 1 is the threshold crossing (later marks,
-e.g. at the far end, are ignored); a receiver flag on a row between WAAS epochs belongs to
-the next epoch; missing RA or TVPS near the threshold is an error (the bias cannot be fixed).
+INS on every row except event rows; a receiver flag on a row between WAAS epochs belongs
+to the next epoch; missing RA or TVPS near the threshold is an error (the bias cannot be
+fixed).
+
+Events (the contract): `event` is empty on ordinary rows; a pilot mark is a row of its
+own at its exact time with the code `thr` (threshold) or `end` (stop end), its other
+columns may be NaN. The first `thr` is the threshold crossing plus the pilot's delay;
+`end` marks are read but not used by the WAAS-aided FITS (the AFIS uses them). A numeric
+0/1 column is also read (1 = on the first row at or after the press; the half row is
+then taken off the time).
+
+Runway geometry (localizer and glide-path antennas for the angular errors) comes from a
+sidecar `<log>.runway.json` or the Parquet metadata key `runway` (keys `length_m`,
+`loc_x_m`, `gp_x_m`, `gp_y_m`, `glide_path_deg`, `tch_m`, runway frame); without either,
+a 3,000 m runway with a standard installation is assumed and said in the output.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+
+import json
 
 import numpy as np
 import pandas as pd
@@ -38,9 +52,56 @@ REQUIRED = ("approach", "time_s", "waas_x_m", "waas_y_m", "waas_z_m", "ins_x_m",
             "ra_m", "tvps_y_m", "event", "sv_change", "iono_update")
 DGPS = ("dgps_x_m", "dgps_y_m", "dgps_z_m")
 NUMERIC = REQUIRED[1:] + DGPS
-# Ground-antenna positions for the requirement figure (runway frame): a localizer 300 m
-# beyond the stop end of a 3000 m runway, the glide-path mast 300 m in and 120 m aside.
-LOCALIZER_X_M, GLIDE_PATH_X_M, GLIDE_PATH_Y_M = 3300.0, 300.0, -120.0
+EVENT_CODES = ("thr", "end")
+# Ground-antenna positions when the log carries no runway geometry (runway frame): a
+# localizer 300 m beyond the stop end of a 3000 m runway, the glide-path mast 300 m in and
+# 120 m aside.
+DEFAULT_RUNWAY = {"length_m": 3000.0, "loc_x_m": 3300.0, "gp_x_m": 300.0, "gp_y_m": -120.0, "glide_path_deg": 3.0,
+                  "tch_m": 15.0}
+
+
+def event_codes(values: pd.Series, where: str) -> pd.Series:
+    """The `event` column as codes: '' on ordinary rows, 'thr' or 'end' on marks, '1' for
+    a legacy numeric mark (see the module docstring)."""
+    def code(v) -> str:
+        if v is None or (isinstance(v, float) and np.isnan(v)):
+            return ""
+        t = str(v).strip().lower()
+        if t in ("", "0", "0.0", "nan", "none"):
+            return ""
+        if t in ("1", "1.0"):
+            return "1"
+        if t in EVENT_CODES:
+            return t
+        raise DataError(f"{where}: column 'event': expected empty, 'thr' or 'end' (or 0/1), got {v!r}")
+    return values.map(code)
+
+
+def runway_geometry(path: Path) -> tuple[dict, str]:
+    """(geometry, where it came from) of the log at `path` (module docstring)."""
+    side = path.with_name(path.name + ".runway.json")
+    geo = None
+    if side.is_file():
+        try:
+            geo, src = json.loads(side.read_text()), str(side)
+        except json.JSONDecodeError as exc:
+            raise DataError(f"{side}: not JSON ({exc.msg} at line {exc.lineno})") from None
+    elif path.suffix.lower() in (".parquet", ".pq"):
+        import pyarrow.parquet as pq
+
+        meta = pq.read_schema(path).metadata or {}
+        if b"runway" in meta:
+            geo, src = json.loads(meta[b"runway"]), f"{path} (metadata)"
+    if geo is None:
+        return dict(DEFAULT_RUNWAY), "assumed (no runway geometry in the log)"
+    out = dict(DEFAULT_RUNWAY)
+    for k in DEFAULT_RUNWAY:
+        if k in geo:
+            try:
+                out[k] = float(geo[k])
+            except (TypeError, ValueError):
+                raise DataError(f"{src}: key {k!r}: expected a number, got {geo[k]!r}") from None
+    return out, src
 
 
 def read_approach_log(path: str | Path) -> pd.DataFrame:
@@ -57,7 +118,10 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
         raise DataError(f"{p}: missing column {missing[0]!r} (an approach log needs {', '.join(REQUIRED)})")
     if any(c in df.columns for c in DGPS) and not all(c in df.columns for c in DGPS):
         raise DataError(f"{p}: DGPS columns must come together ({', '.join(DGPS)})")
+    df["event"] = event_codes(df["event"], str(p))
     for c in NUMERIC:
+        if c == "event":
+            continue
         if c in df.columns:
             num = pd.to_numeric(df[c], errors="coerce")
             bad = num.isna() & df[c].notna()
@@ -66,7 +130,7 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
             df[c] = num.astype(float)
     if df["time_s"].isna().any():
         raise DataError(f"{p}: column 'time_s' row {int(np.flatnonzero(df['time_s'].isna())[0])}: missing time")
-    for c in ("event", "sv_change", "iono_update"):
+    for c in ("sv_change", "iono_update"):
         v = df[c].fillna(0.0)
         if not v.isin([0.0, 1.0]).all():
             raise DataError(f"{p}: column {c!r}: expected 0/1 flags, got {v[~v.isin([0.0, 1.0])].iloc[0]!r}")
@@ -74,13 +138,36 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
     return df
 
 
+def split_events(g: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """(data rows, event-only rows) of one approach: a row with an event code and neither
+    WAAS nor INS positions is an event row of its own."""
+    pos = g[["waas_x_m", "waas_y_m", "waas_z_m", "ins_x_m", "ins_y_m", "ins_z_m"]].to_numpy()
+    own = (g["event"] != "").to_numpy() & ~np.isfinite(pos).any(axis=1)
+    return g[~own], g[own]
+
+
+def threshold_mark_time(g: pd.DataFrame, row_dt_s: float) -> float | None:
+    """Time of the first threshold mark (legacy numeric marks: minus half a row)."""
+    marks = g[g["event"].isin(["thr", "1"])]
+    if marks.empty:
+        return None
+    first = marks.sort_values("time_s").iloc[0]
+    return float(first["time_s"]) - (0.5 * row_dt_s if first["event"] == "1" else 0.0)
+
+
 def _check_approach(p: Path, a, g: pd.DataFrame) -> None:
-    t = g["time_s"].to_numpy()
     where = f"{p}: approach {a!r}"
+    tt = g["time_s"].to_numpy()
+    dtt = np.diff(tt)
+    if len(tt) < 2 or (dtt <= 0).any():
+        i = int(np.flatnonzero(dtt <= 0)[0]) + 1 if len(tt) >= 2 else 0
+        raise DataError(f"{where}: column 'time_s' must increase strictly (row {g.index[i]}: {tt[i]!r} after {tt[max(i - 1, 0)]!r})")
+    marks = g["event"].isin(["thr", "1"]).any()
+    g, _ = split_events(g)
+    t = g["time_s"].to_numpy()
     dt = np.diff(t)
-    if len(t) < 2 or (dt <= 0).any():
-        i = int(np.flatnonzero(dt <= 0)[0]) + 1 if len(t) >= 2 else 0
-        raise DataError(f"{where}: column 'time_s' must increase strictly (row {g.index[i]}: {t[i]!r} after {t[max(i - 1, 0)]!r})")
+    if len(t) < 2:
+        raise DataError(f"{where}: fewer than 2 rows with positions")
     step = float(np.median(dt))
     if (dt > 1.5 * step).any():
         i = int(np.argmax(dt > 1.5 * step))
@@ -99,25 +186,29 @@ def _check_approach(p: Path, a, g: pd.DataFrame) -> None:
     if np.median(dtw) > 1.0 + 1e-6:
         raise DataError(f"{where}: columns waas_*: WAAS epochs every {np.median(dtw):g} s; expected 1 Hz or faster")
     if not np.isfinite(g[["ins_x_m", "ins_y_m", "ins_z_m"]].to_numpy()).all():
-        raise DataError(f"{where}: columns ins_*: the INS position must be finite on every row")
-    if not (g["event"] > 0).any():
-        raise DataError(f"{where}: column 'event': no threshold event mark (event = 1)")
+        raise DataError(f"{where}: columns ins_*: the INS position must be finite on every row (event rows of their own excepted)")
+    if not marks:
+        raise DataError(f"{where}: column 'event': no threshold mark ('thr')")
 
 
 def run_approach(g: pd.DataFrame, spec: FitsSpec) -> FitsResult:
-    """The FITS on one approach's rows (already checked)."""
-    t = g["time_s"].to_numpy()
-    ins = g[["ins_x_m", "ins_y_m", "ins_z_m"]].to_numpy()
-    waas = g[["waas_x_m", "waas_y_m", "waas_z_m"]].to_numpy()
+    """The FITS on one approach's rows (already checked; event rows of their own allowed)."""
+    rows, _ = split_events(g)
+    t = rows["time_s"].to_numpy()
+    row_dt = float(np.median(np.diff(t)))
+    ins = rows[["ins_x_m", "ins_y_m", "ins_z_m"]].to_numpy()
+    waas = rows[["waas_x_m", "waas_y_m", "waas_z_m"]].to_numpy()
     is_w = np.isfinite(waas[:, 0])
     tw = t[is_w]
-    flag_rows = (g["sv_change"].to_numpy() > 0) | (g["iono_update"].to_numpy() > 0)
+    flag_rows = (rows["sv_change"].to_numpy() > 0) | (rows["iono_update"].to_numpy() > 0)
     flags = np.zeros(len(tw), np.int8)
     k = np.searchsorted(tw, t[flag_rows], side="left")  # a flag between epochs: the next epoch
     flags[k[k < len(tw)]] = 1
-    t_event = float(t[np.argmax(g["event"].to_numpy() > 0)])
-    return fits_approach(tw, waas[is_w], ins[is_w], flags, t, ins, g["ra_m"].to_numpy(), g["tvps_y_m"].to_numpy(),
-                         t_event, float(np.median(np.diff(t))), spec)
+    t_mark = threshold_mark_time(g, row_dt)
+    ra_lever = rows["ra_lever_arm_m"].to_numpy() if "ra_lever_arm_m" in rows.columns else None
+    tvps_lever = rows["tvps_lever_arm_m"].to_numpy() if "tvps_lever_arm_m" in rows.columns else None
+    return fits_approach(tw, waas[is_w], ins[is_w], flags, t, ins, rows["ra_m"].to_numpy(), rows["tvps_y_m"].to_numpy(),
+                         t_mark, spec, ra_lever_m=ra_lever, tvps_lever_m=tvps_lever)
 
 
 def _requirement_figure(errors: pd.DataFrame, path: Path) -> None:
@@ -155,6 +246,7 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
     p = Path(log_path)
     df = read_approach_log(p)
     has_dgps = all(c in df.columns for c in DGPS) and np.isfinite(df[list(DGPS)].to_numpy()).any()
+    geom, geom_src = runway_geometry(p)
     traj, grid, noise, bias, errs = [], [], [], [], []
     for a, g in df.groupby("approach", sort=False):
         _check_approach(p, a, g)
@@ -163,6 +255,7 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
         except ValueError as exc:
             raise DataError(f"{p}: approach {a!r}: {exc}") from None
         nl = r.noiseless
+        g, _ = split_events(g)
         traj.append(pd.DataFrame({"approach": a, "time_s": nl.t_s, "x_m": r.xyz_m[:, 0], "y_m": r.xyz_m[:, 1], "z_m": r.xyz_m[:, 2]}))
         tg, pg = r.on_grid(g["time_s"].to_numpy(), g[["ins_x_m", "ins_y_m", "ins_z_m"]].to_numpy(), spec.grid_rate_hz)
         grid.append(pd.DataFrame({"approach": a, "time_s": tg, "x_m": pg[:, 0], "y_m": pg[:, 1], "z_m": pg[:, 2]}))
@@ -172,7 +265,8 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
             d = g.set_index("time_s").loc[nl.t_s, list(DGPS)].to_numpy()
             ok = np.isfinite(d).all(axis=1)
             if ok.any():
-                e = approach_errors(d[ok, 0], r.xyz_m[ok], d[ok], loc_x_m=LOCALIZER_X_M, gp_x_m=GLIDE_PATH_X_M, gp_y_m=GLIDE_PATH_Y_M)
+                e = approach_errors(d[ok, 0], r.xyz_m[ok], d[ok], loc_x_m=geom["loc_x_m"], gp_x_m=geom["gp_x_m"],
+                                    gp_y_m=geom["gp_y_m"])
                 e.insert(0, "time_s", nl.t_s[ok])
                 e.insert(0, "approach", a)
                 errs.append(e)
@@ -185,6 +279,7 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
     if errs:
         errors = pd.concat(errs, ignore_index=True)
         atomic_write_text(out / "errors.csv", errors.to_csv(index=False))
+        print(f"runway geometry for the angular errors: {geom_src}")
         tmp = out / "requirement.png.part.png"
         _requirement_figure(errors, tmp)
         atomic_write_bytes(out / "requirement.png", tmp.read_bytes())

@@ -54,16 +54,22 @@ class InertialGrade(Section):
     gyro_white_deg2_s2_hz: float = Field(ge=0, description="gyro white noise, one-sided PSD ((deg/s)^2/Hz)")
 
 
-INS_GRADES = {  # FITS paper Table II
+INS_GRADES = {  # FITS paper Table II; navigation grade: DESIGN.md (the table lacks it)
     "tactical": InertialGrade(accel_bias_ug=500.0, gyro_bias_deg_h=1.0, accel_white_ug2_hz=2500.0, gyro_white_deg2_s2_hz=1e-6),
     "automotive": InertialGrade(accel_bias_ug=30000.0, gyro_bias_deg_h=100.0, accel_white_ug2_hz=5000.0, gyro_white_deg2_s2_hz=1e-4),
+    # ~25 ug and <= 0.01 deg/h (DESIGN.md, the AFIS class); noise: 10 ug/sqrt(Hz) and an
+    # angle random walk of 0.002 deg/sqrt(h) ((0.002/60)^2 (deg/s)^2/Hz), typical figures
+    # for a ring-laser-gyro navigator (Groves, 2nd ed., Table 4.1 class values) - stated
+    # estimates, not a product's data sheet
+    "navigation": InertialGrade(accel_bias_ug=25.0, gyro_bias_deg_h=0.01, accel_white_ug2_hz=100.0,
+                                gyro_white_deg2_s2_hz=(0.002 / 60.0) ** 2),
 }
 
 
 class InertialErrorSpec(Section):
     """INS grade and the initial errors of its alignment."""
 
-    grade: str = Field(default="tactical", description="a grade of FITS paper Table II: tactical or automotive")
+    grade: str = Field(default="tactical", description="tactical or automotive (FITS paper Table II), or navigation (DESIGN.md)")
     initial_position_sigma_m: float = Field(default=0.0, ge=0, description="per axis, 1 sigma")
     initial_velocity_sigma_mps: float = Field(default=0.05, ge=0, description="per axis, 1 sigma")
     initial_tilt_sigma_urad: float = Field(default=500.0, ge=0, description="transfer-alignment tilt per axis, 1 sigma")
@@ -116,12 +122,20 @@ def ins_error_ned(t_s, accel_bias, gyro_bias, accel_noise=None, gyro_noise=None,
 
 @dataclass(frozen=True)
 class InertialErrors:
-    """One drawn INS error realization: NED position error on the epochs `t_s`."""
+    """One drawn INS error realization: the sensor errors (biases per axis, white-noise
+    samples on the epochs, each held over the step that follows it), the alignment errors,
+    and the NED position error of eq. 4 on the epochs `t_s`. The same draw drives the
+    strapdown path (aerotruth.sensors.ins), with the biases in body axes there."""
 
     t_s: np.ndarray
     accel_bias_mps2: np.ndarray  # (3,)
     gyro_bias_radps: np.ndarray  # (3,)
     error_ned_m: np.ndarray  # (n, 3)
+    accel_white_mps2: np.ndarray | None = None  # (n, 3)
+    gyro_white_radps: np.ndarray | None = None  # (n, 3)
+    position0_m: np.ndarray | None = None  # (3,) NED
+    velocity0_mps: np.ndarray | None = None  # (3,) NED
+    tilt0_rad: np.ndarray | None = None  # (2,) phi_N, phi_E
 
     @classmethod
     def draw(cls, spec: InertialErrorSpec, rng: np.random.Generator, t_s) -> InertialErrors:
@@ -136,11 +150,11 @@ class InertialErrors:
         # white: two-sided density S/2, averaged over each step -> variance S / (2 dt)
         w_a = np.sqrt(gr.accel_white_ug2_hz / (2 * dt))[:, None] * MICRO_G * rng.standard_normal((len(t), 3))
         w_g = np.sqrt(gr.gyro_white_deg2_s2_hz / (2 * dt))[:, None] * math.radians(1.0) * rng.standard_normal((len(t), 3))
-        err = ins_error_ned(t, b_a, b_g, w_a, w_g,
-                            x0=spec.initial_position_sigma_m * rng.standard_normal(3),
-                            v0=spec.initial_velocity_sigma_mps * rng.standard_normal(3),
-                            tilt0=spec.initial_tilt_sigma_urad * 1e-6 * rng.standard_normal(2))
-        return cls(t, b_a, b_g, err)
+        x0 = spec.initial_position_sigma_m * rng.standard_normal(3)
+        v0 = spec.initial_velocity_sigma_mps * rng.standard_normal(3)
+        tilt0 = spec.initial_tilt_sigma_urad * 1e-6 * rng.standard_normal(2)
+        err = ins_error_ned(t, b_a, b_g, w_a, w_g, x0=x0, v0=v0, tilt0=tilt0)
+        return cls(t, b_a, b_g, err, w_a, w_g, x0, v0, tilt0)
 
     def apply(self, truth_xyz, t_s, runway_course_deg: float) -> np.ndarray:
         """INS positions in the runway frame (x along the course, y left, z up) for true

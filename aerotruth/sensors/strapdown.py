@@ -82,23 +82,61 @@ class NavState:
 def propagate(state: NavState, dv: np.ndarray, dtheta: np.ndarray, dt: float) -> list[NavState]:
     """Integrate increments dv (n, 3) m/s and dtheta (n, 3) rad, each over dt, from
     `state`. Returns the n + 1 states (the first is `state`)."""
-    dv, dtheta = np.array(dv, dtype=float), np.array(dtheta, dtype=float)  # own, writable copies
+    r, v, c = propagate_arrays(state, dv, dtheta, dt)
+    return [NavState(r[k], v[k], c[k]) for k in range(len(r))]
+
+
+def _gravity_scalar(x: float, y: float, z: float) -> tuple[float, float, float]:
+    """gravity_ecef for one point, in plain floats (the per-step cost of the loop)."""
+    rn2 = x * x + y * y + z * z
+    rn = rn2**0.5
+    s2 = z * z / rn2
+    k = 1.5 * J2 * A_WGS84 * A_WGS84 / rn2
+    f = -GM / (rn2 * rn)
+    a = f * (1.0 + k * (1.0 - 5.0 * s2))
+    w2 = OMEGA_IE * OMEGA_IE
+    return a * x + w2 * x, a * y + w2 * y, f * (1.0 + k * (3.0 - 5.0 * s2)) * z
+
+
+def propagate_arrays(state: NavState, dv: np.ndarray, dtheta: np.ndarray, dt: float):
+    """The mechanization of the module docstring; (r, v, C_eb) arrays of the n + 1 states.
+    Attitude: C_k = E C_(k-1) B_k with E the Earth's turn over dt, so C_k = E^k C_0 B_1..B_k
+    (the body product accumulated in order); velocity and position in plain floats."""
+    dv, dtheta = np.array(dv, dtype=float), np.array(dtheta, dtype=float)
     if dv.shape != dtheta.shape or dv.ndim != 2 or dv.shape[1] != 3:
         raise ValueError(f"dv, dtheta: expected two (n, 3) arrays, got {dv.shape} and {dtheta.shape}")
+    n = len(dv)
     w = np.array([0.0, 0.0, OMEGA_IE])
     earth = Rotation.from_rotvec(-w * dt).as_matrix()
+    half = Rotation.from_rotvec(-w * dt / 2).as_matrix()
     body = Rotation.from_rotvec(dtheta).as_matrix()
-    out = [state]
-    r, v, c = state.r.copy(), state.v.copy(), state.c_eb.copy()
-    for k in range(len(dv)):
-        dv_rot = dv[k] + 0.5 * np.cross(dtheta[k], dv[k])
-        # specific force in ECEF: the frame turned by Earth's rotation over half the interval
-        f_dv = Rotation.from_rotvec(-w * dt / 2).as_matrix() @ (c @ dv_rot)
-        v_pred = v + f_dv + (gravity_ecef(r) - 2.0 * np.cross(w, v)) * dt
-        r_mid, v_mid = r + 0.25 * (v + v_pred) * dt, 0.5 * (v + v_pred)
-        v_new = v + f_dv + (gravity_ecef(r_mid) - 2.0 * np.cross(w, v_mid)) * dt
-        r = r + 0.5 * (v + v_new) * dt
-        v = v_new
-        c = earth @ c @ body[k]
-        out.append(NavState(r.copy(), v.copy(), c.copy()))
-    return out
+    c = np.empty((n + 1, 3, 3))
+    c[0] = state.c_eb
+    for k in range(n):
+        c[k + 1] = earth @ c[k] @ body[k]
+    # specific-force increments in ECEF with the rotation compensation, all at once
+    dv_rot = dv + 0.5 * np.cross(dtheta, dv)
+    f_dv = np.einsum("ij,njk,nk->ni", half, c[:-1], dv_rot)
+    r = np.empty((n + 1, 3))
+    v = np.empty((n + 1, 3))
+    r[0], v[0] = state.r, state.v
+    rx, ry, rz = (float(a) for a in state.r)
+    vx, vy, vz = (float(a) for a in state.v)
+    om2 = 2.0 * OMEGA_IE
+    for k, (fx, fy, fz) in enumerate(f_dv.tolist()):
+        gx, gy, gz = _gravity_scalar(rx, ry, rz)
+        # predictor (2 w x v = (-2 w vy, 2 w vx, 0))
+        px = vx + fx + (gx + om2 * vy) * dt
+        py = vy + fy + (gy - om2 * vx) * dt
+        pz = vz + fz + gz * dt
+        mx, my, mz = rx + 0.25 * (vx + px) * dt, ry + 0.25 * (vy + py) * dt, rz + 0.25 * (vz + pz) * dt
+        ux, uy = 0.5 * (vx + px), 0.5 * (vy + py)
+        gx, gy, gz = _gravity_scalar(mx, my, mz)
+        nx = vx + fx + (gx + om2 * uy) * dt
+        ny = vy + fy + (gy - om2 * ux) * dt
+        nz = vz + fz + gz * dt
+        rx, ry, rz = rx + 0.5 * (vx + nx) * dt, ry + 0.5 * (vy + ny) * dt, rz + 0.5 * (vz + nz) * dt
+        vx, vy, vz = nx, ny, nz
+        r[k + 1] = (rx, ry, rz)
+        v[k + 1] = (vx, vy, vz)
+    return r, v, c

@@ -491,3 +491,31 @@ def approach_metrics(track: TruthTrack) -> dict[str, float]:
     out["stabilised"] = float(abs(out["loc_dots_1000ft"]) <= 1.0 and abs(out["gs_dots_1000ft"]) <= 1.0
                               and -5.0 <= out["cas_minus_vref_kt_1000ft"] <= 10.0 and out["sink_fpm_1000ft"] <= 1000.0)
     return out
+
+
+@dataclass(frozen=True)
+class PlannedApproach:
+    """An approach with everything its truth depends on (the approach analogue of
+    aerotruth.truth.days.PlannedLeg): the spec, the day's weather seed and region (None:
+    calm air), and the flight seed (turbulence, initial offsets)."""
+
+    spec: ApproachSpec
+    weather_seed: int
+    flight_seed: int
+    region: str | None = None
+
+    def atmosphere(self) -> Atmosphere | None:
+        """The day's truth atmosphere of the region (shared with every leg of that date)."""
+        if self.region is None:
+            return None
+        from aerotruth.truth.days import day_atmosphere
+
+        return day_atmosphere(self.spec.start_utc.date(), self.weather_seed, self.region)
+
+    def identity(self) -> dict:
+        """The parts that determine the flight, as plain JSON values (the store's key)."""
+        d = asdict(self.spec)
+        d["start_utc"] = self.spec.start_utc.astimezone(timezone.utc).isoformat()
+        d["ils"] = self.spec.ils.model_dump()
+        d["points_m"] = {k: [round(float(v), 6) for v in xyz] for k, xyz in sorted(self.spec.points_m.items())}
+        return {"spec": d, "weather_seed": int(self.weather_seed), "flight_seed": int(self.flight_seed), "region": self.region}

@@ -67,6 +67,11 @@ class RunwayFrame:
         c_rwy_e = self._rwy_from_ecef
         return np.einsum("ij,...jk->...ik", c_rwy_e, c_e_ned)
 
+    @property
+    def rotation_from_ecef(self) -> np.ndarray:
+        """The matrix (3, 3) taking ECEF vectors to runway-frame axes."""
+        return self._rwy_from_ecef
+
     @cached_property
     def _rwy_from_ecef(self) -> np.ndarray:
         c_e_ned0 = geo.ecef_from_ned_matrix(self.lat0_deg, self.lon0_deg)

@@ -31,6 +31,7 @@ from pathlib import Path
 from aerotruth.digests import code_digest
 from aerotruth.files import atomic_write_text
 from aerotruth.truth.airframes import airframe
+from aerotruth.truth.approach import PlannedApproach, fly_approach
 from aerotruth.truth.days import AircraftDay, PlannedLeg
 from aerotruth.truth.flight import FlightDiverged, fly_leg
 from aerotruth.truth.track import TruthTrack
@@ -85,6 +86,17 @@ class LegOutcome:
     flown_now: bool
 
 
+@dataclass
+class ApproachOutcome:
+    """A planned approach and what the store returned: its track, or why it diverged."""
+
+    planned: PlannedApproach
+    key: str
+    track: TruthTrack | None
+    diverged: FlightDiverged | None
+    flown_now: bool
+
+
 class TruthStore:
     """A folder of cached truth legs (see the module docstring)."""
 
@@ -128,13 +140,45 @@ class TruthStore:
         # not depend on whether the leg was flown now or read from the store
         return LegOutcome(leg, key, TruthTrack.read_parquet(path), None, True)
 
+    def approach(self, planned: PlannedApproach, *, aircraft_type: str | None = None) -> ApproachOutcome:
+        """An approach's 50 Hz truth from the store, flown now if missing (same locking,
+        divergence record and compact storage as `leg`)."""
+        ident = {"approach": planned.identity(), "aircraft": dataclasses.asdict(airframe(aircraft_type)),
+                 "code": code_digest(TRUTH_CODE)}
+        key = "a" + hashlib.sha256(json.dumps(ident, sort_keys=True, default=str).encode()).hexdigest()[:31]
+        path, failed = self._paths(key)
+        path.parent.mkdir(parents=True, exist_ok=True)
+        with open(path.with_suffix(".lock"), "a") as lock:
+            fcntl.flock(lock, fcntl.LOCK_EX)
+            if path.exists():
+                os.utime(path)
+                return ApproachOutcome(planned, key, TruthTrack.read_parquet(path), None, False)
+            if failed.exists():
+                info = json.loads(failed.read_text())
+                return ApproachOutcome(planned, key, None, FlightDiverged(info["reason"], info["seed"], info.get("time_s")), False)
+            t0 = time.monotonic()
+            label = f"{planned.spec.airport}-{planned.spec.runway}-{planned.spec.start_utc:%Y%m%dT%H%M}-{planned.flight_seed}"
+            try:
+                track = fly_approach(planned.spec, seed=planned.flight_seed, aircraft=aircraft_type,
+                                     atmosphere=planned.atmosphere())
+            except FlightDiverged as e:
+                atomic_write_text(failed, json.dumps({"reason": e.reason, "seed": e.seed, "time_s": e.time_s}))
+                self._log_line(key, label, time.monotonic() - t0, "diverged")
+                return ApproachOutcome(planned, key, None, e, True)
+            track.to_parquet(path)
+            self._log_line(key, label, time.monotonic() - t0, "flown")
+            return ApproachOutcome(planned, key, TruthTrack.read_parquet(path), None, True)
+
     def day(self, day: AircraftDay) -> list[LegOutcome]:
         """Every leg of an aircraft-day, in flying order."""
         return [self.leg(p, aircraft_type=day.aircraft_type, turbulence=day.turbulence) for p in day.plans()]
 
     def _log(self, key: str, leg: PlannedLeg, seconds: float, what: str) -> None:
+        self._log_line(key, leg.plan.flight_id, seconds, what)
+
+    def _log_line(self, key: str, flight_id: str, seconds: float, what: str) -> None:
         self.root.mkdir(parents=True, exist_ok=True)
-        line = json.dumps({"key": key, "flight_id": leg.plan.flight_id, "what": what, "seconds": round(seconds, 3), "pid": os.getpid()})
+        line = json.dumps({"key": key, "flight_id": flight_id, "what": what, "seconds": round(seconds, 3), "pid": os.getpid()})
         with open(self.root / "flown.log", "a", encoding="utf-8") as f:  # O_APPEND: lines from several workers do not interleave
             f.write(line + "\n")
 
