@@ -28,9 +28,11 @@ columns may be NaN. The first `thr` is the threshold crossing plus the pilot's d
 then taken off the time).
 
 Runway geometry (localizer and glide-path antennas for the angular errors) comes from a
-sidecar `<log>.runway.json` or the Parquet metadata key `runway` (keys `length_m`,
-`loc_x_m`, `gp_x_m`, `gp_y_m`, `glide_path_deg`, `tch_m`, runway frame); without either,
-a 3,000 m runway with a standard installation is assumed and said in the output.
+sidecar `<log>.runway.json` (or `<log stem>.runway.json`) or the Parquet metadata key
+`runway` (keys `length_m`, `loc_x_m`, `gp_x_m`, `gp_y_m`, `glide_path_deg`, `tch_m`,
+runway frame; one object for the whole log, or {"approaches": {id: object}} per
+approach); without either, a 3,000 m runway with a standard installation is assumed and
+said in the output.
 """
 
 from __future__ import annotations
@@ -78,30 +80,48 @@ def event_codes(values: pd.Series, where: str) -> pd.Series:
 
 
 def runway_geometry(path: Path) -> tuple[dict, str]:
-    """(geometry, where it came from) of the log at `path` (module docstring)."""
-    side = path.with_name(path.name + ".runway.json")
-    geo = None
-    if side.is_file():
-        try:
-            geo, src = json.loads(side.read_text()), str(side)
-        except json.JSONDecodeError as exc:
-            raise DataError(f"{side}: not JSON ({exc.msg} at line {exc.lineno})") from None
-    elif path.suffix.lower() in (".parquet", ".pq"):
+    """({approach: geometry} or {None: geometry for all}, where it came from) of the log at
+    `path` (module docstring): `<log>.runway.json` (or `<stem>.runway.json`) beside it, else
+    the Parquet metadata key `runway`; a file may hold one geometry or
+    {"approaches": {approach: geometry}}."""
+    raw, src = None, ""
+    for side in (path.with_name(path.name + ".runway.json"), path.with_suffix(".runway.json")):
+        if side.is_file():
+            try:
+                raw, src = json.loads(side.read_text()), str(side)
+            except json.JSONDecodeError as exc:
+                raise DataError(f"{side}: not JSON ({exc.msg} at line {exc.lineno})") from None
+            break
+    if raw is None and path.suffix.lower() in (".parquet", ".pq"):
         import pyarrow.parquet as pq
 
         meta = pq.read_schema(path).metadata or {}
         if b"runway" in meta:
-            geo, src = json.loads(meta[b"runway"]), f"{path} (metadata)"
-    if geo is None:
-        return dict(DEFAULT_RUNWAY), "assumed (no runway geometry in the log)"
-    out = dict(DEFAULT_RUNWAY)
-    for k in DEFAULT_RUNWAY:
-        if k in geo:
-            try:
-                out[k] = float(geo[k])
-            except (TypeError, ValueError):
-                raise DataError(f"{src}: key {k!r}: expected a number, got {geo[k]!r}") from None
+            raw, src = json.loads(meta[b"runway"]), f"{path} (metadata)"
+    if raw is None:
+        return {None: dict(DEFAULT_RUNWAY)}, "assumed (no runway geometry in the log)"
+    if not isinstance(raw, dict):
+        raise DataError(f"{src}: expected a JSON object with the runway geometry")
+    items = raw["approaches"].items() if isinstance(raw.get("approaches"), dict) else [(None, raw)]
+    out = {}
+    for a, geo in items:
+        g = dict(DEFAULT_RUNWAY)
+        for k in DEFAULT_RUNWAY:
+            if k in geo:
+                try:
+                    g[k] = float(geo[k])
+                except (TypeError, ValueError):
+                    raise DataError(f"{src}: key {k!r}: expected a number, got {geo[k]!r}") from None
+        out[a] = g
     return out, src
+
+
+def geometry_of(geoms: dict, approach) -> dict:
+    """The geometry of one approach (by its id, as text too), else the log's common one."""
+    for key in (approach, str(approach)):
+        if key in geoms:
+            return geoms[key]
+    return geoms.get(None, DEFAULT_RUNWAY)
 
 
 def read_approach_log(path: str | Path) -> pd.DataFrame:
@@ -246,7 +266,7 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
     p = Path(log_path)
     df = read_approach_log(p)
     has_dgps = all(c in df.columns for c in DGPS) and np.isfinite(df[list(DGPS)].to_numpy()).any()
-    geom, geom_src = runway_geometry(p)
+    geoms, geom_src = runway_geometry(p)
     traj, grid, noise, bias, errs = [], [], [], [], []
     for a, g in df.groupby("approach", sort=False):
         _check_approach(p, a, g)
@@ -265,6 +285,7 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
             d = g.set_index("time_s").loc[nl.t_s, list(DGPS)].to_numpy()
             ok = np.isfinite(d).all(axis=1)
             if ok.any():
+                geom = geometry_of(geoms, a)
                 e = approach_errors(d[ok, 0], r.xyz_m[ok], d[ok], loc_x_m=geom["loc_x_m"], gp_x_m=geom["gp_x_m"],
                                     gp_y_m=geom["gp_y_m"])
                 e.insert(0, "time_s", nl.t_s[ok])

@@ -218,14 +218,19 @@ class RunStore:
         atomic_write_text(index_path, json.dumps(index, indent=2, sort_keys=True) + "\n")
 
     def write_exports(self, study: str, exports: dict[str, pd.DataFrame]) -> None:
-        """A study's data exports: Parquet and CSV under RUN_DIR/data."""
+        """A study's data exports: Parquet and CSV under RUN_DIR/data. A table may carry
+        `attrs["sidecars"]` ({suffix: text}, written as <base>.<suffix>, e.g. the approach
+        log's runway.json) and `attrs["parquet_metadata"]` ({key: text}, into the Parquet file)."""
         if not exports:
             return
         self.data_dir.mkdir(parents=True, exist_ok=True)
         for name, table in exports.items():
             base = self.data_dir / f"{study}.{name}"
-            atomic_write_bytes(f"{base}.parquet", _table_bytes(table))
+            meta = {k.encode(): v.encode() for k, v in table.attrs.get("parquet_metadata", {}).items()}
+            atomic_write_bytes(f"{base}.parquet", _table_bytes(table, meta or None))
             atomic_write_text(f"{base}.csv", table.to_csv(index=False))
+            for suffix, text in table.attrs.get("sidecars", {}).items():
+                atomic_write_text(f"{base}.{suffix}", text)
 
     def read_tables(self, study: str) -> dict[str, pd.DataFrame]:
         """The summary tables of `study`, in the order the study gave them."""

@@ -101,6 +101,8 @@ class ApproachSpec:
     decision_height_ft: float = 200.0  # go-around
     go_around_height_ft: float = 2000.0
     past_threshold_s: float = 110.0
+    offset_nm: float = 0.0  # start this far left (+) or right (-) of the centreline ...
+    intercept_deg: float = 0.0  # ... on a heading this far off the course, towards it: a turn onto final
     mass_kg: float = 12000.0
     turbulence: bool = False
     ils: IlsFacilitySpec = field(default_factory=IlsFacilitySpec)
@@ -113,6 +115,10 @@ class ApproachSpec:
             raise ValueError(f"start_nm/intercept_nm: expected start > intercept >= 11 nm, got {self.start_nm}/{self.intercept_nm}")
         if "imu" not in self.points_m:
             raise ValueError("points_m: the IMU point is required")
+        if not 0.0 <= self.intercept_deg <= 45.0:
+            raise ValueError(f"intercept_deg: expected 0..45 deg, got {self.intercept_deg}")
+        if abs(self.offset_nm) > 3.0:
+            raise ValueError(f"offset_nm: expected at most 3 nm either side, got {self.offset_nm}")
 
 
 def find_runway(icao: str, ident: str) -> Runway:
@@ -155,9 +161,9 @@ INERTIAL_PROPS = tuple(f"imu/v-{a}-fps" for a in "xyz") + tuple(f"imu/theta-{a}-
 
 def _ic(fdm, frame: RunwayFrame, gp: _GlidePath, spec: ApproachSpec, af: Airframe, sched: ApproachSchedule,
         atmosphere: Atmosphere, undulation: float, t0_s: float) -> None:
-    x0 = -spec.start_nm * NM
+    x0, y0 = -spec.start_nm * NM, spec.offset_nm * NM
     z0 = gp.height_m(-spec.intercept_nm * NM, 0.0)
-    lat, lon, h = (float(v) for v in frame.to_geodetic(x0, 0.0, z0))
+    lat, lon, h = (float(v) for v in frame.to_geodetic(x0, y0, z0))
     fdm["ic/lat-geod-deg"] = lat
     fdm["ic/long-gc-deg"] = lon
     fdm["ic/h-sl-ft"] = h / FT
@@ -174,11 +180,13 @@ def _ic(fdm, frame: RunwayFrame, gp: _GlidePath, spec: ApproachSpec, af: Airfram
     # same construction as the route loop's initial condition (see flight._initial_conditions)
     fdm["ic/vc-kts"] = sched.initial_ias_kt
     tas = fdm["ic/vt-kts"] * KT
-    chi = frame.course_deg * DEG
+    # y is left of the course: from the left (y > 0) the intercept heads right of the course
+    track_deg = frame.course_deg + math.copysign(spec.intercept_deg, spec.offset_nm)
+    chi = track_deg * DEG
     cross = -v * math.sin(chi) + u * math.cos(chi)
     psi = chi - math.asin(max(-0.5, min(0.5, cross / tas)))
     gn, ge = tas * math.cos(psi) + v, tas * math.sin(psi) + u
-    fdm["ic/psi-true-deg"] = frame.course_deg
+    fdm["ic/psi-true-deg"] = track_deg
     fdm["ic/gamma-deg"] = 0.0
     fdm["ic/beta-deg"] = (chi - psi) / DEG
     fdm["ic/vt-kts"] = math.hypot(gn, ge) / KT
