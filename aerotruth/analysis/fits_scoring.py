@@ -60,6 +60,7 @@ def approach_summary(ep: pd.DataFrame, bias_hat: np.ndarray, bias_true: np.ndarr
         out[f"edge_resid_share_lt_0p1_{a}"] = float(np.mean(np.abs(edge[f"resid_{a}_m"]) < 0.1)) if len(edge) else float("nan")
         n_rms = float(np.sqrt(np.mean(inner[f"n_true_{a}_m"] ** 2)))
         out[f"removed_share_{a}"] = 1.0 - out[f"resid_rms_{a}_m"] / n_rms if n_rms > 0 else float("nan")
+        out[f"bias_hat_{a}_m"] = float(bias_hat[i])
         out[f"bias_err_{a}_m"] = float(bias_hat[i] - bias_true[i])
     out["resid_rms_m"] = float(np.sqrt(np.mean(r_in**2)))
     out.update({f"verdict_{k}": v for k, v in approach_verdict(ep, from_nm).items()})

@@ -25,6 +25,26 @@ heading reference, whose error does not enter eq. 4.
 
 A time-tag error tau (the INS output stamped tau late, e.g. a latency not compensated)
 makes the INS report at time t the position it had at t - tau.
+
+Barometer-coupled vertical channel (`vertical: baro`, the AFIS's: FITS paper section II,
+"the barometric altimeter is coupled with the INS so that INS measurements are stable in
+vertical"): the classical third-order baro-inertial loop (Widnall & Sinha, "Optimizing
+the gains of the baro-inertial vertical channel", J. Guidance and Control 3(2), 1980;
+the same loop in Titterton & Weston, 2nd ed., on vertical-channel aiding), on the
+height error d = h_INS - h_baro:
+
+    h' = v - k1 d,   v' = a_meas - b_hat - k2 d,   b_hat' = k3 d,
+
+with all three poles at -1/tau_b (k1 = 3/tau_b, k2 = 3/tau_b^2, k3 = 1/tau_b^3), tau_b =
+`baro_loop_time_constant_s` (30 s default: a stated choice, the mid of the 10-100 s range
+such loops use). Its error equations are integrated on the epochs with the
+accelerometer's vertical error (bias + white, from the draw) and the barometric altitude
+error: a Gauss-Markov part (`baro_gm_sigma_m` 1.0 m, `baro_gm_tau_s` 60 s: static-source
+and position error changing with speed, configuration and gusts) plus white noise per
+reading (`baro_white_sigma_m` 0.3 m, ~1 ft resolution of digital air data), readings at
+`baro_rate_hz` (1 Hz) held between them. These barometer figures are stated estimates
+for the class, not a product's specification; the loop replaces eq. 4's free vertical
+x_D'' = beta_D (the error-model path only).
 """
 
 from __future__ import annotations
@@ -48,6 +68,12 @@ class InsSpec(InertialErrorSpec):
     mechanization: Literal["error_model", "strapdown"] = Field(
         default="error_model", description="error_model (FITS paper eq. 4) or strapdown (the recorded IMU truth integrated)")
     time_tag_error_s: float = Field(default=0.0, description="INS output stamped this late (s); 0 for a correct time tag")
+    vertical: Literal["free", "baro"] = Field(default="free", description="free inertial vertical (eq. 4) or the baro-inertial loop")
+    baro_loop_time_constant_s: float = Field(default=30.0, gt=0, description="triple pole of the baro-inertial loop at -1/tau")
+    baro_gm_sigma_m: float = Field(default=1.0, ge=0, description="barometric altitude error, Gauss-Markov part, 1 sigma")
+    baro_gm_tau_s: float = Field(default=60.0, gt=0)
+    baro_white_sigma_m: float = Field(default=0.3, ge=0, description="barometric altitude noise per reading")
+    baro_rate_hz: float = Field(default=1.0, gt=0, description="barometric altitude readings per second (held between)")
 
     @property
     def label(self) -> str:
@@ -72,10 +98,48 @@ def ins_positions(track, spec: InsSpec, rng: np.random.Generator, point: str = "
     course = float(meta["runway_frame"]["course_deg"])
     if spec.mechanization == "error_model":
         p_true = point_positions(track)[point]
+        if spec.vertical == "baro":
+            up = baro_inertial_error(t, draw, spec, rng)
+            draw = InertialErrors(draw.t_s, draw.accel_bias_mps2, draw.gyro_bias_radps,
+                                  np.column_stack([draw.error_ned_m[:, :2], -up]), draw.accel_white_mps2,
+                                  draw.gyro_white_radps, draw.position0_m, draw.velocity0_mps, draw.tilt0_rad)
         p = draw.apply(p_true, t, course)
     else:
+        if spec.vertical == "baro":
+            raise ValueError("vertical: the baro-inertial loop is modelled on the error_model path only")
         p = strapdown_positions(track, draw, point)
     return _shifted(t, p, spec.time_tag_error_s), draw
+
+
+def baro_inertial_error(t: np.ndarray, draw: InertialErrors, spec: InsSpec, rng: np.random.Generator) -> np.ndarray:
+    """Height error (up, m) of the baro-inertial loop (module docstring) on the epochs t:
+    accelerometer vertical error from the draw (up = -down), barometer error drawn here."""
+    from scipy.signal import lfilter
+
+    t = np.asarray(t, float)
+    n = len(t)
+    dt = np.diff(t, append=t[-1] + (t[-1] - t[-2]))
+    beta_up = -(draw.accel_bias_mps2[2] + draw.accel_white_mps2[:, 2])
+    # barometer: readings at baro_rate_hz, Gauss-Markov + white, held between readings
+    t_b = np.arange(t[0], t[-1] + 1e-9, 1.0 / spec.baro_rate_hz)
+    rho = np.exp(-1.0 / (spec.baro_rate_hz * spec.baro_gm_tau_s))
+    u = spec.baro_gm_sigma_m * rng.standard_normal(len(t_b))
+    u[1:] *= np.sqrt(1.0 - rho**2)
+    e_b = lfilter([1.0], [1.0, -rho], u) + spec.baro_white_sigma_m * rng.standard_normal(len(t_b))
+    e_baro = e_b[np.clip(np.searchsorted(t_b, t + 1e-9, side="right") - 1, 0, len(t_b) - 1)]
+    tau = spec.baro_loop_time_constant_s
+    k1, k2, k3 = 3.0 / tau, 3.0 / tau**2, 1.0 / tau**3
+    h = float(draw.position0_m[2] * -1.0)
+    v = float(-draw.velocity0_mps[2])
+    b = 0.0
+    out = np.empty(n)
+    for k in range(n):  # semi-implicit Euler; steps are << tau
+        out[k] = h
+        d = h - e_baro[k]
+        v += (beta_up[k] - b - k2 * d) * dt[k]
+        h += (v - k1 * d) * dt[k]
+        b += k3 * d * dt[k]
+    return out
 
 
 def strapdown_positions(track, draw: InertialErrors, point: str = "gnss") -> np.ndarray:
