@@ -86,7 +86,8 @@ def _cmd_fly_approach(args: argparse.Namespace) -> int:
         region = args.region or region_for_airport(icao)
         atmosphere = None if args.calm else day_atmosphere(when.date(), weather_seed, region)
         spec = approach_spec(icao, runway.ident, when, profile=args.profile, mass_kg=args.mass_kg,
-                             turbulence=args.turbulence, pass_height_ft=args.pass_height_ft)
+                             turbulence=args.turbulence, pass_height_ft=args.pass_height_ft, offset_nm=args.offset_nm,
+                             intercept_deg=args.intercept_deg)
         seed = child(named_sequence(flight_seed, "approach", icao, runway.ident), "flight")
         track = fly_approach(spec, seed=seed, atmosphere=atmosphere)
     except (ValueError, FlightDiverged) as e:
@@ -232,6 +233,8 @@ def build_parser() -> argparse.ArgumentParser:
     fa.add_argument("--mass-kg", type=float, default=12000.0, help="landing mass (kg); Vref = 1.3 Vs scales with it")
     fa.add_argument("--turbulence", action="store_true", help="switch on JSBSim turbulence")
     fa.add_argument("--calm", action="store_true", help="ISA, no wind (instead of the day's truth atmosphere)")
+    fa.add_argument("--offset-nm", type=float, default=0.0, help="start this far left (+) or right (-) of the centreline (nm) ...")
+    fa.add_argument("--intercept-deg", type=float, default=0.0, help="... on a heading this far off the course: a turn onto final")
     fa.add_argument("--out", required=True, help="output Parquet file")
     fa.set_defaults(func=_cmd_fly_approach)
 

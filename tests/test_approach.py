@@ -172,3 +172,19 @@ def test_fly_approach_command_line(tmp_path):
     assert {"x_m", "y_m", "z_m", "dv_x_mps", "dtheta_z_rad", "cg_x_m"} <= set(t.df.columns)
     bad = subprocess.run(cmd[:7] + ["09L"] + cmd[8:], capture_output=True, text=True)
     assert bad.returncode == 2 and "no runway '09L'" in bad.stderr and "Traceback" not in bad.stderr
+
+
+def test_turn_onto_final_captures_the_localizer_by_10_nm_with_an_airline_roll():
+    """From 1.5 nm right of the centreline on a 30 deg intercept: on the localizer (within
+    30 m) by 10 nm, bank within the 25 deg limit (+3 deg overshoot), roll rate at 1 Hz
+    under 5 deg/s, still stabilised at 1,000 ft."""
+    tr = fly_approach(approach_spec("KDLH", "27", DAY, offset_nm=-1.5, intercept_deg=30.0), seed=4)
+    df = tr.df
+    assert df["y_m"].iloc[0] == pytest.approx(-1.5 * NM, abs=5.0)
+    assert abs(df["y_m"][df["x_m"] >= -10 * NM].iloc[0]) < 30.0
+    roll = np.degrees(df["roll_rad"].to_numpy())
+    assert 10.0 < np.abs(roll).max() < 28.0
+    assert np.abs(np.diff(roll[::50])).max() < 5.0
+    assert approach_metrics(tr)["stabilised"] == 1.0
+    with pytest.raises(ValueError, match="intercept_deg"):
+        approach_spec("KDLH", "27", DAY, intercept_deg=60.0)
