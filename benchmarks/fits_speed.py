@@ -26,8 +26,8 @@ from pathlib import Path
 import numpy as np
 
 from aerotruth.analysis.fits import FitsSpec, period_samples
-from aerotruth.analysis.fits_log import run_approach, split_events
-from aerotruth.analysis.fits_scoring import approach_summary, epoch_rows
+from aerotruth.analysis.fits_log import run_approach
+from aerotruth.analysis.fits_scoring import approach_summary, epoch_rows, waas_at_epochs
 from aerotruth.sensors.inspection_log import InspectionSensors, approach_logs
 from aerotruth.sensors.ins import InsSpec
 from aerotruth.truth.approach import approach_spec, fly_approach
@@ -39,11 +39,9 @@ def one(track, sensors, spec, k):
     logs = approach_logs(track, sensors, lambda *n: np.random.default_rng([k, hash(n) & 0xFFFF]), f"A{k}")
     t1 = time.process_time()
     for log in logs.logs.values():
-        rows, _ = split_events(log)
-        w = rows[np.isfinite(rows["waas_x_m"].to_numpy())]
         r = run_approach(log, spec)
         T = period_samples(r.noiseless.t_s, spec.period_s)
-        ep = epoch_rows(r, logs.truth, logs.geometry, w[["waas_x_m", "waas_y_m", "waas_z_m"]].to_numpy(), T)
+        ep = epoch_rows(r, logs.truth, logs.geometry, waas_at_epochs(log), T)
         approach_summary(ep, r.bias_m, logs.truth[["bias_x_m", "bias_y_m", "bias_z_m"]].to_numpy()[-1], 10.0)
     return t1 - t0, time.process_time() - t1
 

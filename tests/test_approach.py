@@ -188,3 +188,14 @@ def test_turn_onto_final_captures_the_localizer_by_10_nm_with_an_airline_roll():
     assert approach_metrics(tr)["stabilised"] == 1.0
     with pytest.raises(ValueError, match="intercept_deg"):
         approach_spec("KDLH", "27", DAY, intercept_deg=60.0)
+
+
+def test_dcm_body_to_ned_is_scipys_zyx_euler_rotation():
+    from scipy.spatial.transform import Rotation
+
+    from aerotruth.truth.approach import dcm_body_to_ned
+
+    rng = np.random.default_rng(0)
+    ang = rng.uniform(-1.5, 1.5, (50, 3))
+    expect = Rotation.from_euler("ZYX", ang).as_matrix()
+    assert np.allclose(dcm_body_to_ned(ang[:, 0], ang[:, 1], ang[:, 2]), expect, atol=1e-12)

@@ -166,15 +166,6 @@ def split_events(g: pd.DataFrame) -> tuple[pd.DataFrame, pd.DataFrame]:
     return g[~own], g[own]
 
 
-def threshold_mark_time(g: pd.DataFrame, row_dt_s: float) -> float | None:
-    """Time of the first threshold mark (legacy numeric marks: minus half a row)."""
-    marks = g[g["event"].isin(["thr", "1"])]
-    if marks.empty:
-        return None
-    first = marks.sort_values("time_s").iloc[0]
-    return float(first["time_s"]) - (0.5 * row_dt_s if first["event"] == "1" else 0.0)
-
-
 def _check_approach(p: Path, a, g: pd.DataFrame) -> None:
     where = f"{p}: approach {a!r}"
     tt = g["time_s"].to_numpy()
@@ -213,21 +204,27 @@ def _check_approach(p: Path, a, g: pd.DataFrame) -> None:
 
 def run_approach(g: pd.DataFrame, spec: FitsSpec) -> FitsResult:
     """The FITS on one approach's rows (already checked; event rows of their own allowed)."""
-    rows, _ = split_events(g)
-    t = rows["time_s"].to_numpy()
+    ev = g["event"].to_numpy(dtype=object)
+    col = {c: g[c].to_numpy(dtype=float) for c in ("time_s", "waas_x_m", "waas_y_m", "waas_z_m", "ins_x_m", "ins_y_m",
+                                                    "ins_z_m", "ra_m", "tvps_y_m", "sv_change", "iono_update")}
+    ins = np.column_stack([col["ins_x_m"], col["ins_y_m"], col["ins_z_m"]])
+    waas = np.column_stack([col["waas_x_m"], col["waas_y_m"], col["waas_z_m"]])
+    keep = (ev == "") | np.isfinite(np.hstack([ins, waas])).any(axis=1)  # event rows of their own off
+    t = col["time_s"][keep]
     row_dt = float(np.median(np.diff(t)))
-    ins = rows[["ins_x_m", "ins_y_m", "ins_z_m"]].to_numpy()
-    waas = rows[["waas_x_m", "waas_y_m", "waas_z_m"]].to_numpy()
+    ins, waas = ins[keep], waas[keep]
     is_w = np.isfinite(waas[:, 0])
     tw = t[is_w]
-    flag_rows = (rows["sv_change"].to_numpy() > 0) | (rows["iono_update"].to_numpy() > 0)
+    flag_rows = (col["sv_change"][keep] > 0) | (col["iono_update"][keep] > 0)
     flags = np.zeros(len(tw), np.int8)
     k = np.searchsorted(tw, t[flag_rows], side="left")  # a flag between epochs: the next epoch
     flags[k[k < len(tw)]] = 1
-    t_mark = threshold_mark_time(g, row_dt)
-    ra_lever = rows["ra_lever_arm_m"].to_numpy() if "ra_lever_arm_m" in rows.columns else None
-    tvps_lever = rows["tvps_lever_arm_m"].to_numpy() if "tvps_lever_arm_m" in rows.columns else None
-    return fits_approach(tw, waas[is_w], ins[is_w], flags, t, ins, rows["ra_m"].to_numpy(), rows["tvps_y_m"].to_numpy(),
+    marks = np.flatnonzero((ev == "thr") | (ev == "1"))
+    first = marks[np.argmin(col["time_s"][marks])]
+    t_mark = float(col["time_s"][first]) - (0.5 * row_dt if ev[first] == "1" else 0.0)
+    ra_lever = g["ra_lever_arm_m"].to_numpy(dtype=float)[keep] if "ra_lever_arm_m" in g.columns else None
+    tvps_lever = g["tvps_lever_arm_m"].to_numpy(dtype=float)[keep] if "tvps_lever_arm_m" in g.columns else None
+    return fits_approach(tw, waas[is_w], ins[is_w], flags, t, ins, col["ra_m"][keep], col["tvps_y_m"][keep],
                          t_mark, spec, ra_lever_m=ra_lever, tvps_lever_m=tvps_lever)
 
 

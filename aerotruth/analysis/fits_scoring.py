@@ -26,13 +26,22 @@ from aerotruth.analysis.ils_metrics import approach_errors, approach_verdict
 AXES = ("x", "y", "z")
 
 
+def waas_at_epochs(log: pd.DataFrame) -> np.ndarray:
+    """The log's WAAS positions (k, 3) at its WAAS epochs, in time order."""
+    w = log[["waas_x_m", "waas_y_m", "waas_z_m"]].to_numpy(dtype=float)
+    return w[np.isfinite(w[:, 0])]
+
+
 def epoch_rows(result: FitsResult, truth: pd.DataFrame, geometry: dict, waas_xyz: np.ndarray, T: int) -> pd.DataFrame:
     """One row per WAAS epoch: truth, WAAS error, cyclic noise true and estimated, the
     residual, the FITS error and its angular view (ils_metrics columns)."""
     nl = result.noiseless
-    tr = truth.set_index("time_s").loc[nl.t_s]
-    p_true = tr[["x_m", "y_m", "z_m"]].to_numpy()
-    n_true = tr[["cyclic_x_m", "cyclic_y_m", "cyclic_z_m"]].to_numpy()
+    tt = truth["time_s"].to_numpy(float)
+    i = np.searchsorted(tt, nl.t_s - 1e-6)
+    if len(i) and (i.max() >= len(tt) or not np.allclose(tt[i], nl.t_s, atol=1e-6)):
+        raise ValueError("truth: expected a row at every WAAS epoch")
+    p_true = truth[["x_m", "y_m", "z_m"]].to_numpy()[i]
+    n_true = truth[["cyclic_x_m", "cyclic_y_m", "cyclic_z_m"]].to_numpy()[i]
     out = approach_errors(p_true[:, 0], result.xyz_m, p_true, loc_x_m=geometry["loc_x_m"], gp_x_m=geometry["gp_x_m"],
                           gp_y_m=geometry["gp_y_m"])
     out.insert(0, "time_s", nl.t_s)

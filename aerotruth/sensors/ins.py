@@ -87,9 +87,11 @@ def _shifted(t: np.ndarray, values: np.ndarray, tau: float) -> np.ndarray:
     return np.column_stack([np.interp(t - tau, t, values[:, i]) for i in range(values.shape[1])])
 
 
-def ins_positions(track, spec: InsSpec, rng: np.random.Generator, point: str = "gnss") -> tuple[np.ndarray, InertialErrors]:
+def ins_positions(track, spec: InsSpec, rng: np.random.Generator, point: str = "gnss",
+                  true_point_m: np.ndarray | None = None) -> tuple[np.ndarray, InertialErrors]:
     """The INS position (n, 3), runway frame, of the airframe point `point` at every
-    50 Hz sample of the approach `track`, and the error draw behind it."""
+    sample of the approach `track`, and the error draw behind it (`true_point_m`: that
+    point's true positions, when the caller has them already)."""
     from aerotruth.truth.approach import point_positions
 
     df, meta = track.df, track.meta
@@ -97,7 +99,8 @@ def ins_positions(track, spec: InsSpec, rng: np.random.Generator, point: str = "
     draw = InertialErrors.draw(spec, rng, t)
     course = float(meta["runway_frame"]["course_deg"])
     if spec.mechanization == "error_model":
-        p_true = point_positions(track)[point]
+        p_true = point_positions(track, {point: tuple(track.meta["points_structural_m"][point])})[point] \
+            if true_point_m is None else true_point_m
         if spec.vertical == "baro":
             up = baro_inertial_error(t, draw, spec, rng)
             draw = InertialErrors(draw.t_s, draw.accel_bias_mps2, draw.gyro_bias_radps,

@@ -92,6 +92,14 @@ def geometry(track) -> dict:
             "undulation_m": float(meta["undulation_m"]), "runway_frame": meta["runway_frame"]}
 
 
+@dataclass
+class _Rows:
+    """The columns of a track the sensors read, at the log rows (df and meta, like a TruthTrack)."""
+
+    df: pd.DataFrame
+    meta: dict
+
+
 def _crossing_time(t: np.ndarray, x: np.ndarray, x_cross: float) -> float | None:
     i = np.flatnonzero((x[:-1] < x_cross) & (x[1:] >= x_cross))
     if len(i) == 0:
@@ -104,7 +112,6 @@ def approach_logs(track, sensors: InspectionSensors, rng: Callable[..., np.rando
     """The approach log of every INS variant (module docstring). `rng(*name)` gives the
     named stream of each consumer ("waas", ("ins", label), "radar_altimeter", ...)."""
     from aerotruth.truth.approach import point_positions
-    from aerotruth.truth.track import TruthTrack
 
     df = track.df
     t50 = df["time_s"].to_numpy(float)
@@ -118,7 +125,9 @@ def approach_logs(track, sensors: InspectionSensors, rng: Callable[..., np.rando
     t = np.round(t50[rows], 9)
     w_rows = np.flatnonzero(np.abs(t * sensors.waas.rate_hz - np.round(t * sensors.waas.rate_hz)) < 1e-6)
     # sensors sample the truth at the log rows (the 50 Hz IMU record only feeds the strapdown)
-    sub = TruthTrack(df.iloc[rows].reset_index(drop=True), track.meta)
+    need = ["time_s", "lat_deg", "lon_deg", "heading_rad", "pitch_rad", "roll_rad", "cg_x_m", "cg_y_m", "cg_z_m",
+            "x_m", "y_m", "z_m", "vn_mps", "ve_mps", "vd_mps", "h_ellipsoid_m"]
+    sub = _Rows(pd.DataFrame({c: df[c].to_numpy()[rows] for c in need}), track.meta)
     pts = point_positions(sub)
     ref = pts[REFERENCE_POINT]
     n = len(rows)
@@ -140,34 +149,41 @@ def approach_logs(track, sensors: InspectionSensors, rng: Callable[..., np.rando
     on_dgps = np.abs(t * sensors.dgps.rate_hz - np.round(t * sensors.dgps.rate_hz)) < 1e-6
     dgps = np.full((n, 3), np.nan)
     dgps[on_dgps] = dg.apply(ref[on_dgps], rng("dgps", "noise"))
-    base = pd.DataFrame({"approach": approach, "time_s": t, "ra_m": ra, "tvps_y_m": tvps, "event": "",
-                         "sv_change": sv, "iono_update": iono, "ra_lever_arm_m": ra_lever, "tvps_lever_arm_m": tv_lever})
-    for i, a in enumerate("xyz"):
-        base[f"waas_{a}_m"] = waas[:, i]
-        base[f"dgps_{a}_m"] = dgps[:, i]
     # the pilot's marks: rows of their own at the press times
     ev = rng("event_button")
-    marks = []
+    marks: list[tuple[float, str]] = []
     for code, x_cross in (("thr", 0.0), ("end", length)):
         tc = _crossing_time(t, ref[:, 0], x_cross)
         if tc is None:
             continue
         delay = max(0.0, sensors.event_button.reaction_mean_s + sensors.event_button.reaction_sd_s * ev.standard_normal())
         if tc + delay <= t[-1]:
-            marks.append({"approach": approach, "time_s": tc + delay, "event": code, "sv_change": 0, "iono_update": 0})
+            marks.append((tc + delay, code))
+    # rows in time order: the epochs, and each mark inserted after the epochs before it
+    t_m = np.array([m[0] for m in marks])
+    at = np.searchsorted(t, t_m, side="right")
+    order = np.argsort(np.concatenate([np.arange(n, dtype=float), at - 0.5]), kind="stable")
+
+    def col(values, fill=np.nan):
+        v = np.asarray(values)
+        return np.concatenate([v, np.full(len(marks), fill, dtype=v.dtype) if len(marks) else v[:0]])[order]
+
+    event = np.array([""] * n + [m[1] for m in marks], dtype=object)[order]
+    common = {"approach": np.full(n + len(marks), approach, dtype=object), "time_s": np.concatenate([t, t_m])[order]}
+    for i, a in enumerate("xyz"):
+        common[f"waas_{a}_m"] = col(waas[:, i])
+    later = {"dgps_x_m": col(dgps[:, 0]), "dgps_y_m": col(dgps[:, 1]), "dgps_z_m": col(dgps[:, 2]),
+             "ra_m": col(ra), "tvps_y_m": col(tvps), "event": event,
+             "sv_change": col(sv, 0), "iono_update": col(iono, 0),
+             "ra_lever_arm_m": col(ra_lever), "tvps_lever_arm_m": col(tv_lever)}
     logs = {}
     for spec in sensors.ins:
         if spec.mechanization == "strapdown":  # the 50 Hz increments, integrated
             p = ins_positions(track, spec, rng("ins", spec.label), REFERENCE_POINT)[0][rows]
         else:  # eq. 4 on the log rows (its white-noise sums are exact for any step)
-            p = ins_positions(sub, spec, rng("ins", spec.label), REFERENCE_POINT)[0]
-        log = base.copy()
-        for i, a in enumerate("xyz"):
-            log[f"ins_{a}_m"] = p[:, i]
-        if marks:
-            log = pd.concat([log, pd.DataFrame(marks)], ignore_index=True).sort_values("time_s", kind="stable")
-        extra = [c for c in log.columns if c not in LOG_COLUMNS]
-        logs[spec.label] = log[list(LOG_COLUMNS) + extra].reset_index(drop=True)
+            p = ins_positions(sub, spec, rng("ins", spec.label), REFERENCE_POINT, true_point_m=ref)[0]
+        ins = {f"ins_{a}_m": col(p[:, i]) for i, a in enumerate("xyz")}
+        logs[spec.label] = pd.DataFrame({**common, **ins, **later})  # LOG_COLUMNS order, then the lever arms
     truth = pd.DataFrame({"time_s": t[w_rows]})
     for i, a in enumerate("xyz"):
         truth[f"{a}_m"] = ref[w_rows, i]

@@ -145,8 +145,8 @@ class FitsStudy(Study):
 
     def run(self, task: Task, ctx) -> pd.DataFrame:
         from aerotruth.analysis.fits import period_samples
-        from aerotruth.analysis.fits_log import run_approach, split_events
-        from aerotruth.analysis.fits_scoring import approach_summary, epoch_rows
+        from aerotruth.analysis.fits_log import run_approach
+        from aerotruth.analysis.fits_scoring import approach_summary, epoch_rows, waas_at_epochs
         from aerotruth.sensors.inspection_log import approach_logs
         from aerotruth.truth.approach import approach_metrics
 
@@ -162,11 +162,9 @@ class FitsStudy(Study):
         logs = approach_logs(out.track, section.sensors, lambda *n: ctx.rng("sensor", *n), label)
         parts = []
         for ins_label, log in logs.logs.items():
-            rows, _ = split_events(log)
-            w = rows[np.isfinite(rows["waas_x_m"].to_numpy())]
             result = run_approach(log, section.fits)
             T = period_samples(result.noiseless.t_s, section.fits.period_s)
-            ep = epoch_rows(result, logs.truth, logs.geometry, w[["waas_x_m", "waas_y_m", "waas_z_m"]].to_numpy(), T)
+            ep = epoch_rows(result, logs.truth, logs.geometry, waas_at_epochs(log), T)
             thr = logs.truth.iloc[int(np.argmin(np.abs(logs.truth["x_m"].to_numpy())))]
             bias_true = thr[["bias_x_m", "bias_y_m", "bias_z_m"]].to_numpy(float)
             summ = approach_summary(ep, result.bias_m, bias_true, section.from_nm)
