@@ -42,8 +42,11 @@ accelerometer's vertical error (bias + white, from the draw) and the barometric 
 error: a Gauss-Markov part (`baro_gm_sigma_m` 1.0 m, `baro_gm_tau_s` 60 s: static-source
 and position error changing with speed, configuration and gusts) plus white noise per
 reading (`baro_white_sigma_m` 0.3 m, ~1 ft resolution of digital air data), readings at
-`baro_rate_hz` (1 Hz) held between them. These barometer figures are stated estimates
-for the class, not a product's specification; the loop replaces eq. 4's free vertical
+`baro_rate_hz` (1 Hz) held between them. The structure of the barometer error (a
+first-order Gauss-Markov process plus an uncorrelated part) is the stochastic model of
+Sabatini & Genovese, "A stochastic approach to noise modeling for barometric altimeters",
+Sensors 13, 15692 (2013); its magnitudes here are stated estimates for aircraft air
+data, not a product's specification. The loop replaces eq. 4's free vertical
 x_D'' = beta_D (the error-model path only).
 """
 

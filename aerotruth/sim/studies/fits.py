@@ -243,7 +243,7 @@ class FitsStudy(Study):
                 common = pa.index.intersection(pb.index)
                 res = tost_paired(pa.loc[common].to_numpy(), pb.loc[common].to_numpy(), t.margin_m, t.alpha)
                 key = f"tost.{t.a}_vs_{t.b}.{channel}"
-                metrics.update({f"{key}.{k}": (float(v) if not isinstance(v, bool) else v) for k, v in res.items()})
+                metrics.update({f"{key}.{k}": float(v) for k, v in res.items()})  # equivalent: 1.0 / 0.0
                 tost_rows.append({"a": t.a, "b": t.b, "channel": channel, "margin (m)": t.margin_m, **res})
         tables = {"by_ins": pd.DataFrame(per_ins)}
         if per_dist:
