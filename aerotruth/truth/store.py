@@ -8,6 +8,9 @@ the truth code and data it runs on (aerotruth.truth modules, aircraft and autopi
 airport table) with the JSBSim/NumPy/... versions (aerotruth.digests). Editing any of
 them re-flies; changing a sensor never does.
 
+Approaches (aerotruth.truth.approach.PlannedApproach) are stored the same way under
+keys starting with "a": spec, seeds, region, aircraft and the same code digest.
+
 Layout: ROOT/<key[:2]>/<key>.parquet, ROOT/<key[:2]>/<key>.diverged.json for a leg that
 diverged (reason and seed: reported again, not re-flown silently), <key>.lock (held while
 the leg is looked up or flown, so concurrent workers fly it once), ROOT/flown.log (one
@@ -112,33 +115,9 @@ class TruthStore:
         same missing leg (e.g. two studies of one aircraft-day) fly it once: the second
         waits on the leg's lock file and then reads it."""
         key = truth_key(leg, aircraft_type, turbulence)
-        path, _ = self._paths(key)
-        path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path.with_suffix(".lock"), "a") as lock:
-            fcntl.flock(lock, fcntl.LOCK_EX)  # released when the file closes, or by the OS if the process dies
-            return self._leg_locked(leg, key, aircraft_type, turbulence)
-
-    def _leg_locked(self, leg: PlannedLeg, key: str, aircraft_type: str | None, turbulence: bool) -> LegOutcome:
-        path, failed = self._paths(key)
-        if path.exists():
-            os.utime(path)  # recently used: evicted last
-            return LegOutcome(leg, key, TruthTrack.read_parquet(path), None, False)
-        if failed.exists():
-            info = json.loads(failed.read_text())
-            return LegOutcome(leg, key, None, FlightDiverged(info["reason"], info["seed"], info.get("time_s")), False)
-        t0 = time.monotonic()
-        try:
-            track = fly_leg(leg.plan, seed=leg.flight_seed, aircraft=aircraft_type, turbulence=turbulence,
-                            atmosphere=leg.atmosphere())
-        except FlightDiverged as e:
-            atomic_write_text(failed, json.dumps({"reason": e.reason, "seed": e.seed, "time_s": e.time_s}))
-            self._log(key, leg, time.monotonic() - t0, "diverged")
-            return LegOutcome(leg, key, None, e, True)
-        track.to_parquet(path)
-        self._log(key, leg, time.monotonic() - t0, "flown")
-        # hand back exactly what a later read returns (compact storage), so results do
-        # not depend on whether the leg was flown now or read from the store
-        return LegOutcome(leg, key, TruthTrack.read_parquet(path), None, True)
+        track, diverged, now = self._cached(key, leg.plan.flight_id, lambda: fly_leg(
+            leg.plan, seed=leg.flight_seed, aircraft=aircraft_type, turbulence=turbulence, atmosphere=leg.atmosphere()))
+        return LegOutcome(leg, key, track, diverged, now)
 
     def approach(self, planned: PlannedApproach, *, aircraft_type: str | None = None) -> ApproachOutcome:
         """An approach's 50 Hz truth from the store, flown now if missing (same locking,
@@ -146,35 +125,41 @@ class TruthStore:
         ident = {"approach": planned.identity(), "aircraft": dataclasses.asdict(airframe(aircraft_type)),
                  "code": code_digest(TRUTH_CODE)}
         key = "a" + hashlib.sha256(json.dumps(ident, sort_keys=True, default=str).encode()).hexdigest()[:31]
+        label = f"{planned.spec.airport}-{planned.spec.runway}-{planned.spec.start_utc:%Y%m%dT%H%M}-{planned.flight_seed}"
+        track, diverged, now = self._cached(key, label, lambda: fly_approach(
+            planned.spec, seed=planned.flight_seed, aircraft=aircraft_type, atmosphere=planned.atmosphere()))
+        return ApproachOutcome(planned, key, track, diverged, now)
+
+    def _cached(self, key: str, label: str, fly) -> tuple[TruthTrack | None, FlightDiverged | None, bool]:
+        """(track, divergence, flown now) of `key`: read, or the recorded divergence, or
+        `fly()` under the key's lock (released when the file closes, or by the OS if the
+        process dies)."""
         path, failed = self._paths(key)
         path.parent.mkdir(parents=True, exist_ok=True)
         with open(path.with_suffix(".lock"), "a") as lock:
             fcntl.flock(lock, fcntl.LOCK_EX)
             if path.exists():
-                os.utime(path)
-                return ApproachOutcome(planned, key, TruthTrack.read_parquet(path), None, False)
+                os.utime(path)  # recently used: evicted last
+                return TruthTrack.read_parquet(path), None, False
             if failed.exists():
                 info = json.loads(failed.read_text())
-                return ApproachOutcome(planned, key, None, FlightDiverged(info["reason"], info["seed"], info.get("time_s")), False)
+                return None, FlightDiverged(info["reason"], info["seed"], info.get("time_s")), False
             t0 = time.monotonic()
-            label = f"{planned.spec.airport}-{planned.spec.runway}-{planned.spec.start_utc:%Y%m%dT%H%M}-{planned.flight_seed}"
             try:
-                track = fly_approach(planned.spec, seed=planned.flight_seed, aircraft=aircraft_type,
-                                     atmosphere=planned.atmosphere())
+                track = fly()
             except FlightDiverged as e:
                 atomic_write_text(failed, json.dumps({"reason": e.reason, "seed": e.seed, "time_s": e.time_s}))
                 self._log_line(key, label, time.monotonic() - t0, "diverged")
-                return ApproachOutcome(planned, key, None, e, True)
+                return None, e, True
             track.to_parquet(path)
             self._log_line(key, label, time.monotonic() - t0, "flown")
-            return ApproachOutcome(planned, key, TruthTrack.read_parquet(path), None, True)
+            # hand back exactly what a later read returns (compact storage), so results do
+            # not depend on whether the flight was flown now or read from the store
+            return TruthTrack.read_parquet(path), None, True
 
     def day(self, day: AircraftDay) -> list[LegOutcome]:
         """Every leg of an aircraft-day, in flying order."""
         return [self.leg(p, aircraft_type=day.aircraft_type, turbulence=day.turbulence) for p in day.plans()]
-
-    def _log(self, key: str, leg: PlannedLeg, seconds: float, what: str) -> None:
-        self._log_line(key, leg.plan.flight_id, seconds, what)
 
     def _log_line(self, key: str, flight_id: str, seconds: float, what: str) -> None:
         self.root.mkdir(parents=True, exist_ok=True)
