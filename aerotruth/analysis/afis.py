@@ -88,13 +88,15 @@ def vertical_model(spec: AfisSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
 
 
 def afis_trajectory(t_s, ins_xyz, baro_z, ra_z, tvps_y, events, ground_speed_mps, runway_length_m: float,
-                    spec: AfisSpec, *, smooth: bool = True) -> tuple[np.ndarray, np.ndarray]:
+                    spec: AfisSpec, *, smooth: bool = True, event_times_s=None) -> tuple[np.ndarray, np.ndarray]:
     """AFIS estimate of the trajectory (n, 3) and its 1-sigma (n, 3) at the epochs t_s.
 
     ins_xyz: INS-indicated runway-frame positions; baro_z: barometric height in the runway
     frame (its datum set to the runway elevation); ra_z, tvps_y: radar-altimeter height and
     TVPS cross-track (NaN where not measuring); events: 0/1 marks at the threshold and the
-    stop end (first and second mark)."""
+    stop end (first and second mark). `event_times_s` (optional): the crossing times of the
+    two ends as the pilot's marks give them (press time minus the mean reaction); each is
+    then used at the epoch nearest to it, the INS carried by the ground speed to the mark."""
     t = np.asarray(t_s, float)
     ins = np.asarray(ins_xyz, float)
     n = len(t)
@@ -105,12 +107,19 @@ def afis_trajectory(t_s, ins_xyz, baro_z, ra_z, tvps_y, events, ground_speed_mps
     est, sig = np.empty_like(ins), np.empty_like(ins)
 
     # along-track: the event marks at the two runway ends
-    marks = np.flatnonzero(np.asarray(events) > 0)[:2]
     ends = (0.0, runway_length_m)
     meas_x = {}
-    for k, end in zip(marks, ends):
+    if event_times_s is None:
+        marks = np.flatnonzero(np.asarray(events) > 0)[:2]
+        shift = np.zeros(len(marks))
+    else:
+        te = np.asarray(event_times_s, float)[:2]
+        marks = np.clip(np.searchsorted(t, te), 0, n - 1)
+        marks = np.where((marks > 0) & (np.abs(t[marks - 1] - te) < np.abs(t[marks] - te)), marks - 1, marks)
+        shift = (t[marks] - te) * np.asarray(ground_speed_mps, float)[marks]  # the aircraft moved on since the mark
+    for k, end, dx in zip(marks, ends, shift):
         r = (float(ground_speed_mps[k]) * spec.event_sigma_s) ** 2 + 0.25**2  # plus the surveyed end's own 0.25 m
-        meas_x[int(k)] = Measurement(np.array([ins[k, 0] - end]), np.array([[1.0, 0, 0, 0, 0]]), np.array([[r]]))
+        meas_x[int(k)] = Measurement(np.array([ins[k, 0] - (end + dx)]), np.array([[1.0, 0, 0, 0, 0]]), np.array([[r]]))
     # cross-track: TVPS
     tv = np.asarray(tvps_y, float)
     meas_y = {int(k): Measurement(np.array([ins[k, 1] - tv[k]]), np.array([[1.0, 0, 0, 0, 0]]), np.array([[spec.tvps_sigma_m**2]]))

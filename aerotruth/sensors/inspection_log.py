@@ -80,6 +80,10 @@ class ApproachLogs:
     logs: dict[str, pd.DataFrame]
     truth: pd.DataFrame  # time_s, x_m, y_m, z_m (antenna), cyclic_*_m, bias_*_m (bias + jumps)
     geometry: dict
+    t_rows: np.ndarray | None = None  # the log's epochs (event rows aside)
+    points_rows: dict[str, np.ndarray] | None = None  # true positions of every airframe point at t_rows
+    marks: list[tuple[float, str]] | None = None  # (press time, code) of the pilot's marks
+    ground_speed_rows: np.ndarray | None = None  # m/s at t_rows
 
 
 def geometry(track) -> dict:
@@ -191,4 +195,5 @@ def approach_logs(track, sensors: InspectionSensors, rng: Callable[..., np.rando
         truth[f"cyclic_{a}_m"] = werr.cyclic_m[:, i]
     for i, a in enumerate("xyz"):
         truth[f"bias_{a}_m"] = werr.bias_m[i] + werr.jump_m[:, i]
-    return ApproachLogs(logs, truth, geometry(track))
+    gs_rows = np.hypot(sub.df["vn_mps"].to_numpy(float), sub.df["ve_mps"].to_numpy(float))
+    return ApproachLogs(logs, truth, geometry(track), t, pts, marks, gs_rows)

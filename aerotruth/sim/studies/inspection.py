@@ -1,0 +1,277 @@
+"""Inspection study: does each flight-inspection truth system recover an ILS's errors well
+enough to pass or fail the facility correctly? (The inspection issue; FITS paper
+sections I-II for AFIS and DGPS-FIS.)
+
+One task per approach, as in the `fits` study (same section fields, same truth from the
+store, same sensors and paired draws), plus the ILS facility and the baselines:
+
+* the facility (aerotruth.sensors.ils): alignment, path angle, sensitivity errors and
+  course bends; `facility_errors: fixed` injects the section's values on every approach,
+  `uniform_2x_tolerance` draws alignment and path-angle error per approach uniformly over
+  +-2x the category's Annex 10 tolerance (the wrong-verdict experiment). The receiver
+  reads it from the true positions of the localizer and glide-slope antennas at the log
+  rows, with its noise. The aircraft flies the nominal beams (aerotruth.truth.approach).
+* truth systems, each giving the reference point (GNSS antenna) at the log rows:
+  `truth` (the true position: the estimator's own floor), `dgps` (DGPS-FIS:
+  aerotruth.sensors.dgps, with its survey offset if set), `afis` (a navigation-grade
+  INS by eq. 4, a barometer (Gauss-Markov + white, AfisSpec), RA, TVPS and the marks at
+  both runway ends through the Kalman filter and RTS smoother of aerotruth.analysis.afis),
+  and `waas/<ins>` for every INS of the sensors (the WAAS-aided FITS, carried between WAAS
+  epochs by that INS). Antenna positions follow from the reference point by the true
+  lever arms (the systems' attitude errors move them by millimetres).
+* the inspection (aerotruth.analysis.inspection) on each system: alignment, path angle
+  and bend amplitude against the injected ones; verdicts against the true verdicts; the
+  0.015/0.05 deg requirement from 10 nm (aerotruth.analysis.ils_metrics).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import pandas as pd
+from pydantic import Field
+
+from aerotruth.analysis.afis import AfisSpec
+from aerotruth.sensors.ils import TOLERANCES, IlsFacilitySpec
+from aerotruth.sim.studies import Figure, Summary
+from aerotruth.sim.studies.fits import FitsStudy, FitsStudyConfig, _planned
+from aerotruth.sim.tasks import Task
+
+NM = 1852.0
+
+
+class InspectionConfig(FitsStudyConfig):
+    """The fits study's approaches and sensors, the facility and the baseline systems."""
+
+    facility: IlsFacilitySpec = Field(default_factory=IlsFacilitySpec, description="the ILS and its injected errors")
+    facility_errors: Literal["fixed", "uniform_2x_tolerance"] = Field(
+        default="fixed", description="inject the facility's values, or draw alignment and angle over +-2x the tolerance")
+    afis: AfisSpec = Field(default_factory=AfisSpec)
+    alignment_segment_m: tuple[float, float] = Field(
+        default=(1050.0, 7400.0), description="course averaged for the alignment: metres before the threshold (Point B to Point A)")
+
+
+def _wilson(k: int, n: int, z: float = 1.96) -> tuple[float, float]:
+    """Wilson score interval of a proportion k/n."""
+    if n == 0:
+        return float("nan"), float("nan")
+    p = k / n
+    d = 1 + z * z / n
+    c = (p + z * z / (2 * n)) / d
+    h = z * math.sqrt(p * (1 - p) / n + z * z / (4 * n * n)) / d
+    return c - h, c + h
+
+
+def _interp_rows(tq, t, values):
+    return np.column_stack([np.interp(tq, t, values[:, i]) for i in range(values.shape[1])])
+
+
+class InspectionStudy(FitsStudy):
+    """The `inspection` study (see the module docstring)."""
+
+    name = "inspection"
+    title = "ILS inspection through each truth system (AFIS, DGPS-FIS, WAAS-aided FITS)"
+    Config = InspectionConfig
+
+    def run(self, task: Task, ctx) -> pd.DataFrame:
+        from aerotruth.analysis.afis import afis_trajectory
+        from aerotruth.analysis.fits import carry_with_ins
+        from aerotruth.analysis.fits_log import run_approach
+        from aerotruth.analysis.ils_metrics import approach_errors, approach_verdict
+        from aerotruth.analysis.inspection import inspect_approach, verdict
+        from aerotruth.sensors.inspection_log import REFERENCE_POINT, approach_logs
+        from aerotruth.sensors.ins import InsSpec, ins_positions
+
+        section: InspectionConfig = task.params["section"]
+        planned = _planned(task, section, task.params["campaign_seed"])
+        out = ctx.truth.approach(planned)
+        label = f"{task.params['airport']}-{task.params['runway']}-{task.params['date']}-{task.params['k']}"
+        head = {"approach": label, "airport": task.params["airport"], "runway": task.params["runway"], "date": task.params["date"]}
+        if out.track is None:
+            return pd.DataFrame([{**head, "kind": "system", "system": "", "diverged": True, "diverge_reason": out.diverged.reason}])
+        track = out.track
+        logs = approach_logs(track, section.sensors, lambda *n: ctx.rng("sensor", *n), label)
+        t, pts = logs.t_rows, logs.points_rows
+        ref = pts[REFERENCE_POINT]
+        length = float(track.meta["runway_length_m"])
+        # the facility: geometry of the installation flown (approach metadata), errors injected
+        fspec = section.facility.model_copy(update={"glide_path_deg": track.meta["glide_path"]["theta_deg"],
+                                                    "tch_m": track.meta["glide_path"]["tch_m"]})
+        frng = ctx.rng("facility")
+        if section.facility_errors == "uniform_2x_tolerance":
+            tol = TOLERANCES[fspec.category]
+            fspec = fspec.model_copy(update={
+                "alignment_m": float(frng.uniform(-2, 2) * tol["alignment_m"]),
+                "gp_angle_error_deg": float(frng.uniform(-2, 2) * tol["gp_angle_rel"] * fspec.glide_path_deg)})
+        facility = fspec.draw(frng, length)
+        loc_pt, gs_pt = pts["loc_antenna"], pts["gs_antenna"]
+        nrng = ctx.rng("ils_receiver")
+        loc_ddm = facility.localizer_ddm(loc_pt[:, 0], loc_pt[:, 1]) + fspec.loc_noise_ddm * nrng.standard_normal(len(t))
+        gs_ddm = facility.glide_slope_ddm(gs_pt[:, 0], gs_pt[:, 1], gs_pt[:, 2]) + fspec.gs_noise_ddm * nrng.standard_normal(len(t))
+        truth_verdict = verdict({"alignment_m": fspec.alignment_m, "gp_angle_error_deg": fspec.gp_angle_error_deg},
+                                fspec.category, fspec.glide_path_deg)
+        # the truth systems: the reference point at the log rows
+        first = next(iter(logs.logs.values()))
+        rows = first[(first["event"] == "").to_numpy() | np.isfinite(first["ins_x_m"].to_numpy(float))]
+        systems: dict[str, np.ndarray] = {"truth": ref}
+        d = rows[["dgps_x_m", "dgps_y_m", "dgps_z_m"]].to_numpy(float)
+        ok = np.isfinite(d[:, 0])
+        systems["dgps"] = _interp_rows(t, t[ok], d[ok])
+        delay = section.sensors.event_button.reaction_mean_s
+        marks = [m[0] - delay for m in (logs.marks or [])]
+        if len(marks) == 2:
+            nav, _ = ins_positions(_Rows(t, track), InsSpec(grade="navigation"), ctx.rng("afis", "ins"), REFERENCE_POINT, true_point_m=ref)
+            a = section.afis
+            brng = ctx.rng("afis", "baro")
+            rho = np.exp(-np.diff(t, prepend=t[0]) / a.baro_tau_s)
+            e = np.empty(len(t))
+            e[0] = a.baro_sigma_m * brng.standard_normal()
+            u = brng.standard_normal(len(t))
+            for k in range(1, len(t)):  # exact Gauss-Markov recursion on the log rows
+                e[k] = rho[k] * e[k - 1] + a.baro_sigma_m * math.sqrt(1 - rho[k] ** 2) * u[k]
+            baro = ref[:, 2] + e + a.baro_white_m * brng.standard_normal(len(t))
+            ra = rows["ra_m"].to_numpy(float) + rows["ra_lever_arm_m"].to_numpy(float)
+            tv = rows["tvps_y_m"].to_numpy(float) + rows["tvps_lever_arm_m"].to_numpy(float)
+            est, _ = afis_trajectory(t, nav, baro, ra, tv, np.zeros(len(t)), logs.ground_speed_rows, length, a,
+                                     event_times_s=marks)
+            systems["afis"] = est
+        for ins_label, log in logs.logs.items():
+            r = run_approach(log, section.fits)
+            ins_rows = log.loc[rows.index, ["ins_x_m", "ins_y_m", "ins_z_m"]].to_numpy(float)
+            systems[f"waas/{ins_label}"] = carry_with_ins(t, r.noiseless.t_s, r.xyz_m, t, ins_rows)
+        # the inspection through each
+        parts = []
+        w_rows = np.flatnonzero(np.abs(t - np.round(t)) < 1e-6)  # 1 Hz for the requirement
+        for name, p_hat in systems.items():
+            dp = p_hat - ref
+            est = inspect_approach(loc_pt + dp, gs_pt + dp, loc_ddm, gs_ddm, facility,
+                                   loc_sensitivity_rel=fspec.loc_sensitivity_rel)  # its path angle and bends
+            est_a = self._alignment(loc_pt + dp, loc_ddm, facility, fspec, section.alignment_segment_m)
+            v = verdict({"alignment_m": est_a, "gp_angle_error_deg": est["gp_angle_error_deg"]}, fspec.category,
+                        fspec.glide_path_deg)
+            errs = approach_errors(ref[w_rows, 0], p_hat[w_rows], ref[w_rows], loc_x_m=facility.loc_x_m,
+                                   gp_x_m=facility.gp_x_m, gp_y_m=fspec.gp_offset_m)
+            req = approach_verdict(errs, 10.0)
+            parts.append(pd.DataFrame([{
+                **head, "kind": "system", "system": name, "diverged": False, "diverge_reason": "",
+                "alignment_true_m": fspec.alignment_m, "alignment_est_m": est_a, "alignment_err_m": est_a - fspec.alignment_m,
+                "gp_angle_true_deg": fspec.gp_angle_error_deg, "gp_angle_est_deg": est["gp_angle_error_deg"],
+                "gp_angle_err_deg": est["gp_angle_error_deg"] - fspec.gp_angle_error_deg,
+                "bend_true_deg": fspec.bend_amplitude_deg, "bend_est_deg": est["bend_amplitude_deg"],
+                "bend_rel_err": est["bend_amplitude_deg"] / fspec.bend_amplitude_deg - 1 if fspec.bend_amplitude_deg > 0 else float("nan"),
+                "alignment_pass_true": truth_verdict["alignment"], "alignment_pass_est": v["alignment"],
+                "gp_angle_pass_true": truth_verdict["gp_angle"], "gp_angle_pass_est": v["gp_angle"],
+                **{f"req_{k}": val for k, val in req.items()}}]))
+            sub = errs[errs["distance_to_threshold_m"].between(0, 10 * NM)]
+            parts.append(pd.DataFrame({"approach": label, "kind": "epoch", "system": name,
+                                       "distance_to_threshold_m": sub["distance_to_threshold_m"].to_numpy(),
+                                       "cross_m": sub["cross_m"].to_numpy(), "vertical_m": sub["vertical_m"].to_numpy(),
+                                       "range_loc_m": sub["range_loc_m"].to_numpy(), "range_gp_m": sub["range_gp_m"].to_numpy()}))
+        return pd.concat(parts, ignore_index=True)
+
+    @staticmethod
+    def _alignment(loc_xyz, loc_ddm, facility, fspec, segment) -> float:
+        """Alignment at the threshold (m, + left) from the mean course error in angle over
+        the segment (metres before the threshold), each epoch's course error taken to the
+        threshold by the localizer's range there: the displacement of a straight course."""
+        from aerotruth.sensors.ils import LOC_HALF_SECTOR_DDM, nominal
+
+        ref = nominal(facility)
+        s_loc = (1 + fspec.loc_sensitivity_rel) * LOC_HALF_SECTOR_DDM / ref.loc_half_sector_rad
+        err = (np.asarray(loc_ddm) - ref.localizer_ddm(loc_xyz[:, 0], loc_xyz[:, 1])) / s_loc
+        d = -loc_xyz[:, 0]
+        sel = (d >= segment[0]) & (d <= segment[1])
+        return float(-np.mean(err[sel]) * ref.loc_x_m) if sel.any() else float("nan")
+
+    def summarize(self, rows: pd.DataFrame, learned, section: InspectionConfig) -> Summary:
+        sysrows = rows[(rows["kind"] == "system") & ~rows["diverged"].astype(bool)] if len(rows) else rows
+        n_div = int(rows.loc[(rows["kind"] == "system") & rows["diverged"].astype(bool), "approach"].nunique()) if len(rows) else 0
+        metrics: dict = {"approaches": int(rows["approach"].nunique()) if len(rows) else 0, "approaches_diverged": n_div}
+        table, wrong = [], []
+        for name, g in sysrows.groupby("system", sort=False):
+            key = name.replace("/", "_")
+            a95 = float(np.percentile(np.abs(g["alignment_err_m"]), 95))
+            p95 = float(np.percentile(np.abs(g["gp_angle_err_deg"]), 95))
+            b95 = float(np.nanpercentile(np.abs(g["bend_rel_err"]), 95)) if g["bend_rel_err"].notna().any() else float("nan")
+            metrics[f"{key}.alignment_err_p95_m"] = a95
+            metrics[f"{key}.gp_angle_err_p95_deg"] = p95
+            metrics[f"{key}.bend_rel_err_p95"] = b95
+            row = {"truth system": name, "approaches": len(g), "95 % |alignment error| (m)": a95,
+                   "95 % |path-angle error| (deg)": p95, "95 % |bend amplitude error| (rel)": b95}
+            for axis in ("cross", "vertical"):
+                for req in ("desired", "minimum"):
+                    share = float(g[f"req_{axis}_meets_{req}"].astype(bool).mean())
+                    metrics[f"{key}.share_meeting.{axis}.{req}"] = share
+                    row[f"{axis} meets {req} (10 nm-thr)"] = share
+            table.append(row)
+            for param in ("alignment", "gp_angle"):
+                k = int((g[f"{param}_pass_true"].astype(bool) != g[f"{param}_pass_est"].astype(bool)).sum())
+                lo, hi = _wilson(k, len(g))
+                metrics[f"{key}.wrong_verdict.{param}"] = k / len(g)
+                wrong.append({"truth system": name, "parameter": param, "approaches": len(g), "wrong verdicts": k,
+                              "rate": k / len(g), "95 % low": lo, "95 % high": hi})
+        tables = {"recovery": pd.DataFrame(table), "wrong_verdicts": pd.DataFrame(wrong)}
+        return Summary(metrics, tables)
+
+    def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
+        import matplotlib.pyplot as plt
+
+        from aerotruth.analysis.ils_metrics import FLOOR_HORIZONTAL_M, FLOOR_VERTICAL_M, REQUIREMENTS, required_error_m
+        from aerotruth.sim.figures import save
+
+        sysrows = rows[(rows["kind"] == "system") & ~rows["diverged"].astype(bool)] if len(rows) else rows
+        if sysrows.empty:
+            return []
+        names = list(dict.fromkeys(sysrows["system"]))
+        fig, axes = plt.subplots(2, len(names), figsize=(3.2 * len(names), 6), squeeze=False)
+        for j, nm in enumerate(names):
+            g = sysrows[sysrows["system"] == nm]
+            for i, (tcol, ecol, unit) in enumerate((("alignment_true_m", "alignment_est_m", "m"),
+                                                     ("gp_angle_true_deg", "gp_angle_est_deg", "deg"))):
+                ax = axes[i, j]
+                ax.plot(g[tcol], g[ecol], ".", ms=4)
+                lim = [min(g[tcol].min(), g[ecol].min()), max(g[tcol].max(), g[ecol].max())]
+                ax.plot(lim, lim, "k:", lw=1)
+                ax.set(title=nm if i == 0 else "", xlabel=f"injected ({unit})", ylabel=f"recovered ({unit})" if j == 0 else "")
+                ax.grid(alpha=0.3)
+        axes[0, 0].set_ylabel("alignment recovered (m)")
+        axes[1, 0].set_ylabel("path angle error recovered (deg)")
+        fig.tight_layout()
+        save(fig, out_dir, "inspection_recovery")
+        figs = [Figure("inspection_recovery", "Recovered against injected localizer alignment (top) and glide-path angle error (bottom), per truth system")]
+        ep = rows[rows["kind"] == "epoch"]
+        fig, axes = plt.subplots(2, len(names), figsize=(3.2 * len(names), 6), squeeze=False, sharex=True)
+        for j, nm in enumerate(names):
+            e = ep[ep["system"] == nm]
+            for i, (col, rcol, floor, lab) in enumerate((("cross_m", "range_loc_m", FLOOR_HORIZONTAL_M, "cross-track"),
+                                                         ("vertical_m", "range_gp_m", FLOOR_VERTICAL_M, "vertical"))):
+                ax = axes[i, j]
+                for _, g in e.groupby("approach"):
+                    ax.plot(g["distance_to_threshold_m"] / NM, g[col], lw=0.4, alpha=0.5)
+                g0 = e[e["approach"] == e["approach"].iloc[0]].sort_values("distance_to_threshold_m")
+                for req, alpha in REQUIREMENTS.items():
+                    r = required_error_m(g0[rcol].to_numpy(float), alpha, floor)
+                    ls = "--" if req == "desired" else "-"
+                    ax.plot(g0["distance_to_threshold_m"] / NM, r, "k", ls=ls, lw=1)
+                    ax.plot(g0["distance_to_threshold_m"] / NM, -r, "k", ls=ls, lw=1)
+                lim = max(1.0, 1.3 * float(np.percentile(np.abs(e[col]), 99))) if len(e) else 1.0
+                ax.set(ylim=(-lim, lim), title=f"{nm}: {lab}" if True else "", xlabel="distance to threshold (nm)" if i else "")
+                ax.grid(alpha=0.3)
+        fig.tight_layout()
+        save(fig, out_dir, "inspection_requirement")
+        figs.append(Figure("inspection_requirement", "Position error of each truth system against the 0.015 deg (dashed) and 0.05 deg requirement lines"))
+        return figs
+
+
+class _Rows:
+    """The log rows of a track as `ins_positions` reads them (time and the true point given)."""
+
+    def __init__(self, t: np.ndarray, track):
+        self.df = pd.DataFrame({"time_s": t})
+        self.meta = track.meta
+
+
+STUDY = InspectionStudy()
