@@ -281,6 +281,66 @@ class _Guide:
         self._set("ap/target/ias-kt", ias)
 
 
+def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: float, ground_elevation_m: float,
+             step, seed_id, rate_hz: int, extra_props=(), min_height_m: float = 3.0, max_bank_deg: float = 45.0):
+    """The recorded flight loop shared by approaches and inspection missions: every
+    second the guidance `step(t, x, y, z, h_ell, vn, ve, vd, vc_kt)` (runway frame, m,
+    m/s, KCAS) sets its targets and returns True to stop; the truth wind is fed to the
+    autopilot as a value and a rate for the coming second (as in flight.py); the
+    atmosphere is refreshed every 10 s; samples at `rate_hz` (route columns plus
+    `extra_props`). Returns (recorder, rows, tags). Raises FlightDiverged on NaN, an
+    attitude beyond the limits or a height below `min_height_m` over the runway plane."""
+    rec = _Recorder(fdm)
+    pm = fdm.get_property_manager()
+    getters = rec.getters + [pm.get_node(p).get_double_value for p in extra_props]
+    g = {k: pm.get_node(p).get_double_value for k, p in (
+        ("lat", "position/lat-geod-deg"), ("lon", "position/long-gc-deg"), ("h", "position/geod-alt-ft"),
+        ("t", "simulation/sim-time-sec"), ("vn", "velocities/v-north-fps"), ("ve", "velocities/v-east-fps"),
+        ("vd", "velocities/v-down-fps"), ("vc", "velocities/vc-fps"), ("phi", "attitude/phi-rad"),
+        ("theta", "attitude/theta-rad"))}
+    wind_nodes = [pm.get_node(f"ap/wind/{k}") for k in
+                  ("t0-sec", "north-fps", "east-fps", "down-fps", "north-rate-fps2", "east-rate-fps2", "down-rate-fps2")]
+    w_prev = (fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"])
+    steps_per_sample = int(round(1.0 / (rate_hz * DT)))
+    rows, tags = [], []
+    run = fdm.run
+    while True:
+        t = g["t"]()
+        lat, lon, h = g["lat"](), g["lon"](), g["h"]() * FT
+        phi, theta = g["phi"](), g["theta"]()
+        if not all(map(math.isfinite, (lat, lon, h, phi, theta))):
+            raise FlightDiverged("NaN in the JSBSim state", seed_id, t)
+        if abs(phi) > max_bank_deg * DEG or not -15 * DEG < theta < 25 * DEG:
+            raise FlightDiverged(f"attitude limit: roll {phi / DEG:.1f} deg, pitch {theta / DEG:.1f} deg", seed_id, t)
+        x, y, z = (float(v) for v in frame.from_geodetic(lat, lon, h))
+        if z < min_height_m:
+            raise FlightDiverged(f"height {z:.1f} m over the runway plane at x = {x:.0f} m", seed_id, t)
+        vn, ve, vd = g["vn"]() * FPS, g["ve"]() * FPS, g["vd"]() * FPS
+        if step(t, x, y, z, h, vn, ve, vd, g["vc"]() * FPS / KT):
+            break
+        dt_g = GUIDE_EVERY * DT
+        lat1 = lat + vn * dt_g / 6371008.8 / DEG
+        lon1 = lon + ve * dt_g / (6371008.8 * math.cos(lat * DEG)) / DEG
+        h1 = h - vd * dt_g - und
+        u, v, w = (float(np.asarray(c).ravel()[0]) for c in
+                   atmosphere.wind(lat1, lon1, h1, t0_s + t + dt_g, ground_elevation_m=ground_elevation_m))
+        w_next = (v / FPS, u / FPS, -w / FPS)
+        wind_nodes[0].set_double_value(t)
+        for k in range(3):
+            wind_nodes[1 + k].set_double_value(w_prev[k])
+            wind_nodes[4 + k].set_double_value((w_next[k] - w_prev[k]) / dt_g)
+        w_prev = w_next
+        if int(round(t)) % 10 == 0:
+            _set_atmosphere(fdm, _Und(und), atmosphere, lat, lon, t0_s + t)
+        tag = (0, 3)
+        for _ in range(GUIDE_EVERY // steps_per_sample):
+            rows.append([gg() for gg in getters])
+            tags.append(tag)
+            for _ in range(steps_per_sample):
+                run()
+    return rec, rows, tags
+
+
 def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = None,
                  atmosphere: Atmosphere | None = None, schedule: ApproachSchedule | None = None) -> TruthTrack:
     """Fly one ILS approach and return its 50 Hz TruthTrack. Raises FlightDiverged."""
@@ -327,66 +387,21 @@ def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = 
     guide = _Guide(fdm, spec, sched, gp, frame)
     fdm["ap/active"] = 1
 
-    rec = _Recorder(fdm)
-    pm = fdm.get_property_manager()
-    # one read per sample: the route columns, then the running inertial integrals of
-    # aircraft/systems/aerotruth_imu.xml and the CG, all of the same step (that alignment
-    # closes the strapdown test best: 0.25 m and 0.002 deg after 120 s, against 1.0 m and
-    # 0.005 deg with the integrals one step later)
-    getters = rec.getters + [pm.get_node(p).get_double_value for p in INERTIAL_PROPS]
-    g = {k: pm.get_node(p).get_double_value for k, p in (
-        ("lat", "position/lat-geod-deg"), ("lon", "position/long-gc-deg"), ("h", "position/geod-alt-ft"),
-        ("t", "simulation/sim-time-sec"), ("vn", "velocities/v-north-fps"), ("ve", "velocities/v-east-fps"),
-        ("vd", "velocities/v-down-fps"), ("vc", "velocities/vc-fps"), ("phi", "attitude/phi-rad"),
-        ("theta", "attitude/theta-rad"))}
-    wind_nodes = [pm.get_node(f"ap/wind/{k}") for k in
-                  ("t0-sec", "north-fps", "east-fps", "down-fps", "north-rate-fps2", "east-rate-fps2", "down-rate-fps2")]
-    w_prev = (fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"])
     seed_id = seed_repr(seed)
     cc, sc = math.cos(frame.course_deg * DEG), math.sin(frame.course_deg * DEG)
-    rows, tags = [], []
-    run = fdm.run
-    end_t = None
+    state = {"end_t": None}
     t_limit = spec.start_nm * NM / (100 * KT) + spec.past_threshold_s + 300.0
-    while True:
-        t = g["t"]()
-        lat, lon, h = g["lat"](), g["lon"](), g["h"]() * FT
-        phi, theta = g["phi"](), g["theta"]()
-        if not all(map(math.isfinite, (lat, lon, h, phi, theta))):
-            raise FlightDiverged("NaN in the JSBSim state", seed_id, t)
-        if abs(phi) > 45 * DEG or not -15 * DEG < theta < 25 * DEG:
-            raise FlightDiverged(f"attitude limit: roll {phi / DEG:.1f} deg, pitch {theta / DEG:.1f} deg", seed_id, t)
-        x, y, z = (float(v) for v in frame.from_geodetic(lat, lon, h))
-        if z < 3.0:
-            raise FlightDiverged(f"height {z:.1f} m over the runway plane at x = {x:.0f} m", seed_id, t)
+
+    def step(t, x, y, z, h, vn, ve, vd, vc_kt) -> bool:
         if t > t_limit:
             raise FlightDiverged(f"did not pass the threshold within {t_limit:.0f} s", seed_id, t)
-        vn, ve, vd = g["vn"]() * FPS, g["ve"]() * FPS, g["vd"]() * FPS
-        guide.update(t, x, y, z, h, vn * cc + ve * sc, vd, g["vc"]() * FPS / KT)
-        if end_t is None and "threshold_s" in guide.events:
-            end_t = guide.events["threshold_s"] + spec.past_threshold_s
-        if end_t is not None and t >= end_t:
-            break
-        dt_g = GUIDE_EVERY * DT
-        lat1 = lat + vn * dt_g / 6371008.8 / DEG
-        lon1 = lon + ve * dt_g / (6371008.8 * math.cos(lat * DEG)) / DEG
-        h1 = h - vd * dt_g - und
-        u, v, w = (float(np.asarray(c).ravel()[0]) for c in
-                   atmosphere.wind(lat1, lon1, h1, t0_s + t + dt_g, ground_elevation_m=runway.elevation_m))
-        w_next = (v / FPS, u / FPS, -w / FPS)
-        wind_nodes[0].set_double_value(t)
-        for k in range(3):
-            wind_nodes[1 + k].set_double_value(w_prev[k])
-            wind_nodes[4 + k].set_double_value((w_next[k] - w_prev[k]) / dt_g)
-        w_prev = w_next
-        if int(round(t)) % 10 == 0:
-            _set_atmosphere(fdm, _Und(und), atmosphere, lat, lon, t0_s + t)
-        tag = (0, 3)
-        for _ in range(GUIDE_EVERY // STEPS_PER_SAMPLE):
-            rows.append([gg() for gg in getters])
-            tags.append(tag)
-            for _ in range(STEPS_PER_SAMPLE):
-                run()
+        guide.update(t, x, y, z, h, vn * cc + ve * sc, vd, vc_kt)
+        if state["end_t"] is None and "threshold_s" in guide.events:
+            state["end_t"] = guide.events["threshold_s"] + spec.past_threshold_s
+        return state["end_t"] is not None and t >= state["end_t"]
+
+    rec, rows, tags = fly_loop(fdm, frame, atmosphere, und, t0_s, runway.elevation_m, step, seed_id,
+                               RATE_HZ, INERTIAL_PROPS, min_height_m=3.0)
     nrec = len(rec.PROPS)
     data = np.asarray(rows, dtype=float)
     extra = data[:, nrec:]
