@@ -136,3 +136,28 @@ def test_baro_inertial_loop_follows_the_barometer_through_its_third_order_transf
         expect = abs(k1 * jw**2 + k2 * jw + k3) / abs(jw + 1 / tau) ** 3
         print(f"\nbaro loop tau {tau:g} s: |H| at {period:g} s = {gain:.3f} (analytic {expect:.3f})")
         assert gain == pytest.approx(expect, rel=0.03)
+
+
+def test_inertial_vertical_channel_grows_as_cosh_with_the_gravity_gradient():
+    """x'' = (2 g / R) x + beta from rest: x = beta (cosh(w t) - 1) / w^2, against a fine
+    numerical integration and, early on, eq. 4's beta t^2 / 2."""
+    from aerotruth.sensors.inertial_errors import EARTH_RADIUS_M, G0
+    from aerotruth.sensors.ins import inertial_vertical_error
+
+    t = np.arange(0.0, 3600.0, 0.5)
+    n = len(t)
+    z3 = np.zeros(3)
+    beta = 25 * MICRO_G
+    draw = InertialErrors(t, np.array([0.0, 0.0, beta]), z3, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), z3, z3,
+                          np.zeros(2))
+    x = inertial_vertical_error(t, draw)
+    w2 = 2 * G0 / EARTH_RADIUS_M
+    xs, vs, out = 0.0, 0.0, []
+    for _ in t:  # velocity Verlet at 0.5 s
+        out.append(xs)
+        a0 = w2 * xs + beta
+        xs += vs * 0.5 + 0.5 * a0 * 0.25
+        vs += 0.5 * (a0 + w2 * xs + beta) * 0.5
+    assert np.allclose(x, out, rtol=1e-6, atol=1e-6)
+    assert x[120] == pytest.approx(0.5 * beta * 60.0**2, rel=1e-3)  # early: eq. 4's free channel
+    assert x[-1] > 5 * 0.5 * beta * 3600.0**2  # an hour on: the instability dominates (x13.6)

@@ -71,7 +71,9 @@ class InsSpec(InertialErrorSpec):
     mechanization: Literal["error_model", "strapdown"] = Field(
         default="error_model", description="error_model (FITS paper eq. 4) or strapdown (the recorded IMU truth integrated)")
     time_tag_error_s: float = Field(default=0.0, description="INS output stamped this late (s); 0 for a correct time tag")
-    vertical: Literal["free", "baro"] = Field(default="free", description="free inertial vertical (eq. 4) or the baro-inertial loop")
+    vertical: Literal["free", "inertial", "baro"] = Field(
+        default="free", description="eq. 4's vertical (x_D'' = beta_D), the free-inertial channel with its gravity "
+        "feedback (x_D'' = 2 g / R x_D + beta_D), or the baro-inertial loop")
     baro_loop_time_constant_s: float = Field(default=30.0, gt=0, description="triple pole of the baro-inertial loop at -1/tau")
     baro_gm_sigma_m: float = Field(default=1.0, ge=0, description="barometric altitude error, Gauss-Markov part, 1 sigma")
     baro_gm_tau_s: float = Field(default=60.0, gt=0)
@@ -104,17 +106,39 @@ def ins_positions(track, spec: InsSpec, rng: np.random.Generator, point: str = "
     if spec.mechanization == "error_model":
         p_true = point_positions(track, {point: tuple(track.meta["points_structural_m"][point])})[point] \
             if true_point_m is None else true_point_m
-        if spec.vertical == "baro":
-            up = baro_inertial_error(t, draw, spec, rng)
+        if spec.vertical in ("baro", "inertial"):
+            up = baro_inertial_error(t, draw, spec, rng) if spec.vertical == "baro" else -inertial_vertical_error(t, draw)
             draw = InertialErrors(draw.t_s, draw.accel_bias_mps2, draw.gyro_bias_radps,
                                   np.column_stack([draw.error_ned_m[:, :2], -up]), draw.accel_white_mps2,
                                   draw.gyro_white_radps, draw.position0_m, draw.velocity0_mps, draw.tilt0_rad)
         p = draw.apply(p_true, t, course)
     else:
-        if spec.vertical == "baro":
-            raise ValueError("vertical: the baro-inertial loop is modelled on the error_model path only")
+        if spec.vertical != "free":
+            raise ValueError(f"vertical: {spec.vertical!r} is modelled on the error_model path only")
         p = strapdown_positions(track, draw, point)
     return _shifted(t, p, spec.time_tag_error_s), draw
+
+
+def inertial_vertical_error(t: np.ndarray, draw: InertialErrors) -> np.ndarray:
+    """Down error (m) of the unaided inertial vertical channel with the gravity gradient
+    (Titterton & Weston, 2nd ed.: the vertical channel's instability; the AFIS filter's
+    model, aerotruth.analysis.afis): x'' = w_v^2 x + beta, w_v^2 = 2 g / R, solved as eq. 4's
+    horizontal channels are (closed form for the bias and initial errors, cumulative sums
+    of the white noise against cosh, sinh)."""
+    from aerotruth.sensors.inertial_errors import EARTH_RADIUS_M, G0
+
+    t = np.asarray(t, float) - float(t[0])
+    w = np.sqrt(2.0 * G0 / EARTH_RADIUS_M)
+    dt = np.diff(t, append=t[-1])
+    ch, sh = np.cosh(w * t), np.sinh(w * t)
+    a = draw.accel_white_mps2[:, 2]
+
+    def before(u):
+        return np.concatenate([[0.0], np.cumsum(u * dt)[:-1]])
+
+    x0, v0, b = draw.position0_m[2], draw.velocity0_mps[2], draw.accel_bias_mps2[2]
+    return (x0 * ch + v0 * sh / w + b * (ch - 1.0) / w**2
+            + (sh * before(a * np.cosh(w * t)) - ch * before(a * np.sinh(w * t))) / w)
 
 
 def baro_inertial_error(t: np.ndarray, draw: InertialErrors, spec: InsSpec, rng: np.random.Generator) -> np.ndarray:

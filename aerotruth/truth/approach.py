@@ -161,8 +161,17 @@ INERTIAL_PROPS = tuple(f"imu/v-{a}-fps" for a in "xyz") + tuple(f"imu/theta-{a}-
 
 def _ic(fdm, frame: RunwayFrame, gp: _GlidePath, spec: ApproachSpec, af: Airframe, sched: ApproachSchedule,
         atmosphere: Atmosphere, undulation: float, t0_s: float) -> None:
-    x0, y0 = -spec.start_nm * NM, spec.offset_nm * NM
-    z0 = gp.height_m(-spec.intercept_nm * NM, 0.0)
+    # y is left of the course: from the left (y > 0) the intercept heads right of the course
+    initial_conditions(fdm, frame, -spec.start_nm * NM, spec.offset_nm * NM, gp.height_m(-spec.intercept_nm * NM, 0.0),
+                       frame.course_deg + math.copysign(spec.intercept_deg, spec.offset_nm), af, spec.mass_kg,
+                       sched.initial_ias_kt, 15.0, atmosphere, undulation, t0_s)
+
+
+def initial_conditions(fdm, frame: RunwayFrame, x0: float, y0: float, z0: float, track_deg: float, af: Airframe,
+                       mass_kg: float, ias_kt: float, flaps_deg: float, atmosphere: Atmosphere, undulation: float,
+                       t0_s: float) -> None:
+    """JSBSim's initial condition at runway-frame (x0, y0, z0), level, on the ground track
+    `track_deg` in the truth wind (heading crabbed into it), at `ias_kt`, with the flaps set."""
     lat, lon, h = (float(v) for v in frame.to_geodetic(x0, y0, z0))
     fdm["ic/lat-geod-deg"] = lat
     fdm["ic/long-gc-deg"] = lon
@@ -170,18 +179,16 @@ def _ic(fdm, frame: RunwayFrame, gp: _GlidePath, spec: ApproachSpec, af: Airfram
     fdm["ic/terrain-elevation-ft"] = (frame.h0_m - 50.0) / FT
     for k, v in af.extra_ic.items():
         fdm[k] = v
-    _set_mass(fdm, spec.mass_kg)
-    fdm["fcs/flap-cmd-norm"] = 15.0 / 35.0
-    fdm["fcs/flap-pos-deg"] = 15.0
+    _set_mass(fdm, mass_kg)
+    fdm["fcs/flap-cmd-norm"] = flaps_deg / 35.0
+    fdm["fcs/flap-pos-deg"] = flaps_deg
     _set_atmosphere(fdm, _Und(undulation), atmosphere, lat, lon, t0_s)
     u, v, w = (float(np.asarray(c).ravel()[0]) for c in atmosphere.wind(lat, lon, h - undulation, t0_s))
     fdm["ap/wind/t0-sec"] = 0.0
     fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"] = v / FPS, u / FPS, -w / FPS
     # same construction as the route loop's initial condition (see flight._initial_conditions)
-    fdm["ic/vc-kts"] = sched.initial_ias_kt
+    fdm["ic/vc-kts"] = ias_kt
     tas = fdm["ic/vt-kts"] * KT
-    # y is left of the course: from the left (y > 0) the intercept heads right of the course
-    track_deg = frame.course_deg + math.copysign(spec.intercept_deg, spec.offset_nm)
     chi = track_deg * DEG
     cross = -v * math.sin(chi) + u * math.cos(chi)
     psi = chi - math.asin(max(-0.5, min(0.5, cross / tas)))

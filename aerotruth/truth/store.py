@@ -130,6 +130,25 @@ class TruthStore:
             planned.spec, seed=planned.flight_seed, aircraft=aircraft_type, atmosphere=planned.atmosphere()))
         return ApproachOutcome(planned, key, track, diverged, now)
 
+    def mission(self, spec, *, weather_seed: int, flight_seed: int, region: str | None,
+                aircraft_type: str | None = None) -> tuple[str, TruthTrack | None, FlightDiverged | None]:
+        """An inspection mission's 10 Hz truth (aerotruth.truth.mission), flown if missing:
+        (key, track or None, divergence or None)."""
+        from aerotruth.truth.days import day_atmosphere
+        from aerotruth.truth.mission import fly_mission
+
+        ident = {"mission": {"airport": spec.airport, "runway": spec.runway, "start_utc": spec.start_utc.isoformat(),
+                             "runs": [r.model_dump() for r in spec.runs], "mass_kg": spec.mass_kg,
+                             "turbulence": spec.turbulence, "ils": spec.ils.model_dump(),
+                             "points_m": {k: list(v) for k, v in sorted(spec.points_m.items())}},
+                 "weather_seed": int(weather_seed), "flight_seed": int(flight_seed), "region": region,
+                 "aircraft": dataclasses.asdict(airframe(aircraft_type)), "code": code_digest(TRUTH_CODE)}
+        key = "m" + hashlib.sha256(json.dumps(ident, sort_keys=True, default=str).encode()).hexdigest()[:31]
+        atm = None if region is None else day_atmosphere(spec.start_utc.date(), weather_seed, region)
+        track, diverged, _ = self._cached(key, f"{spec.airport}-{spec.runway}-mission-{flight_seed}",
+                                          lambda: fly_mission(spec, seed=flight_seed, aircraft=aircraft_type, atmosphere=atm))
+        return key, track, diverged
+
     def _cached(self, key: str, label: str, fly) -> tuple[TruthTrack | None, FlightDiverged | None, bool]:
         """(track, divergence, flown now) of `key`: read, or the recorded divergence, or
         `fly()` under the key's lock (released when the file closes, or by the OS if the
