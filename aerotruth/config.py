@@ -434,7 +434,8 @@ def _validate_studies(c: Campaign, root: yaml.Node | None, base_dir: Path | None
             raise ConfigError(f"{format_path(loc)}: unknown study (available: {', '.join(sorted(reg))}) (line {_line_of(root, loc)})")
         study = reg.get(name)
         try:
-            sections[name] = study.Config.model_validate({} if value is None else value)
+            sections[name] = study.Config.model_validate({} if value is None else value,
+                                                         context={"base_dir": base_dir})  # relative data files: the YAML's folder
         except ValidationError as e:
             raise ConfigError(_one_line(e, root, study.Config, prefix=loc)) from None
     c = c.model_copy(update={"studies": sections, "study_modules": [s.split(":", 1)[1] for s in sources]})

@@ -80,3 +80,42 @@ def test_drawn_facilities_span_twice_the_cat_i_tolerance_and_verdicts_are_counte
 def test_a_bad_category_is_refused_naming_the_field():
     with pytest.raises(ConfigError, match="facility.category"):
         parse_campaign(campaign("    facility: {category: IV}"))
+
+
+def test_a_mission_is_scored_by_run_type_beside_a_real_track_found_from_the_campaign_folder(tmp_path):
+    import gzip
+    import shutil
+
+    from aerotruth.config import load_campaign
+
+    real = [{"timestamp": 1000 * k, "altitude": 2200 if k % 400 < 200 else 1300, "groundspeed": 160,
+             "vertical_rate": 0, "track": 90 if k % 400 < 200 else 270, "latitude": 50.0, "longitude": 4.0} for k in range(1, 1200)]
+    (tmp_path / "data").mkdir()
+    with gzip.open(tmp_path / "data" / "cal.json.gz", "wt") as f:
+        json.dump(real, f)
+    text = campaign("""    mission:
+      airport: PANC
+      runway: 07R
+      date: 2009-08-15
+      turbulence: false
+      compare_with: [data/cal.json.gz]
+      runs:
+        - {type: low_pass, from_nm: 9, height_ft: 1800}
+        - {type: crossing, height_ft: 1300, at_nm: 5}""").replace("periods: [d]", "periods: [d]\n    approaches_per_day: 1")
+    (tmp_path / "c.yaml").write_text(text)
+    c = load_campaign(tmp_path / "c.yaml")
+    assert c.studies["inspection"].mission.compare_with[0] == str((tmp_path / "data" / "cal.json.gz").resolve())
+    out = tmp_path / "run"
+    run_campaign(c, ExecutorChoice("local", workers=2), out=out, progress=False, log=lambda m: None)
+    tables = {p.stem: pd.read_parquet(p) for p in (out / "tables").glob("inspection.*.parquet")}
+    by_type = tables["inspection.mission_by_run_type"]
+    assert set(by_type["run type"]) == {"low_pass", "crossing"}
+    assert by_type.loc[by_type["truth system"] == "truth", "cross RMS (m)"].eq(0).all()
+    w = by_type[by_type["truth system"] == "waas/tactical"]
+    assert (w["cross RMS (m)"] < 0.5).all() and (w["vertical RMS (m)"] < 0.5).all()
+    prof = tables["inspection.mission_profile"].set_index("track")
+    assert prof.loc["real:cal.json.gz", "altitude p50 (ft)"] in (1300.0, 2200.0)
+    assert prof.loc["real:cal.json.gz", "level runs"] == 6  # 200-s legs, each turn of 180 deg splits them
+    shutil.rmtree(tmp_path / "data")
+    with pytest.raises(ConfigError, match=r"mission.compare_with.*no such file"):
+        load_campaign(tmp_path / "c.yaml")

@@ -34,7 +34,7 @@ from typing import Literal
 
 import numpy as np
 import pandas as pd
-from pydantic import Field, field_validator
+from pydantic import Field, ValidationInfo, field_validator
 
 from aerotruth.analysis.afis import AfisSpec
 from aerotruth.config import Section
@@ -58,16 +58,22 @@ class MissionSection(Section):
     mass_kg: float = Field(default=12000.0, gt=0)
     turbulence: bool = True
     runs: list[MissionRun] = Field(min_length=1)
-    compare_with: list[str] = Field(default_factory=list, description="real ADS-B calibration tracks (JSON, .gz), e.g. "
-                                    "../shared/real-data/calibration/brussels_ils.json.gz")
+    compare_with: list[str] = Field(default_factory=list, description="real ADS-B calibration tracks (JSON, .gz); a relative "
+                                    "path is taken from the campaign file's folder")
 
     @field_validator("compare_with")
     @classmethod
-    def _exist(cls, v: list[str]) -> list[str]:
+    def _exist(cls, v: list[str], info: ValidationInfo) -> list[str]:
+        base = (info.context or {}).get("base_dir")
+        out = []
         for i, p in enumerate(v):
-            if not Path(p).is_file():
-                raise ValueError(f"[{i}]: no such file {p!r} (a real calibration track, JSON or JSON.gz)")
-        return v
+            path = Path(p).expanduser()
+            if not path.is_absolute() and base is not None:
+                path = Path(base) / path
+            if not path.is_file():
+                raise ValueError(f"[{i}]: no such file {str(path)!r} (a real calibration track, JSON or JSON.gz)")
+            out.append(str(path.resolve()))
+        return out
 
 
 class InspectionConfig(FitsStudyConfig):
