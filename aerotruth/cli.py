@@ -109,6 +109,17 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
 
     model = load_campaign(args.model)  # the simulation the data are compared with
     measured = load_measured(args.measured)
+    if measured.kind == "approach_log":
+        from aerotruth.analysis.diagnose_fits import FitsModel, diagnose_log, write_log_diagnosis
+        from aerotruth.analysis.fits_log import read_approach_log
+
+        df = read_approach_log(args.measured)
+        fm = FitsModel.from_campaign(model)
+        findings, baseline = diagnose_log(Path(args.measured), df, fm)
+        write_log_diagnosis(args.measured, df, findings, baseline, fm, Path(args.out))
+        names = ", ".join(f.effect for f in findings) or "none"
+        print(f"{args.measured}: approach log, {baseline['approaches']} approaches; findings: {names} -> {Path(args.out) / 'diagnosis.json'}")
+        return 0
     track, excluded = track_from_measured(measured)
     findings, baseline = diagnose_track(track)
     for f in findings:

@@ -38,7 +38,8 @@ def truth_xyz(t: np.ndarray, t_cross: float, rng: np.random.Generator) -> np.nda
 def waas_errors(t: np.ndarray, rng: np.random.Generator, waveform: str = "sine", amplitude: float = 0.5,
                 modulation: float = 0.3, bias_sigma=(0.45, 0.45, 0.8), jumps_per_s: float = 1 / 1800.0,
                 jump_sigma: float = 1.0, gm_sigma: float = 0.05, gm_tau: float = 100.0,
-                white_sigma: float = 0.03) -> dict[str, np.ndarray]:
+                white_sigma: float = 0.03, period_s: float = 12.0, second_period_s: float | None = None,
+                unflagged_jump: tuple[float, float] | None = None) -> dict[str, np.ndarray]:
     """Components (n, 3) at 1-Hz epochs t and the flags."""
     n = len(t)
     bias = np.asarray(bias_sigma) * rng.normal(size=3)
@@ -46,10 +47,12 @@ def waas_errors(t: np.ndarray, rng: np.random.Generator, waveform: str = "sine",
     for axis in range(3):
         amp = amplitude * (1 + modulation * np.sin(2 * math.pi * t / 200.0 + rng.uniform(0, 2 * math.pi)))
         if waveform == "sine":
-            wave = np.sin(2 * math.pi * t / 12.0 + rng.uniform(0, 2 * math.pi))
+            wave = np.sin(2 * math.pi * t / period_s + rng.uniform(0, 2 * math.pi))
         else:
-            t0 = rng.uniform(0.0, 12.0)
-            wave = np.where(np.mod(t - t0, 12.0) < 6.0, 1.0, -1.0)
+            t0 = rng.uniform(0.0, period_s)
+            wave = np.where(np.mod(t - t0, period_s) < period_s / 2, 1.0, -1.0)
+        if second_period_s is not None:
+            wave = wave + np.sin(2 * math.pi * t / second_period_s + rng.uniform(0, 2 * math.pi))
         cyc[:, axis] = amp * wave
     gm = np.empty((n, 3))
     a = math.exp(-1.0 / gm_tau)
@@ -67,6 +70,8 @@ def waas_errors(t: np.ndarray, rng: np.random.Generator, waveform: str = "sine",
         k = int(np.argmax(t >= t_jump))
         jumps[k:] += jump_sigma * rng.normal(size=3)
         (sv if rng.random() < 0.5 else iono)[k] = 1
+    if unflagged_jump is not None:  # a step in the bias the receiver did not flag: (time from the start, m per axis)
+        jumps[t - t[0] >= unflagged_jump[0]] += unflagged_jump[1]
     return dict(bias=bias, cyclic=cyc, gm=gm, white=white, jumps=jumps, sv=sv, iono=iono,
                 total=bias + cyc + gm + white + jumps)
 
@@ -89,7 +94,7 @@ def ins_errors(t: np.ndarray, rng: np.random.Generator, accel_bias_ug: float = 5
 
 def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before_s: float = 300.0, after_s: float = 60.0,
                   waveform: str = "sine", lever_arm_m: float = 0.0, t0_s: float = 1000.0, numeric_event: bool = False,
-                  **waas_kw):
+                  dgps_offset=(0.0, 0.0, 0.0), ins_bias_scale: float = 1.0, **waas_kw):
     """One approach: (log rows, truth rows). WAAS on the whole seconds, other sensors every
     row. Pilot marks as the contract has them: rows of their own at the press time, code
     'thr' at the threshold and 'end' at the stop end (numeric_event: the old 0/1 flag on
@@ -102,8 +107,8 @@ def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before
     w = waas_errors(t[w_rows], rng, waveform=waveform, **waas_kw)
     waas = np.full((n, 3), np.nan)
     waas[w_rows] = p[w_rows] + w["total"]
-    ins = p + ins_errors(t, rng)
-    dgps = p + 0.02 * rng.normal(size=(n, 3))
+    ins = p + ins_errors(t, rng, accel_bias_ug=500.0 * ins_bias_scale, gyro_bias_deg_h=1.0 * ins_bias_scale)
+    dgps = p + np.asarray(dgps_offset, float) + 0.02 * rng.normal(size=(n, 3))
     over = (p[:, 0] >= 0) & (p[:, 0] <= RUNWAY_M) & (np.abs(p[:, 1]) <= 30.0)
     ra = np.where(over, p[:, 2] - lever_arm_m + 0.30 / 1.96 * rng.normal(size=n), np.nan)
     seen = (p[:, 0] >= -600.0) & (p[:, 0] <= RUNWAY_M)

@@ -98,8 +98,8 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
         d = _track_from_raw(m.df)
         excluded = {"BDS 6,0 replies without BDS 5,0 / ADS-B neighbours": int((m.df["bds"] == "60").sum() - len(d))}
     else:
-        raise DataError(f"{m.path}: diagnose of a {m.kind.replace('_', ' ')} needs the simulation's own sensors for it "
-                        "(wind-report and FITS sensors), which aerotruth does not have yet; Mode-S data is supported")
+        raise DataError(f"{m.path}: diagnose of a {m.kind.replace('_', ' ')} is not built yet (the wind-report effects of "
+                        "the diagnose issue); Mode-S data and approach logs are supported")
     vr = d["vertical_rate"].to_numpy(float) if "vertical_rate" in d else np.zeros(len(d))
     t = d["time_s"].to_numpy(float)
     steep = np.abs(vr) > PARABOLA_FPM

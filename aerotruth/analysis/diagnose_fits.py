@@ -1,0 +1,445 @@
+"""`aerotruth diagnose` on an approach log (the FITS side of the diagnose issue): where a
+flight's WAAS, INS and DGPS data disagree with the simulation's sensor model, why, and
+what the extended model gains on approaches it was not fitted on.
+
+The model is the campaign's `fits` (or `inspection`) section: the cyclic period of the
+WAAS fast corrections, the INS grade, the DGPS survey offset (aerotruth.sensors.*). The
+approaches are split in two halves (alternate approaches, in log order); each effect is
+estimated on one half and its gain measured on the other, then the other way round, and
+the two gains averaged ("held out"). Gains are in the metric a flight inspector cares
+about: the RMS of the WAAS-aided FITS minus the DGPS truth, cross-track and vertical
+(along-track is left out: it is the pilot's mark timing), and for the INS the Gaussian
+log-likelihood of its drift. Without DGPS only the cyclic period can be tested.
+
+Effects (each with the size the hidden-effect tests use):
+* `cyclic_period` — the WAAS - INS difference, detrended by a local cubic (Savitzky-Golay,
+  41 s) and averaged over approaches as a periodogram, peaks at a period other than the
+  model's (or at a second one): the fast-correction interval is not what the model says
+  (6 s instead of 12, or two update rates). Finding when the other peak holds more than
+  3x the power at the model's period (or, for a second period, more than a third of the
+  main peak and 20x the median power). Extension: the FITS filter's period_s.
+* `dgps_offset` — FITS - DGPS has a constant part across approaches (y, z): the DGPS
+  reference station's surveyed position is off (the FITS paper suspects it in its own
+  flight test). Finding when |mean| > 4 standard errors of the across-approach scatter and
+  > 0.1 m. Aliased with a common radar-altimeter/TVPS bias (the same signature); the
+  report says so. Extension: the DGPS survey offset.
+* `waas_jump` — an unflagged step in the WAAS bias: WAAS - N_hat - DGPS (the bias plus
+  slow noise) steps by more than 0.5 m and 8 noise sigmas between the 30 s before and
+  after an epoch the receiver did not flag. Extension: the epoch flagged (the FITS
+  compensates it, section IV-C). A single event: its gain is measured on that approach.
+* `ins_bias` — the INS drift against DGPS (quadratic per axis over the approach; the
+  accelerometer bias is twice its t^2 coefficient) is larger than the grade says:
+  sum of (b_hat / sigma)^2 is chi-square with one degree per approach and axis under the
+  model; finding at p < 0.001 and a scale k = RMS(b_hat) / sigma above 1.5. Extension:
+  the grade's biases scaled by k.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+from scipy import signal, stats
+
+from aerotruth.analysis.diagnose import Finding
+from aerotruth.analysis.fits import FitsSpec, fits_approach
+from aerotruth.analysis.fits_log import DGPS, _check_approach, split_events
+from aerotruth.errors import DataError
+from aerotruth.sensors.inertial_errors import INS_GRADES, MICRO_G
+
+SG_WINDOW = 41  # epochs (s at 1 Hz): the local cubic removed before the periodogram
+STEP_WINDOW = 30  # epochs each side of a candidate jump
+
+
+@dataclass(frozen=True)
+class FitsModel:
+    """What the simulation assumes about the sensors behind a log."""
+
+    period_s: float = 12.0
+    grade: str = "tactical"
+    dgps_offset_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+
+    @property
+    def accel_bias_ug(self) -> float:
+        return INS_GRADES[self.grade].accel_bias_ug
+
+    @classmethod
+    def from_campaign(cls, campaign) -> FitsModel:
+        """The sensors of the campaign's fits (or inspection) section: its WAAS period, its
+        first INS's grade, its DGPS survey offset; the defaults without such a section."""
+        for name in ("fits", "inspection"):
+            if name in campaign.studies:
+                s = campaign.studies[name]
+                return cls(period_s=s.sensors.waas.cyclic_period_s, grade=s.sensors.ins[0].grade,
+                           dgps_offset_m=tuple(s.sensors.dgps.survey_offset_m))
+        return cls()
+
+
+@dataclass
+class _Approach:
+    name: object
+    t_w: np.ndarray  # WAAS epochs
+    waas: np.ndarray
+    ins_w: np.ndarray
+    flags: np.ndarray
+    t_rows: np.ndarray
+    ins_rows: np.ndarray
+    ra: np.ndarray
+    tvps: np.ndarray
+    t_mark: float
+    dgps_w: np.ndarray | None  # DGPS at the WAAS epochs (NaN where absent)
+
+
+def _approaches(path, df: pd.DataFrame) -> list[_Approach]:
+    out = []
+    has_dgps = all(c in df.columns for c in DGPS)
+    for a, g in df.groupby("approach", sort=False):
+        _check_approach(path, a, g)
+        rows, _ = split_events(g)
+        t = rows["time_s"].to_numpy(float)
+        w = rows[["waas_x_m", "waas_y_m", "waas_z_m"]].to_numpy(float)
+        isw = np.isfinite(w[:, 0])
+        ins = rows[["ins_x_m", "ins_y_m", "ins_z_m"]].to_numpy(float)
+        fl = ((rows["sv_change"].to_numpy(float) > 0) | (rows["iono_update"].to_numpy(float) > 0))
+        tw = t[isw]
+        flags = np.zeros(len(tw), np.int8)
+        k = np.searchsorted(tw, t[fl], side="left")
+        flags[k[k < len(tw)]] = 1
+        ev = g["event"].astype(str).to_numpy()
+        marks = g["time_s"].to_numpy(float)[(ev == "thr") | (ev == "1")]
+        row_dt = float(np.median(np.diff(t)))
+        legacy = ((ev == "1").any() and not (ev == "thr").any())
+        t_mark = float(marks.min()) - (0.5 * row_dt if legacy else 0.0)
+        d = rows[list(DGPS)].to_numpy(float)[isw] if has_dgps else None
+        out.append(_Approach(a, tw, w[isw], ins[isw], flags, t, ins, rows["ra_m"].to_numpy(float),
+                             rows["tvps_y_m"].to_numpy(float), t_mark, d))
+    return out
+
+
+def _fits(ap: _Approach, period_s: float, extra_flags: np.ndarray | None = None):
+    flags = ap.flags if extra_flags is None else np.maximum(ap.flags, extra_flags)
+    return fits_approach(ap.t_w, ap.waas, ap.ins_w, flags, ap.t_rows, ap.ins_rows, ap.ra, ap.tvps, ap.t_mark,
+                         FitsSpec(period_s=period_s))
+
+
+def _err_rms(aps: list[_Approach], period_s: float, offset=(0.0, 0.0, 0.0), flags: dict | None = None) -> float:
+    """RMS of FITS - (DGPS - offset), cross-track and vertical, over the approaches."""
+    sq, n = 0.0, 0
+    for ap in aps:
+        r = _fits(ap, period_s, (flags or {}).get(ap.name))
+        e = r.xyz_m - (ap.dgps_w - np.asarray(offset))
+        e = e[np.isfinite(e).all(axis=1)][:, 1:]
+        sq += float(np.sum(e**2))
+        n += e.size
+    return math.sqrt(sq / n) if n else float("nan")
+
+
+def _halves(aps: list) -> tuple[list, list]:
+    return aps[0::2], aps[1::2]
+
+
+def _power_at(f: np.ndarray, p: np.ndarray, period: float) -> float:
+    i = int(np.argmin(np.abs(f - 1.0 / period)))
+    return float(p[max(i - 1, 0):i + 2].max())
+
+
+def _detrended(ap: _Approach) -> np.ndarray | None:
+    dz = ap.waas - ap.ins_w
+    if len(dz) < 2 * SG_WINDOW:
+        return None
+    return dz - signal.savgol_filter(dz, SG_WINDOW, 3, axis=0)
+
+
+def _detect_period(aps: list[_Approach], model: FitsModel):
+    """(kind, period, power ratio, main peak period) of the cyclic noise, or None when the
+    model's period is what the data show (module docstring)."""
+    grid = np.linspace(1.0 / 40.0, 0.5, 400)  # periodograms of different lengths on one grid
+    acc = []
+    for ap in aps:
+        res = _detrended(ap)
+        if res is None:
+            continue
+        f, p = signal.periodogram(res, fs=1.0, axis=0, detrend=False)
+        acc.append(np.interp(grid, f, p.mean(axis=1)))
+    if not acc:
+        return None
+    pm = np.mean(acc, axis=0)
+    band = (grid >= 1.0 / 30.0) & (grid <= 1.0 / 2.5)
+    i_peak = np.flatnonzero(band)[np.argmax(pm[band])]
+    peak_period = 1.0 / grid[i_peak]
+    p_model = _power_at(grid, pm, model.period_s)
+    med = float(np.median(pm[band]))
+    # a second peak away from the first and from the harmonics of either period
+    harm = np.zeros_like(grid, bool)
+    for base in (peak_period, model.period_s):
+        for m in (1, 2, 3):
+            harm |= np.abs(grid - m / base) < 0.012
+    far = band & ~harm
+    i2 = np.flatnonzero(far)[np.argmax(pm[far])]
+    if abs(peak_period - model.period_s) > 0.1 * model.period_s and pm[i_peak] > 3.0 * p_model:
+        return "period", peak_period, pm[i_peak] / max(p_model, 1e-30), peak_period
+    if pm[i2] > pm[i_peak] / 3.0 and pm[i2] > 20.0 * med:
+        return "second", 1.0 / grid[i2], pm[i2] / med, peak_period
+    return None
+
+
+def _periodic_rms(aps: list[_Approach], periods: list[float]) -> float:
+    """RMS of the detrended WAAS - INS after a least-squares fit, per approach and axis, of
+    a sinusoid at each of the given periods (the WAAS model's sine waveform): how much of
+    the measured noise a cyclic model with those periods accounts for."""
+    sq, n = 0.0, 0
+    for ap in aps:
+        res = _detrended(ap)
+        if res is None:
+            continue
+        t = ap.t_w - ap.t_w[0]
+        cols = [np.ones_like(t)]
+        for per in periods:
+            cols += [np.sin(2 * np.pi * t / per), np.cos(2 * np.pi * t / per)]
+        A = np.column_stack(cols)
+        r = res - A @ np.linalg.lstsq(A, res, rcond=None)[0]
+        sq += float(np.sum(r**2))
+        n += r.size
+    return math.sqrt(sq / n) if n else float("nan")
+
+
+def _period_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
+    found = _detect_period(aps, model)
+    if found is None:
+        return None
+    kind, period, ratio, main = found
+
+    def periods_of(fd):
+        if fd is None:
+            return [model.period_s]
+        return [fd[1]] if fd[0] == "period" else [model.period_s, fd[1]]
+    a, b = _halves(aps)
+    before = _periodic_rms(aps, [model.period_s])
+    after = _periodic_rms(aps, periods_of(found))
+    ho_before = np.mean([_periodic_rms(h, [model.period_s]) for h in (a, b)])
+    ho_after = np.mean([_periodic_rms(test, periods_of(_detect_period(fit, model))) for fit, test in ((a, b), (b, a))])
+    gain = {"before": before, "after": after, "held_out_before": float(ho_before), "held_out_after": float(ho_after),
+            "unit": "m (RMS of WAAS - INS not explained by the cyclic model)"}
+    resolution = period**2 * (1.0 / 40.0)  # one bin of a 40-s-resolution periodogram, in period
+    if kind == "period":
+        cause = (f"The WAAS cyclic noise repeats every {period:.1f} s, not the model's {model.period_s:g} s: the fast "
+                 f"corrections arrive every {period / 2:.1f} s.")
+        if model.period_s % round(period) == 0:
+            cause += (f" The FITS filter with T = {model.period_s:g} already removes it (a harmonic of its period); the "
+                      "simulation's WAAS sensor model is what must change.")
+    else:
+        cause = (f"Besides the {main:.1f} s cycle the WAAS noise has a second period of {period:.1f} s (another "
+                 "correction stream); a FITS filter with one period leaves it in the position.")
+    return Finding("cyclic_period" if kind == "period" else "second_cyclic_period", cause,
+                   {"period_s": {"value": float(period), "se": float(resolution)}},
+                   {"power_ratio": float(ratio), "model_period_s": model.period_s, "peak_period_s": float(main),
+                    "score": float(np.log10(ratio))}, gain)
+
+
+def _offset_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
+    means = []
+    for ap in aps:
+        r = _fits(ap, model.period_s)
+        d = (ap.dgps_w - np.asarray(model.dgps_offset_m)) - r.xyz_m
+        d = d[np.isfinite(d).all(axis=1)]
+        if len(d):
+            means.append(d.mean(axis=0))
+    if len(means) < 4:
+        return None
+    m = np.array(means)
+    mu, se = m.mean(axis=0), m.std(axis=0, ddof=1) / math.sqrt(len(m))
+    z = np.abs(mu[1:]) / np.maximum(se[1:], 1e-9)
+    if not ((z > 4.0) & (np.abs(mu[1:]) > 0.1)).any():
+        return None
+    a, b = _halves(aps)
+    off = {}
+    for fit, test in ((a, b), (b, a)):
+        mm = np.mean([((ap.dgps_w - np.asarray(model.dgps_offset_m)) - _fits(ap, model.period_s).xyz_m)[
+            np.isfinite(ap.dgps_w).all(axis=1)].mean(axis=0) for ap in fit], axis=0)
+        mm[0] = 0.0
+        off[id(test)] = mm
+    before = np.mean([_err_rms(h, model.period_s, model.dgps_offset_m) for h in (a, b)])
+    held = np.mean([_err_rms(h, model.period_s, np.asarray(model.dgps_offset_m) + off[id(h)]) for h in (a, b)])
+    mu_all = np.array([0.0, mu[1], mu[2]])
+    after = _err_rms(aps, model.period_s, np.asarray(model.dgps_offset_m) + mu_all)
+    return Finding("dgps_offset",
+                   f"FITS minus DGPS holds a constant {mu[1]:+.2f} m cross-track and {mu[2]:+.2f} m vertical on every approach: "
+                   "the DGPS reference station's surveyed position is off by that much (a common radar-altimeter/TVPS bias "
+                   "would look the same; the along-track part is the pilot's mark and is not estimated).",
+                   {"offset_y_m": {"value": float(mu[1]), "se": float(se[1])}, "offset_z_m": {"value": float(mu[2]), "se": float(se[2])}},
+                   {"z": [float(v) for v in z], "approaches": len(m), "score": float(np.log10(max(z.max(), 1.0)) + 1.0)},
+                   {"before": before, "after": after, "held_out_before": before, "held_out_after": held, "unit": "m"})
+
+
+def _jump_effects(aps: list[_Approach], model: FitsModel) -> list[Finding]:
+    out = []
+    for ap in aps:
+        r = _fits(ap, model.period_s)
+        b = ap.waas - r.noiseless.n_hat - ap.dgps_w  # the bias, slow noise and any unflagged step
+        ok = np.isfinite(b).all(axis=1)
+        if ok.sum() < 4 * STEP_WINDOW:
+            continue
+        bb = b[ok]
+        n = len(bb)
+        sig = 1.4826 * np.median(np.abs(np.diff(bb, axis=0) - np.median(np.diff(bb, axis=0), axis=0)), axis=0) / math.sqrt(2)
+        cs = np.vstack([np.zeros(3), np.cumsum(bb, axis=0)])
+        k = np.arange(STEP_WINDOW, n - STEP_WINDOW)
+        after = (cs[k + STEP_WINDOW] - cs[k]) / STEP_WINDOW
+        before = (cs[k] - cs[k - STEP_WINDOW]) / STEP_WINDOW
+        step = after - before
+        score = np.sqrt(np.sum((step / (np.maximum(sig, 1e-3) * math.sqrt(2.0 / STEP_WINDOW))) ** 2, axis=1))
+        i = int(np.argmax(score))
+        mag = float(np.linalg.norm(step[i]))
+        epoch = int(np.flatnonzero(ok)[k[i]])
+        if score[i] < 8.0 * math.sqrt(3) or mag < 0.5 or ap.flags[max(epoch - 2, 0):epoch + 3].any():
+            continue
+        flags = np.zeros(len(ap.t_w), np.int8)
+        flags[epoch] = 1
+        before_rms = _err_rms([ap], model.period_s)
+        after_rms = _err_rms([ap], model.period_s, flags={ap.name: flags})
+        out.append(Finding("waas_jump",
+                           f"Approach {ap.name}: the WAAS bias steps by {mag:.2f} m at t = {ap.t_w[epoch]:.0f} s without a "
+                           "satellite-set or ionosphere flag from the receiver; the FITS carries it into every position after it. "
+                           "Flagging the epoch lets the FITS compensate it (section IV-C).",
+                           {"step_m": {"value": mag, "se": float(np.linalg.norm(sig) * math.sqrt(2.0 / STEP_WINDOW))},
+                            "time_s": {"value": float(ap.t_w[epoch]), "se": 1.0}},
+                           {"score_sigma": float(score[i]), "approach": str(ap.name), "score": float(np.log10(score[i]))},
+                           {"before": before_rms, "after": after_rms, "held_out_before": before_rms, "held_out_after": after_rms,
+                            "unit": "m", "note": "a single event: measured on its own approach"}))
+    return out
+
+
+def _drift_biases(t_w: np.ndarray, d: np.ndarray) -> list[float]:
+    """Accelerometer biases (m/s^2) from an INS - DGPS drift (n, 3): twice the t^2
+    coefficient of a quadratic (vertical) or cubic (horizontal, the gyro's t^3 too)."""
+    ok = np.isfinite(d).all(axis=1)
+    if ok.sum() < 60:
+        return []
+    t = t_w[ok] - t_w[ok][0]
+    return [2.0 * np.polyfit(t, d[ok, ax], 3 if ax < 2 else 2)[-3] for ax in range(3)]
+
+
+def _ins_bias_effect(aps: list[_Approach], model: FitsModel, rng_seed: int = 0) -> Finding | None:
+    """The INS drift against the grade: the estimator's spread under the model (grade
+    biases and noise through the same fit) comes from simulating the grade's eq. 4 errors
+    on each approach's epochs (aerotruth.sensors.inertial_errors)."""
+    from aerotruth.sensors.inertial_errors import InertialErrors, InertialErrorSpec
+
+    sigma = model.accel_bias_ug * MICRO_G
+    rng = np.random.default_rng(rng_seed)
+    est, null = [], []
+    for ap in aps:
+        b = _drift_biases(ap.t_w, ap.ins_w - ap.dgps_w)
+        if not b:
+            continue
+        est.append(b)
+        for _ in range(10):  # the model's own estimator spread on these epochs
+            null.append(_drift_biases(ap.t_w, InertialErrors.draw(InertialErrorSpec(grade=model.grade), rng, ap.t_w).error_ned_m))
+    if len(est) < 3:
+        return None
+    b = np.asarray(est).ravel()
+    v0 = float(np.mean(np.asarray(null).ravel() ** 2))  # E[b_hat^2] under the model
+    chi2 = float(np.sum(b**2) / v0)
+    p = float(stats.chi2.sf(chi2, len(b)))
+    noise2 = max(v0 - sigma**2, 0.0)
+    k = float(np.sqrt(max(np.mean(b**2) - noise2, 0.0)) / sigma)
+    if p > 1e-3 or k < 1.5:
+        return None
+    half = len(b) // 2
+    fit, test = b[:half], b[half:]
+    k_fit = float(np.sqrt(max(np.mean(fit**2) - noise2, 0.0)) / sigma)
+
+    def nll(x, s2):
+        return float(np.mean(0.5 * x**2 / s2 + 0.5 * np.log(s2)))
+    return Finding("ins_bias",
+                   f"The INS drifts {k:.1f} times faster than its grade allows: accelerometer biases of "
+                   f"{k * model.accel_bias_ug:.0f} ug RMS against the model's {model.accel_bias_ug:g} ug (from the INS minus "
+                   "DGPS drift over each approach, net of what the grade's own noise puts into that estimate).",
+                   {"bias_scale": {"value": k, "se": k / math.sqrt(2 * len(b))}},
+                   {"chi2": chi2, "dof": len(b), "p": p, "score": float(min(-math.log10(max(p, 1e-300)), 300.0) / 10.0)},
+                   {"before": nll(b, v0), "after": nll(b, k**2 * sigma**2 + noise2), "held_out_before": nll(test, v0),
+                    "held_out_after": nll(test, k_fit**2 * sigma**2 + noise2), "unit": "negative log-likelihood per bias (nats)"})
+
+
+def diagnose_log(path, df: pd.DataFrame, model: FitsModel) -> tuple[list[Finding], dict]:
+    """Ranked findings (strongest first) and the baseline of an approach log."""
+    aps = _approaches(path, df)
+    dgps = all(a.dgps_w is not None and np.isfinite(a.dgps_w).any() for a in aps)
+    findings: list[Finding] = []
+    f = _period_effect(aps, model)
+    period = model.period_s
+    if f is not None:
+        findings.append(f)
+        if f.effect == "cyclic_period":
+            period = float(round(f.parameters["period_s"]["value"]))
+    baseline = {"approaches": len(aps), "dgps": dgps}
+    if dgps:
+        m2 = FitsModel(period, model.grade, model.dgps_offset_m)
+        baseline["fits_minus_dgps_rms_m"] = _err_rms(aps, model.period_s, model.dgps_offset_m)
+        for g in (_offset_effect(aps, m2), _ins_bias_effect(aps, m2)):
+            if g is not None:
+                findings.append(g)
+        findings += _jump_effects(aps, m2)
+    findings.sort(key=lambda x: -x.evidence.get("score", 0.0))
+    return findings, baseline
+
+
+def write_log_diagnosis(path, df: pd.DataFrame, findings: list[Finding], baseline: dict, model: FitsModel, out_dir) -> None:
+    """DIR/diagnosis.json, DIR/report.md and DIR/figures/waas_periodogram.png."""
+    import json
+    from dataclasses import asdict
+    from pathlib import Path
+
+    from aerotruth.analysis.diagnose import Diagnosis
+    from aerotruth.files import atomic_write_text
+
+    out = Path(out_dir)
+    (out / "figures").mkdir(parents=True, exist_ok=True)
+    diag = Diagnosis(str(path), "approach_log", int(len(df)), {}, findings, {**baseline, "model": asdict(model)})
+    atomic_write_text(out / "diagnosis.json", json.dumps(asdict(diag), indent=2, default=float) + "\n")
+    lines = [f"# Diagnosis of `{path}`", "", f"Kind: approach log; {baseline['approaches']} approaches; DGPS truth: "
+             f"{'yes' if baseline['dgps'] else 'no (only the cyclic period can be tested)'}.", "",
+             f"Model: WAAS cyclic period {model.period_s:g} s, {model.grade} INS ({model.accel_bias_ug:g} ug), DGPS survey offset "
+             f"{tuple(model.dgps_offset_m)} m.", ""]
+    if "fits_minus_dgps_rms_m" in baseline:
+        lines += [f"Baseline: FITS minus DGPS, cross-track and vertical, RMS {baseline['fits_minus_dgps_rms_m']:.3f} m.", ""]
+    if not findings:
+        lines += ["**No finding**: the log agrees with the model within the tests' thresholds.", ""]
+    for i, f in enumerate(findings, 1):
+        ps = ", ".join(f"{k} = {v['value']:.4g} ± {v['se']:.2g}" for k, v in f.parameters.items())
+        g = f.gain
+        lines += [f"## {i}. {f.effect}", "", f.cause, "", f"* parameters: {ps}",
+                  f"* evidence: " + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in f.evidence.items()),
+                  f"* {g.get('unit', '')}: {g.get('before', float('nan')):.4g} → {g.get('after', float('nan')):.4g}; held out "
+                  f"{g.get('held_out_before', float('nan')):.4g} → {g.get('held_out_after', float('nan')):.4g}"
+                  + (f" ({g['note']})" if "note" in g else ""), ""]
+    _periodogram_figure(df, path, model, out / "figures" / "waas_periodogram.png")
+    lines += ["![Periodogram of WAAS - INS with the model's cyclic period](figures/waas_periodogram.png)", ""]
+    atomic_write_text(out / "report.md", "\n".join(lines))
+
+
+def _periodogram_figure(df: pd.DataFrame, path, model: FitsModel, png) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    grid = np.linspace(1.0 / 40.0, 0.5, 400)
+    acc = []
+    for ap in _approaches(path, df):
+        res = _detrended(ap)
+        if res is not None:
+            f, p = signal.periodogram(res, fs=1.0, axis=0, detrend=False)
+            acc.append(np.interp(grid, f, p.mean(axis=1)))
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    if acc:
+        ax.semilogy(1.0 / grid, np.mean(acc, axis=0))
+    ax.axvline(model.period_s, color="C3", ls="--", label=f"model period {model.period_s:g} s")
+    ax.set(xlabel="period (s)", ylabel="power (m²/Hz)", title="WAAS - INS, detrended, mean periodogram", xlim=(2, 40))
+    ax.legend()
+    ax.grid(alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(png, dpi=120)
+    plt.close(fig)
