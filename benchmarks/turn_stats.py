@@ -1,0 +1,89 @@
+"""Turns of the truth flights against the real A320 recorder extract
+(../shared/real-data/fuelflow_a320.json.gz; not the A310 file, a zero-g flight with
+interpolated samples): roll rate differenced at 1 Hz below and above 10,000 ft (p95 and
+max), the share of samples banked more than 10 deg, and the sideslip of the truth in
+steady turns and at turn entry (no real data for it).
+
+The truth side: the legs of Mesaba aircraft-days (the campaign's daily schedules in the
+day's truth weather, JSBSim turbulence on), resampled to 1 Hz as the recorder is.
+
+Prints `label: value` lines (A320 and truth side by side, and the truth/A320 ratios).
+
+    python benchmarks/turn_stats.py [--days 3] [--turbulence]
+"""
+
+from __future__ import annotations
+
+import argparse
+import datetime as dt
+import gzip
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from aerotruth.truth.days import AircraftDay
+from aerotruth.truth.flight import FlightDiverged, fly_leg
+from aerotruth.units import DEG, FT
+
+REAL = Path(__file__).resolve().parents[1].parent / "shared" / "real-data" / "fuelflow_a320.json.gz"
+
+
+def roll_stats(roll_deg: np.ndarray, alt_ft: np.ndarray) -> dict[str, float]:
+    """p95/max of |roll(k+1) - roll(k)| (1 Hz samples) and share |roll| > 10 deg, below and above 10,000 ft."""
+    rr = np.abs(np.diff(roll_deg))
+    al = alt_ft[1:]
+    out = {}
+    for name, sel in (("below_10000ft", al < 10000), ("above_10000ft", al >= 10000)):
+        r = rr[sel & np.isfinite(rr)]
+        out[f"{name}.roll_rate_p95_deg_s"] = float(np.percentile(r, 95)) if len(r) else float("nan")
+        out[f"{name}.roll_rate_max_deg_s"] = float(r.max()) if len(r) else float("nan")
+        rl = roll_deg[1:][sel]
+        out[f"{name}.share_roll_over_10deg"] = float(np.mean(np.abs(rl[np.isfinite(rl)]) > 10.0))
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--days", type=int, default=3, help="Mesaba aircraft-days (up to 6 legs each)")
+    ap.add_argument("--turbulence", action="store_true", default=True)
+    args = ap.parse_args()
+    a = pd.DataFrame(json.load(gzip.open(REAL))).sort_values("timestamp")
+    real = roll_stats(a["roll"].to_numpy(float), a["altitude"].to_numpy(float))
+    rolls, alts, betas = [], [], []
+    n_legs = n_div = 0
+    for k in range(args.days):
+        day = AircraftDay.for_campaign(2009, f"N40{k + 1}XJ", dt.date(2009, 8, 15) + dt.timedelta(days=k),
+                                       network="mesaba", turbulence=args.turbulence)
+        for leg in day.plans():
+            n_legs += 1
+            try:
+                df = fly_leg(leg.plan, seed=leg.flight_seed, turbulence=args.turbulence, atmosphere=leg.atmosphere()).df
+            except FlightDiverged:
+                n_div += 1
+                continue
+            one = df.iloc[::10]  # 10 Hz -> 1 Hz, as the recorder samples
+            rolls += [one["roll_rad"].to_numpy() / DEG, [np.nan]]
+            alts += [one["pressure_altitude_m"].to_numpy() / FT, [np.nan]]
+            betas.append(df[["roll_rad", "beta_rad", "p_radps"]].to_numpy())
+    truth = roll_stats(np.concatenate(rolls), np.concatenate(alts))
+    print(f"legs: {n_legs}")
+    print(f"legs_diverged: {n_div}")
+    for k in real:
+        print(f"a320.{k}: {real[k]:.3f}")
+        print(f"truth.{k}: {truth[k]:.3f}")
+        if "rate" in k:
+            print(f"ratio.{k}: {truth[k] / real[k]:.2f}")
+    b = np.vstack(betas)
+    roll, beta, p = np.degrees(b[:, 0]), np.degrees(b[:, 1]), np.degrees(b[:, 2])
+    steady = (np.abs(roll) > 15.0) & (np.abs(p) < 0.5)
+    entry = (np.abs(p) > 1.0)
+    print(f"truth.sideslip_steady_turn_p95_deg: {np.percentile(np.abs(beta[steady]), 95):.3f}")
+    print(f"truth.sideslip_turn_entry_max_deg: {np.abs(beta[entry]).max():.3f}")
+    print(f"truth.sideslip_turn_entry_p99_deg: {np.percentile(np.abs(beta[entry]), 99):.3f}")
+    print(f"truth.max_bank_deg: {np.abs(roll).max():.2f}")
+
+
+if __name__ == "__main__":
+    main()
