@@ -47,8 +47,9 @@ def roll_stats(roll_deg: np.ndarray, alt_ft: np.ndarray) -> dict[str, float]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--days", type=int, default=3, help="Mesaba aircraft-days (up to 6 legs each)")
-    ap.add_argument("--turbulence", action="store_true", default=True)
+    ap.add_argument("--calm", action="store_true", help="no JSBSim turbulence (the coordination of the turns alone)")
     args = ap.parse_args()
+    args.turbulence = not args.calm
     a = pd.DataFrame(json.load(gzip.open(REAL))).sort_values("timestamp")
     real = roll_stats(a["roll"].to_numpy(float), a["altitude"].to_numpy(float))
     rolls, alts, betas = [], [], []
