@@ -288,6 +288,15 @@ class _Guide:
         self._set("ap/target/ias-kt", ias)
 
 
+def add_frame_columns(df, frame: RunwayFrame, cg_in: np.ndarray) -> None:
+    """The CG location (JSBSim structural frame, inches -> m) and the runway-frame CG
+    position as columns of a recorded track: cg_*_m and x_m, y_m, z_m."""
+    for i, a in enumerate("xyz"):
+        df[f"cg_{a}_m"] = cg_in[:, i] * IN
+    xr, yr, zr = frame.from_geodetic(df["lat_deg"].to_numpy(), df["lon_deg"].to_numpy(), df["h_ellipsoid_m"].to_numpy())
+    df["x_m"], df["y_m"], df["z_m"] = xr, yr, zr
+
+
 def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: float, ground_elevation_m: float,
              step, seed_id, rate_hz: int, extra_props=(), min_height_m: float = 3.0, max_bank_deg: float = 45.0):
     """The recorded flight loop shared by approaches and inspection missions: every
@@ -418,11 +427,7 @@ def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = 
     for i, a in enumerate("xyz"):
         df[f"dv_{a}_mps"] = np.concatenate([[np.nan], dv[:, i]])
         df[f"dtheta_{a}_rad"] = np.concatenate([[np.nan], dth[:, i]])
-    cgm = extra[:, 6:9] * IN
-    for i, a in enumerate("xyz"):
-        df[f"cg_{a}_m"] = cgm[:, i]
-    xr, yr, zr = frame.from_geodetic(df["lat_deg"].to_numpy(), df["lon_deg"].to_numpy(), df["h_ellipsoid_m"].to_numpy())
-    df["x_m"], df["y_m"], df["z_m"] = xr, yr, zr
+    add_frame_columns(df, frame, extra[:, 6:9])
     if not np.isfinite(df.drop(columns=["phase"]).to_numpy()[1:]).all():
         raise FlightDiverged("NaN in the recorded truth", seed_id)
     meta = {

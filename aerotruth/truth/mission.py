@@ -44,8 +44,8 @@ from pydantic import Field
 from aerotruth.config import Section
 from aerotruth.sensors.ils import IlsFacilitySpec
 from aerotruth.truth.airframes import Airframe, airframe, new_fdm
-from aerotruth.truth.approach import (DEFAULT_POINTS_M, IN, ApproachSchedule, _GlidePath, find_runway, fly_loop,
-                                      initial_conditions)
+from aerotruth.truth.approach import (DEFAULT_POINTS_M, ApproachSchedule, _GlidePath, add_frame_columns, find_runway,
+                                      fly_loop, initial_conditions)
 from aerotruth.truth.flight import DT, FPS, FlightDiverged, _digest, _trim, seed_repr
 from aerotruth.truth.guidance import GreatCircleLeg
 from aerotruth.truth.runway import RunwayFrame
@@ -302,11 +302,7 @@ def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = No
     nrec = len(rec.PROPS)
     data = np.asarray(rows, dtype=float)
     df = rec.frame(data[:, :nrec], tags)
-    cgm = data[:, nrec:nrec + 3] * IN
-    for i, ax in enumerate("xyz"):
-        df[f"cg_{ax}_m"] = cgm[:, i]
-    xr, yr, zr = frame.from_geodetic(df["lat_deg"].to_numpy(), df["lon_deg"].to_numpy(), df["h_ellipsoid_m"].to_numpy())
-    df["x_m"], df["y_m"], df["z_m"] = xr, yr, zr
+    add_frame_columns(df, frame, data[:, nrec:nrec + 3])
     run_idx = np.asarray(run_tags[:len(df)], dtype=np.int16)
     df["run"] = run_idx
     names = np.array(["position"] + [r.type for r in spec.runs], dtype=object)
