@@ -92,9 +92,34 @@ def ins_errors(t: np.ndarray, rng: np.random.Generator, accel_bias_ug: float = 5
     return drift + np.cumsum(np.cumsum(acc, axis=0) * dt, axis=0) * dt
 
 
+def baro_coupled_error(t: np.ndarray, rng: np.random.Generator, tau_s: float, gm_sigma: float = 1.0, gm_tau: float = 60.0,
+                       white_sigma: float = 0.3) -> np.ndarray:
+    """Height error of a baro-inertial INS: the barometer's error (Gauss-Markov + white per
+    1-s reading, held) through the third-order loop's transfer function with a triple pole
+    at -1/tau, (k1 s^2 + k2 s + k3) / (s + 1/tau)^3, integrated by scipy's lsim (the
+    inertial errors the loop removes are left out)."""
+    from scipy import signal
+
+    t_b = np.arange(t[0], t[-1] + 1.0, 1.0)
+    a = math.exp(-1.0 / gm_tau)
+    e = np.empty(len(t_b))
+    e[0] = gm_sigma * rng.normal()
+    for k in range(1, len(t_b)):
+        e[k] = a * e[k - 1] + gm_sigma * math.sqrt(1 - a * a) * rng.normal()
+    e += white_sigma * rng.normal(size=len(t_b))
+    held = e[np.clip(np.searchsorted(t_b, t, side="right") - 1, 0, len(t_b) - 1)]
+    p = 1.0 / tau_s
+    num = [3 * p, 3 * p**2, p**3]
+    den = [1.0, 3 * p, 3 * p**2, p**3]
+    # start in the loop's steady state for the first reading (not from rest)
+    _, y, _ = signal.lsim((num, den), held - held[0], t - t[0])
+    return y + held[0]
+
+
 def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before_s: float = 300.0, after_s: float = 60.0,
                   waveform: str = "sine", lever_arm_m: float = 0.0, t0_s: float = 1000.0, numeric_event: bool = False,
-                  dgps_offset=(0.0, 0.0, 0.0), ins_bias_scale: float = 1.0, **waas_kw):
+                  dgps_offset=(0.0, 0.0, 0.0), ins_bias_scale: float = 1.0, baro_loop_tau_s: float | None = None,
+                  **waas_kw):
     """One approach: (log rows, truth rows). WAAS on the whole seconds, other sensors every
     row. Pilot marks as the contract has them: rows of their own at the press time, code
     'thr' at the threshold and 'end' at the stop end (numeric_event: the old 0/1 flag on
@@ -108,6 +133,8 @@ def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before
     waas = np.full((n, 3), np.nan)
     waas[w_rows] = p[w_rows] + w["total"]
     ins = p + ins_errors(t, rng, accel_bias_ug=500.0 * ins_bias_scale, gyro_bias_deg_h=1.0 * ins_bias_scale)
+    if baro_loop_tau_s is not None:
+        ins[:, 2] = p[:, 2] + baro_coupled_error(t, rng, baro_loop_tau_s)
     dgps = p + np.asarray(dgps_offset, float) + 0.02 * rng.normal(size=(n, 3))
     over = (p[:, 0] >= 0) & (p[:, 0] <= RUNWAY_M) & (np.abs(p[:, 1]) <= 30.0)
     ra = np.where(over, p[:, 2] - lever_arm_m + 0.30 / 1.96 * rng.normal(size=n), np.nan)

@@ -17,13 +17,16 @@ CASES = [
     ({"dgps_offset": (0.0, 0.3, 0.3)}, "dgps_offset", {"offset_y_m": 0.3, "offset_z_m": 0.3}),
     ({"unflagged_jump": (150.0, np.full(3, 1.5 / np.sqrt(3)))}, "waas_jump", {"step_m": 1.5}),
     ({"ins_bias_scale": 3.0}, "ins_bias", {"bias_scale": 3.0}),
+    # a barometer-coupled INS whose loop is twice as wide as the model's (tau 15 s, not 30)
+    ({"baro_loop_tau_s": 15.0}, "baro_coupling", {"loop_tau_s": 15.0}),
 ]
+BARO_MODEL = FitsModel(vertical="baro", baro_loop_tau_s=30.0)
 
 
 @pytest.mark.parametrize("hidden, effect, sizes", CASES, ids=[c[1] for c in CASES])
 def test_a_hidden_effect_is_ranked_first_sized_within_25_percent_with_held_out_gain(hidden, effect, sizes):
     log, _ = gen.make_log(20, seed=31, jumps_per_s=0.0, **hidden)  # 20 approaches of ~6 min
-    findings, _ = diagnose_log("log", log, FitsModel())
+    findings, _ = diagnose_log("log", log, BARO_MODEL if "baro_loop_tau_s" in hidden else FitsModel())
     assert findings and findings[0].effect == effect, [f.effect for f in findings]
     for k, v in sizes.items():
         assert findings[0].parameters[k]["value"] == pytest.approx(v, rel=0.25)
@@ -34,6 +37,12 @@ def test_a_hidden_effect_is_ranked_first_sized_within_25_percent_with_held_out_g
 def test_nothing_hidden_nothing_found():
     n = sum(len(diagnose_log("log", gen.make_log(12, seed=s, jumps_per_s=0.0)[0], FitsModel())[0]) for s in range(100, 110))
     assert n == 0
+
+
+def test_a_baro_coupled_ins_as_the_model_says_gives_no_finding():
+    for seed in (40, 41, 42):
+        log, _ = gen.make_log(20, seed=seed, jumps_per_s=0.0, baro_loop_tau_s=30.0)
+        assert diagnose_log("log", log, BARO_MODEL)[0] == []
 
 
 def test_without_dgps_only_the_cyclic_period_is_tested():

@@ -27,6 +27,15 @@ Effects (each with the size the hidden-effect tests use):
   slow noise) steps by more than 0.5 m and 8 noise sigmas between the 30 s before and
   after an epoch the receiver did not flag. Extension: the epoch flagged (the FITS
   compensates it, section IV-C). A single event: its gain is measured on that approach.
+* `baro_coupling` — (a barometer-coupled INS only) the INS - DGPS height error has the
+  spectrum of the barometer's error through a third-order loop of another time constant
+  than the model's: the mean periodogram over approaches of its first differences (Hann
+  window, against leakage in 6-min records; 1/40-1/5 Hz) is fitted in
+  log power by |H_tau(f)|^2 S_baro(f) + a white floor (the model's barometer:
+  Gauss-Markov + white per 1-s reading; the floor, DGPS and INS noise, fitted freely)
+  over tau from 3 to 300 s; finding when the fitted tau is outside 0.7-1.4x
+  the model's and its log-power misfit is less than half the model's. Extension: the loop's
+  time constant (bandwidth ~ 1/tau). Held out: tau fitted on one half, misfit on the other.
 * `ins_bias` — the INS drift against DGPS (quadratic per axis over the approach; the
   accelerometer bias is twice its t^2 coefficient) is larger than the grade says:
   sum of (b_hat / sigma)^2 is chi-square with one degree per approach and axis under the
@@ -36,6 +45,7 @@ Effects (each with the size the hidden-effect tests use):
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from dataclasses import dataclass
 
@@ -60,6 +70,11 @@ class FitsModel:
     period_s: float = 12.0
     grade: str = "tactical"
     dgps_offset_m: tuple[float, float, float] = (0.0, 0.0, 0.0)
+    vertical: str = "free"  # the INS's vertical channel: free, inertial or baro (aerotruth.sensors.ins)
+    baro_loop_tau_s: float = 30.0
+    baro_gm_sigma_m: float = 1.0
+    baro_gm_tau_s: float = 60.0
+    baro_white_sigma_m: float = 0.3
 
     @property
     def accel_bias_ug(self) -> float:
@@ -72,8 +87,11 @@ class FitsModel:
         for name in ("fits", "inspection"):
             if name in campaign.studies:
                 s = campaign.studies[name]
-                return cls(period_s=s.sensors.waas.cyclic_period_s, grade=s.sensors.ins[0].grade,
-                           dgps_offset_m=tuple(s.sensors.dgps.survey_offset_m))
+                ins = s.sensors.ins[0]
+                return cls(period_s=s.sensors.waas.cyclic_period_s, grade=ins.grade,
+                           dgps_offset_m=tuple(s.sensors.dgps.survey_offset_m), vertical=ins.vertical,
+                           baro_loop_tau_s=ins.baro_loop_time_constant_s, baro_gm_sigma_m=ins.baro_gm_sigma_m,
+                           baro_gm_tau_s=ins.baro_gm_tau_s, baro_white_sigma_m=ins.baro_white_sigma_m)
         return cls()
 
 
@@ -363,6 +381,80 @@ def _ins_bias_effect(aps: list[_Approach], model: FitsModel, rng_seed: int = 0) 
                     "held_out_after": nll(test, k_fit**2 * sigma**2 + noise2), "unit": "negative log-likelihood per bias (nats)"})
 
 
+def _baro_psd_model(f: np.ndarray, model: FitsModel, tau: float) -> np.ndarray:
+    """One-sided PSD (m^2/Hz) of the barometer error through the loop with time constant tau."""
+    s = 2j * np.pi * f
+    p = 1.0 / tau
+    h = (3 * p * s**2 + 3 * p**2 * s + p**3) / (s + p) ** 3
+    gm = 4.0 * model.baro_gm_sigma_m**2 * model.baro_gm_tau_s / (1.0 + (2 * np.pi * f * model.baro_gm_tau_s) ** 2)
+    white = 2.0 * model.baro_white_sigma_m**2 * 1.0  # a new reading each 1-s epoch: white at the 1 Hz epochs
+    return np.abs(h) ** 2 * (gm + white)
+
+
+_BARO_GRID = np.linspace(1.0 / 40.0, 1.0 / 5.0, 120)  # periods well inside a 6-min record
+_TAUS = np.geomspace(3.0, 300.0, 121)
+
+
+def _baro_periodogram(aps: list[_Approach]) -> np.ndarray | None:
+    acc = []
+    for ap in aps:
+        d = ap.ins_w[:, 2] - ap.dgps_w[:, 2]
+        ok = np.isfinite(d)
+        if ok.sum() < 128:
+            continue
+        # first differences and a Hann window: the height error's spectrum falls by four
+        # decades over the band, and a short record's leakage would otherwise fill the top
+        f, p = signal.periodogram(np.diff(d[ok]), fs=1.0, window="hann", detrend="constant")
+        acc.append(np.interp(_BARO_GRID, f, p))
+    return np.mean(acc, axis=0) if acc else None
+
+
+_FLOORS = np.r_[0.0, np.geomspace(1e-6, 1e-1, 41)]  # m^2/Hz: the DGPS and INS white noise, a nuisance
+
+
+def _baro_misfit(pm: np.ndarray, model: FitsModel, tau: float) -> float:
+    """Mean squared log-PSD misfit at loop time constant tau, the white floor (DGPS noise)
+    chosen freely."""
+    diff = (2.0 * np.sin(np.pi * _BARO_GRID)) ** 2  # the first difference's gain at 1 Hz
+    base = _baro_psd_model(_BARO_GRID, model, tau)
+    return float(min(np.mean((np.log(pm) - np.log((base + fl) * diff)) ** 2) for fl in _FLOORS))
+
+
+def _baro_fit(pm: np.ndarray, model: FitsModel) -> float:
+    return float(_TAUS[int(np.argmin([_baro_misfit(pm, model, tau) for tau in _TAUS]))])
+
+
+def _baro_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
+    if model.vertical != "baro":
+        return None
+    pm = _baro_periodogram(aps)
+    if pm is None:
+        return None
+    tau = _baro_fit(pm, model)
+    m0, m1 = _baro_misfit(pm, model, model.baro_loop_tau_s), _baro_misfit(pm, model, tau)
+    ratio = tau / model.baro_loop_tau_s
+    if 0.7 <= ratio <= 1.4 or m1 > 0.5 * m0:
+        return None
+    a, b = _halves(aps)
+    held = []
+    for fit, test in ((a, b), (b, a)):
+        pf, pt = _baro_periodogram(fit), _baro_periodogram(test)
+        if pf is None or pt is None:
+            continue
+        held.append((_baro_misfit(pt, model, model.baro_loop_tau_s), _baro_misfit(pt, model, _baro_fit(pf, model))))
+    hb, ha = (float(np.mean([h[0] for h in held])), float(np.mean([h[1] for h in held]))) if held else (m0, m1)
+    i = int(np.argmin(np.abs(_TAUS - tau)))
+    step = float(_TAUS[min(i + 1, len(_TAUS) - 1)] - _TAUS[max(i - 1, 0)]) / 2.0
+    return Finding("baro_coupling",
+                   f"The INS height follows its barometer through a loop of time constant {tau:.0f} s, not the model's "
+                   f"{model.baro_loop_tau_s:g} s: its bandwidth is {1.0 / ratio:.1f}x the model's, so more barometer noise "
+                   "reaches the vertical channel (and the FITS's vertical cyclic-noise estimate).",
+                   {"loop_tau_s": {"value": tau, "se": step}},
+                   {"misfit_model": m0, "misfit_fitted": m1, "score": float(np.log10(m0 / max(m1, 1e-9)) + 1.0)},
+                   {"before": m0, "after": m1, "held_out_before": hb, "held_out_after": ha,
+                    "unit": "mean squared log-PSD misfit of INS - DGPS height"})
+
+
 def diagnose_log(path, df: pd.DataFrame, model: FitsModel) -> tuple[list[Finding], dict]:
     """Ranked findings (strongest first) and the baseline of an approach log."""
     aps = _approaches(path, df)
@@ -376,9 +468,9 @@ def diagnose_log(path, df: pd.DataFrame, model: FitsModel) -> tuple[list[Finding
             period = float(round(f.parameters["period_s"]["value"]))
     baseline = {"approaches": len(aps), "dgps": dgps}
     if dgps:
-        m2 = FitsModel(period, model.grade, model.dgps_offset_m)
         baseline["fits_minus_dgps_rms_m"] = _err_rms(aps, model.period_s, model.dgps_offset_m)
-        for g in (_offset_effect(aps, m2), _ins_bias_effect(aps, m2)):
+        m2 = dataclasses.replace(model, period_s=period)
+        for g in (_offset_effect(aps, m2), _ins_bias_effect(aps, m2), _baro_effect(aps, m2)):
             if g is not None:
                 findings.append(g)
         findings += _jump_effects(aps, m2)
