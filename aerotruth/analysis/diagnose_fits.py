@@ -170,20 +170,25 @@ def _detrended(ap: _Approach) -> np.ndarray | None:
     return dz - signal.savgol_filter(dz, SG_WINDOW, 3, axis=0)
 
 
-def _detect_period(aps: list[_Approach], model: FitsModel):
-    """(kind, period, power ratio, main peak period) of the cyclic noise, or None when the
-    model's period is what the data show (module docstring)."""
-    grid = np.linspace(1.0 / 40.0, 0.5, 400)  # periodograms of different lengths on one grid
+def _mean_periodogram(aps: list[_Approach]) -> tuple[np.ndarray, np.ndarray | None]:
+    """(grid, mean periodogram over approaches and axes of the detrended WAAS - INS), the
+    approaches' periodograms of different lengths interpolated on one frequency grid."""
+    grid = np.linspace(1.0 / 40.0, 0.5, 400)
     acc = []
     for ap in aps:
         res = _detrended(ap)
-        if res is None:
-            continue
-        f, p = signal.periodogram(res, fs=1.0, axis=0, detrend=False)
-        acc.append(np.interp(grid, f, p.mean(axis=1)))
-    if not acc:
+        if res is not None:
+            f, p = signal.periodogram(res, fs=1.0, axis=0, detrend=False)
+            acc.append(np.interp(grid, f, p.mean(axis=1)))
+    return grid, (np.mean(acc, axis=0) if acc else None)
+
+
+def _detect_period(aps: list[_Approach], model: FitsModel):
+    """(kind, period, power ratio, main peak period) of the cyclic noise, or None when the
+    model's period is what the data show (module docstring)."""
+    grid, pm = _mean_periodogram(aps)
+    if pm is None:
         return None
-    pm = np.mean(acc, axis=0)
     band = (grid >= 1.0 / 30.0) & (grid <= 1.0 / 2.5)
     i_peak = np.flatnonzero(band)[np.argmax(pm[band])]
     peak_period = 1.0 / grid[i_peak]
@@ -518,16 +523,10 @@ def _periodogram_figure(df: pd.DataFrame, path, model: FitsModel, png) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    grid = np.linspace(1.0 / 40.0, 0.5, 400)
-    acc = []
-    for ap in _approaches(path, df):
-        res = _detrended(ap)
-        if res is not None:
-            f, p = signal.periodogram(res, fs=1.0, axis=0, detrend=False)
-            acc.append(np.interp(grid, f, p.mean(axis=1)))
+    grid, pm = _mean_periodogram(_approaches(path, df))
     fig, ax = plt.subplots(figsize=(7, 3.6))
-    if acc:
-        ax.semilogy(1.0 / grid, np.mean(acc, axis=0))
+    if pm is not None:
+        ax.semilogy(1.0 / grid, pm)
     ax.axvline(model.period_s, color="C3", ls="--", label=f"model period {model.period_s:g} s")
     ax.set(xlabel="period (s)", ylabel="power (m²/Hz)", title="WAAS - INS, detrended, mean periodogram", xlim=(2, 40))
     ax.legend()

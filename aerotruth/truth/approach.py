@@ -288,6 +288,27 @@ class _Guide:
         self._set("ap/target/ias-kt", ias)
 
 
+def frame_meta(kind: str, route_suffix: str, af: Airframe, seed_id, spec, runway: Runway, frame: RunwayFrame,
+               undulation_m: float, gp: _GlidePath) -> dict:
+    """The metadata every runway-frame track carries (approaches, missions): what was flown
+    where, the runway frame and the nominal ILS geometry."""
+    return {
+        "kind": kind,
+        "route": f"{spec.airport}-{runway.ident}-{route_suffix}",
+        "aircraft": af.name,
+        "seed": seed_id,
+        "jsbsim_version": jsbsim.__version__,
+        "departure_utc": spec.start_utc.astimezone(timezone.utc).isoformat(),
+        "airport": spec.airport,
+        "runway": runway.ident,
+        "runway_frame": asdict(frame),
+        "runway_length_m": runway.length_m,
+        "undulation_m": undulation_m,
+        "glide_path": {"theta_deg": spec.ils.glide_path_deg, "tch_m": spec.ils.tch_m, "gp_x_m": gp.gp_x,
+                       "gp_y_m": gp.gp_y, "loc_x_m": gp.loc_x},
+    }
+
+
 def add_frame_columns(df, frame: RunwayFrame, cg_in: np.ndarray) -> None:
     """The CG location (JSBSim structural frame, inches -> m) and the runway-frame CG
     position as columns of a recorded track: cg_*_m and x_m, y_m, z_m."""
@@ -431,19 +452,7 @@ def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = 
     if not np.isfinite(df.drop(columns=["phase"]).to_numpy()[1:]).all():
         raise FlightDiverged("NaN in the recorded truth", seed_id)
     meta = {
-        "kind": "approach",
-        "route": f"{spec.airport}-{runway.ident}-ILS",
-        "aircraft": af.name,
-        "seed": seed_id,
-        "jsbsim_version": jsbsim.__version__,
-        "departure_utc": spec.start_utc.astimezone(timezone.utc).isoformat(),
-        "airport": spec.airport,
-        "runway": runway.ident,
-        "runway_frame": asdict(frame),
-        "runway_length_m": runway.length_m,
-        "undulation_m": und,
-        "glide_path": {"theta_deg": spec.ils.glide_path_deg, "tch_m": spec.ils.tch_m, "gp_x_m": gp.gp_x,
-                       "gp_y_m": gp.gp_y, "loc_x_m": gp.loc_x},
+        **frame_meta("approach", "ILS", af, seed_id, spec, runway, frame, und, gp),
         "profile": spec.profile,
         "pass_height_ft": spec.pass_height_ft,
         "decision_height_ft": spec.decision_height_ft,

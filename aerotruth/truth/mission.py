@@ -34,10 +34,9 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass, field
-from datetime import datetime, timezone
+from datetime import datetime
 from typing import Literal
 
-import jsbsim
 import numpy as np
 from pydantic import Field
 
@@ -45,7 +44,7 @@ from aerotruth.config import Section
 from aerotruth.sensors.ils import IlsFacilitySpec
 from aerotruth.truth.airframes import Airframe, airframe, new_fdm
 from aerotruth.truth.approach import (DEFAULT_POINTS_M, ApproachSchedule, _GlidePath, add_frame_columns, find_runway,
-                                      fly_loop, initial_conditions)
+                                      fly_loop, frame_meta, initial_conditions)
 from aerotruth.truth.flight import DT, FPS, FlightDiverged, _digest, _trim, seed_repr
 from aerotruth.truth.guidance import GreatCircleLeg
 from aerotruth.truth.runway import RunwayFrame
@@ -310,19 +309,7 @@ def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = No
     if not np.isfinite(df.drop(columns=["phase", "run_type"]).to_numpy(float)).all():
         raise FlightDiverged("NaN in the recorded truth", seed_id)
     meta = {
-        "kind": "mission",
-        "route": f"{spec.airport}-{runway.ident}-mission",
-        "aircraft": af.name,
-        "seed": seed_id,
-        "jsbsim_version": jsbsim.__version__,
-        "departure_utc": spec.start_utc.astimezone(timezone.utc).isoformat(),
-        "airport": spec.airport,
-        "runway": runway.ident,
-        "runway_frame": {"lat0_deg": frame.lat0_deg, "lon0_deg": frame.lon0_deg, "h0_m": frame.h0_m, "course_deg": frame.course_deg},
-        "runway_length_m": runway.length_m,
-        "undulation_m": und,
-        "glide_path": {"theta_deg": spec.ils.glide_path_deg, "tch_m": spec.ils.tch_m, "gp_x_m": gp.gp_x,
-                       "gp_y_m": gp.gp_y, "loc_x_m": gp.loc_x},
+        **frame_meta("mission", "mission", af, seed_id, spec, runway, frame, und, gp),
         "runs": [r.model_dump() for r in spec.runs],
         "run_events_s": guide.events,
         "mass_kg": spec.mass_kg,
