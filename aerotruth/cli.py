@@ -120,6 +120,8 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         names = ", ".join(f.effect for f in findings) or "none"
         print(f"{args.measured}: approach log, {baseline['approaches']} approaches; findings: {names} -> {Path(args.out) / 'diagnosis.json'}")
         return 0
+    if measured.kind == "observation_table":
+        return _diagnose_observations(args, model, measured)
     track, excluded = track_from_measured(measured)
     findings, baseline = diagnose_track(track)
     for f in findings:
@@ -143,6 +145,25 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
         atomic_write_text(out / "extended_model.yaml", extended.to_yaml())
     names = ", ".join(f.effect for f in findings) or "none"
     print(f"{args.measured}: {measured.kind}, {len(track)} samples; findings: {names} -> {out / 'diagnosis.json'}")
+    return 0
+
+
+def _diagnose_observations(args: argparse.Namespace, model, measured) -> int:
+    from aerotruth.analysis.diagnose_wind import diagnose_wind, extended_spec, prepare, wind_model_from_campaign, write_wind_diagnosis
+    from aerotruth.files import atomic_write_text
+
+    spec = wind_model_from_campaign(model)
+    data = prepare(measured.df, str(args.measured))
+    findings, baseline, state, plots = diagnose_wind(data, spec)
+    ext = extended_spec(spec, findings, data, state)
+    out = Path(args.out)
+    write_wind_diagnosis(args.measured, findings, baseline, spec, ext, plots, out)
+    if findings:  # the campaign with the found effects in its diagnose model: diagnose with it finds them no more
+        extended = model.model_copy(update={"diagnose": {**model.diagnose, "wind": ext.model_dump(mode="json")}})
+        atomic_write_text(out / "extended_model.yaml", extended.to_yaml())
+    names = ", ".join(f.effect for f in findings) or "none"
+    print(f"{args.measured}: observation table, {baseline['reports']} reports of {baseline['aircraft']} aircraft; "
+          f"findings: {names} -> {out / 'diagnosis.json'}")
     return 0
 
 

@@ -126,6 +126,21 @@ class Campaign(Section):
         default_factory=dict, description="named reduced (or other) sizes: overrides merged into the campaign by "
         "`aerotruth run --size NAME` (mappings merge key by key, lists and values replace)")
     size: str | None = Field(default=None, description="the size applied (set by --size; not written by hand)")
+    diagnose: dict[str, Any] = Field(default_factory=dict, description="what `aerotruth diagnose` assumes beyond the "
+                                     "studies' sensors (wind: aerotruth.analysis.diagnose_wind.WindModelSpec); written by "
+                                     "diagnose into the extended model")
+
+    @field_validator("diagnose")
+    @classmethod
+    def _diagnose_models(cls, v: dict) -> dict:
+        unknown = set(v) - {"wind"}
+        if unknown:
+            raise ValueError(f"unknown diagnose model {sorted(unknown)[0]!r}, expected 'wind'")
+        if "wind" in v:
+            from aerotruth.analysis.diagnose_wind import WindModelSpec
+
+            WindModelSpec.model_validate(v["wind"])
+        return v
 
     def fleet(self, name: str) -> Fleet:
         """The fleet called `name`."""
@@ -147,7 +162,8 @@ class Campaign(Section):
         """Canonical JSON of what determines results: seed, fleets, periods and the study
         sections (all of them, or only `study`'s); not the executor, outputs, description
         or where truth is cached."""
-        data = self.model_dump(mode="json", by_alias=True, exclude={"executor", "outputs", "description", "truth_store", "study_modules"})
+        data = self.model_dump(mode="json", by_alias=True, exclude={"executor", "outputs", "description", "truth_store", "study_modules",
+                                                                         "diagnose"})
         if study is not None:
             data["studies"] = {study: data["studies"][study]}
         return json.dumps(data, sort_keys=True, separators=(",", ":"))

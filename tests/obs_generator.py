@@ -50,6 +50,9 @@ class AircraftTruth:
     cruise_tas_kt: float = 280.0
     one_heading: bool = False
     h0_nT: float | None = None  # when set, B and C are hard iron: scaled by h0 / H at each position (IGRF)
+    tas_scale: float = 0.0  # TAS reads (1 + tas_scale) x true
+    a_step_deg: float = 0.0  # the offset A changes by this from the middle flight on (a recalibration)
+    spoke: int | None = None  # fly out and back on this one spoke only (two headings)
 
     def deviation(self, z_deg: np.ndarray, h_nT: np.ndarray | float | None = None) -> np.ndarray:
         z = np.radians(z_deg)
@@ -66,6 +69,22 @@ def horizontal_field_nT(lat: np.ndarray, lon: np.ndarray, alt_ft: np.ndarray, t_
     when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(t_epoch))
     be, bn, _ = ppigrf.igrf(np.asarray(lon), np.asarray(lat), np.asarray(alt_ft) * FT_M / 1000.0, when)
     return np.hypot(be, bn).ravel()
+
+
+def _declination_change(lat, lon, alt_ft, t_epoch: float, years: float) -> np.ndarray:
+    """D(t - years) - D(t) (deg) along a flight: what a receiver with a declination model
+    `years` old adds to the true heading it reports (IGRF straight from ppigrf)."""
+    import datetime as dt
+
+    import ppigrf
+
+    when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(t_epoch))
+    idx = np.r_[np.arange(0, len(lat), 20), len(lat) - 1]
+    out = []
+    for t in (when - dt.timedelta(days=365.25 * years), when):
+        be, bn, _ = ppigrf.igrf(np.asarray(lon)[idx], np.asarray(lat)[idx], np.asarray(alt_ft)[idx] * FT_M / 1000.0, t)
+        out.append(np.degrees(np.arctan2(be, bn)).ravel())
+    return np.interp(np.arange(len(lat)), idx, out[0] - out[1])
 
 
 def fleet(n: int, rng: np.random.Generator, *, de_every: int = 3, one_heading_last: bool = True,
@@ -95,11 +114,11 @@ def _pressure_hpa(alt_ft: np.ndarray) -> np.ndarray:
     return 1013.25 * (1.0 - 6.87559e-6 * alt_ft) ** 5.25588  # ISA troposphere in feet
 
 
-def _spokes(rng: np.random.Generator, km: tuple[float, float], n: int = 16) -> list[tuple[float, float]]:
+def _spokes(rng: np.random.Generator, km: tuple[float, float], n: int = 16, hub=HUB) -> list[tuple[float, float]]:
     """Spoke airports around the hub: bearings spread round the compass, distances U(km)."""
     bearings = (np.arange(n) * 360.0 / n + rng.uniform(0, 360.0 / n, n)) % 360.0
     dists = rng.uniform(km[0] * 1e3, km[1] * 1e3, n)
-    lon, lat, _ = GEOD.fwd(np.full(n, HUB[1]), np.full(n, HUB[0]), bearings, dists)
+    lon, lat, _ = GEOD.fwd(np.full(n, hub[1]), np.full(n, hub[0]), bearings, dists)
     return list(zip(lat, lon))
 
 
@@ -181,12 +200,20 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
              models: tuple[str, ...] = ("rr", "rtfdda"), ref_sigma_kt: float = 4.0, ref_tau_s: float = 1800.0,
              quant_deg: float = 0.01, include_heading: bool = False, t_start: float = 1_249_084_800.0,
              spoke_km: tuple[float, float] = (250.0, 650.0), cruise_ft: tuple[float, float] = (12000.0, 22000.0),
-             exact: bool = False) -> pd.DataFrame:
+             exact: bool = False, hub: tuple[float, float] = HUB, stale_declination_years: float = 0.0,
+             ref_bias_kt: dict[str, float] | None = None, alt_error_deg_per_kft: float = 0.0) -> pd.DataFrame:
     """An observation table: one row per (report, reference model). Defaults: a SAAB-340-like
     turboprop network; regional jets: spoke_km (400, 1000), cruise_ft (25000, 35000) and
     fleet(tas_kt=(400, 450)). exact=True: no onboard heading/TAS/GPS noise and no rounding of
-    the reported winds, so the reference-model error is the only noise (Cramer-Rao checks)."""
-    spokes = _spokes(rng, spoke_km)
+    the reported winds, so the reference-model error is the only noise (Cramer-Rao checks).
+
+    Hidden effects beyond the deviation (for diagnose): `stale_declination_years` adds the
+    declination change over that many years (IGRF via ppigrf: D(t - years) - D(t)) to the
+    measured true heading; `ref_bias_kt` {model: b} adds b kt along the true wind to that
+    model's analysis; `alt_error_deg_per_kft` adds a heading error growing with pressure
+    altitude (an effect outside diagnose's library); AircraftTruth.tas_scale and a_step_deg."""
+    spokes = _spokes(rng, spoke_km, hub=hub)
+    ref_bias_kt = ref_bias_kt or {}
     rows = []
     for a in truths:
         t0 = t_start + rng.uniform(0, 3600)
@@ -194,21 +221,28 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
         order = np.concatenate([rng.permutation(len(spokes)) for _ in range(flights // (2 * len(spokes)) + 1)])
         for f in range(flights):
             if a.one_heading:
-                start, end = HUB, fixed
+                start, end = hub, fixed
+            elif a.spoke is not None:
+                start, end = (hub, spokes[a.spoke]) if f % 2 == 0 else (spokes[a.spoke], hub)
             else:  # the aircraft rotates through the spokes: out, back, next spoke
                 spoke = spokes[order[f // 2]]
-                start, end = (HUB, spoke) if f % 2 == 0 else (spoke, HUB)
+                start, end = (hub, spoke) if f % 2 == 0 else (spoke, hub)
             fl = _fly(a, start, end, t0, rng, cruise_ft)
             t0 = fl["time"][-1] + rng.uniform(2400, 20000)
             psi_t = fl["psi_true"]
             decl = declination(fl["lat"], fl["lon"])
             psi_m = psi_t.copy()
             h_nt = None if a.h0_nT is None else horizontal_field_nT(fl["lat"], fl["lon"], fl["alt_ft"], fl["time"][0])
+            step = a.a_step_deg if f >= flights // 2 else 0.0
             for _ in range(8):  # fixed point of psi_m = psi_true + d(psi_m - decl)
-                psi_m = psi_t + a.deviation(psi_m - decl, h_nt)
+                psi_m = psi_t + a.deviation(psi_m - decl, h_nt) + step
+            if stale_declination_years:
+                psi_m = psi_m + _declination_change(fl["lat"], fl["lon"], fl["alt_ft"], fl["time"][0], stale_declination_years)
+            if alt_error_deg_per_kft:
+                psi_m = psi_m + alt_error_deg_per_kft * fl["alt_ft"] / 1000.0
             noise = 0.0 if exact else 1.0
             psi_m = (psi_m + noise * rng.normal(0, 0.1, len(psi_m))) % 360.0
-            tas_m = fl["tas"] + noise * rng.normal(0, 0.5 * KT_MS, len(psi_m))
+            tas_m = (1.0 + a.tas_scale) * fl["tas"] + noise * rng.normal(0, 0.5 * KT_MS, len(psi_m))
             va_m = tas_m[:, None] * np.column_stack([np.sin(np.radians(psi_m)), np.cos(np.radians(psi_m))])
             w_onboard = fl["vg"] + noise * rng.normal(0, 0.1, fl["vg"].shape) - va_m  # wind paper eq. 1 onboard
             k = _report_indices(fl["alt_ft"], fl["time"])
@@ -223,7 +257,9 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
                 base["tas_kt"] = np.round(tas_m[k] / KT_MS, 1)
             for m in models:
                 err = _ou(fl["time"][k], ref_sigma_kt * KT_MS, ref_tau_s, rng)
-                rs, rd = _from_dir(fl["wind"][k] + err)
+                wk = fl["wind"][k]
+                along = wk / np.maximum(np.hypot(wk[:, 0], wk[:, 1]), 1e-9)[:, None]
+                rs, rd = _from_dir(wk + err + ref_bias_kt.get(m, 0.0) * KT_MS * along)
                 rows.append(pd.DataFrame({**base, "ref_wind_speed_kt": np.round(rs, 2), "ref_wind_dir_deg": np.round(rd, 2),
                                           "ref_source": m}))
     return pd.concat(rows, ignore_index=True)
