@@ -67,8 +67,10 @@ def horizontal_field_nT(lat: np.ndarray, lon: np.ndarray, alt_ft: np.ndarray, t_
     import ppigrf
 
     when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(t_epoch))
-    be, bn, _ = ppigrf.igrf(np.asarray(lon), np.asarray(lat), np.asarray(alt_ft) * FT_M / 1000.0, when)
-    return np.hypot(be, bn).ravel()
+    lat, lon, alt_ft = np.asarray(lat), np.asarray(lon), np.asarray(alt_ft)
+    idx = np.r_[np.arange(0, len(lat), 20), len(lat) - 1]  # every 100 s (the field is linear over ~20 km), interpolated
+    be, bn, _ = ppigrf.igrf(lon[idx], lat[idx], alt_ft[idx] * FT_M / 1000.0, when)
+    return np.interp(np.arange(len(lat)), idx, np.hypot(be, bn).ravel())
 
 
 def _declination_change(lat, lon, alt_ft, t_epoch: float, years: float) -> np.ndarray:

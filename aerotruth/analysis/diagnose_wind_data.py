@@ -1,0 +1,181 @@
+"""The data of `aerotruth diagnose` on an observation table: the gated (report, reference)
+rows of the wind paper's section 5.1 (`heading_correction.heading_errors`) split into the
+transverse and along-heading air-vector differences, with the covariates the effects and
+the screening need (IGRF horizontal field and declination change, phase, turn rate, folds).
+See aerotruth.analysis.diagnose_wind for the method."""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass
+
+import numpy as np
+import pandas as pd
+
+from aerotruth.analysis.heading_correction import GateSpec, heading_errors, towards_from_report, validate_observations
+from aerotruth.errors import DataError
+from aerotruth.units import DEG, FT
+
+DECL_SPAN_YR = 5.0  # secular variation of the declination averaged over the 5 years before the data
+
+# ----------------------------------------------------------------------------- data
+
+
+@dataclass
+class WindData:
+    """The gated (report, reference) rows with everything the model and the effects need."""
+
+    aircraft: np.ndarray  # int codes
+    names: list[str]
+    source: np.ndarray  # int codes
+    sources: list[str]
+    flight: np.ndarray  # global flight id
+    time_s: np.ndarray
+    z: np.ndarray  # measured heading, rad (true)
+    tas: np.ndarray  # m/s
+    trans: np.ndarray  # m/s
+    along: np.ndarray  # m/s
+    wref_e: np.ndarray  # unit vector along the wind for a reference bias: the other references' mean (0 where calm)
+    wref_n: np.ndarray
+    lat: np.ndarray
+    lon: np.ndarray
+    alt_ft: np.ndarray
+    h_ratio: np.ndarray  # H0 / H
+    sv_deg_yr: np.ndarray  # declination change per year (IGRF, 5 years before the data)
+    roll: np.ndarray | None
+    phase: np.ndarray | None
+    turn_deg_s: np.ndarray
+    fold: np.ndarray  # 0/1, alternating flights per aircraft
+    report_lat: np.ndarray  # every report (not only gated), for the quantization
+    report_lon: np.ndarray
+    jitter: dict  # ground-track jitter of the reports (segment velocity differences)
+
+    @property
+    def n(self) -> int:
+        return len(self.trans)
+
+
+def _field_covariates(lat, lon, alt_ft, when: dt.datetime) -> tuple[np.ndarray, np.ndarray]:
+    from aerotruth.sensors.magnetics import GeomagneticField
+
+    f = GeomagneticField.covering(lat, lon, when, margin_deg=1.0, step_deg=0.5, h_m=(-1000.0, 16000.0))
+    h_m = np.clip(np.asarray(alt_ft) * FT, -900.0, 15900.0)
+    now = f.at(lat, lon, h_m)
+    before = f.for_date(when - dt.timedelta(days=365.25 * DECL_SPAN_YR)).at(lat, lon, h_m)
+    H = now.horizontal_nT
+    sv = np.degrees(((now.declination_rad - before.declination_rad + np.pi) % (2 * np.pi)) - np.pi) / DECL_SPAN_YR
+    return np.median(H) / H, sv
+
+
+def _jitter(df: pd.DataFrame) -> dict:
+    """Differences of adjacent segment velocities (m/s, per component) at every interior
+    report of level flight, with c = 1/dt2^2 + (1/dt1 + 1/dt2)^2 + 1/dt1^2 (the factor of
+    a position-noise variance) and the report's radii per degree (for the grid's metres)."""
+    first = np.flatnonzero(np.r_[True, (df["aircraft"].cat.codes.to_numpy()[1:] != df["aircraft"].cat.codes.to_numpy()[:-1])
+                                 | (np.diff(df["time_s"].to_numpy()) != 0)])
+    ac = df["aircraft"].cat.codes.to_numpy()[first]
+    t = df["time_s"].to_numpy()[first]
+    lat, lon = df["lat"].to_numpy()[first], df["lon"].to_numpy()[first]
+    alt = df["pressure_altitude_ft"].to_numpy()[first]
+    m_lat = 111_132.0 - 559.8 * np.cos(2 * lat * DEG)
+    m_lon = 111_320.0 * np.cos(lat * DEG)
+    e, n = lon * m_lon, lat * m_lat
+    ok = (ac[2:] == ac[:-2]) & (np.diff(t)[:-1] > 0) & (np.diff(t)[1:] > 0) & (np.diff(t)[:-1] <= 600) & (np.diff(t)[1:] <= 600)
+    ok &= (np.abs(alt[2:] - alt[:-2]) < 100.0)  # level: the true velocity changes little
+    dt1, dt2 = np.diff(t)[:-1], np.diff(t)[1:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v1 = np.column_stack([(e[1:-1] - e[:-2]) / dt1, (n[1:-1] - n[:-2]) / dt1])
+        v2 = np.column_stack([(e[2:] - e[1:-1]) / dt2, (n[2:] - n[1:-1]) / dt2])
+        c = 1 / dt2**2 + (1 / dt1 + 1 / dt2) ** 2 + 1 / dt1**2
+    dv = (v2 - v1)[ok]
+    speed = np.hypot(*v1[ok].T)
+    ok2 = np.all(np.isfinite(dv), axis=1) & (speed > 30.0) & (np.hypot(*dv.T) < 0.3 * speed)  # turns are not jitter
+    return {"dv": dv[ok2], "c": c[ok][ok2], "m_lat": m_lat[1:-1][ok][ok2], "m_lon": m_lon[1:-1][ok][ok2],
+            "aircraft": ac[1:-1][ok][ok2]}
+
+
+def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpec | None = None) -> WindData:
+    """Observation table -> WindData (gated rows of the wind paper's section 5.1)."""
+    df = validate_observations(obs, source)
+    for col in ("wind_dir_deg", "ref_wind_dir_deg", "heading_deg"):  # units guessed from the range
+        if col in df.columns and len(df) >= 20:
+            v = df[col].to_numpy()
+            v = v[np.isfinite(v)]
+            if len(v) >= 20 and v.max() <= 2 * np.pi + 1e-6:
+                raise DataError(f"{source}: column '{col}' lies within [0, {v.max():.2f}]: radians? expected degrees 0-360")
+    rows = heading_errors(df, gates, source)
+    used = (rows["gate"] == "used").to_numpy()
+    if used.sum() < 20:
+        counts = rows["gate"].value_counts().to_dict()
+        raise DataError(f"{source}: only {int(used.sum())} report rows pass the ground-track gates (need 20); "
+                        f"gates: {counts}")
+    r = rows[used]
+    z = r["heading_deg"].to_numpy() * DEG
+    dv_e, dv_n = -r["dw_e"].to_numpy(), -r["dw_n"].to_numpy()
+    trans = dv_e * np.cos(z) - dv_n * np.sin(z)
+    # along: |V_A| - |V_A'|, not the projection on the heading, which carries TAS (1 - cos d)
+    # of the heading error d itself (~1.5 kt at 6 deg: measured as a bias of the reference test)
+    va_e, va_n = r["va_e"].to_numpy(), r["va_n"].to_numpy()
+    along = np.hypot(va_e, va_n) - np.hypot(va_e - dv_e, va_n - dv_n)
+    # the direction "along the wind" for a reference's row: the mean of the *other* references
+    # at the same report (their errors are independent of this one's; its own direction would
+    # tilt towards its own error, a bias of ~sigma^2/|W|), else the aircraft's reported wind
+    # (tilted by the aircraft's heading deviation: TAS x 3 deg is ~15 kt, which attenuates)
+    re_, rn_ = towards_from_report(df["ref_wind_speed_kt"].to_numpy()[used], df["ref_wind_dir_deg"].to_numpy()[used])
+    rep_u = r["report"].to_numpy()
+    g = pd.DataFrame({"rep": rep_u, "e": re_, "n": rn_})
+    tot = g.groupby("rep")[["e", "n"]].transform("sum").to_numpy()
+    cnt = g.groupby("rep")["e"].transform("size").to_numpy()
+    we, wn = towards_from_report(df["wind_speed_kt"].to_numpy()[used], df["wind_dir_deg"].to_numpy()[used])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        others = cnt > 1
+        we = np.where(others, (tot[:, 0] - re_) / (cnt - 1), we)
+        wn = np.where(others, (tot[:, 1] - rn_) / (cnt - 1), wn)
+    sp = np.hypot(we, wn)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ue, un = np.where(sp > 0, we / sp, 0.0), np.where(sp > 0, wn / sp, 0.0)
+    lat, lon = df["lat"].to_numpy()[used], df["lon"].to_numpy()[used]
+    alt = df["pressure_altitude_ft"].to_numpy()[used]
+    t = r["time_s"].to_numpy()
+    when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(np.median(t)))
+    h_ratio, sv = _field_covariates(lat, lon, alt, when)
+    ac_cat = r["aircraft"].astype("category")
+    names = [str(c) for c in ac_cat.cat.categories]
+    ac = ac_cat.cat.codes.to_numpy()
+    src_cat = r["ref_source"].astype("category")
+    flight = r["flight"].to_numpy()
+    # folds: each aircraft's flights alternate in time order
+    fold = np.zeros(len(r), dtype=np.int8)
+    for i in range(len(names)):
+        sel = ac == i
+        fl = flight[sel]
+        uniq = np.unique(fl)
+        fold[sel] = (np.searchsorted(uniq, fl) % 2).astype(np.int8)
+    # turn rate: heading change between a flight's adjacent reports
+    rep = r["report"].to_numpy()
+    zr = pd.Series(z).groupby(rep).first()
+    tr = pd.Series(t).groupby(rep).first()
+    fr = pd.Series(flight).groupby(rep).first()
+    dz = np.r_[np.nan, np.degrees((np.diff(zr.to_numpy()) + np.pi) % (2 * np.pi) - np.pi)]
+    dtr = np.r_[np.nan, np.diff(tr.to_numpy())]
+    same = np.r_[False, fr.to_numpy()[1:] == fr.to_numpy()[:-1]]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        turn_rep = np.where(same & (dtr > 0), dz / dtr, 0.0)
+    turn = pd.Series(turn_rep, index=zr.index).reindex(rep).to_numpy()
+    roll = df["roll_deg"].to_numpy()[used] if "roll_deg" in df.columns else None
+    # flight phase from the altitude change between a flight's adjacent reports
+    ar = pd.Series(alt).groupby(rep).first().to_numpy()
+    da = np.r_[np.nan, np.diff(ar)]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        rate = np.where(same & (dtr > 0), da / dtr * 60.0, 0.0)
+    ph_rep = np.where(rate > 300.0, "ascent", np.where(rate < -300.0, "descent", "level"))
+    phase = pd.Series(ph_rep, index=zr.index).reindex(rep).to_numpy()
+    first = np.flatnonzero(np.r_[True, (df["aircraft"].cat.codes.to_numpy()[1:] != df["aircraft"].cat.codes.to_numpy()[:-1])
+                                 | (np.diff(df["time_s"].to_numpy()) != 0)])
+    return WindData(aircraft=ac, names=names, source=src_cat.cat.codes.to_numpy(), sources=[str(c) for c in src_cat.cat.categories],
+                    flight=flight, time_s=t, z=z, tas=r["tas_ms"].to_numpy(), trans=trans, along=along, wref_e=ue, wref_n=un,
+                    lat=lat, lon=lon, alt_ft=alt, h_ratio=h_ratio, sv_deg_yr=sv, roll=roll, phase=phase, turn_deg_s=turn,
+                    fold=fold, report_lat=df["lat"].to_numpy()[first], report_lon=df["lon"].to_numpy()[first],
+                    jitter=_jitter(df))
+
+

@@ -1,0 +1,551 @@
+"""The model of `aerotruth diagnose` on an observation table and its effects library: the
+columns of each term on the stacked (transverse, along) channels, flight-clustered least
+squares and Wald tests, the change-point scan and the quantization check. See
+aerotruth.analysis.diagnose_wind for the method."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from pydantic import Field, ValidationError
+from scipy import sparse, stats
+
+from aerotruth.analysis.diagnose_wind_data import WindData
+from aerotruth.analysis.heading_correction import heading_spread
+from aerotruth.config import Section
+from aerotruth.errors import ConfigError
+from aerotruth.units import DEG, KT
+
+MIN_COVERAGE = 0.1  # smaller eigenvalue of the (sin, cos) covariance: the heading-correction criterion
+MIN_FLIGHTS = 4
+QUANT_STEPS = (1e-4, 2e-4, 2.5e-4, 5e-4, 1e-3, 2e-3, 2.5e-3, 5e-3, 0.01, 0.02, 0.025, 0.05, 0.1, 0.2, 0.25, 0.5, 1.0)
+QUANT_SHARE = 0.99  # share of coordinates that must lie on a grid for the data to be quantized on it
+
+
+class WindModelSpec(Section):
+    """What `aerotruth diagnose` assumes about the wind sensors behind an observation table
+    (campaign YAML `diagnose: {wind: ...}`; the extended model it writes sets these)."""
+
+    deviation_terms: int = Field(default=3, description="3: A, B, C (wind paper eq. 2 as the method fits it); 5: + D, E (soft iron)")
+    field_scaling: float = Field(default=0.0, ge=-3, le=3, description="gamma of B, C ~ (H0/H)^gamma (hard iron: 1)")
+    tas_scale: dict[str, float] = Field(default_factory=dict, description="per aircraft TAS scale factor (0.01 = reads 1 % high)")
+    declination_age_yr: float = Field(default=0.0, ge=-50, le=50, description="age of the receivers' declination model")
+    reference_bias_kt: dict[str, float] = Field(default_factory=dict, description="per reference model, bias along its wind (kt)")
+    recalibrations: dict[str, list[float]] = Field(default_factory=dict, description="per aircraft, UTC epoch seconds after "
+                                                   "which its offset A is new")
+    lat_lon_step_deg: float = Field(default=0.01, gt=0, description="quantization of reported lat/lon")
+    signatures: list[dict[str, Any]] = Field(default_factory=list, description="linear terms found by screening: "
+                                             "{channel, covariate, slope} (an effect outside the library)")
+
+
+def wind_model_from_campaign(campaign) -> WindModelSpec:
+    """The campaign's `diagnose.wind` section, else the wind paper's model with the lat/lon
+    quantization of the campaign's wind-report sensors (0.01 deg by default)."""
+    raw = (getattr(campaign, "diagnose", None) or {}).get("wind") if campaign is not None else None
+    if raw is not None:
+        try:
+            return WindModelSpec.model_validate(raw)
+        except ValidationError as e:
+            err = e.errors()[0]
+            where = ".".join(str(p) for p in err["loc"])
+            raise ConfigError(f"diagnose.wind.{where}: {err['msg']}") from None
+    step = 0.01
+    for name in ("wind_reports", "heading_correction"):
+        if campaign is not None and name in campaign.studies:
+            sensors = getattr(campaign.studies[name], "sensors", None)
+            if sensors is not None and hasattr(sensors, "reports"):
+                step = float(sensors.reports.lat_lon_step_deg)
+                break
+    return WindModelSpec(lat_lon_step_deg=step)
+
+
+# ----------------------------------------------------------------------------- model
+
+
+@dataclass
+class Block:
+    """Columns of one term of the model: `aircraft` -1 for fleet-wide terms."""
+
+    effect: str
+    label: str
+    cols: np.ndarray  # (2n, q)
+    aircraft: int = -1
+
+
+@dataclass
+class State:
+    """The current model: the spec's known terms plus the effects entered so far (free)."""
+
+    spec: WindModelSpec
+    entered: list[str] = field(default_factory=list)
+    gamma: float = 0.0  # field scaling exponent in the design (spec value, then fitted)
+    steps: dict[int, list[float]] = field(default_factory=dict)  # aircraft -> step times (free new A after each)
+    signatures: list[dict] = field(default_factory=list)  # screening terms entered (free)
+
+
+def _stack(trans: np.ndarray | None, along: np.ndarray | None, n: int) -> np.ndarray:
+    out = np.zeros(2 * n)
+    if trans is not None:
+        out[:n] = trans
+    if along is not None:
+        out[n:] = along
+    return out
+
+
+def known_offsets(d: WindData, spec: WindModelSpec) -> np.ndarray:
+    """What the spec states as known (subtracted from the data): TAS scales, the declination
+    table's age, reference biases along the wind, stated signature terms."""
+    n = d.n
+    tr, al = np.zeros(n), np.zeros(n)
+    for i, name in enumerate(d.names):
+        k = spec.tas_scale.get(name, 0.0)
+        if k:
+            al[d.aircraft == i] += k * d.tas[d.aircraft == i]
+    if spec.declination_age_yr:
+        tr += d.tas * spec.declination_age_yr * (-d.sv_deg_yr) * DEG
+    for m, src in enumerate(d.sources):
+        b = spec.reference_bias_kt.get(src, 0.0) * KT
+        if b:
+            s = d.source == m
+            tr[s] += b * (d.wref_e[s] * np.cos(d.z[s]) - d.wref_n[s] * np.sin(d.z[s]))
+            al[s] += b * (d.wref_e[s] * np.sin(d.z[s]) + d.wref_n[s] * np.cos(d.z[s]))
+    for sig in spec.signatures:
+        x = _covariate(d, sig["covariate"]) - float(sig.get("center", 0.0))
+        if sig["channel"] == "transverse":
+            tr += d.tas * float(sig["slope"]) * x * DEG
+        else:
+            al += float(sig["slope"]) * KT * x
+    return _stack(tr, al, d.n)
+
+
+def _coverage_ok(z: np.ndarray, harmonic: int) -> bool:
+    return len(z) >= 3 and heading_spread(np.degrees(z), np.ones(len(z)), harmonic) >= MIN_COVERAGE
+
+
+def base_blocks(d: WindData, st: State) -> list[Block]:
+    """The deviation model per aircraft (A; B, C where identified; D, E when in the model)."""
+    n, out = d.n, []
+    s = d.h_ratio ** st.gamma
+    for i in range(len(d.names)):
+        sel = d.aircraft == i
+        one = sel.astype(float) * d.tas
+        times = sorted(st.steps.get(i, []))
+        edges = [-np.inf, *times, np.inf]
+        cols = [_stack(one * ((d.time_s >= lo) & (d.time_s < hi)), None, n) for lo, hi in zip(edges[:-1], edges[1:])]
+        out.append(Block("base", "A", np.column_stack(cols), i))
+        zi = d.z[sel]
+        if _coverage_ok(zi, 1):
+            out.append(Block("base", "BC", np.column_stack([_stack(one * s * np.sin(d.z), None, n),
+                                                            _stack(one * s * np.cos(d.z), None, n)]), i))
+        if (st.spec.deviation_terms == 5 or "soft_iron" in st.entered) and _coverage_ok(zi, 2):
+            out.append(Block("soft_iron" if "soft_iron" in st.entered else "base", "DE",
+                             np.column_stack([_stack(one * np.sin(2 * d.z), None, n), _stack(one * np.cos(2 * d.z), None, n)]), i))
+    return out
+
+
+def _covariate(d: WindData, name: str) -> np.ndarray:
+    if name == "const":
+        return np.ones(d.n)
+    if name == "pressure_altitude_ft":
+        return d.alt_ft / 1000.0
+    if name == "tas_kt":
+        return d.tas / KT
+    if name == "lat":
+        return d.lat
+    if name == "time_days":
+        return (d.time_s - d.time_s.min()) / 86400.0
+    if name == "roll_deg":
+        return d.roll if d.roll is not None else np.zeros(d.n)
+    if name == "turn_deg_s":
+        return d.turn_deg_s
+    if name.startswith("sin") or name.startswith("cos"):
+        k = int(name[3])
+        return np.sin(k * d.z) if name.startswith("sin") else np.cos(k * d.z)
+    if name.startswith("phase_"):
+        return (d.phase == name[6:]).astype(float)
+    if name.startswith("period_"):
+        p_s, trig = float(name.split("_")[1]), name.split("_")[2]
+        arg = 2 * np.pi * d.time_s / p_s
+        return np.sin(arg) if trig == "sin" else np.cos(arg)
+    if name.startswith("fleet_step_"):
+        return (d.time_s >= float(name[11:])).astype(float)
+    raise ConfigError(f"diagnose.wind.signatures: unknown covariate {name!r}")
+
+
+def signature_block(d: WindData, sig: dict) -> Block:
+    x = _covariate(d, sig["covariate"]) - float(sig.get("center", 0.0))
+    col = _stack(d.tas * x * DEG, None, d.n) if sig["channel"] == "transverse" else _stack(None, x * KT, d.n)
+    return Block("signature", f"{sig['channel']}:{sig['covariate']}", col[:, None])
+
+
+def fixed_effect_blocks(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    """Blocks of the entered library effects other than soft iron (in base_blocks)."""
+    out = []
+    for eff in st.entered:
+        if eff in ("soft_iron", "recalibration", "field_scaling", "quantization"):
+            continue
+        out.extend(CANDIDATES[eff](d, st, fit))
+    out.extend(signature_block(d, s) for s in st.signatures)
+    return out
+
+
+# ----------------------------------------------------------------------------- least squares
+
+
+@dataclass
+class Fit:
+    blocks: list[Block]
+    beta: np.ndarray
+    cov: np.ndarray
+    resid: np.ndarray
+    slices: list[slice]
+    clusters: np.ndarray
+
+    def coef(self, effect: str, aircraft: int | None = None) -> list[tuple[Block, np.ndarray, np.ndarray]]:
+        return [(b, self.beta[s], self.cov[s, s]) for b, s in zip(self.blocks, self.slices)
+                if b.effect == effect and (aircraft is None or b.aircraft == aircraft)]
+
+
+def solve(blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.ndarray | None = None,
+          with_cov: bool = True) -> Fit:
+    """OLS on the stacked channels (rows: a mask of the 2n rows), CR1 covariance on flights."""
+    X = np.column_stack([b.cols for b in blocks])
+    slices, k = [], 0
+    for b in blocks:
+        slices.append(slice(k, k + b.cols.shape[1]))
+        k += b.cols.shape[1]
+    r = np.ones(len(y), dtype=bool) if rows is None else rows
+    Xr, yr = X[r], y[r]
+    live = np.any(Xr != 0, axis=0)
+    beta = np.zeros(X.shape[1])
+    sol, *_ = np.linalg.lstsq(Xr[:, live], yr, rcond=None)
+    beta[live] = sol
+    resid = y - X @ beta
+    cov = np.full((X.shape[1], X.shape[1]), np.nan)
+    if with_cov:
+        Xl = Xr[:, live]
+        bread = np.linalg.pinv(Xl.T @ Xl)
+        g = clusters[r]
+        uniq, inv = np.unique(g, return_inverse=True)
+        G = len(uniq)
+        members = sparse.csr_matrix((np.ones(len(inv)), (inv, np.arange(len(inv)))), shape=(G, len(inv)))
+        scores = members @ (Xl * resid[r][:, None])  # per-flight score sums
+        meat = scores.T @ scores * (G / max(G - 1, 1))
+        cl = bread @ meat @ bread
+        idx = np.flatnonzero(live)
+        cov[np.ix_(idx, idx)] = cl
+    return Fit(blocks, beta, cov, resid, slices, clusters)
+
+
+def _wald_p(beta: np.ndarray, cov: np.ndarray, df_den: int) -> float:
+    ok = np.isfinite(np.diag(cov)) & (np.diag(cov) > 0)
+    if not ok.any() or df_den < 1:
+        return 1.0
+    b, v = beta[ok], cov[np.ix_(ok, ok)]
+    w = float(b @ np.linalg.pinv(v) @ b)
+    q = int(ok.sum())
+    return float(stats.f.sf(w / q, q, df_den))
+
+
+def block_p(fit: Fit, effect: str, d: WindData) -> float:
+    """p-value of `effect`'s blocks = 0: fleet-wide blocks by one Wald test on all flights,
+    per-aircraft blocks aircraft by aircraft (their flights) combined by chi-square sums."""
+    parts = fit.coef(effect)
+    if not parts:
+        return 1.0
+    G = len(np.unique(fit.clusters))
+    fleet = [(b, be, v) for b, be, v in parts if b.aircraft < 0]
+    per = [(b, be, v) for b, be, v in parts if b.aircraft >= 0]
+    ps = []
+    if fleet:
+        be = np.concatenate([x[1] for x in fleet])
+        sl = [s for b, s in zip(fit.blocks, fit.slices) if b.effect == effect and b.aircraft < 0]
+        idx = np.concatenate([np.arange(s.start, s.stop) for s in sl])
+        ps.append(_wald_p(be, fit.cov[np.ix_(idx, idx)], G - 1))
+    if per:
+        chi, dof = 0.0, 0
+        for b, be, v in per:
+            g_i = len(np.unique(d.flight[d.aircraft == b.aircraft]))
+            p = _wald_p(be, v, g_i - 1)
+            q = be.size
+            chi += float(stats.chi2.isf(max(p, 1e-300), q))
+            dof += q
+        ps.append(float(stats.chi2.sf(chi, dof)))
+    return float(min(1.0, min(ps) * len(ps)))
+
+
+def rows_of_fold(d: WindData, fold: int) -> np.ndarray:
+    f = d.fold == fold
+    return np.r_[f, f]
+
+
+def _channel_rows(n: int, channel: str) -> np.ndarray:
+    m = np.zeros(2 * n, dtype=bool)
+    if channel in ("transverse", "both"):
+        m[:n] = True
+    if channel in ("along", "both"):
+        m[n:] = True
+    return m
+
+
+# ----------------------------------------------------------------------------- effects library
+
+
+def _enough(d: WindData, i: int) -> bool:
+    return len(np.unique(d.flight[d.aircraft == i])) >= MIN_FLIGHTS
+
+
+def cand_soft_iron(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    if st.spec.deviation_terms == 5:
+        return []
+    n, out = d.n, []
+    for i in range(len(d.names)):
+        sel = d.aircraft == i
+        if _enough(d, i) and _coverage_ok(d.z[sel], 2):
+            one = sel * d.tas
+            out.append(Block("soft_iron", "DE", np.column_stack([_stack(one * np.sin(2 * d.z), None, n),
+                                                                 _stack(one * np.cos(2 * d.z), None, n)]), i))
+    return out
+
+
+def cand_field_scaling(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    """d/dgamma of s(H)(B sin z + C cos z) = ln(H0/H) x that term, with the current B, C."""
+    if fit is None:
+        return []
+    col = np.zeros(d.n)
+    for b, be, _ in fit.coef("base"):
+        if b.label == "BC":
+            col += (b.cols[: d.n] @ be) * np.log(d.h_ratio)
+    if not np.any(col):
+        return []
+    return [Block("field_scaling", "gamma", _stack(col, None, d.n)[:, None])]
+
+
+def cand_tas_scale(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    return [Block("tas_scale", "k", _stack(None, (d.aircraft == i) * d.tas, d.n)[:, None], i)
+            for i in range(len(d.names)) if _enough(d, i)]
+
+
+def declination_identifiable(d: WindData) -> float:
+    """Share of the declination-age regressor's variance left after per-aircraft offsets."""
+    x = d.tas * (-d.sv_deg_yr)
+    means = pd.Series(x).groupby(d.aircraft).transform("mean").to_numpy()
+    tot = float(np.sum((x - x.mean()) ** 2))
+    return float(np.sum((x - means) ** 2) / tot) if tot > 0 else 0.0
+
+
+def cand_stale_declination(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    if declination_identifiable(d) < 0.01:
+        return []
+    return [Block("stale_declination", "age", _stack(d.tas * (-d.sv_deg_yr) * DEG, None, d.n)[:, None])]
+
+
+def cand_reference_bias(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    out = []
+    for m, src in enumerate(d.sources):
+        s = d.source == m
+        tr = s * (d.wref_e * np.cos(d.z) - d.wref_n * np.sin(d.z))
+        al = s * (d.wref_e * np.sin(d.z) + d.wref_n * np.cos(d.z))
+        out.append(Block("reference_bias", src, (_stack(tr, al, d.n) * KT)[:, None]))
+    return out
+
+
+def _kolmogorov_cusum(x: np.ndarray) -> tuple[float, int]:
+    """p-value of the sup |CUSUM| of a series (Brownian-bridge limit, long-run variance with
+    Bartlett weights to lag 2) and the index after which the mean changes."""
+    n = len(x)
+    if n < 6:
+        return 1.0, 0
+    e = x - x.mean()
+    s = np.cumsum(e)[:-1]
+    k = int(np.argmax(np.abs(s)))
+    # the long-run variance from the residuals about the two segments' means (about the
+    # overall mean, a real step would inflate it and hide itself)
+    r = np.r_[x[: k + 1] - x[: k + 1].mean(), x[k + 1:] - x[k + 1:].mean()]
+    lrv = np.mean(r**2) + 2 * sum((1 - j / 3) * np.mean(r[j:] * r[:-j]) for j in (1, 2))
+    if lrv <= 0:
+        return 1.0, 0
+    stat = abs(s[k]) / math.sqrt(n * lrv)
+    return float(stats.kstwobign.sf(stat)), k
+
+
+def _flight_means(d: WindData, resid_trans: np.ndarray, sel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Flight-mean transverse residual (as a heading angle, rad), start and end time of each flight in `sel`."""
+    g = pd.DataFrame({"f": d.flight[sel], "r": resid_trans[sel] / d.tas[sel], "t": d.time_s[sel]}).groupby("f")
+    agg = g.agg(r=("r", "mean"), t0=("t", "min"), t1=("t", "max")).sort_values("t0")
+    return agg["r"].to_numpy(), agg["t0"].to_numpy(), agg["t1"].to_numpy()
+
+
+def recalibration_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, tuple[float, float]]:
+    """Per aircraft: (p-value, time of the change) of a change in its flight-mean offset."""
+    out = {}
+    r = np.ones(d.n, dtype=bool) if rows is None else rows[: d.n]
+    for i in range(len(d.names)):
+        sel = (d.aircraft == i) & r
+        if len(np.unique(d.flight[sel])) < 2 * MIN_FLIGHTS:
+            continue
+        m, t0, t1 = _flight_means(d, fit.resid[: d.n], sel)
+        p, k = _kolmogorov_cusum(m)
+        out[i] = (p, 0.5 * (t1[k] + t0[k + 1]))
+    return out
+
+
+def cand_recalibration(d: WindData, st: State, fit: Fit | None, rows: np.ndarray | None = None) -> list[Block]:
+    if fit is None:
+        return []
+    scan = recalibration_scan(d, fit, rows)
+    n_ac = max(len(scan), 1)
+    out = []
+    for i, (p, t) in scan.items():
+        if p * n_ac < 0.05:
+            col = (d.aircraft == i) * d.tas * (d.time_s >= t)
+            b = Block("recalibration", f"step@{t:.0f}", _stack(col, None, d.n)[:, None], i)
+            b.p = p * n_ac  # type: ignore[attr-defined]
+            out.append(b)
+    return out
+
+
+CANDIDATES = {
+    "soft_iron": cand_soft_iron,
+    "field_scaling": cand_field_scaling,
+    "tas_scale": cand_tas_scale,
+    "stale_declination": cand_stale_declination,
+    "reference_bias": cand_reference_bias,
+    "recalibration": cand_recalibration,
+}
+CHANNEL = {"soft_iron": "transverse", "field_scaling": "transverse", "tas_scale": "along", "stale_declination": "transverse",
+           "reference_bias": "both", "recalibration": "transverse"}
+
+
+# ----------------------------------------------------------------------------- quantization
+
+
+def grid_step(values: np.ndarray) -> float:
+    """The coarsest grid in QUANT_STEPS holding >= QUANT_SHARE of the values (0: none)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    best = 0.0
+    for q in QUANT_STEPS:
+        x = v / q
+        if np.mean(np.abs(x - np.round(x)) < 1e-6 * np.maximum(1.0, np.abs(x)) + 1e-7) >= QUANT_SHARE:
+            best = q
+    return best
+
+
+def _jitter_rms_kt(j: dict, step: float, sel: np.ndarray) -> tuple[float, float]:
+    """(measured, predicted) RMS per component of the segment-velocity differences (kt),
+    predicted from position errors uniform on the grid: var = (step m)^2 / 12 c."""
+    dv, c = j["dv"][sel], j["c"][sel]
+    meas = math.sqrt(np.mean(dv**2)) / KT
+    var_q = ((step * j["m_lat"][sel]) ** 2 + (step * j["m_lon"][sel]) ** 2) / 2 / 12.0
+    pred = math.sqrt(np.mean(var_q * c)) / KT
+    return meas, pred
+
+
+def quantization_candidate(d: WindData, model_step: float) -> dict | None:
+    coords = np.concatenate([d.report_lat, d.report_lon])
+    step = grid_step(coords)
+    if step == 0.0 or math.isclose(step, model_step, rel_tol=1e-9) or len(d.jitter["dv"]) < 10:
+        return None
+    coarse, fine = max(step, model_step), min(step, model_step)
+    share_model = float(np.mean(np.abs(coords / model_step - np.round(coords / model_step)) < 1e-6))
+    if step > model_step:  # all on the coarser grid, where the model puts only fine/coarse of them
+        on = np.abs(coords / coarse - np.round(coords / coarse)) < 1e-6
+        log10_p = float(stats.binom.logsf(int(on.sum()) - 1, len(coords), fine / coarse) / math.log(10))
+    else:  # the data hold values off the model's grid
+        log10_p = -math.inf if share_model < QUANT_SHARE else 0.0
+    # held out by aircraft halves: the grid learned on one half, the jitter predicted on the other
+    ac = d.jitter["aircraft"]
+    half = (ac % 2).astype(bool)
+    before = after = meas_all = 0.0
+    for h in (False, True):
+        sel = half == h
+        if sel.sum() < 5:
+            continue
+        meas, pred0 = _jitter_rms_kt(d.jitter, model_step, sel)
+        _, pred1 = _jitter_rms_kt(d.jitter, step, sel)
+        before += abs(pred0 - meas)
+        after += abs(pred1 - meas)
+        meas_all += meas
+    meas, pred0 = _jitter_rms_kt(d.jitter, model_step, np.ones(len(ac), dtype=bool))
+    _, pred1 = _jitter_rms_kt(d.jitter, step, np.ones(len(ac), dtype=bool))
+    return {"step": step, "log10_p": log10_p, "share_on_model_grid": share_model,
+            "gain": {"metric": "ground-track jitter: |predicted - measured| RMS of segment-velocity differences (kt)",
+                     "measured_kt": meas, "predicted_before_kt": pred0, "predicted_after_kt": pred1,
+                     "before": abs(pred0 - meas), "after": abs(pred1 - meas), "held_out_before": before / 2,
+                     "held_out_after": after / 2},
+            "relative_gain": (before - after) / max(meas_all, 1e-9)}
+
+
+# ----------------------------------------------------------------------------- fitting a candidate
+
+
+def current_blocks(d: WindData, st: State) -> list[Block]:
+    return base_blocks(d, st) + fixed_effect_blocks(d, st, None)
+
+
+def _build(eff: str, d: WindData, st: State, fit: Fit, rows: np.ndarray | None) -> list[Block]:
+    if eff == "recalibration":
+        return cand_recalibration(d, st, fit, rows)
+    return CANDIDATES[eff](d, st, fit)
+
+
+def _fit_with(d: WindData, st: State, y, clusters, eff: str, blocks: list[Block], rows=None, with_cov=True) -> tuple[Fit, float]:
+    """The current model plus `blocks`; for field_scaling, Gauss-Newton on gamma (returns
+    the total change of gamma; 0 otherwise)."""
+    cur = current_blocks(d, st)
+    fit = solve(cur + blocks, y, clusters, rows, with_cov)
+    if eff != "field_scaling":
+        return fit, 0.0
+    first = fit
+    total = float(fit.coef("field_scaling")[0][1][0])
+    for _ in range(3):
+        st2 = State(st.spec, list(st.entered), st.gamma + total, st.steps, st.signatures)
+        f0 = solve(current_blocks(d, st2), y, clusters, rows, False)
+        b2 = cand_field_scaling(d, st2, f0)
+        if not b2:
+            break
+        f2 = solve(current_blocks(d, st2) + b2, y, clusters, rows, False)
+        step = float(f2.coef("field_scaling")[0][1][0])
+        total += step
+        fit = f2
+        if abs(step) < 1e-3:
+            break
+    # the test of gamma = the model's is the first linearisation's (coefficient and its
+    # covariance); the estimate and the residuals are the converged Gauss-Newton's
+    beta = first.beta.copy()
+    k = next(s for b, s in zip(first.blocks, first.slices) if b.effect == "field_scaling")
+    beta[k] = total
+    return Fit(first.blocks, beta, first.cov, fit.resid, first.slices, first.clusters), total
+
+
+def held_out(d: WindData, st: State, y, clusters, eff: str, build=None) -> tuple[float, float]:
+    """RMS (kt) of the effect's channel on held-out flights, without and with the effect
+    (parameters learned on the other fold; both ways)."""
+    ch = _channel_rows(d.n, CHANNEL.get(eff, "transverse") if build is None else build[1])
+    ss0 = ss1 = 0.0
+    cnt = 0
+    for k in (0, 1):
+        train, test = rows_of_fold(d, 1 - k), rows_of_fold(d, k)
+        f0 = solve(current_blocks(d, st), y, clusters, train, False)
+        blocks = _build(eff, d, st, f0, train) if build is None else build[0]
+        if not blocks:
+            return math.nan, math.nan
+        f1, _ = _fit_with(d, st, y, clusters, eff, blocks, train, False)
+        t = test & ch
+        ss0 += float(np.sum(f0.resid[t] ** 2))
+        ss1 += float(np.sum(f1.resid[t] ** 2))
+        cnt += int(t.sum())
+    return math.sqrt(ss0 / cnt) / KT, math.sqrt(ss1 / cnt) / KT
+
+
+def _rms_kt(resid: np.ndarray, n: int, channel: str) -> float:
+    return float(math.sqrt(np.mean(resid[_channel_rows(n, channel)] ** 2)) / KT)
+
+
+def _se(v: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.clip(np.diag(np.atleast_2d(v)), 0, None))
