@@ -1,15 +1,20 @@
 """`aerotruth diagnose`: where measured data disagree with the simulation's sensor model,
 which effect explains it, by how much, and what the extension gains on held-out data.
 
-Now built for Mode-S data (raw message logs and 1-s Mode-S trajectories): the model of a
-real flight is the Mode-S sensor run on the flight's own trajectory with ideal heading
-and airspeed (aerotruth.sensors.modes); its prediction is that the derived wind
-(aerotruth.analysis.modes_wind) is smooth in time. Residual structure that follows the
+This module: Mode-S data (raw message logs and 1-s Mode-S trajectories); observation
+tables are aerotruth.analysis.diagnose_wind, approach logs aerotruth.analysis.diagnose_fits.
+The model of a real flight is the Mode-S sensor run on the flight's own trajectory with
+ideal heading and airspeed (aerotruth.sensors.modes); its prediction is that the derived
+wind (aerotruth.analysis.modes_wind) is smooth in time, once the air vector is taken
+along the air track (heading less the bank geometry a sin(phi), with the model aircraft's
+angle of attack: modes_wind.ALPHA_LAW_SAAB340). Residual structure that follows the
 heading, the airspeed or the turn rate is an effect of the aircraft's sensors.
 
-Only near-level flight is used: the smooth-wind assumption holds in time at a level,
-not through the shear of a climb (measured on the CDG flight: with climbs and descents
-kept, a spurious TAS "scale factor" of -18 % absorbed the wind's change with height).
+Only near-level flight at steady speed is used: the smooth-wind assumption holds in time
+at a level, not through the shear of a climb (measured on the CDG flight: with climbs and
+descents kept, a spurious TAS "scale factor" of -18 % absorbed the wind's change with
+height), and while the speed changes the held TAS and the fresh ground speed are of
+different instants (SPEED_RATE_KT_S).
 
 A candidate is considered only where the data can identify it (heading octants occupied,
 MIN_OCTANTS) and kept only with a physically plausible size (PLAUSIBLE): on a single leg
@@ -20,8 +25,10 @@ not yet in the model, fit on the whole record and score it by (a) dBIC on all da
 (b) the held-out residual RMS: K folds of contiguous time blocks, the effect's
 parameters learned on K-1 folds and applied to the held-out fold (whose nuisance wind is
 refitted locally). The best candidate enters when dBIC < -10 (very strong, Kass & Raftery
-1995) and its held-out RMS is lower than without it; repeat until none does. An empty
-list is the answer when nothing is there.
+1995), a Wald test with the block-jackknife covariance rejects at ALPHA / 4 (family-wise
+ALPHA = 2 %; BIC alone counts correlated 1-s samples as independent), its size exceeds the
+model's resolution (RESOLUTION: Mode-S register timing) and its held-out RMS is lower
+than without it; repeat until none does. An empty list is the answer when nothing is there.
 """
 
 from __future__ import annotations
@@ -34,6 +41,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from aerotruth.analysis.modes_wind import EFFECT_COLUMNS, fit, modes_track_to_wind_frame, predict_rms
 from aerotruth.errors import DataError
@@ -48,6 +56,13 @@ CAUSES = {
     "heading_time_offset": "heading and ground track are sampled at different instants: registers held for different times",
 }
 DBIC_THRESHOLD = -10.0
+JACKKNIFE_GROUPS = 8
+# Smaller than this agrees with the model: Mode-S registers are held between replies (BDS 6,0
+# heading p50 0.69 s, ADS-B velocity 1.07 s: aerotruth.sensors.modes), so the heading and the
+# track of one sample differ in age by up to ~0.5 s; null simulated days gave 0.16-0.49 s.
+RESOLUTION = {"D_s": 0.5}
+ALPHA = 0.02  # family-wise over the candidates (Bonferroni): also a jackknife Wald test (_jackknife_p), since
+# BIC counts 1-s samples of held registers as independent (it found 78 effects in 100 null days)
 MIN_HELD_OUT_GAIN = 0.0  # any drop of the held-out RMS (the dBIC carries the evidence; 1 % refused a true 2-deg offset on a 4-leg day)
 # identifiability: a heading effect is told from the wind only across turns; a one-cycle
 # deviation needs headings spread round the compass (the wind-method issue's refusal)
@@ -56,7 +71,13 @@ OCTANT_MIN_SHARE = 0.03
 PLAUSIBLE = {"A_deg": 20.0, "B_deg": 10.0, "C_deg": 10.0, "k": 0.1, "D_s": 10.0}  # beyond: a model failure, not an effect
 PARABOLA_FPM = 1500.0  # vertical rates of a zero-g parabola; level and normal climbs stay far below
 PARABOLA_MARGIN_S = 60.0
-LEVEL_FPM = 500.0  # the wind is smooth in time at a level; climbing through shear it changes with height
+LEVEL_FPM = 500.0
+# While the airspeed changes (level decelerations in the terminal area), the held BDS 5,0
+# TAS and the fresh ADS-B ground speed are of different instants (registers are held for
+# ~1-5 s): on null simulated days these samples alone made a "TAS scale" of -3 to -5 %
+# (p < 1e-4). TAS rate over +-10 s of the held register.
+SPEED_RATE_KT_S = 0.5
+SPEED_HALF_WINDOW_S = 10.0  # the wind is smooth in time at a level; climbing through shear it changes with height
 # The wind paper rejects roll > 10 deg (banked, the nose is not where the aircraft goes).
 # Here it is optional and off: turns are what identify a heading lag, and measured on
 # simulated Mesaba days the filter left the decaying sideslip after roll-out to alias into
@@ -98,8 +119,8 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
         d = _track_from_raw(m.df)
         excluded = {"BDS 6,0 replies without BDS 5,0 / ADS-B neighbours": int((m.df["bds"] == "60").sum() - len(d))}
     else:
-        raise DataError(f"{m.path}: diagnose of a {m.kind.replace('_', ' ')} is not built yet (the wind-report effects of "
-                        "the diagnose issue); Mode-S data and approach logs are supported")
+        raise DataError(f"{m.path}: diagnose of a {m.kind.replace('_', ' ')} is not possible: it carries no heading and "
+                        "airspeed to test; Mode-S data, observation tables and approach logs are supported")
     vr = d["vertical_rate"].to_numpy(float) if "vertical_rate" in d else np.zeros(len(d))
     t = d["time_s"].to_numpy(float)
     steep = np.abs(vr) > PARABOLA_FPM
@@ -111,6 +132,14 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
     climbing = keep & (np.abs(vr) > LEVEL_FPM)
     excluded[f"climbing or descending faster than {LEVEL_FPM:.0f} ft/min (wind shear with height)"] = int(climbing.sum())
     keep &= ~climbing
+    tas = d["TAS"].to_numpy(float)
+    order = np.argsort(t, kind="stable")
+    ts, vs = t[order], tas[order]
+    rate = np.empty(len(t))
+    rate[order] = (np.interp(ts + SPEED_HALF_WINDOW_S, ts, vs) - np.interp(ts - SPEED_HALF_WINDOW_S, ts, vs)) / (2 * SPEED_HALF_WINDOW_S)
+    changing = keep & (np.abs(rate) > SPEED_RATE_KT_S)
+    excluded[f"airspeed changing faster than {SPEED_RATE_KT_S:g} kt/s (held TAS and fresh ground speed of different instants)"] = int(changing.sum())
+    keep &= ~changing
     if max_roll_deg is not None and "roll" in d:
         banked = keep & (np.abs(d["roll"].to_numpy(float)) > max_roll_deg)
         excluded[f"roll beyond {max_roll_deg:g} deg (wind paper)"] = int(banked.sum())
@@ -139,6 +168,8 @@ def _track_from_raw(raw: pd.DataFrame) -> pd.DataFrame:
     i = np.searchsorted(b50["time_s"].to_numpy(), t, side="right") - 1
     ok = i >= 0
     out["TAS"] = np.where(ok, b50["TAS"].to_numpy(float)[np.clip(i, 0, None)], np.nan)
+    if "roll" in b50:
+        out["roll"] = np.where(ok, b50["roll"].to_numpy(float)[np.clip(i, 0, None)], np.nan)
     vt = vel["time_s"].to_numpy(float)
     trk = np.unwrap(np.radians(vel["track"].to_numpy(float)))
     out["track"] = np.degrees(np.interp(t, vt, trk)) % 360
@@ -170,6 +201,32 @@ def _cv_rms(track: pd.DataFrame, effects: tuple[str, ...], knot_s: float, folds:
     return math.sqrt(sq / n)
 
 
+def _jackknife_p(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], eff: str, f: dict, t: np.ndarray,
+                 block_s: float) -> float:
+    """p-value of `eff`'s parameters = 0: a Wald test with the delete-one-group jackknife
+    covariance, groups JACKKNIFE_GROUPS interleaved blocks of `block_s`, F(q, J - 1). The
+    errors that matter are not the samples' noise but what happens turn by turn (register
+    timing, gusts): the least-squares se, even inflated for AR(1), made null days'
+    timing offsets of 0.2-0.5 s look like p < 1e-10."""
+    idx = [f["names"].index(nm) for nm in EFFECT_COLUMNS[eff]]
+    groups = (np.floor((t - t.min()) / block_s).astype(int)) % JACKKNIFE_GROUPS
+    thetas = []
+    for g in np.unique(groups):
+        keep = groups != g
+        if keep.sum() < 50:
+            continue
+        thetas.append(fit(track, knot_s, effects, rows=keep)["coef"][idx])
+    J = len(thetas)
+    if J < 3:
+        return 1.0
+    th = np.array(thetas)
+    cov = (J - 1) / J * (th - th.mean(axis=0)).T @ (th - th.mean(axis=0))
+    b = f["coef"][idx]
+    w = float(b @ np.linalg.pinv(np.atleast_2d(cov)) @ b)
+    q = len(idx)
+    return float(stats.f.sf(w / q, q, J - 1))
+
+
 def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float = 900.0, k: int = 4) -> tuple[list[Finding], dict]:
     """Forward selection of effects on a wind frame (see the module docstring)."""
     t = track["time_s"].to_numpy(float)
@@ -193,19 +250,24 @@ def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float
             vals = {n: f["coef"][f["names"].index(n)] for n in EFFECT_COLUMNS[eff]}
             if any(abs(v) > PLAUSIBLE[n] for n, v in vals.items()):
                 continue
+            if any(abs(v) < RESOLUTION.get(n, 0.0) for n, v in vals.items()):
+                continue
             n = f["n"]
             dbic = n * math.log(f["rss"] / cur_fit["rss"]) + (f["p"] - cur_fit["p"]) * math.log(n)
             cv = _cv_rms(track, trial, knot_s, folds, k)
-            if dbic < DBIC_THRESHOLD and cv < (1 - MIN_HELD_OUT_GAIN) * cur_cv and (best is None or dbic < best[1]):
-                best = (eff, dbic, f, cv)
+            p = _jackknife_p(track, knot_s, trial, eff, f, t, block_s)
+            if (dbic < DBIC_THRESHOLD and p < ALPHA / len(EFFECT_COLUMNS) and cv < (1 - MIN_HELD_OUT_GAIN) * cur_cv
+                    and (best is None or dbic < best[1])):
+                best = (eff, dbic, f, cv, p)
         if best is None:
             break
-        eff, dbic, f, cv = best
+        eff, dbic, f, cv, p = best
         params = {name: {"value": float(f["coef"][f["names"].index(name)]), "se": float(f["se"][f["names"].index(name)])}
                   for name in EFFECT_COLUMNS[eff]}
         findings.append(Finding(
             effect=eff, cause=CAUSES[eff], parameters=params,
-            evidence={"delta_bic": float(dbic), "held_out_folds": k, "fold_block_s": block_s},
+            evidence={"delta_bic": float(dbic), "p_value": p, "alpha": ALPHA / len(EFFECT_COLUMNS), "held_out_folds": k,
+                      "fold_block_s": block_s},
             gain={"metric": "wind-vector residual RMS per component (kt)", "before": cur_fit["rms"] / KT, "after": f["rms"] / KT,
                   "held_out": cv / KT, "held_out_before": cur_cv / KT, "held_out_after": cv / KT}))
         current, cur_fit, cur_cv = current + (eff,), f, cv
@@ -248,7 +310,7 @@ def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s:
             ps += (f"; the aircraft's variation table must hold {vt['implied_table_variation_deg']:.1f} deg where IGRF gives "
                    f"{vt['declination_now_deg']:.1f} deg today" + (f", the declination there in {vt['igrf_epoch_with_that_variation']:.0f}"
                                                                    if "igrf_epoch_with_that_variation" in vt else ""))
-        lines += [f"## {i}. {f.effect}", "", f.cause, "", f"* parameters: {ps}", f"* ΔBIC {f.evidence['delta_bic']:.1f}",
+        lines += [f"## {i}. {f.effect}", "", f.cause, "", f"* parameters: {ps}", f"* ΔBIC {f.evidence['delta_bic']:.1f}, jackknife p = {f.evidence['p_value']:.2g} (level {f.evidence['alpha']:.2g})",
                   f"* residual {f.gain['before']:.2f} → {f.gain['after']:.2f} kt; held out {f.gain['held_out_before']:.2f} → "
                   f"{f.gain['held_out_after']:.2f} kt", ""]
     _figure(diag, track, out_dir, knot_s)

@@ -52,6 +52,29 @@ def declination_deg(lat, lon, alt_m, when: dt.datetime) -> np.ndarray:
     return np.interp(np.arange(len(lat)), idx, dec) if len(idx) > 1 else np.full(len(lat), dec[0])
 
 
+# The air vector leaves the heading in banked flight: the body-axis air velocity
+# (V cos a, 0, V sin a), rolled by phi, puts V sin(a) sin(phi) sideways, so the horizontal
+# air track is psi - a sin(phi) (a right bank swings it left of the nose; small pitch).
+# Unmodelled, it reads as a heading time offset of about -a V / g (-0.5 s for the SAAB:
+# in a coordinated turn r = g tan(phi) / V). Mode-S gives roll, not a: the model's
+# aircraft gives it from the dynamic pressure, a = a0 + a1 / q, q = rho TAS^2 / 2 (ISA
+# density at the pressure altitude). SAAB 340B (aerotruth truth, 40 legs, samples with
+# |roll| < 3 deg in climb, cruise and descent; `benchmarks/alpha_law.py`):
+ALPHA_LAW_SAAB340 = (-3.40, 30352.0)  # a0 deg, a1 deg Pa; residual sd 0.10 deg
+
+
+def alpha_deg(tas_mps: np.ndarray, pressure_altitude_m: np.ndarray, law: tuple[float, float] = ALPHA_LAW_SAAB340,
+              roll_rad: np.ndarray | float = 0.0) -> np.ndarray:
+    """Angle of attack (deg) of the model's aircraft at this TAS, pressure altitude and bank
+    (a level turn needs lift / cos(roll): load factor n = 1 / cos(roll))."""
+    from aerotruth.truth.isa import isa_pressure_pa, isa_temperature_k
+
+    h = np.clip(np.asarray(pressure_altitude_m, float), -500.0, 20000.0)
+    rho = isa_pressure_pa(h) / (287.05287 * isa_temperature_k(h))
+    q = 0.5 * rho * np.maximum(np.asarray(tas_mps, float), 30.0) ** 2
+    return law[0] + law[1] / (q * np.cos(np.clip(roll_rad, -1.2, 1.2)))
+
+
 SEGMENT_GAP_S = 30.0
 RATE_HALF_WINDOW_S = 3.0  # a longer gap (a climb, a descent, another leg) starts a new wind segment
 
@@ -87,7 +110,9 @@ def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...]) -> tupl
     """(X, y, names) of the stacked north/east equations for the chosen effects.
     track: time_s, tas_mps, heading_rad (true), vn_mps, ve_mps, heading_rate_rad_s."""
     t = track["time_s"].to_numpy(float)
-    tas, psi = track["tas_mps"].to_numpy(float), track["heading_rad"].to_numpy(float)
+    tas = track["tas_mps"].to_numpy(float)
+    # the air vector's direction: the heading, less the bank geometry when the frame has it
+    psi = (track["air_track_rad"] if "air_track_rad" in track else track["heading_rad"]).to_numpy(float)
     van, vae = tas * np.cos(psi), tas * np.sin(psi)
     y = np.r_[track["vn_mps"].to_numpy(float) - van, track["ve_mps"].to_numpy(float) - vae]
     basis = _spline_basis(t, knot_s)
@@ -152,10 +177,16 @@ def predict_rms(track: pd.DataFrame, fitted: dict, knot_s: float, effects: tuple
     return float(np.sqrt(np.mean(res**2)))
 
 
-def modes_track_to_wind_frame(df: pd.DataFrame, when: dt.datetime) -> pd.DataFrame:
+def _rate(t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    return (np.interp(t + RATE_HALF_WINDOW_S, t, x) - np.interp(t - RATE_HALF_WINDOW_S, t, x)) / (2 * RATE_HALF_WINDOW_S)
+
+
+def modes_track_to_wind_frame(df: pd.DataFrame, when: dt.datetime,
+                              alpha_law: tuple[float, float] | None = ALPHA_LAW_SAAB340) -> pd.DataFrame:
     """A Mode-S trajectory (decoded fields in knots/degrees, heading magnetic) as the
     table `design` needs, in SI, with true heading and heading rate (rows sorted by time,
-    repeated times dropped)."""
+    repeated times dropped); with roll (BDS 5,0) and an angle-of-attack law, the air
+    track psi - a sin(phi) (see ALPHA_LAW_SAAB340)."""
     df = df.sort_values("time_s", kind="stable").drop_duplicates("time_s")
     dec = declination_deg(df["latitude"], df["longitude"], df["altitude"].to_numpy(float) * 0.3048, when)
     psi = np.radians(df["heading"].to_numpy(float) + dec)
@@ -165,6 +196,11 @@ def modes_track_to_wind_frame(df: pd.DataFrame, when: dt.datetime) -> pd.DataFra
     psi_u = np.unwrap(psi)
     # heading rate over +-RATE_HALF_WINDOW_S: a held, quantized heading differenced
     # sample to sample is a staircase, and a noisy regressor biases D towards zero
-    rate = (np.interp(t + RATE_HALF_WINDOW_S, t, psi_u) - np.interp(t - RATE_HALF_WINDOW_S, t, psi_u)) / (2 * RATE_HALF_WINDOW_S)
-    return pd.DataFrame({"time_s": t, "tas_mps": df["TAS"].to_numpy(float) * KT, "heading_rad": psi, "vn_mps": gs * np.cos(trk),
-                         "ve_mps": gs * np.sin(trk), "heading_rate_rad_s": rate, "declination_deg": dec})
+    rate = _rate(t, psi_u)
+    out = pd.DataFrame({"time_s": t, "tas_mps": df["TAS"].to_numpy(float) * KT, "heading_rad": psi, "vn_mps": gs * np.cos(trk),
+                        "ve_mps": gs * np.sin(trk), "heading_rate_rad_s": rate, "declination_deg": dec})
+    if alpha_law is not None and "roll" in df and df["roll"].notna().all():
+        roll = np.radians(df["roll"].to_numpy(float))
+        a = np.radians(alpha_deg(out["tas_mps"].to_numpy(), df["altitude"].to_numpy(float) * 0.3048, alpha_law, roll))
+        out["air_track_rad"] = psi - a * np.sin(roll)
+    return out
