@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from aerotruth.analysis.modes_wind import EFFECT_COLUMNS, fit, modes_track_to_wind_frame, predict_rms
+from aerotruth.analysis.modes_wind import EFFECT_COLUMNS, central_rate, fit, modes_track_to_wind_frame, predict_rms
 from aerotruth.errors import DataError
 from aerotruth.files import atomic_write_text
 from aerotruth.measured import Measured
@@ -136,7 +136,7 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
     order = np.argsort(t, kind="stable")
     ts, vs = t[order], tas[order]
     rate = np.empty(len(t))
-    rate[order] = (np.interp(ts + SPEED_HALF_WINDOW_S, ts, vs) - np.interp(ts - SPEED_HALF_WINDOW_S, ts, vs)) / (2 * SPEED_HALF_WINDOW_S)
+    rate[order] = central_rate(ts, vs, SPEED_HALF_WINDOW_S)
     changing = keep & (np.abs(rate) > SPEED_RATE_KT_S)
     excluded[f"airspeed changing faster than {SPEED_RATE_KT_S:g} kt/s (held TAS and fresh ground speed of different instants)"] = int(changing.sum())
     keep &= ~changing

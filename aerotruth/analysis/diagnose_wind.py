@@ -66,7 +66,7 @@ import numpy as np
 from aerotruth.analysis.diagnose_wind_data import WindData, prepare  # noqa: F401  (re-exported)
 from aerotruth.analysis.diagnose_wind_model import (  # noqa: F401  (WindModelSpec, wind_model_from_campaign re-exported)
     CANDIDATES, CHANNEL, MIN_COVERAGE, Block, Fit, State, WindModelSpec, _build, _channel_rows, _covariate, _fit_with,
-    _flight_means, _kolmogorov_cusum, _rms_kt, _se, _stack, block_p, current_blocks, declination_identifiable, held_out,
+    _flight_means, _kolmogorov_cusum, _rms_kt, _se, _stack, block_p, current_blocks, fold_fits, signature_column, declination_identifiable, held_out,
     known_offsets, quantization_candidate, solve, wind_model_from_campaign)
 from aerotruth.analysis.heading_correction import heading_spread
 from aerotruth.units import DEG, KT
@@ -157,7 +157,7 @@ def _plot_data(d: WindData, fit0: Fit, fit1: Fit, eff: str, channel: str) -> dic
     scale = np.r_[d.tas, np.full(d.n, KT)][m]
     unit = "deg" if channel != "along" else "kt"
     conv = (1 / DEG) if unit == "deg" else 1.0
-    return {"x": term[m] / scale * conv, "before": fit0.resid[m] / scale * conv + 0.0,
+    return {"x": term[m] / scale * conv, "before": fit0.resid[m] / scale * conv,
             "after": fit1.resid[m] / scale * conv, "unit": unit, "channel": "transverse" if channel == "both" else channel}
 
 
@@ -170,11 +170,13 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     clusters = np.r_[d.flight, d.flight]
     steps = {d.names.index(a): list(ts) for a, ts in spec.recalibrations.items() if a in d.names}
     st = State(spec, [], spec.field_scaling, steps, [])
-    fit_start = solve(current_blocks(d, st), y, clusters)
+    fit_start = None  # the model before any effect: the first round's fit
     findings, plots, rounds = [], {}, []
     n_lib = len(CANDIDATES) + 1
     for _ in range(MAX_ROUNDS):
         fit0 = solve(current_blocks(d, st), y, clusters)
+        fit_start = fit_start or fit0
+        base = fold_fits(d, st, y, clusters)
         cands = []
         for eff in CANDIDATES:
             if eff in st.entered:
@@ -184,7 +186,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
                 continue
             fit1, dg = _fit_with(d, st, y, clusters, eff, blocks)
             p = min(b.p for b in blocks) if eff == "recalibration" else block_p(fit1, eff, d)
-            b_ho, a_ho = held_out(d, st, y, clusters, eff)
+            b_ho, a_ho = held_out(d, st, y, clusters, eff, base=base)
             cands.append({"effect": eff, "p": p, "held_out": (b_ho, a_ho), "fit": fit1, "dgamma": dg,
                           "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0})
         q = None if "quantization" in st.entered else quantization_candidate(d, spec.lat_lon_step_deg)
@@ -288,13 +290,9 @@ def _screen_tests(d: WindData) -> list[tuple[str, list[str]]]:
 
 
 def _screen_blocks(d: WindData, channel: str, covs: list[str]) -> tuple[list[Block], list[dict]]:
-    cols, sigs = [], []
-    for c in covs:
-        x = _covariate(d, c)
-        center = 0.0 if c == "const" else float(np.mean(x))
-        sigs.append({"channel": channel, "covariate": c, "center": center})
-        cols.append(_stack(d.tas * (x - center) * DEG, None, d.n) if channel == "transverse" else _stack(None, (x - center) * KT, d.n))
-    return [Block("screen", f"{channel}:{'+'.join(covs)}", np.column_stack(cols))], sigs
+    sigs = [{"channel": channel, "covariate": c, "center": 0.0 if c == "const" else float(np.mean(_covariate(d, c)))}
+            for c in covs]
+    return [Block("screen", f"{channel}:{'+'.join(covs)}", np.column_stack([signature_column(d, s) for s in sigs]))], sigs
 
 
 def _periodic(d: WindData, fit: Fit) -> tuple[float, float] | None:
@@ -345,6 +343,7 @@ def screen(d: WindData, st: State, y, clusters, plots: dict) -> list:
     done: set[str] = set()
     for _ in range(3):
         fit0 = solve(current_blocks(d, st), y, clusters)
+        base = fold_fits(d, st, y, clusters)
         tests = [(ch, covs) for ch, covs in _screen_tests(d) if f"{ch}:{'+'.join(covs)}" not in done]
         per = _periodic(d, fit0)
         m_tests = len(_screen_tests(d)) + 2
@@ -369,7 +368,7 @@ def screen(d: WindData, st: State, y, clusters, plots: dict) -> list:
         ok = []
         for c in cands:
             if c[2] < level:
-                b_ho, a_ho = held_out(d, st, y, clusters, "screen", (c[3], c[0]))
+                b_ho, a_ho = held_out(d, st, y, clusters, "screen", (c[3], c[0]), base)
                 if b_ho > 0 and (b_ho - a_ho) / b_ho >= MIN_REL_GAIN:
                     ok.append((c, b_ho, a_ho))
         if not ok:
@@ -377,9 +376,8 @@ def screen(d: WindData, st: State, y, clusters, plots: dict) -> list:
         (ch, covs, p, blocks, sigs, fit1, key), b_ho, a_ho = max(ok, key=lambda x: (x[1] - x[2]) / x[1])
         beta = fit1.coef("screen")[0][1]
         cov = fit1.coef("screen")[0][2]
-        unit_scale = 1.0  # transverse coefficients are deg per unit, along kt per unit (the columns' scaling)
-        for s, b in zip(sigs, beta):
-            s["slope"] = float(b * unit_scale)
+        for s, b in zip(sigs, beta):  # deg per unit (transverse), kt per unit (along): the columns' scaling
+            s["slope"] = float(b)
         text = _signature_text(sigs, beta)
         params = {"signature": text, "terms": [dict(s, se=float(e)) for s, e in zip(sigs, _se(cov))]}
         params["size"] = float(beta[0]) if len(beta) == 1 else float(math.hypot(*beta[:2]))

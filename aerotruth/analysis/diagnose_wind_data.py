@@ -67,12 +67,17 @@ def _field_covariates(lat, lon, alt_ft, when: dt.datetime) -> tuple[np.ndarray, 
     return np.median(H) / H, sv
 
 
-def _jitter(df: pd.DataFrame) -> dict:
+def _report_rows(df: pd.DataFrame) -> np.ndarray:
+    """Index of each report's first row (a report has one row per reference model)."""
+    ac, t = df["aircraft"].cat.codes.to_numpy(), df["time_s"].to_numpy()
+    return np.flatnonzero(np.r_[True, (ac[1:] != ac[:-1]) | (np.diff(t) != 0)])
+
+
+def _jitter(df: pd.DataFrame, first: np.ndarray) -> dict:
     """Differences of adjacent segment velocities (m/s, per component) at every interior
-    report of level flight, with c = 1/dt2^2 + (1/dt1 + 1/dt2)^2 + 1/dt1^2 (the factor of
-    a position-noise variance) and the report's radii per degree (for the grid's metres)."""
-    first = np.flatnonzero(np.r_[True, (df["aircraft"].cat.codes.to_numpy()[1:] != df["aircraft"].cat.codes.to_numpy()[:-1])
-                                 | (np.diff(df["time_s"].to_numpy()) != 0)])
+    report of level flight (`first`: the reports' rows), with c = 1/dt2^2 + (1/dt1 + 1/dt2)^2
+    + 1/dt1^2 (the factor of a position-noise variance) and the report's radii per degree
+    (for the grid's metres)."""
     ac = df["aircraft"].cat.codes.to_numpy()[first]
     t = df["time_s"].to_numpy()[first]
     lat, lon = df["lat"].to_numpy()[first], df["lon"].to_numpy()[first]
@@ -122,8 +127,8 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     # tilt towards its own error, a bias of ~sigma^2/|W|), else the aircraft's reported wind
     # (tilted by the aircraft's heading deviation: TAS x 3 deg is ~15 kt, which attenuates)
     re_, rn_ = towards_from_report(df["ref_wind_speed_kt"].to_numpy()[used], df["ref_wind_dir_deg"].to_numpy()[used])
-    rep_u = r["report"].to_numpy()
-    g = pd.DataFrame({"rep": rep_u, "e": re_, "n": rn_})
+    rep = r["report"].to_numpy()
+    g = pd.DataFrame({"rep": rep, "e": re_, "n": rn_})
     tot = g.groupby("rep")[["e", "n"]].transform("sum").to_numpy()
     cnt = g.groupby("rep")["e"].transform("size").to_numpy()
     we, wn = towards_from_report(df["wind_speed_kt"].to_numpy()[used], df["wind_dir_deg"].to_numpy()[used])
@@ -151,31 +156,25 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         fl = flight[sel]
         uniq = np.unique(fl)
         fold[sel] = (np.searchsorted(uniq, fl) % 2).astype(np.int8)
-    # turn rate: heading change between a flight's adjacent reports
-    rep = r["report"].to_numpy()
-    zr = pd.Series(z).groupby(rep).first()
-    tr = pd.Series(t).groupby(rep).first()
-    fr = pd.Series(flight).groupby(rep).first()
-    dz = np.r_[np.nan, np.degrees((np.diff(zr.to_numpy()) + np.pi) % (2 * np.pi) - np.pi)]
-    dtr = np.r_[np.nan, np.diff(tr.to_numpy())]
-    same = np.r_[False, fr.to_numpy()[1:] == fr.to_numpy()[:-1]]
+    # turn rate and flight phase: heading and altitude change between a flight's adjacent
+    # (used) reports, per report, then back on its rows
+    per = pd.DataFrame({"z": z, "t": t, "f": flight, "alt": alt}).groupby(rep).first()
+    dtr = np.r_[np.nan, np.diff(per["t"].to_numpy())]
+    same = np.r_[False, per["f"].to_numpy()[1:] == per["f"].to_numpy()[:-1]] & (dtr > 0)
+    dz = np.r_[np.nan, np.degrees((np.diff(per["z"].to_numpy()) + np.pi) % (2 * np.pi) - np.pi)]
+    da = np.r_[np.nan, np.diff(per["alt"].to_numpy())]
     with np.errstate(invalid="ignore", divide="ignore"):
-        turn_rep = np.where(same & (dtr > 0), dz / dtr, 0.0)
-    turn = pd.Series(turn_rep, index=zr.index).reindex(rep).to_numpy()
-    roll = df["roll_deg"].to_numpy()[used] if "roll_deg" in df.columns else None
-    # flight phase from the altitude change between a flight's adjacent reports
-    ar = pd.Series(alt).groupby(rep).first().to_numpy()
-    da = np.r_[np.nan, np.diff(ar)]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        rate = np.where(same & (dtr > 0), da / dtr * 60.0, 0.0)
+        turn_rep = np.where(same, dz / dtr, 0.0)
+        rate = np.where(same, da / dtr * 60.0, 0.0)
     ph_rep = np.where(rate > 300.0, "ascent", np.where(rate < -300.0, "descent", "level"))
-    phase = pd.Series(ph_rep, index=zr.index).reindex(rep).to_numpy()
-    first = np.flatnonzero(np.r_[True, (df["aircraft"].cat.codes.to_numpy()[1:] != df["aircraft"].cat.codes.to_numpy()[:-1])
-                                 | (np.diff(df["time_s"].to_numpy()) != 0)])
+    back = per.index.get_indexer(rep)
+    turn, phase = turn_rep[back], ph_rep[back]
+    roll = df["roll_deg"].to_numpy()[used] if "roll_deg" in df.columns else None
+    first = _report_rows(df)
     return WindData(aircraft=ac, names=names, source=src_cat.cat.codes.to_numpy(), sources=[str(c) for c in src_cat.cat.categories],
                     flight=flight, time_s=t, z=z, tas=r["tas_ms"].to_numpy(), trans=trans, along=along, wref_e=ue, wref_n=un,
                     lat=lat, lon=lon, alt_ft=alt, h_ratio=h_ratio, sv_deg_yr=sv, roll=roll, phase=phase, turn_deg_s=turn,
                     fold=fold, report_lat=df["lat"].to_numpy()[first], report_lon=df["lon"].to_numpy()[first],
-                    jitter=_jitter(df))
+                    jitter=_jitter(df, first))
 
 

@@ -96,30 +96,42 @@ def _stack(trans: np.ndarray | None, along: np.ndarray | None, n: int) -> np.nda
     return out
 
 
+def tas_column(d: WindData, i: int) -> np.ndarray:
+    """Along channel of aircraft i: TAS (coefficient: its TAS scale factor)."""
+    return _stack(None, (d.aircraft == i) * d.tas, d.n)
+
+
+def declination_column(d: WindData) -> np.ndarray:
+    """Transverse: TAS x (-dD/dt) (coefficient: the declination model's age in years)."""
+    return _stack(d.tas * (-d.sv_deg_yr) * DEG, None, d.n)
+
+
+def reference_bias_column(d: WindData, m: int) -> np.ndarray:
+    """Reference m's rows: the unit wind vector on n and u, in kt (coefficient: bias, kt)."""
+    s = d.source == m
+    tr = s * (d.wref_e * np.cos(d.z) - d.wref_n * np.sin(d.z))
+    al = s * (d.wref_e * np.sin(d.z) + d.wref_n * np.cos(d.z))
+    return _stack(tr, al, d.n) * KT
+
+
+def signature_column(d: WindData, sig: dict) -> np.ndarray:
+    """A screening term: deg per unit of the covariate (transverse), kt per unit (along)."""
+    x = _covariate(d, sig["covariate"]) - float(sig.get("center", 0.0))
+    return _stack(d.tas * x * DEG, None, d.n) if sig["channel"] == "transverse" else _stack(None, x * KT, d.n)
+
+
 def known_offsets(d: WindData, spec: WindModelSpec) -> np.ndarray:
     """What the spec states as known (subtracted from the data): TAS scales, the declination
     table's age, reference biases along the wind, stated signature terms."""
-    n = d.n
-    tr, al = np.zeros(n), np.zeros(n)
+    out = np.zeros(2 * d.n)
     for i, name in enumerate(d.names):
-        k = spec.tas_scale.get(name, 0.0)
-        if k:
-            al[d.aircraft == i] += k * d.tas[d.aircraft == i]
-    if spec.declination_age_yr:
-        tr += d.tas * spec.declination_age_yr * (-d.sv_deg_yr) * DEG
+        out += spec.tas_scale.get(name, 0.0) * tas_column(d, i)
+    out += spec.declination_age_yr * declination_column(d)
     for m, src in enumerate(d.sources):
-        b = spec.reference_bias_kt.get(src, 0.0) * KT
-        if b:
-            s = d.source == m
-            tr[s] += b * (d.wref_e[s] * np.cos(d.z[s]) - d.wref_n[s] * np.sin(d.z[s]))
-            al[s] += b * (d.wref_e[s] * np.sin(d.z[s]) + d.wref_n[s] * np.cos(d.z[s]))
+        out += spec.reference_bias_kt.get(src, 0.0) * reference_bias_column(d, m)
     for sig in spec.signatures:
-        x = _covariate(d, sig["covariate"]) - float(sig.get("center", 0.0))
-        if sig["channel"] == "transverse":
-            tr += d.tas * float(sig["slope"]) * x * DEG
-        else:
-            al += float(sig["slope"]) * KT * x
-    return _stack(tr, al, d.n)
+        out += float(sig["slope"]) * signature_column(d, sig)
+    return out
 
 
 def _coverage_ok(z: np.ndarray, harmonic: int) -> bool:
@@ -177,9 +189,7 @@ def _covariate(d: WindData, name: str) -> np.ndarray:
 
 
 def signature_block(d: WindData, sig: dict) -> Block:
-    x = _covariate(d, sig["covariate"]) - float(sig.get("center", 0.0))
-    col = _stack(d.tas * x * DEG, None, d.n) if sig["channel"] == "transverse" else _stack(None, x * KT, d.n)
-    return Block("signature", f"{sig['channel']}:{sig['covariate']}", col[:, None])
+    return Block("signature", f"{sig['channel']}:{sig['covariate']}", signature_column(d, sig)[:, None])
 
 
 def fixed_effect_blocks(d: WindData, st: State, fit: Fit | None) -> list[Block]:
@@ -326,8 +336,7 @@ def cand_field_scaling(d: WindData, st: State, fit: Fit | None) -> list[Block]:
 
 
 def cand_tas_scale(d: WindData, st: State, fit: Fit | None) -> list[Block]:
-    return [Block("tas_scale", "k", _stack(None, (d.aircraft == i) * d.tas, d.n)[:, None], i)
-            for i in range(len(d.names)) if _enough(d, i)]
+    return [Block("tas_scale", "k", tas_column(d, i)[:, None], i) for i in range(len(d.names)) if _enough(d, i)]
 
 
 def declination_identifiable(d: WindData) -> float:
@@ -341,17 +350,11 @@ def declination_identifiable(d: WindData) -> float:
 def cand_stale_declination(d: WindData, st: State, fit: Fit | None) -> list[Block]:
     if declination_identifiable(d) < 0.01:
         return []
-    return [Block("stale_declination", "age", _stack(d.tas * (-d.sv_deg_yr) * DEG, None, d.n)[:, None])]
+    return [Block("stale_declination", "age", declination_column(d)[:, None])]
 
 
 def cand_reference_bias(d: WindData, st: State, fit: Fit | None) -> list[Block]:
-    out = []
-    for m, src in enumerate(d.sources):
-        s = d.source == m
-        tr = s * (d.wref_e * np.cos(d.z) - d.wref_n * np.sin(d.z))
-        al = s * (d.wref_e * np.sin(d.z) + d.wref_n * np.cos(d.z))
-        out.append(Block("reference_bias", src, (_stack(tr, al, d.n) * KT)[:, None]))
-    return out
+    return [Block("reference_bias", src, reference_bias_column(d, m)[:, None]) for m, src in enumerate(d.sources)]
 
 
 def _kolmogorov_cusum(x: np.ndarray) -> tuple[float, int]:
@@ -523,15 +526,22 @@ def _fit_with(d: WindData, st: State, y, clusters, eff: str, blocks: list[Block]
     return Fit(first.blocks, beta, first.cov, fit.resid, first.slices, first.clusters), total
 
 
-def held_out(d: WindData, st: State, y, clusters, eff: str, build=None) -> tuple[float, float]:
+def fold_fits(d: WindData, st: State, y, clusters) -> list[Fit]:
+    """The current model fitted on each fold's training flights (fold k is held out from fit k)."""
+    return [solve(current_blocks(d, st), y, clusters, rows_of_fold(d, 1 - k), False) for k in (0, 1)]
+
+
+def held_out(d: WindData, st: State, y, clusters, eff: str, build=None, base: list[Fit] | None = None) -> tuple[float, float]:
     """RMS (kt) of the effect's channel on held-out flights, without and with the effect
-    (parameters learned on the other fold; both ways)."""
+    (parameters learned on the other fold; both ways). `base`: fold_fits of the current
+    model, when the caller has them."""
     ch = _channel_rows(d.n, CHANNEL.get(eff, "transverse") if build is None else build[1])
+    base = base or fold_fits(d, st, y, clusters)
     ss0 = ss1 = 0.0
     cnt = 0
     for k in (0, 1):
         train, test = rows_of_fold(d, 1 - k), rows_of_fold(d, k)
-        f0 = solve(current_blocks(d, st), y, clusters, train, False)
+        f0 = base[k]
         blocks = _build(eff, d, st, f0, train) if build is None else build[0]
         if not blocks:
             return math.nan, math.nan

@@ -177,8 +177,9 @@ def predict_rms(track: pd.DataFrame, fitted: dict, knot_s: float, effects: tuple
     return float(np.sqrt(np.mean(res**2)))
 
 
-def _rate(t: np.ndarray, x: np.ndarray) -> np.ndarray:
-    return (np.interp(t + RATE_HALF_WINDOW_S, t, x) - np.interp(t - RATE_HALF_WINDOW_S, t, x)) / (2 * RATE_HALF_WINDOW_S)
+def central_rate(t: np.ndarray, x: np.ndarray, half_window_s: float = RATE_HALF_WINDOW_S) -> np.ndarray:
+    """Rate of a held (staircase) signal over +-half_window_s, t increasing."""
+    return (np.interp(t + half_window_s, t, x) - np.interp(t - half_window_s, t, x)) / (2 * half_window_s)
 
 
 def modes_track_to_wind_frame(df: pd.DataFrame, when: dt.datetime,
@@ -196,7 +197,7 @@ def modes_track_to_wind_frame(df: pd.DataFrame, when: dt.datetime,
     psi_u = np.unwrap(psi)
     # heading rate over +-RATE_HALF_WINDOW_S: a held, quantized heading differenced
     # sample to sample is a staircase, and a noisy regressor biases D towards zero
-    rate = _rate(t, psi_u)
+    rate = central_rate(t, psi_u)
     out = pd.DataFrame({"time_s": t, "tas_mps": df["TAS"].to_numpy(float) * KT, "heading_rad": psi, "vn_mps": gs * np.cos(trk),
                         "ve_mps": gs * np.sin(trk), "heading_rate_rad_s": rate, "declination_deg": dec})
     if alpha_law is not None and "roll" in df and df["roll"].notna().all():
