@@ -12,7 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from aerotruth.analysis.heading_correction import GateSpec, heading_errors, towards_from_report, validate_observations
+from aerotruth.analysis.heading_correction import (GateSpec, heading_errors, segment_displacements, towards_from_report,
+                                                   validate_observations, wgs84_radii)
 from aerotruth.errors import DataError
 from aerotruth.units import DEG, FT
 
@@ -82,15 +83,17 @@ def _jitter(df: pd.DataFrame, first: np.ndarray) -> dict:
     t = df["time_s"].to_numpy()[first]
     lat, lon = df["lat"].to_numpy()[first], df["lon"].to_numpy()[first]
     alt = df["pressure_altitude_ft"].to_numpy()[first]
-    m_lat = 111_132.0 - 559.8 * np.cos(2 * lat * DEG)
-    m_lon = 111_320.0 * np.cos(lat * DEG)
-    e, n = lon * m_lon, lat * m_lat
+    rm, rn = wgs84_radii(lat * DEG)
+    m_lat, m_lon = rm * DEG, rn * np.cos(lat * DEG) * DEG  # metres per degree of the reports' grid
+    # segment velocities as the wind paper's ground track has them (one displacement per segment,
+    # at its mid latitude: metres from per-point scales, lon x m_lon(lat), carried lon x dm_lon)
+    de, dn = segment_displacements(lat * DEG, lon * DEG)
     ok = (ac[2:] == ac[:-2]) & (np.diff(t)[:-1] > 0) & (np.diff(t)[1:] > 0) & (np.diff(t)[:-1] <= 600) & (np.diff(t)[1:] <= 600)
     ok &= (np.abs(alt[2:] - alt[:-2]) < 100.0)  # level: the true velocity changes little
     dt1, dt2 = np.diff(t)[:-1], np.diff(t)[1:]
     with np.errstate(divide="ignore", invalid="ignore"):
-        v1 = np.column_stack([(e[1:-1] - e[:-2]) / dt1, (n[1:-1] - n[:-2]) / dt1])
-        v2 = np.column_stack([(e[2:] - e[1:-1]) / dt2, (n[2:] - n[1:-1]) / dt2])
+        v1 = np.column_stack([de[:-1] / dt1, dn[:-1] / dt1])
+        v2 = np.column_stack([de[1:] / dt2, dn[1:] / dt2])
         c = 1 / dt2**2 + (1 / dt1 + 1 / dt2) ** 2 + 1 / dt1**2
     dv = (v2 - v1)[ok]
     speed = np.hypot(*v1[ok].T)

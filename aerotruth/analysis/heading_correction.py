@@ -225,6 +225,22 @@ def towards_from_report(speed_kt, dir_from_deg) -> tuple[np.ndarray, np.ndarray]
     return -s * np.sin(a), -s * np.cos(a)
 
 
+def wgs84_radii(lat_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Meridional (M) and prime-vertical (N) radii of curvature (m) at a latitude."""
+    sin2 = np.sin(lat_rad) ** 2
+    return _WGS84_A * (1 - _WGS84_E2) / (1 - _WGS84_E2 * sin2) ** 1.5, _WGS84_A / np.sqrt(1 - _WGS84_E2 * sin2)
+
+
+def segment_displacements(lat_rad: np.ndarray, lon_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(east, north) metres from each point to the next, on the tangent plane at the
+    segment's mid latitude with the WGS-84 radii of curvature M, N."""
+    phi = 0.5 * (lat_rad[1:] + lat_rad[:-1])
+    rm, rn = wgs84_radii(phi)
+    dn = np.diff(lat_rad) * rm
+    de = ((np.diff(lon_rad) + np.pi) % (2 * np.pi) - np.pi) * rn * np.cos(phi)
+    return de, dn
+
+
 def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str = "observation table") -> pd.DataFrame:
     """One row per (report, reference model): ground track (three adjacent reports, gated),
     V_A (eq. 3), V_A' (eq. 4), heading error d = psi - psi' (deg), measured heading (true and,
@@ -249,13 +265,7 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
         rfl = df["flight"].cat.codes.to_numpy()[first]
         new_fl[1:] |= rfl[1:] != rfl[:-1]
     flight = np.cumsum(new_fl) - 1
-    # segments p -> i (index k-1 -> k), on the tangent plane at their mid latitude
-    phi = 0.5 * (lat[1:] + lat[:-1])
-    sin2 = np.sin(phi) ** 2
-    rm = _WGS84_A * (1 - _WGS84_E2) / (1 - _WGS84_E2 * sin2) ** 1.5  # meridional radius M
-    rn = _WGS84_A / np.sqrt(1 - _WGS84_E2 * sin2)  # prime-vertical radius N
-    dn = np.diff(lat) * rm
-    de = ((np.diff(lon) + np.pi) % (2 * np.pi) - np.pi) * rn * np.cos(phi)
+    de, dn = segment_displacements(lat, lon)
     dts = np.diff(rt)
     same = flight[1:] == flight[:-1]
     # for report k: segment 1 = seg[k-1], segment 2 = seg[k]
