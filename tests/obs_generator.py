@@ -192,6 +192,11 @@ def _ou(times: np.ndarray, sigma: float, tau: float, rng: np.random.Generator) -
     return out
 
 
+def along_unit(wind: np.ndarray) -> np.ndarray:
+    """Unit vectors along (n, 2) wind vectors."""
+    return wind / np.maximum(np.hypot(wind[:, 0], wind[:, 1]), 1e-9)[:, None]
+
+
 def _from_dir(vec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Speed (kt) and meteorological direction ("from", deg) of towards-vectors (m/s)."""
     speed = np.hypot(vec[:, 0], vec[:, 1]) / KT_MS
@@ -203,7 +208,8 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
              quant_deg: float = 0.01, include_heading: bool = False, t_start: float = 1_249_084_800.0,
              spoke_km: tuple[float, float] = (250.0, 650.0), cruise_ft: tuple[float, float] = (12000.0, 22000.0),
              exact: bool = False, hub: tuple[float, float] = HUB, stale_declination_years: float = 0.0,
-             ref_bias_kt: dict[str, float] | None = None, alt_error_deg_per_kft: float = 0.0) -> pd.DataFrame:
+             ref_bias_kt: dict[str, float] | None = None, alt_error_deg_per_kft: float = 0.0,
+             shared_ref_sigma_kt: float = 0.0, shared_ref_tau_s: float = 3 * 3600.0) -> pd.DataFrame:
     """An observation table: one row per (report, reference model). Defaults: a SAAB-340-like
     turboprop network; regional jets: spoke_km (400, 1000), cruise_ft (25000, 35000) and
     fleet(tas_kt=(400, 450)). exact=True: no onboard heading/TAS/GPS noise and no rounding of
@@ -213,9 +219,16 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
     declination change over that many years (IGRF via ppigrf: D(t - years) - D(t)) to the
     measured true heading; `ref_bias_kt` {model: b} adds b kt along the true wind to that
     model's analysis; `alt_error_deg_per_kft` adds a heading error growing with pressure
-    altitude (an effect outside diagnose's library); AircraftTruth.tas_scale and a_step_deg."""
+    altitude (an effect outside diagnose's library); AircraftTruth.tas_scale and a_step_deg.
+
+    `shared_ref_sigma_kt`: each model's analysis also errs in wind speed by an amount common
+    to every aircraft at the same time (an OU process in time, e-folding `shared_ref_tau_s`,
+    along each report's true wind): the analysis is one field, so aircraft flying in the
+    same hours share its error; its mean over the data is zero (no bias)."""
     spokes = _spokes(rng, spoke_km, hub=hub)
     ref_bias_kt = ref_bias_kt or {}
+    grid = t_start + np.arange(0.0, 120 * 86400.0, 600.0)
+    shared = {m: _ou(grid, shared_ref_sigma_kt * KT_MS, shared_ref_tau_s, rng) if shared_ref_sigma_kt else None for m in models}
     rows = []
     for a in truths:
         t0 = t_start + rng.uniform(0, 3600)
@@ -259,9 +272,10 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
                 base["tas_kt"] = np.round(tas_m[k] / KT_MS, 1)
             for m in models:
                 err = _ou(fl["time"][k], ref_sigma_kt * KT_MS, ref_tau_s, rng)
+                if shared[m] is not None:
+                    err = err + np.interp(fl["time"][k], grid, shared[m][:, 0])[:, None] * along_unit(fl["wind"][k])
                 wk = fl["wind"][k]
-                along = wk / np.maximum(np.hypot(wk[:, 0], wk[:, 1]), 1e-9)[:, None]
-                rs, rd = _from_dir(wk + err + ref_bias_kt.get(m, 0.0) * KT_MS * along)
+                rs, rd = _from_dir(wk + err + ref_bias_kt.get(m, 0.0) * KT_MS * along_unit(wk))
                 rows.append(pd.DataFrame({**base, "ref_wind_speed_kt": np.round(rs, 2), "ref_wind_dir_deg": np.round(rd, 2),
                                           "ref_source": m}))
     return pd.concat(rows, ignore_index=True)

@@ -155,3 +155,56 @@ def test_row_order_does_not_matter_and_bad_tables_say_why():
         prepare(obs.assign(wind_dir_deg=np.radians(obs["wind_dir_deg"]), ref_wind_dir_deg=np.radians(obs["ref_wind_dir_deg"])))
     with pytest.raises(DataError, match="pass the ground-track gates"):
         prepare(obs.iloc[:10])
+
+
+def test_weather_blocks_keep_flights_whole_and_alternate_folds():
+    from aerotruth.analysis.diagnose_wind_data import WEATHER_BLOCK_S, weather_blocks
+
+    h = 3600.0
+    # flight 7: 05:00-07:30 (mid 06:15 -> block 1); flight 3: 00:10-01:00 (block 0);
+    # flight 9: 13:00-14:00 (block 2); flight 4: 05:40-06:10 (mid 05:55 -> block 0)
+    flight = np.array([7, 7, 7, 3, 3, 9, 9, 4, 4])
+    t = np.array([5.0, 6.0, 7.5, 0.1667, 1.0, 13.0, 14.0, 5 + 2 / 3, 6 + 1 / 6]) * h
+    assert WEATHER_BLOCK_S == 6 * h
+    cluster, fold = weather_blocks(flight, t)
+    assert cluster.tolist() == [1, 1, 1, 0, 0, 2, 2, 0, 0]
+    assert fold.tolist() == [1, 1, 1, 0, 0, 0, 0, 0, 0]
+
+
+@pytest.mark.parametrize("seed", [21, 22, 23])
+def test_an_analysis_error_shared_by_the_fleet_is_not_a_reference_bias(seed):
+    """The analysis is one field: every aircraft in the same hours sees the same wind-speed
+    error (3 kt, 3-h e-folding, zero mean). Tested on flights as independent clusters it
+    reads as a bias of a reference model; on weather blocks it does not."""
+    fleet, rng = _fleet(seed)
+    obs = gen.generate(fleet, rng, flights=40, ref_sigma_kt=2.0, shared_ref_sigma_kt=3.0)
+    findings, baseline, d = _diagnose(obs)
+    assert [f.effect for f in findings] == [], [(f.effect, f.parameters, f.evidence) for f in findings]
+    assert baseline["weather_blocks"] < baseline["flights"] / 4
+
+
+def test_the_model_of_a_campaigns_sensors_states_what_they_put_in_reports():
+    from pathlib import Path
+
+    from aerotruth.analysis.diagnose_wind_model import SENSOR_DYNAMICS, wind_model_from_campaign
+    from aerotruth.config import load_campaign
+
+    root = Path(__file__).resolve().parents[1] / "campaigns"
+    spec = wind_model_from_campaign(load_campaign(root / "mesaba_2009.yaml"))
+    # mesaba_2009.yaml: hard iron (1/H), soft_iron_sigma 0.005, tas_bias_sigma_kt 3.0
+    assert (spec.deviation_terms, spec.field_scaling, spec.tas_bias) == (5, 1.0, True)
+    assert [t["covariate"] for t in spec.free_terms] == list(SENSOR_DYNAMICS)
+    assert spec.lat_lon_step_deg == 0.01
+    # the same campaign without soft iron and without a TAS bias spread
+    c = load_campaign(root / "mesaba_2009.yaml")
+    study = c.studies["heading_correction"]
+    fs = study.sensors.fleets["mesaba"]
+    fs2 = fs.model_copy(update={"heading": fs.heading.model_copy(update={"soft_iron_sigma": 0.0}),
+                                "air_data": fs.air_data.model_copy(update={"tas_bias_sigma_kt": 0.0})})
+    c.studies["heading_correction"] = study.model_copy(update={"sensors": study.sensors.model_copy(
+        update={"fleets": {"mesaba": fs2}})})
+    spec2 = wind_model_from_campaign(c)
+    assert (spec2.deviation_terms, spec2.field_scaling, spec2.tas_bias) == (3, 1.0, False)
+    # a campaign's own diagnose section wins
+    c = c.model_copy(update={"diagnose": {"wind": {"deviation_terms": 3, "field_scaling": 0.0}}})
+    assert wind_model_from_campaign(c).field_scaling == 0.0

@@ -43,7 +43,8 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from aerotruth.analysis.modes_wind import EFFECT_COLUMNS, central_rate, fit, modes_track_to_wind_frame, predict_rms
+from aerotruth.analysis.modes_wind import (ALPHA_LAW_SAAB340, EFFECT_COLUMNS, central_rate, fit, modes_track_to_wind_frame,
+                                         predict_rms)
 from aerotruth.errors import DataError
 from aerotruth.files import atomic_write_text
 from aerotruth.measured import Measured
@@ -67,6 +68,11 @@ MIN_HELD_OUT_GAIN = 0.0  # any drop of the held-out RMS (the dBIC carries the ev
 # identifiability: a heading effect is told from the wind only across turns; a one-cycle
 # deviation needs headings spread round the compass (the wind-method issue's refusal)
 MIN_OCTANTS = {"heading_offset": 2, "heading_deviation_1psi": 6, "tas_scale": 2, "heading_time_offset": 1}
+# a time offset between heading and track shows only while the heading changes: samples
+# turning faster than TURN_RATE_DEG_S, at least MIN_TURN_SAMPLES of them (the CDG flight's
+# level samples fly one heading, p99 0.14 deg/s: a "1.8-s offset" with dBIC -154 was noise)
+TURN_RATE_DEG_S = 0.5
+MIN_TURN_SAMPLES = 30
 OCTANT_MIN_SHARE = 0.03
 PLAUSIBLE = {"A_deg": 20.0, "B_deg": 10.0, "C_deg": 10.0, "k": 0.1, "D_s": 10.0}  # beyond: a model failure, not an effect
 PARABOLA_FPM = 1500.0  # vertical rates of a zero-g parabola; level and normal climbs stay far below
@@ -127,7 +133,7 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
     near = np.zeros(len(d), bool)
     for ts in t[steep]:
         near |= np.abs(t - ts) <= PARABOLA_MARGIN_S
-    excluded[f"within {PARABOLA_MARGIN_S:.0f} s of |vertical rate| > {PARABOLA_FPM:.0f} ft/min (parabolas)"] = int(near.sum())
+    excluded[f"within {PARABOLA_MARGIN_S:.0f} s of |vertical rate| > {PARABOLA_FPM:.0f} ft/min (parabolas, steep climbs and descents)"] = int(near.sum())
     keep = ~near
     climbing = keep & (np.abs(vr) > LEVEL_FPM)
     excluded[f"climbing or descending faster than {LEVEL_FPM:.0f} ft/min (wind shear with height)"] = int(climbing.sum())
@@ -230,6 +236,9 @@ def _jackknife_p(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], e
 def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float = 900.0, k: int = 4) -> tuple[list[Finding], dict]:
     """Forward selection of effects on a wind frame (see the module docstring)."""
     t = track["time_s"].to_numpy(float)
+    span = float(t.max() - t.min()) if len(t) else 0.0
+    block_s = min(block_s, span / (2 * k)) if span > 0 else block_s  # >= 2 blocks per fold on short records
+    jk_block_s = min(block_s, span / JACKKNIFE_GROUPS) if span > 0 else block_s
     folds = _folds(t, block_s, k)
     current: tuple[str, ...] = ()
     base_fit = fit(track, knot_s, current)
@@ -240,25 +249,41 @@ def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float
     octant = (np.floor((np.degrees(track["heading_rad"].to_numpy()) % 360) / 45.0)).astype(int)
     occupied = int(np.sum(np.bincount(octant, minlength=8) >= OCTANT_MIN_SHARE * len(track)))
     baseline["heading_octants_occupied"] = occupied
+    turning = int(np.sum(np.abs(np.degrees(track["heading_rate_rad_s"].to_numpy(float))) > TURN_RATE_DEG_S))
+    baseline["turning_samples"] = turning
+    baseline["rounds"] = []
     while True:
         best = None
+        tried: dict[str, dict] = {}
         for eff in EFFECT_COLUMNS:
-            if eff in current or occupied < MIN_OCTANTS[eff]:
+            if eff in current:
+                continue
+            if occupied < MIN_OCTANTS[eff]:
+                tried[eff] = {"outcome": f"not identifiable: {occupied} heading octant(s) occupied, needs {MIN_OCTANTS[eff]}"}
+                continue
+            if eff == "heading_time_offset" and turning < MIN_TURN_SAMPLES:
+                tried[eff] = {"outcome": f"not identifiable: {turning} samples turning faster than {TURN_RATE_DEG_S} deg/s, "
+                              f"needs {MIN_TURN_SAMPLES}"}
                 continue
             trial = current + (eff,)
             f = fit(track, knot_s, trial)
-            vals = {n: f["coef"][f["names"].index(n)] for n in EFFECT_COLUMNS[eff]}
+            vals = {n: float(f["coef"][f["names"].index(n)]) for n in EFFECT_COLUMNS[eff]}
             if any(abs(v) > PLAUSIBLE[n] for n, v in vals.items()):
+                tried[eff] = {"outcome": "implausible size (the wind, not the sensor)", "values": vals}
                 continue
             if any(abs(v) < RESOLUTION.get(n, 0.0) for n, v in vals.items()):
+                tried[eff] = {"outcome": "below the model's resolution", "values": vals}
                 continue
             n = f["n"]
             dbic = n * math.log(f["rss"] / cur_fit["rss"]) + (f["p"] - cur_fit["p"]) * math.log(n)
             cv = _cv_rms(track, trial, knot_s, folds, k)
-            p = _jackknife_p(track, knot_s, trial, eff, f, t, block_s)
-            if (dbic < DBIC_THRESHOLD and p < ALPHA / len(EFFECT_COLUMNS) and cv < (1 - MIN_HELD_OUT_GAIN) * cur_cv
-                    and (best is None or dbic < best[1])):
+            p = _jackknife_p(track, knot_s, trial, eff, f, t, jk_block_s)
+            ok = dbic < DBIC_THRESHOLD and p < ALPHA / len(EFFECT_COLUMNS) and cv < (1 - MIN_HELD_OUT_GAIN) * cur_cv
+            tried[eff] = {"outcome": "passes" if ok else "not significant", "values": vals, "delta_bic": float(dbic),
+                          "p_value": p, "held_out_before_kt": cur_cv / KT, "held_out_after_kt": cv / KT}
+            if ok and (best is None or dbic < best[1]):
                 best = (eff, dbic, f, cv, p)
+        baseline["rounds"].append(tried)
         if best is None:
             break
         eff, dbic, f, cv, p = best
@@ -296,9 +321,17 @@ def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s:
     """DIR/diagnosis.json, DIR/report.md and DIR/figures/wind_along_flight.png."""
     out_dir.mkdir(parents=True, exist_ok=True)
     doc = asdict(diag)
+    a0, a1 = ALPHA_LAW_SAAB340
+    model = (f"Model: the simulation's Mode-S sensor on this flight's own trajectory, ideal heading and airspeed; the air "
+             f"track is heading - alpha sin(roll) with the simulation's aircraft's angle of attack, the SAAB 340B's "
+             f"alpha = {a0:.2f} deg + {a1:.0f} Pa deg / (q cos roll) (modes_wind.ALPHA_LAW_SAAB340), used for this aircraft "
+             "too: its own alpha law is not known here (a different alpha moves the air track by (delta alpha) sin(roll), "
+             "< 0.1 deg per deg of alpha at 5 deg of bank).")
+    doc["model"] = model
     atomic_write_text(out_dir / "diagnosis.json", json.dumps(doc, indent=2, sort_keys=False) + "\n")
     lines = [f"# Diagnosis of `{diag.measured}`", "", f"Kind: {diag.kind}; samples used: {diag.samples_used}.", "",
              "Excluded: " + "; ".join(f"{k}: {v}" for k, v in diag.samples_excluded.items()), "",
+             model, "",
              f"Baseline (ideal sensor, smooth wind): residual {diag.baseline['rms_kt']:.2f} kt per component, "
              f"held out {diag.baseline['held_out_rms_kt']:.2f} kt.", ""]
     if not diag.findings:
@@ -313,6 +346,16 @@ def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s:
         lines += [f"## {i}. {f.effect}", "", f.cause, "", f"* parameters: {ps}", f"* ΔBIC {f.evidence['delta_bic']:.1f}, jackknife p = {f.evidence['p_value']:.2g} (level {f.evidence['alpha']:.2g})",
                   f"* residual {f.gain['before']:.2f} → {f.gain['after']:.2f} kt; held out {f.gain['held_out_before']:.2f} → "
                   f"{f.gain['held_out_after']:.2f} kt", ""]
+    last = (diag.baseline.get("rounds") or [{}])[-1]
+    if last:
+        lines += ["Candidates after the last finding (what the data say of each):", "",
+                  "| effect | outcome | size | ΔBIC | jackknife p | held out (kt) |", "|---|---|---|---|---|---|"]
+        for eff, c in last.items():
+            size = ", ".join(f"{k} {v:.3g}" for k, v in c.get("values", {}).items())
+            ho = (f"{c['held_out_before_kt']:.3f} → {c['held_out_after_kt']:.3f}" if "held_out_after_kt" in c else "")
+            lines.append(f"| {eff} | {c['outcome']} | {size} | {c['delta_bic']:.1f} | {c['p_value']:.2g} | {ho} |"
+                         if "delta_bic" in c else f"| {eff} | {c['outcome']} | {size} | | | |")
+        lines.append("")
     _figure(diag, track, out_dir, knot_s)
     lines += ["![The derived wind along the flight, coloured by heading, before and after](figures/wind_along_flight.png)", ""]
     atomic_write_text(out_dir / "report.md", "\n".join(lines))

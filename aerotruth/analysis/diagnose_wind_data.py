@@ -46,7 +46,9 @@ class WindData:
     roll: np.ndarray | None
     phase: np.ndarray | None
     turn_deg_s: np.ndarray
-    fold: np.ndarray  # 0/1, alternating flights per aircraft
+    climb_fpm: np.ndarray  # pressure-altitude rate from the previous report of the flight (0 at the first)
+    cluster: np.ndarray  # weather block of the row's flight (the unit of every test)
+    fold: np.ndarray  # 0/1: alternating weather blocks
     report_lat: np.ndarray  # every report (not only gated), for the quantization
     report_lon: np.ndarray
     jitter: dict  # ground-track jitter of the reports (segment velocity differences)
@@ -54,6 +56,24 @@ class WindData:
     @property
     def n(self) -> int:
         return len(self.trans)
+
+
+WEATHER_BLOCK_S = 6 * 3600.0  # twice the weather models' error correlation time (3 h: RR, RTFDDA presets)
+
+
+def weather_blocks(flight: np.ndarray, time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(cluster, fold) per row. A reference model's analysis error is one field over the
+    region, correlated for hours and hundreds of km (aerotruth.sensors.weather_model), so
+    the flights of every aircraft in the same hours share it: flights are not independent,
+    blocks of WEATHER_BLOCK_S are (nearly). Each flight goes whole to the block of its
+    mid-time; the tests cluster on blocks and the held-out folds alternate them."""
+    fl = pd.Series(time_s).groupby(flight)
+    mid = (fl.min() + fl.max()) / 2.0
+    block_of_flight = np.floor(mid / WEATHER_BLOCK_S).astype(np.int64)
+    blocks = block_of_flight.reindex(flight).to_numpy()
+    order = np.unique(blocks)
+    cluster = np.searchsorted(order, blocks)
+    return cluster, (cluster % 2).astype(np.int8)
 
 
 def _field_covariates(lat, lon, alt_ft, when: dt.datetime) -> tuple[np.ndarray, np.ndarray]:
@@ -152,13 +172,7 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     ac = ac_cat.cat.codes.to_numpy()
     src_cat = r["ref_source"].astype("category")
     flight = r["flight"].to_numpy()
-    # folds: each aircraft's flights alternate in time order
-    fold = np.zeros(len(r), dtype=np.int8)
-    for i in range(len(names)):
-        sel = ac == i
-        fl = flight[sel]
-        uniq = np.unique(fl)
-        fold[sel] = (np.searchsorted(uniq, fl) % 2).astype(np.int8)
+    cluster, fold = weather_blocks(flight, t)
     # turn rate and flight phase: heading and altitude change between a flight's adjacent
     # (used) reports, per report, then back on its rows
     per = pd.DataFrame({"z": z, "t": t, "f": flight, "alt": alt}).groupby(rep).first()
@@ -171,13 +185,13 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         rate = np.where(same, da / dtr * 60.0, 0.0)
     ph_rep = np.where(rate > 300.0, "ascent", np.where(rate < -300.0, "descent", "level"))
     back = per.index.get_indexer(rep)
-    turn, phase = turn_rep[back], ph_rep[back]
+    turn, phase, climb = turn_rep[back], ph_rep[back], rate[back]
     roll = df["roll_deg"].to_numpy()[used] if "roll_deg" in df.columns else None
     first = _report_rows(df)
     return WindData(aircraft=ac, names=names, source=src_cat.cat.codes.to_numpy(), sources=[str(c) for c in src_cat.cat.categories],
                     flight=flight, time_s=t, z=z, tas=r["tas_ms"].to_numpy(), trans=trans, along=along, wref_e=ue, wref_n=un,
-                    lat=lat, lon=lon, alt_ft=alt, h_ratio=h_ratio, sv_deg_yr=sv, roll=roll, phase=phase, turn_deg_s=turn,
-                    fold=fold, report_lat=df["lat"].to_numpy()[first], report_lon=df["lon"].to_numpy()[first],
+                    lat=lat, lon=lon, alt_ft=alt, h_ratio=h_ratio, sv_deg_yr=sv, roll=roll, phase=phase, turn_deg_s=turn, climb_fpm=climb,
+                    cluster=cluster, fold=fold, report_lat=df["lat"].to_numpy()[first], report_lon=df["lon"].to_numpy()[first],
                     jitter=_jitter(df, first))
 
 

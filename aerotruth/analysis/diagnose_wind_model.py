@@ -11,7 +11,7 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-from pydantic import Field, ValidationError
+from pydantic import Field, ValidationError, field_validator
 from scipy import sparse, stats
 
 from aerotruth.analysis.diagnose_wind_data import WindData
@@ -23,6 +23,7 @@ from aerotruth.units import DEG, KT
 MIN_COVERAGE = 0.1  # smaller eigenvalue of the (sin, cos) covariance: the heading-correction criterion
 MIN_FLIGHTS = 4
 QUANT_STEPS = (1e-4, 2e-4, 2.5e-4, 5e-4, 1e-3, 2e-3, 2.5e-3, 5e-3, 0.01, 0.02, 0.025, 0.05, 0.1, 0.2, 0.25, 0.5, 1.0)
+SENSOR_DYNAMICS = ("roll_deg", "turn_deg_s", "phase_ascent", "phase_descent")  # model_of_sensors
 QUANT_SHARE = 0.99  # share of coordinates that must lie on a grid for the data to be quantized on it
 
 
@@ -32,7 +33,12 @@ class WindModelSpec(Section):
 
     deviation_terms: int = Field(default=3, description="3: A, B, C (wind paper eq. 2 as the method fits it); 5: + D, E (soft iron)")
     field_scaling: float = Field(default=0.0, ge=-3, le=3, description="gamma of B, C ~ (H0/H)^gamma (hard iron: 1)")
+    tas_bias: bool = Field(default=False, description="each aircraft has its own constant TAS bias, fitted (the "
+                           "campaign's air_data.tas_bias_sigma_kt > 0): a free along-channel offset per aircraft")
     tas_scale: dict[str, float] = Field(default_factory=dict, description="per aircraft TAS scale factor (0.01 = reads 1 % high)")
+    tas_along_path: bool = Field(default=False, description="the reported TAS is the airspeed along the air path (3-D), "
+                                 "which eq. 1 takes as horizontal: in climb and descent the along residual is "
+                                 "TAS (1 - cos gamma), gamma from the reports' altitude rate")
     declination_age_yr: float = Field(default=0.0, ge=-50, le=50, description="age of the receivers' declination model")
     reference_bias_kt: dict[str, float] = Field(default_factory=dict, description="per reference model, bias along its wind (kt)")
     recalibrations: dict[str, list[float]] = Field(default_factory=dict, description="per aircraft, UTC epoch seconds after "
@@ -40,11 +46,22 @@ class WindModelSpec(Section):
     lat_lon_step_deg: float = Field(default=0.01, gt=0, description="quantization of reported lat/lon")
     signatures: list[dict[str, Any]] = Field(default_factory=list, description="linear terms found by screening: "
                                              "{channel, covariate, slope} (an effect outside the library)")
+    free_terms: list[dict[str, str]] = Field(default_factory=list, description="fleet-wide linear terms the sensors are "
+                                             "known to have, size fitted: {channel, covariate} (e.g. a pendulous valve's "
+                                             "turning error: transverse, turn_deg_s)")
+
+    @field_validator("free_terms")
+    @classmethod
+    def _free_terms(cls, v: list[dict[str, str]]) -> list[dict[str, str]]:
+        for i, t in enumerate(v):
+            if set(t) != {"channel", "covariate"} or t["channel"] not in ("transverse", "along"):
+                raise ValueError(f"item {i}: expected {{channel: transverse|along, covariate: NAME}}, got {t}")
+        return v
 
 
 def wind_model_from_campaign(campaign) -> WindModelSpec:
-    """The campaign's `diagnose.wind` section, else the wind paper's model with the lat/lon
-    quantization of the campaign's wind-report sensors (0.01 deg by default)."""
+    """The campaign's `diagnose.wind` section, else what the campaign's wind-report sensors
+    put into reports (`model_of_sensors`), else the wind paper's model (A, B, C; 0.01 deg)."""
     raw = (getattr(campaign, "diagnose", None) or {}).get("wind") if campaign is not None else None
     if raw is not None:
         try:
@@ -53,14 +70,54 @@ def wind_model_from_campaign(campaign) -> WindModelSpec:
             err = e.errors()[0]
             where = ".".join(str(p) for p in err["loc"])
             raise ConfigError(f"diagnose.wind.{where}: {err['msg']}") from None
-    step = 0.01
     for name in ("wind_reports", "heading_correction"):
         if campaign is not None and name in campaign.studies:
             sensors = getattr(campaign.studies[name], "sensors", None)
             if sensors is not None and hasattr(sensors, "reports"):
-                step = float(sensors.reports.lat_lon_step_deg)
-                break
-    return WindModelSpec(lat_lon_step_deg=step)
+                fleets = getattr(campaign.studies[name], "fleets", None) or [f.name for f in campaign.fleets]
+                days = campaign.days([p.name for p in campaign.periods]) if campaign.periods else []
+                return model_of_sensors(sensors, fleets, days)
+    return WindModelSpec()
+
+
+def model_of_sensors(sensors, fleets: list[str], days: list | None = None) -> WindModelSpec:
+    """The diagnose model of a campaign's wind sensors (aerotruth.sim.wind_observations.
+    WindSensors; `fleets` the fleet names they serve, `days` the campaign's dates): what its
+    simulated reports carry, so that diagnosing them finds nothing.
+
+    * hard iron in a flux valve: B, C scale as H0/H (field_scaling 1; magnetics module);
+    * soft iron (soft_iron_sigma > 0): the 2z terms D, E of eq. 2 (deviation_terms 5);
+    * a TAS bias spread over airframes (tas_bias_sigma_kt > 0 or a mean bias): one fitted
+      along-channel offset per aircraft (tas_bias);
+    * the TAS is the truth's 3-D airspeed, the air vector of eq. 1 horizontal: in climbs
+      and descents the along residual is TAS (1 - cos gamma) (tas_along_path; truth
+      legs: TAS - horizontal airspeed 0.5-1.0 kt in climbs, 0.00 kt level);
+    * a declination table of a fixed epoch: its age at the middle of the campaign's dates;
+    * the reported lat/lon step;
+    * what the sensors do in manoeuvres, fleet-wide terms of free size (SENSOR_DYNAMICS):
+      a report is the mean over a trailing window (10 s) while the truth turns under it,
+      a pendulous valve tilts with the kinematic acceleration of turns and speed changes
+      and then reads part of the vertical field (turning and acceleration errors, ~Z/H),
+      and the slaved gyro carries that on; so the transverse residual has roll and
+      turn-rate terms and climb and descent offsets. Measured on simulated Mesaba days
+      against the truth heading at the report time (12 aircraft, 2 seeds): -0.55 deg per
+      deg of roll, -0.44 deg per deg/s of turn between reports, +0.24 deg climbing, +0.14
+      deg descending (with each other in one regression).
+    Per-airframe draws (hard iron, mounting, soft iron) are free parameters, not known
+    values: the model states which terms exist, the fit finds their size."""
+    specs = [sensors.of(f) for f in fleets] or [sensors.of("")]
+    hard = any(max(s.heading.poor_hard_iron_sigma_nT * (s.heading.poor_fraction > 0),
+                   s.heading.healthy_hard_iron_sigma_nT * (s.heading.poor_fraction < 1)) > 0 for s in specs)
+    soft = any(s.heading.soft_iron_sigma > 0 for s in specs)
+    tas_bias = any(s.air_data.tas_bias_sigma_kt > 0 or s.air_data.tas_bias_kt != 0 for s in specs)
+    epochs = {s.heading.declination_epoch for s in specs} - {"truth"}
+    age = 0.0
+    if epochs and days:
+        mid = days[len(days) // 2]
+        age = float(np.mean([(mid - e).days / 365.25 for e in epochs]))
+    return WindModelSpec(deviation_terms=5 if soft else 3, field_scaling=1.0 if hard else 0.0, tas_bias=tas_bias, tas_along_path=True,
+                         declination_age_yr=age, lat_lon_step_deg=float(sensors.reports.lat_lon_step_deg),
+                         free_terms=[{"channel": "transverse", "covariate": c} for c in SENSOR_DYNAMICS])
 
 
 # ----------------------------------------------------------------------------- model
@@ -101,6 +158,13 @@ def tas_column(d: WindData, i: int) -> np.ndarray:
     return _stack(None, (d.aircraft == i) * d.tas, d.n)
 
 
+def flight_path_column(d: WindData) -> np.ndarray:
+    """Along channel: TAS (1 - cos gamma), sin gamma = climb rate / TAS (the reports'
+    pressure-altitude rate; m/s): what a 3-D TAS adds to a horizontal air vector."""
+    sin_g = np.clip(d.climb_fpm * 0.3048 / 60.0 / np.maximum(d.tas, 1.0), -1.0, 1.0)
+    return _stack(None, d.tas * (1.0 - np.sqrt(1.0 - sin_g**2)), d.n)
+
+
 def declination_column(d: WindData) -> np.ndarray:
     """Transverse: TAS x (-dD/dt) (coefficient: the declination model's age in years)."""
     return _stack(d.tas * (-d.sv_deg_yr) * DEG, None, d.n)
@@ -127,6 +191,8 @@ def known_offsets(d: WindData, spec: WindModelSpec) -> np.ndarray:
     for i, name in enumerate(d.names):
         out += spec.tas_scale.get(name, 0.0) * tas_column(d, i)
     out += spec.declination_age_yr * declination_column(d)
+    if spec.tas_along_path:
+        out += flight_path_column(d)
     for m, src in enumerate(d.sources):
         out += spec.reference_bias_kt.get(src, 0.0) * reference_bias_column(d, m)
     for sig in spec.signatures:
@@ -149,6 +215,8 @@ def base_blocks(d: WindData, st: State) -> list[Block]:
         edges = [-np.inf, *times, np.inf]
         cols = [_stack(one * ((d.time_s >= lo) & (d.time_s < hi)), None, n) for lo, hi in zip(edges[:-1], edges[1:])]
         out.append(Block("base", "A", np.column_stack(cols), i))
+        if st.spec.tas_bias:
+            out.append(Block("base", "T", _stack(None, sel.astype(float), n)[:, None], i))
         zi = d.z[sel]
         if _coverage_ok(zi, 1):
             out.append(Block("base", "BC", np.column_stack([_stack(one * s * np.sin(d.z), None, n),
@@ -200,7 +268,14 @@ def fixed_effect_blocks(d: WindData, st: State, fit: Fit | None) -> list[Block]:
             continue
         out.extend(CANDIDATES[eff](d, st, fit))
     out.extend(signature_block(d, s) for s in st.signatures)
+    out.extend(free_term_block(d, t) for t in st.spec.free_terms)
     return out
+
+
+def free_term_block(d: WindData, term: dict) -> Block:
+    """A free fleet-wide term of the spec (centred: the per-aircraft offsets keep the mean)."""
+    sig = {**term, "center": float(np.mean(_covariate(d, term["covariate"])))}
+    return Block("base", f"free:{term['channel']}:{term['covariate']}", signature_column(d, sig)[:, None])
 
 
 # ----------------------------------------------------------------------------- least squares
@@ -222,7 +297,7 @@ class Fit:
 
 def solve(blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.ndarray | None = None,
           with_cov: bool = True) -> Fit:
-    """OLS on the stacked channels (rows: a mask of the 2n rows), CR1 covariance on flights."""
+    """OLS on the stacked channels (rows: a mask of the 2n rows), CR1 covariance on the clusters."""
     X = np.column_stack([b.cols for b in blocks])
     slices, k = [], 0
     for b in blocks:
@@ -243,7 +318,7 @@ def solve(blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.nda
         uniq, inv = np.unique(g, return_inverse=True)
         G = len(uniq)
         members = sparse.csr_matrix((np.ones(len(inv)), (inv, np.arange(len(inv)))), shape=(G, len(inv)))
-        scores = members @ (Xl * resid[r][:, None])  # per-flight score sums
+        scores = members @ (Xl * resid[r][:, None])  # per-cluster score sums
         meat = scores.T @ scores * (G / max(G - 1, 1))
         cl = bread @ meat @ bread
         idx = np.flatnonzero(live)
@@ -279,7 +354,7 @@ def block_p(fit: Fit, effect: str, d: WindData) -> float:
     if per:
         chi, dof = 0.0, 0
         for b, be, v in per:
-            g_i = len(np.unique(d.flight[d.aircraft == b.aircraft]))
+            g_i = len(np.unique(d.cluster[d.aircraft == b.aircraft]))
             p = _wald_p(be, v, g_i - 1)
             q = be.size
             chi += float(stats.chi2.isf(max(p, 1e-300), q))
@@ -379,6 +454,14 @@ def _kolmogorov_cusum(x: np.ndarray) -> tuple[float, int]:
 def _flight_means(d: WindData, resid_trans: np.ndarray, sel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Flight-mean transverse residual (as a heading angle, rad), start and end time of each flight in `sel`."""
     g = pd.DataFrame({"f": d.flight[sel], "r": resid_trans[sel] / d.tas[sel], "t": d.time_s[sel]}).groupby("f")
+    agg = g.agg(r=("r", "mean"), t0=("t", "min"), t1=("t", "max")).sort_values("t0")
+    return agg["r"].to_numpy(), agg["t0"].to_numpy(), agg["t1"].to_numpy()
+
+
+def block_means(d: WindData, resid_trans: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Weather-block mean transverse residual (heading angle, rad), first and last time of
+    each block, in time order: the fleet's nearly independent units (weather_blocks)."""
+    g = pd.DataFrame({"c": d.cluster, "r": resid_trans / d.tas, "t": d.time_s}).groupby("c")
     agg = g.agg(r=("r", "mean"), t0=("t", "min"), t1=("t", "max")).sort_values("t0")
     return agg["r"].to_numpy(), agg["t0"].to_numpy(), agg["t1"].to_numpy()
 

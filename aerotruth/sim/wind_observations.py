@@ -180,5 +180,26 @@ def day_observations(campaign_seed: int, fleet: str, day: AircraftDay, sensors: 
     return obs
 
 
-__all__ = ["FleetSensors", "WindSensors", "day_observations", "leg_reports", "with_references", "analysis_of_day",
+def simulated_observations(days: list, sensors: WindSensors, sensor_seed: int, *, fleet: str = "fleet",
+                           store=None) -> pd.DataFrame:
+    """The observation table aerotruth's sensors make of `days` (AircraftDay, truth from the
+    store, flown if missing) with every sensor draw from `sensor_seed`: airframe properties,
+    reference-model errors and per-sample noise; the same truth under another seed is another
+    fleet flying the same legs. Reports banked more than 10 deg stay in (diagnose gates them)."""
+    from aerotruth.sim.context import TaskContext
+    from aerotruth.sim.fleet_days import day_task
+    from aerotruth.truth.store import TruthStore
+
+    store = store or TruthStore()
+    frames = []
+    for day in days:
+        ctx = TaskContext(day_task("simulated_observations", fleet, day), campaign_seed=sensor_seed, _truth=store)
+        frames.append(day_observations(sensor_seed, fleet, day, sensors, ctx))
+    frames = [f for f in frames if len(f)]
+    if not frames:
+        raise ValueError("simulated_observations: no leg of the days was flown")
+    return pd.concat(frames, ignore_index=True)
+
+
+__all__ = ["FleetSensors", "WindSensors", "day_observations", "simulated_observations", "leg_reports", "with_references", "analysis_of_day",
            "aircraft_heading", "aircraft_air_data"]
