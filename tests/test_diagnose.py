@@ -26,6 +26,22 @@ def test_a_hidden_effect_is_ranked_first_sized_within_25_percent_with_a_held_out
     assert findings[0].gain["held_out_after"] < findings[0].gain["held_out_before"]
 
 
+@pytest.mark.parametrize("tau_s", [0.0, 30.0])
+def test_a_slaving_lag_of_the_compass_is_found_once_the_deviation_is_in_the_model(tau_s):
+    """A slaved compass: 3.6-deg one-cycle deviation reaching the heading through a 30-s
+    slaving lag (the generator integrates the gyro's loop itself). The model has the
+    deviation, free, and no lag."""
+    track = synthetic(A_deg=0.0, k=0.0, D_s=0.0, B_deg=3.0, C_deg=-2.0, slaving_tau_s=tau_s, seed=7, hours=3.0)
+    findings, baseline = diagnose_track(track, start=("heading_offset", "heading_deviation_1psi"))
+    assert baseline["model_effects"] == ["heading_offset", "heading_deviation_1psi"]
+    if tau_s == 0.0:
+        assert findings == [], [(f.effect, f.parameters) for f in findings]
+        return
+    assert findings and findings[0].effect == "heading_slaving_lag", [f.effect for f in findings]
+    assert findings[0].parameters["tau_s"]["value"] == pytest.approx(tau_s, rel=0.25)
+    assert findings[0].gain["held_out_after"] < findings[0].gain["held_out_before"]
+
+
 def test_nothing_hidden_gives_no_finding():
     found = [len(diagnose_track(synthetic(A_deg=0.0, k=0.0, D_s=0.0, seed=s))[0]) for s in range(6)]
     assert sum(found) == 0, found

@@ -208,3 +208,18 @@ def test_the_model_of_a_campaigns_sensors_states_what_they_put_in_reports():
     # a campaign's own diagnose section wins
     c = c.model_copy(update={"diagnose": {"wind": {"deviation_terms": 3, "field_scaling": 0.0}}})
     assert wind_model_from_campaign(c).field_scaling == 0.0
+
+
+def test_too_few_weather_blocks_are_not_tested_and_the_report_says_so(tmp_path):
+    """Twelve aircraft for about a day: a 1 % TAS scale is there, but 6-h blocks are too few
+    for cluster-robust tests; diagnose says so instead of testing."""
+    from aerotruth.analysis.diagnose_wind import MIN_BLOCKS, write_wind_diagnosis
+
+    fleet, rng = _fleet(41)
+    fleet = [replace(a, tas_scale=0.01) for a in fleet]
+    obs = gen.generate(fleet, rng, flights=6)
+    findings, baseline, d = _diagnose(obs)
+    assert baseline["weather_blocks"] < MIN_BLOCKS
+    assert findings == [] and "fewer than" in baseline["not_tested"]
+    write_wind_diagnosis(str(tmp_path / "obs.csv"), findings, baseline, WindModelSpec(), WindModelSpec(), {}, tmp_path)
+    assert "**Not tested**" in (tmp_path / "report.md").read_text()

@@ -8,7 +8,7 @@ import pytest
 from aerotruth.analysis.modes_wind import fit, predict_rms
 
 
-def synthetic(A_deg=1.5, k=0.01, D_s=2.0, B_deg=0.0, C_deg=0.0, noise_mps=0.5, seed=0, hours=2.0):
+def synthetic(A_deg=1.5, k=0.01, D_s=2.0, B_deg=0.0, C_deg=0.0, noise_mps=0.5, seed=0, hours=2.0, slaving_tau_s=0.0):
     rng = np.random.default_rng(seed)
     t = np.arange(0.0, hours * 3600, 1.0)
     # legs of 4-8 min between turns at 1.5 deg/s to random headings
@@ -27,6 +27,15 @@ def synthetic(A_deg=1.5, k=0.01, D_s=2.0, B_deg=0.0, C_deg=0.0, noise_mps=0.5, s
     # what the aircraft reports: heading late by D_s, off by -A (the correction is +A) and a one-cycle deviation
     psi_late = np.interp(t - D_s, t, np.unwrap(psi))
     dev = np.radians(A_deg + B_deg * np.sin(psi_late) + C_deg * np.cos(psi_late))
+    if slaving_tau_s:  # a slaved gyro: the error follows the valve's deviation, de/dt = (dev - e) / tau, 10 sub-steps a second
+        e = np.empty_like(dev)
+        e[0] = dev[0]
+        for i in range(1, len(dev)):
+            x = e[i - 1]
+            for _ in range(10):
+                x += 0.1 * (dev[i - 1] - x) / slaving_tau_s
+            e[i] = x
+        dev = e
     psi_rep = psi_late - dev
     tas_rep = tas / (1 + k)
     return pd.DataFrame({"time_s": t, "tas_mps": tas_rep, "heading_rad": psi_rep,

@@ -55,26 +55,29 @@ CAUSES = {
     "heading_deviation_1psi": "the heading error goes once round with the heading: a compass (flux-valve) deviation, as the wind paper's hard iron",
     "tas_scale": "the true airspeed is off by a constant factor: air-data calibration (static source, temperature)",
     "heading_time_offset": "heading and ground track are sampled at different instants: registers held for different times",
+    "heading_slaving_lag": "the compass deviation reaches the heading through a slow slaving loop: after each turn the error "
+                           "moves to the new heading's deviation with the time constant tau (a slaved directional gyro)",
 }
 DBIC_THRESHOLD = -10.0
 JACKKNIFE_GROUPS = 8
 # Smaller than this agrees with the model: Mode-S registers are held between replies (BDS 6,0
 # heading p50 0.69 s, ADS-B velocity 1.07 s: aerotruth.sensors.modes), so the heading and the
 # track of one sample differ in age by up to ~0.5 s; null simulated days gave 0.16-0.49 s.
-RESOLUTION = {"D_s": 0.5}
+RESOLUTION = {"D_s": 0.5, "tau_s": 2.0}  # tau: the lag grid's first value (modes_wind.SLAVING_TAU_GRID_S)
 ALPHA = 0.02  # family-wise over the candidates (Bonferroni): also a jackknife Wald test (_jackknife_p), since
 # BIC counts 1-s samples of held registers as independent (it found 78 effects in 100 null days)
 MIN_HELD_OUT_GAIN = 0.0  # any drop of the held-out RMS (the dBIC carries the evidence; 1 % refused a true 2-deg offset on a 4-leg day)
 # identifiability: a heading effect is told from the wind only across turns; a one-cycle
 # deviation needs headings spread round the compass (the wind-method issue's refusal)
-MIN_OCTANTS = {"heading_offset": 2, "heading_deviation_1psi": 6, "tas_scale": 2, "heading_time_offset": 1}
+MIN_OCTANTS = {"heading_offset": 2, "heading_deviation_1psi": 6, "tas_scale": 2, "heading_time_offset": 1,
+               "heading_slaving_lag": 6}
 # a time offset between heading and track shows only while the heading changes: samples
 # turning faster than TURN_RATE_DEG_S, at least MIN_TURN_SAMPLES of them (the CDG flight's
 # level samples fly one heading, p99 0.14 deg/s: a "1.8-s offset" with dBIC -154 was noise)
 TURN_RATE_DEG_S = 0.5
 MIN_TURN_SAMPLES = 30
 OCTANT_MIN_SHARE = 0.03
-PLAUSIBLE = {"A_deg": 20.0, "B_deg": 10.0, "C_deg": 10.0, "k": 0.1, "D_s": 10.0}  # beyond: a model failure, not an effect
+PLAUSIBLE = {"A_deg": 20.0, "B_deg": 10.0, "C_deg": 10.0, "k": 0.1, "D_s": 10.0, "tau_s": 299.0}  # beyond: a model failure, not an effect
 PARABOLA_FPM = 1500.0  # vertical rates of a zero-g parabola; level and normal climbs stay far below
 PARABOLA_MARGIN_S = 60.0
 LEVEL_FPM = 500.0
@@ -233,17 +236,21 @@ def _jackknife_p(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], e
     return float(stats.f.sf(w / q, q, J - 1))
 
 
-def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float = 900.0, k: int = 4) -> tuple[list[Finding], dict]:
-    """Forward selection of effects on a wind frame (see the module docstring)."""
+def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float = 900.0, k: int = 4,
+                   start: tuple[str, ...] = ()) -> tuple[list[Finding], dict]:
+    """Forward selection of effects on a wind frame (see the module docstring). `start`: the
+    effects the model already has, free (e.g. a compass deviation for a slaved compass);
+    the slaving lag is a candidate only once the deviation is in the model."""
     t = track["time_s"].to_numpy(float)
     span = float(t.max() - t.min()) if len(t) else 0.0
     block_s = min(block_s, span / (2 * k)) if span > 0 else block_s  # >= 2 blocks per fold on short records
     jk_block_s = min(block_s, span / JACKKNIFE_GROUPS) if span > 0 else block_s
     folds = _folds(t, block_s, k)
-    current: tuple[str, ...] = ()
+    current: tuple[str, ...] = tuple(start)
     base_fit = fit(track, knot_s, current)
     base_cv = _cv_rms(track, current, knot_s, folds, k)
-    baseline = {"rms_kt": base_fit["rms"] / KT, "held_out_rms_kt": base_cv / KT, "equations": base_fit["n"]}
+    baseline = {"rms_kt": base_fit["rms"] / KT, "held_out_rms_kt": base_cv / KT, "equations": base_fit["n"],
+                "model_effects": list(current)}
     findings: list[Finding] = []
     cur_fit, cur_cv = base_fit, base_cv
     octant = (np.floor((np.degrees(track["heading_rad"].to_numpy()) % 360) / 45.0)).astype(int)
@@ -256,7 +263,7 @@ def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float
         best = None
         tried: dict[str, dict] = {}
         for eff in EFFECT_COLUMNS:
-            if eff in current:
+            if eff in current or (eff == "heading_slaving_lag" and "heading_deviation_1psi" not in current):
                 continue
             if occupied < MIN_OCTANTS[eff]:
                 tried[eff] = {"outcome": f"not identifiable: {occupied} heading octant(s) occupied, needs {MIN_OCTANTS[eff]}"}

@@ -20,6 +20,14 @@ vector V_A (dV_A/dpsi = TAS (-sin psi, cos psi)):
     V_G - V_A = W(t) + k V_A + TAS (-sin psi, cos psi) (A + B sin psi + C cos psi + D r).
 
 All unknowns enter linearly: one least-squares solve.
+
+A slaved compass (flux valve + directional gyro) does not show its deviation at once:
+the gyro follows the valve through the slaving loop, de/dt = (d(psi) - e) / tau, so after
+a turn the error moves from the old heading's deviation to the new one's with the time
+constant tau (the gyro slaving lag). With `tau_s` the deviation's columns are the
+sinusoids passed through that first-order lag (restarted on each segment, the filter
+state starting at the segment's first value); tau is found by a profile search
+(SLAVING_TAU_GRID_S) around the linear solve.
 """
 
 from __future__ import annotations
@@ -37,6 +45,7 @@ EFFECT_COLUMNS = {
     "heading_deviation_1psi": ("B_deg", "C_deg"),
     "tas_scale": ("k",),
     "heading_time_offset": ("D_s",),
+    "heading_slaving_lag": ("tau_s",),  # nonlinear: profile search (needs heading_deviation_1psi)
 }
 
 
@@ -76,6 +85,7 @@ def alpha_deg(tas_mps: np.ndarray, pressure_altitude_m: np.ndarray, law: tuple[f
 
 
 SEGMENT_GAP_S = 30.0
+SLAVING_TAU_GRID_S = tuple(float(x) for x in np.geomspace(2.0, 300.0, 41))
 RATE_HALF_WINDOW_S = 3.0  # a longer gap (a climb, a descent, another leg) starts a new wind segment
 
 
@@ -106,8 +116,35 @@ def _spline_basis(t: np.ndarray, knot_s: float) -> np.ndarray:
     return basis
 
 
-def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...]) -> tuple[np.ndarray, np.ndarray, list[str]]:
-    """(X, y, names) of the stacked north/east equations for the chosen effects.
+def slaving_lag(t: np.ndarray, x: np.ndarray, tau_s: float) -> np.ndarray:
+    """x passed through de/dt = (x - e) / tau (exact for x held over each sample
+    interval), restarted after each gap longer than SEGMENT_GAP_S; t increasing."""
+    from scipy.signal import lfilter
+
+    out = np.empty_like(x, dtype=float)
+    cuts = np.flatnonzero(np.diff(t) > SEGMENT_GAP_S) + 1
+    for seg in np.split(np.arange(len(t)), cuts):
+        if len(seg) == 0:
+            continue
+        ts, xs = t[seg], x[seg]
+        a = np.exp(-np.diff(ts, prepend=ts[0]) / tau_s)  # per-sample decay (1 at the first)
+        if np.allclose(a[1:], a[1] if len(a) > 1 else 1.0):
+            aa = float(a[1]) if len(a) > 1 else 1.0
+            e, _ = lfilter([1 - aa], [1, -aa], np.r_[xs[0], xs[:-1]] if len(xs) > 1 else xs, zi=[aa * xs[0]])
+            out[seg] = e
+        else:
+            e = np.empty(len(xs))
+            e[0] = xs[0]
+            for k in range(1, len(xs)):
+                e[k] = a[k] * e[k - 1] + (1 - a[k]) * xs[k - 1]
+            out[seg] = e
+    return out
+
+
+def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...],
+           tau_s: float = 0.0) -> tuple[np.ndarray, np.ndarray, list[str]]:
+    """(X, y, names) of the stacked north/east equations for the chosen effects (with
+    `tau_s` > 0 the deviation reaches the heading through the gyro's slaving lag).
     track: time_s, tas_mps, heading_rad (true), vn_mps, ve_mps, heading_rate_rad_s."""
     t = track["time_s"].to_numpy(float)
     tas = track["tas_mps"].to_numpy(float)
@@ -126,7 +163,12 @@ def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...]) -> tupl
         if eff == "heading_offset":
             cols.append(np.r_[dn, de][:, None] * rad)
         elif eff == "heading_deviation_1psi":
-            cols.append(np.column_stack([np.r_[dn * np.sin(psi), de * np.sin(psi)], np.r_[dn * np.cos(psi), de * np.cos(psi)]]) * rad)
+            sp, cp = np.sin(psi), np.cos(psi)
+            if tau_s > 0:
+                sp, cp = slaving_lag(t, sp, tau_s), slaving_lag(t, cp, tau_s)
+            cols.append(np.column_stack([np.r_[dn * sp, de * sp], np.r_[dn * cp, de * cp]]) * rad)
+        elif eff == "heading_slaving_lag":
+            continue  # tau_s: the deviation's columns above
         elif eff == "tas_scale":
             cols.append(np.r_[van, vae][:, None])
         elif eff == "heading_time_offset":
@@ -135,17 +177,47 @@ def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...]) -> tupl
         else:
             raise ValueError(f"effects: unknown effect {eff!r}; expected one of {', '.join(EFFECT_COLUMNS)}")
         names += list(EFFECT_COLUMNS[eff])
+    names = [n for n in names if n != "tau_s"]
     return np.column_stack(cols), y, names
 
 
-def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (), rows: np.ndarray | None = None) -> dict:
+def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (), rows: np.ndarray | None = None,
+        tau_s: float | None = None) -> dict:
     """Least-squares fit of the smooth wind and the chosen effects (on `rows` if given):
     coefficients with standard errors, residual RMS (m/s, per component) and the number
     of equations. The standard errors are the least-squares ones scaled by the residual
     variance and inflated for serial correlation: successive samples of held, quantized
     registers are not independent; with the residuals' lag-1 autocorrelation rho the
-    variance of a mean grows by (1 + rho) / (1 - rho) (AR(1))."""
-    X, y, names = design(track, knot_s, effects)
+    variance of a mean grows by (1 + rho) / (1 - rho) (AR(1)). With the slaving lag among
+    the effects, tau_s is the grid value of least RSS (or the given one) and is appended
+    to names and coef (its se from the RSS profile: Delta RSS = s^2, AR(1)-inflated)."""
+    if "heading_slaving_lag" in effects:
+        grid = SLAVING_TAU_GRID_S if tau_s is None else (tau_s,)
+        fits = [_fit_linear(track, knot_s, effects, rows, tau) for tau in grid]
+        j = int(np.argmin([f["rss"] for f in fits]))
+        best, tau, se_tau = fits[j], grid[j], np.nan
+        if len(grid) > 2 and 0 < j < len(grid) - 1:
+            # the RSS profile's parabola in ln tau through the grid minimum and its neighbours:
+            # its vertex is the estimate (continuous, so jackknife replicates differ), its
+            # curvature the standard error (Delta RSS = s^2, AR(1)-inflated)
+            x, yv = np.log(np.array(grid[j - 1:j + 2])), np.array([f["rss"] for f in fits[j - 1:j + 2]])
+            c2, c1, _ = np.polyfit(x, yv, 2)
+            if c2 > 0:
+                tau = float(np.exp(np.clip(-c1 / (2 * c2), x[0], x[2])))
+                best = _fit_linear(track, knot_s, effects, rows, tau)
+                s2 = best["rss"] / max(best["n"] - best["p"], 1)
+                se_tau = tau * float(np.sqrt(s2 * best["inflate"] / c2))
+        best["names"] = best["names"] + ["tau_s"]
+        best["coef"] = np.r_[best["coef"], tau]
+        best["se"] = np.r_[best["se"], se_tau]
+        best["p"] += 1
+        best["tau_s"] = float(tau)
+        return best
+    return _fit_linear(track, knot_s, effects, rows, 0.0)
+
+
+def _fit_linear(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], rows: np.ndarray | None, tau_s: float) -> dict:
+    X, y, names = design(track, knot_s, effects, tau_s)
     if rows is not None:
         sel = np.r_[rows, rows]
         X, y = X[sel], y[sel]
@@ -158,19 +230,20 @@ def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (
     r_n, r_e = res[:half], res[half:]
     rho = float(np.mean([np.corrcoef(r[:-1], r[1:])[0, 1] for r in (r_n, r_e) if len(r) > 3 and np.std(r) > 0] or [0.0]))
     rho = min(max(rho, 0.0), 0.95)
-    se = np.sqrt(np.maximum(np.diag(cov), 0.0) * (1 + rho) / (1 - rho))
+    inflate = (1 + rho) / (1 - rho)
+    se = np.sqrt(np.maximum(np.diag(cov), 0.0) * inflate)
     return {"names": names, "coef": coef, "se": se, "rms": float(np.sqrt(np.mean(res**2))), "n": len(y), "p": X.shape[1],
-            "rss": float(res @ res)}
+            "rss": float(res @ res), "inflate": inflate, "tau_s": float(tau_s)}
 
 
 def predict_rms(track: pd.DataFrame, fitted: dict, knot_s: float, effects: tuple[str, ...], rows: np.ndarray) -> float:
     """Held-out check: the effect parameters learned elsewhere are applied to `rows`; the
     wind spline there is refitted (it is nuisance, local in time): RMS of the residual."""
-    X, y, names = design(track, knot_s, effects)
+    X, y, names = design(track, knot_s, effects, fitted.get("tau_s", 0.0))
     sel = np.r_[rows, rows]
     X, y = X[sel], y[sel]
     eff = [i for i, n in enumerate(names) if not n.startswith("wind_")]
-    y_adj = y - (X[:, eff] @ fitted["coef"][eff] if eff else 0.0)
+    y_adj = y - (X[:, eff] @ fitted["coef"][:X.shape[1]][eff] if eff else 0.0)
     wind = [i for i, n in enumerate(names) if n.startswith("wind_")]
     coef, *_ = np.linalg.lstsq(X[:, wind], y_adj, rcond=None)
     res = y_adj - X[:, wind] @ coef
