@@ -60,3 +60,20 @@ def test_cli_writes_the_diagnosis_of_an_approach_log(tmp_path, capsys):
     assert doc["kind"] == "approach_log" and doc["findings"][0]["effect"] == "ins_bias"
     assert (tmp_path / "d" / "figures" / "waas_periodogram.png").exists()
     assert "ins_bias" in capsys.readouterr().out
+
+
+def test_the_logs_lever_arms_are_used():
+    """The radar altimeter 2.4 m below the GNSS antenna, said per row in the log (as
+    aerotruth's own logs do), WAAS jumps every 2 min, all flagged: nothing to find.
+    Without the lever-arm column the same log reads as a 2.4-m DGPS offset (diagnose
+    ignored the column and found exactly that on aerotruth's own logs). The scan for
+    unflagged jumps skipping windows that hold a flagged one is checked by
+    benchmarks/diagnose_fits_sim_null.py (this generator puts the strongest step on the
+    flagged epoch, which was always skipped)."""
+    log, _ = gen.make_log(20, seed=33, jumps_per_s=1 / 120.0, jump_sigma=1.0, lever_arm_m=2.4)
+    log = log.assign(ra_lever_arm_m=2.4)
+    findings, _ = diagnose_log("log", log, FitsModel())
+    assert findings == [], [(f.effect, f.parameters) for f in findings]
+    no_arm, _ = diagnose_log("log", log.drop(columns=["ra_lever_arm_m"]), FitsModel())
+    assert no_arm and no_arm[0].effect == "dgps_offset"
+    assert no_arm[0].parameters["offset_z_m"]["value"] == pytest.approx(2.4, abs=0.1)

@@ -37,6 +37,7 @@ said in the output.
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 
 import json
@@ -202,8 +203,29 @@ def _check_approach(p: Path, a, g: pd.DataFrame) -> None:
         raise DataError(f"{where}: column 'event': no threshold mark ('thr')")
 
 
-def run_approach(g: pd.DataFrame, spec: FitsSpec) -> FitsResult:
-    """The FITS on one approach's rows (already checked; event rows of their own allowed)."""
+@dataclass
+class ApproachInputs:
+    """One approach's log as the FITS takes it: WAAS epochs and their flags, the INS at
+    those epochs and at every row, the radar altimeter and TVPS rows with their lever arms
+    (None: the log gives none), the pilot's threshold mark, and the rows' DGPS (NaN where
+    the log has none) at the WAAS epochs."""
+
+    t_w: np.ndarray
+    waas: np.ndarray
+    ins_w: np.ndarray
+    flags: np.ndarray
+    t_rows: np.ndarray
+    ins_rows: np.ndarray
+    ra: np.ndarray
+    tvps: np.ndarray
+    t_mark: float
+    ra_lever: np.ndarray | None
+    tvps_lever: np.ndarray | None
+    dgps_w: np.ndarray  # DGPS at the WAAS epochs
+
+
+def approach_inputs(g: pd.DataFrame) -> ApproachInputs:
+    """The FITS inputs of one approach's rows (already checked; event rows of their own allowed)."""
     ev = g["event"].to_numpy(dtype=object)
     col = {c: g[c].to_numpy(dtype=float) for c in ("time_s", "waas_x_m", "waas_y_m", "waas_z_m", "ins_x_m", "ins_y_m",
                                                     "ins_z_m", "ra_m", "tvps_y_m", "sv_change", "iono_update")}
@@ -224,8 +246,23 @@ def run_approach(g: pd.DataFrame, spec: FitsSpec) -> FitsResult:
     t_mark = float(col["time_s"][first]) - (0.5 * row_dt if ev[first] == "1" else 0.0)
     ra_lever = g["ra_lever_arm_m"].to_numpy(dtype=float)[keep] if "ra_lever_arm_m" in g.columns else None
     tvps_lever = g["tvps_lever_arm_m"].to_numpy(dtype=float)[keep] if "tvps_lever_arm_m" in g.columns else None
-    return fits_approach(tw, waas[is_w], ins[is_w], flags, t, ins, col["ra_m"][keep], col["tvps_y_m"][keep],
-                         t_mark, spec, ra_lever_m=ra_lever, tvps_lever_m=tvps_lever)
+    dgps = (g[list(DGPS)].to_numpy(dtype=float)[keep][is_w] if all(c in g.columns for c in DGPS)
+            else np.full((len(tw), 3), np.nan))
+    return ApproachInputs(tw, waas[is_w], ins[is_w], flags, t, ins, col["ra_m"][keep], col["tvps_y_m"][keep], t_mark,
+                          ra_lever, tvps_lever, dgps)
+
+
+def fits_of(a: ApproachInputs, spec: FitsSpec, extra_flags: np.ndarray | None = None) -> FitsResult:
+    """The FITS (analysis.fits.fits_approach) on an approach's inputs; `extra_flags` adds
+    flagged WAAS epochs (a jump diagnose found)."""
+    flags = a.flags if extra_flags is None else np.maximum(a.flags, extra_flags)
+    return fits_approach(a.t_w, a.waas, a.ins_w, flags, a.t_rows, a.ins_rows, a.ra, a.tvps, a.t_mark, spec,
+                         ra_lever_m=a.ra_lever, tvps_lever_m=a.tvps_lever)
+
+
+def run_approach(g: pd.DataFrame, spec: FitsSpec) -> FitsResult:
+    """The FITS on one approach's rows (already checked; event rows of their own allowed)."""
+    return fits_of(approach_inputs(g), spec)
 
 
 def _requirement_figure(errors: pd.DataFrame, path: Path) -> None:
