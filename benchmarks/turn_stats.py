@@ -1,7 +1,7 @@
 """Turns of the truth flights against the real A320 recorder extract
 (../shared/real-data/fuelflow_a320.json.gz; not the A310 file, a zero-g flight with
 interpolated samples): roll rate differenced at 1 Hz below and above 10,000 ft (p95 and
-max), the share of samples banked more than 10 deg, and the sideslip of the truth in
+max; the truth's roll rounded to the recorder's resolution first, as the A320's is), the share of samples banked more than 10 deg, and the sideslip of the truth in
 steady turns and at turn entry (no real data for it).
 
 The truth side: the legs of Mesaba aircraft-days (the campaign's daily schedules in the
@@ -44,6 +44,13 @@ def roll_stats(roll_deg: np.ndarray, alt_ft: np.ndarray) -> dict[str, float]:
     return out
 
 
+def recorder_step_deg(roll_deg: np.ndarray) -> float:
+    """The recorder's roll resolution: the smallest non-zero change between samples (the
+    A320 extract: 0.352 deg, an ARINC 429 word's least significant bit)."""
+    d = np.abs(np.diff(roll_deg[np.isfinite(roll_deg)]))
+    return float(d[d > 1e-9].min())
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--days", type=int, default=3, help="Mesaba aircraft-days (up to 6 legs each)")
@@ -52,6 +59,7 @@ def main() -> None:
     args.turbulence = not args.calm
     a = pd.DataFrame(json.load(gzip.open(REAL))).sort_values("timestamp")
     real = roll_stats(a["roll"].to_numpy(float), a["altitude"].to_numpy(float))
+    lsb = recorder_step_deg(a["roll"].to_numpy(float))
     rolls, alts, betas = [], [], []
     n_legs = n_div = 0
     for k in range(args.days):
@@ -68,7 +76,9 @@ def main() -> None:
             rolls += [one["roll_rad"].to_numpy() / DEG, [np.nan]]
             alts += [one["pressure_altitude_m"].to_numpy() / FT, [np.nan]]
             betas.append(df[["roll_rad", "beta_rad", "p_radps"]].to_numpy())
-    truth = roll_stats(np.concatenate(rolls), np.concatenate(alts))
+    roll_1hz = np.concatenate(rolls)
+    truth = roll_stats(np.round(roll_1hz / lsb) * lsb, np.concatenate(alts))  # recorded as the A320's recorder would
+    print(f"a320.roll_resolution_deg: {lsb:.4f}")
     print(f"legs: {n_legs}")
     print(f"legs_diverged: {n_div}")
     for k in real:

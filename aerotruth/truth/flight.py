@@ -24,6 +24,7 @@ from aerotruth.truth.airframes import Airframe, airframe, new_fdm, quiet_jsbsim
 from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, turn_anticipation_m
 from aerotruth.truth.track import PHASES, TruthTrack
 from aerotruth.truth.weather import ISA_LAPSE, Atmosphere, UniformAtmosphere
+from aerotruth.truth.turbulence import W20_HEIGHT_M, TurbulencePatches
 from aerotruth.units import DEG, FT, KT, NM
 
 DT = 0.01  # s: JSBSim step (100 Hz, a multiple of 50 Hz: IMU and 10 Hz samples fall on steps)
@@ -290,13 +291,10 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
     t0_s = (route.departure_utc - day0).total_seconds()
     fdm = new_fdm(af, DT)
     _initial_conditions(fdm, route, af, atmosphere, t0_s)
-    if turbulence:
-        # JSBSim Tustin-form MIL-F-8785C/MIL-HDBK-1797 turbulence; severity drawn per flight
-        fdm["atmosphere/turb-type"] = 3
-        fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = float(rng.uniform(5.0, 25.0)) / FPS * KT
-        fdm["atmosphere/turbulence/milspec/severity"] = int(rng.integers(1, 4))
-        # JSBSim's own generator drives the turbulence: seed it from the flight's stream
-        fdm["simulation/randomseed"] = int(rng.integers(0, 2**31 - 1))
+    # JSBSim's milspec turbulence in patches along the path with the MIL-F-8785C climatology
+    # (aerotruth.truth.turbulence); its generator is seeded from the flight's stream
+    patches = TurbulencePatches(fdm, rng) if turbulence else None
+    path_m = 0.0
     # guidance and targets before the initial condition is run: JSBSim evaluates the
     # autopilot (filters, rate limiters) during initialisation and trim, and stale targets
     # there (altitude 0, the default leg normal) started every leg with a -1,200 fpm dive
@@ -362,6 +360,12 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         ground = route.departure_elevation_msl_m if guide.phase < 2 else route.arrival_elevation_msl_m
         u, v, w = (float(np.asarray(c).ravel()[0]) for c in
                    atmosphere.wind(lat1, lon1, h1, t0_s + t + dt_g, ground_elevation_m=ground))
+        if patches is not None:
+            if path_m >= patches.next_m:
+                u20, v20, _ = (float(np.asarray(c).ravel()[0]) for c in
+                               atmosphere.wind(lat, lon, ground + W20_HEIGHT_M, t0_s + t, ground_elevation_m=ground))
+                patches.update(path_m, math.hypot(u20, v20))
+            path_m += gs * dt_g
         w_next = (v / FPS, u / FPS, -w / FPS)
         wind_nodes[0].set_double_value(t)
         for k in range(3):
@@ -395,6 +399,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         "arrival_runway": {"threshold_lat": thr[0], "threshold_lon": thr[1], "far_lat": far[0], "far_lon": far[1],
                            "course_deg": route.arrival_course_deg},
         "turbulence": bool(turbulence),
+        "turbulence_patches": [[round(a, 1), k] for a, k in patches.patches] if patches is not None else [],
         "rate_hz": 1.0 / (DT * RECORD_EVERY),
     })
     meta["config_hash"] = _digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})
