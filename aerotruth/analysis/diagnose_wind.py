@@ -69,7 +69,7 @@ import numpy as np
 from aerotruth.analysis.diagnose_wind_data import WindData, prepare  # noqa: F401  (re-exported)
 from aerotruth.analysis.diagnose_wind_model import (  # noqa: F401  (WindModelSpec, wind_model_from_campaign re-exported)
     CANDIDATES, CHANNEL, MIN_COVERAGE, Block, Fit, State, WindModelSpec, _build, _channel_rows, _covariate, _fit_with,
-    _flight_means, _kolmogorov_cusum, block_means, _rms_kt, _se, _stack, block_p, current_blocks, fold_fits, signature_column, declination_identifiable, held_out,
+    _kolmogorov_cusum, group_means, _rms_kt, _se, _stack, block_p, current_blocks, fold_fits, signature_column, declination_identifiable, held_out,
     known_offsets, quantization_candidate, solve, wind_model_from_campaign)
 from aerotruth.analysis.heading_correction import heading_spread
 from aerotruth.units import DEG, KT
@@ -182,7 +182,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     for _ in range(MAX_ROUNDS):
         fit0 = solve(current_blocks(d, st), y, clusters)
         fit_start = fit_start or fit0
-        base = fold_fits(d, st, y, clusters)
+        base = fold_fits(d, st, y, clusters) if testable else None  # for the candidates' held-out gains
         cands = []
         for eff in CANDIDATES:
             if eff in st.entered or not testable:
@@ -258,7 +258,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     if not testable:
         baseline["not_tested"] = (f"the data span {n_blocks} independent 6-h weather blocks, fewer than {MIN_BLOCKS}: "
                                   "cluster-robust tests on so few clusters reject too often (aerotruth's own null "
-                                  "reports on 15 blocks: 7 findings in 80 datasets), so no effect is tested; the "
+                                  "reports on 15 blocks: 10 false findings in 100 datasets), so no effect is tested; the "
                                   "quantization check (no test statistic on clusters) still runs. More days of data "
                                   "are needed.")
     return findings, baseline, st, plots
@@ -324,7 +324,7 @@ def _periodic(d: WindData, fit: Fit) -> tuple[float, int] | None:
     not the white-noise p = M exp(-z): flight means share the weather's errors for hours
     (a 4-h "period" came up in 1 of 8 null datasets of aerotruth's own reports), so the
     term is tested like the others, by a Wald test on weather blocks, times M."""
-    m, t0, t1 = _flight_means(d, fit.resid[: d.n], np.ones(d.n, dtype=bool))
+    m, t0, t1 = group_means(d, fit.resid[: d.n], d.flight)
     t = 0.5 * (t0 + t1)
     span = t.max() - t.min()
     if len(m) < 20 or span < 4 * 7200.0:
@@ -367,32 +367,30 @@ def screen(d: WindData, st: State, y, clusters, plots: dict) -> list:
     out = []
     done: set[str] = set()
     for _ in range(3):
-        fit0 = solve(current_blocks(d, st), y, clusters)
+        cur = current_blocks(d, st)
+        fit0 = solve(cur, y, clusters)
         base = fold_fits(d, st, y, clusters)
         tests = [(ch, covs) for ch, covs in _screen_tests(d, st.spec) if f"{ch}:{'+'.join(covs)}" not in done]
-        per = _periodic(d, fit0)
         m_tests = len(_screen_tests(d, st.spec)) + 2
         level = ALPHA_SCREEN / m_tests
-        cands = []
-        extra = []
+        # (channel, covariates, key, p of the fit with the term): the Wald test on weather
+        # blocks, for the periodogram's period times the M frequencies searched; the fleet
+        # step by the sup-CUSUM of the block means
+        tests = [(ch, covs, f"{ch}:{'+'.join(covs)}", lambda f1: block_p(f1, "screen", d)) for ch, covs in tests]
+        per = _periodic(d, fit0)
         if per is not None and "periodic" not in done:
-            # the period is the periodogram's; the evidence a block Wald x M (frequencies searched)
-            extra.append(("transverse", [f"period_{per[0]:.0f}_sin", f"period_{per[0]:.0f}_cos"], per[1], "periodic"))
-        bm, t0, t1 = block_means(d, fit0.resid[: d.n])
+            period, M = per
+            tests.append(("transverse", [f"period_{period:.0f}_sin", f"period_{period:.0f}_cos"], "periodic",
+                          lambda f1, M=M: min(1.0, M * block_p(f1, "screen", d))))
+        bm, t0, t1 = group_means(d, fit0.resid[: d.n], d.cluster)
         p_cp, k = _kolmogorov_cusum(bm)
         if p_cp < level and len(bm) > 1 and "fleet_step" not in done:
-            extra.append(("transverse", [f"fleet_step_{0.5 * (t1[k] + t0[k + 1]):.0f}"], p_cp, "fleet_step"))
-        for ch, covs in tests:
+            tests.append(("transverse", [f"fleet_step_{0.5 * (t1[k] + t0[k + 1]):.0f}"], "fleet_step", lambda f1, p=p_cp: p))
+        cands = []
+        for ch, covs, key, p_of in tests:
             blocks, sigs = _screen_blocks(d, ch, covs)
-            fit1 = solve(current_blocks(d, st) + blocks, y, clusters)
-            p = block_p(fit1, "screen", d)
-            cands.append((ch, covs, p, blocks, sigs, fit1, f"{ch}:{'+'.join(covs)}"))
-        for ch, covs, p, key in extra:
-            blocks, sigs = _screen_blocks(d, ch, covs)
-            fit1 = solve(current_blocks(d, st) + blocks, y, clusters)
-            if key == "periodic":
-                p = min(1.0, p * block_p(fit1, "screen", d))
-            cands.append((ch, covs, p, blocks, sigs, fit1, key))
+            fit1 = solve(cur + blocks, y, clusters)
+            cands.append((ch, covs, p_of(fit1), blocks, sigs, fit1, key))
         ok = []
         for c in cands:
             if c[2] < level:

@@ -451,17 +451,12 @@ def _kolmogorov_cusum(x: np.ndarray) -> tuple[float, int]:
     return float(stats.kstwobign.sf(stat)), k
 
 
-def _flight_means(d: WindData, resid_trans: np.ndarray, sel: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Flight-mean transverse residual (as a heading angle, rad), start and end time of each flight in `sel`."""
-    g = pd.DataFrame({"f": d.flight[sel], "r": resid_trans[sel] / d.tas[sel], "t": d.time_s[sel]}).groupby("f")
-    agg = g.agg(r=("r", "mean"), t0=("t", "min"), t1=("t", "max")).sort_values("t0")
-    return agg["r"].to_numpy(), agg["t0"].to_numpy(), agg["t1"].to_numpy()
-
-
-def block_means(d: WindData, resid_trans: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Weather-block mean transverse residual (heading angle, rad), first and last time of
-    each block, in time order: the fleet's nearly independent units (weather_blocks)."""
-    g = pd.DataFrame({"c": d.cluster, "r": resid_trans / d.tas, "t": d.time_s}).groupby("c")
+def group_means(d: WindData, resid_trans: np.ndarray, groups: np.ndarray,
+                sel: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mean transverse residual (as a heading angle, rad), first and last time of each group
+    (flights: d.flight; weather blocks: d.cluster) of the rows in `sel`, in time order."""
+    s = np.ones(d.n, dtype=bool) if sel is None else sel
+    g = pd.DataFrame({"f": groups[s], "r": resid_trans[s] / d.tas[s], "t": d.time_s[s]}).groupby("f")
     agg = g.agg(r=("r", "mean"), t0=("t", "min"), t1=("t", "max")).sort_values("t0")
     return agg["r"].to_numpy(), agg["t0"].to_numpy(), agg["t1"].to_numpy()
 
@@ -474,7 +469,7 @@ def recalibration_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) ->
         sel = (d.aircraft == i) & r
         if len(np.unique(d.flight[sel])) < 2 * MIN_FLIGHTS:
             continue
-        m, t0, t1 = _flight_means(d, fit.resid[: d.n], sel)
+        m, t0, t1 = group_means(d, fit.resid[: d.n], d.flight, sel)
         p, k = _kolmogorov_cusum(m)
         out[i] = (p, 0.5 * (t1[k] + t0[k + 1]))
     return out

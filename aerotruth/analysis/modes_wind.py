@@ -118,26 +118,23 @@ def _spline_basis(t: np.ndarray, knot_s: float) -> np.ndarray:
 
 def slaving_lag(t: np.ndarray, x: np.ndarray, tau_s: float) -> np.ndarray:
     """x passed through de/dt = (x - e) / tau (exact for x held over each sample
-    interval), restarted after each gap longer than SEGMENT_GAP_S; t increasing."""
+    interval): e_k = a_k e_(k-1) + (1 - a_k) x_(k-1), a_k = exp(-dt_k / tau), e_0 = x_0,
+    restarted after each gap longer than SEGMENT_GAP_S; t increasing."""
     from scipy.signal import lfilter
 
-    out = np.empty_like(x, dtype=float)
+    out = np.empty(len(x))
     cuts = np.flatnonzero(np.diff(t) > SEGMENT_GAP_S) + 1
     for seg in np.split(np.arange(len(t)), cuts):
-        if len(seg) == 0:
-            continue
-        ts, xs = t[seg], x[seg]
-        a = np.exp(-np.diff(ts, prepend=ts[0]) / tau_s)  # per-sample decay (1 at the first)
-        if np.allclose(a[1:], a[1] if len(a) > 1 else 1.0):
-            aa = float(a[1]) if len(a) > 1 else 1.0
-            e, _ = lfilter([1 - aa], [1, -aa], np.r_[xs[0], xs[:-1]] if len(xs) > 1 else xs, zi=[aa * xs[0]])
-            out[seg] = e
+        xs = x[seg]
+        a = np.exp(-np.diff(t[seg]) / tau_s)
+        e = np.empty(len(xs))
+        e[0] = xs[0]
+        if len(a) and np.allclose(a, a[0]):  # equal spacing: one linear filter
+            e[1:], _ = lfilter([1 - a[0]], [1, -a[0]], xs[:-1], zi=[a[0] * xs[0]])
         else:
-            e = np.empty(len(xs))
-            e[0] = xs[0]
             for k in range(1, len(xs)):
-                e[k] = a[k] * e[k - 1] + (1 - a[k]) * xs[k - 1]
-            out[seg] = e
+                e[k] = a[k - 1] * e[k - 1] + (1 - a[k - 1]) * xs[k - 1]
+        out[seg] = e
     return out
 
 
@@ -177,26 +174,24 @@ def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...],
         else:
             raise ValueError(f"effects: unknown effect {eff!r}; expected one of {', '.join(EFFECT_COLUMNS)}")
         names += list(EFFECT_COLUMNS[eff])
-    names = [n for n in names if n != "tau_s"]
     return np.column_stack(cols), y, names
 
 
-def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (), rows: np.ndarray | None = None,
-        tau_s: float | None = None) -> dict:
+def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (), rows: np.ndarray | None = None) -> dict:
     """Least-squares fit of the smooth wind and the chosen effects (on `rows` if given):
     coefficients with standard errors, residual RMS (m/s, per component) and the number
     of equations. The standard errors are the least-squares ones scaled by the residual
     variance and inflated for serial correlation: successive samples of held, quantized
     registers are not independent; with the residuals' lag-1 autocorrelation rho the
     variance of a mean grows by (1 + rho) / (1 - rho) (AR(1)). With the slaving lag among
-    the effects, tau_s is the grid value of least RSS (or the given one) and is appended
-    to names and coef (its se from the RSS profile: Delta RSS = s^2, AR(1)-inflated)."""
+    the effects, tau_s (from the RSS profile over SLAVING_TAU_GRID_S) is appended to names
+    and coef (its se from the profile's curvature: Delta RSS = s^2, AR(1)-inflated)."""
     if "heading_slaving_lag" in effects:
-        grid = SLAVING_TAU_GRID_S if tau_s is None else (tau_s,)
+        grid = SLAVING_TAU_GRID_S
         fits = [_fit_linear(track, knot_s, effects, rows, tau) for tau in grid]
         j = int(np.argmin([f["rss"] for f in fits]))
         best, tau, se_tau = fits[j], grid[j], np.nan
-        if len(grid) > 2 and 0 < j < len(grid) - 1:
+        if 0 < j < len(grid) - 1:
             # the RSS profile's parabola in ln tau through the grid minimum and its neighbours:
             # its vertex is the estimate (continuous, so jackknife replicates differ), its
             # curvature the standard error (Delta RSS = s^2, AR(1)-inflated)

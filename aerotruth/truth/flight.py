@@ -361,7 +361,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         u, v, w = (float(np.asarray(c).ravel()[0]) for c in
                    atmosphere.wind(lat1, lon1, h1, t0_s + t + dt_g, ground_elevation_m=ground))
         if patches is not None:
-            if path_m >= patches.next_m:
+            if patches.due(path_m):
                 u20, v20, _ = (float(np.asarray(c).ravel()[0]) for c in
                                atmosphere.wind(lat, lon, ground + W20_HEIGHT_M, t0_s + t, ground_elevation_m=ground))
                 patches.update(path_m, math.hypot(u20, v20))

@@ -49,11 +49,12 @@ class TurbulencePatches:
         fdm["atmosphere/turb-type"] = TURB_TYPE_MILSPEC
         fdm["simulation/randomseed"] = int(rng.integers(0, 2**31 - 1))
 
+    def due(self, path_m: float) -> bool:
+        """Whether the current patch has been flown at `path_m` (m along the path)."""
+        return path_m >= self.next_m
+
     def update(self, path_m: float, w20_mps: float) -> None:
-        """Called every guidance step with the distance flown so far and the truth wind at
-        20 ft (m/s): starts a new patch when the current one has been flown."""
-        if path_m < self.next_m:
-            return
+        """Starts the next patch at `path_m` (when `due`), with the truth wind at 20 ft (m/s)."""
         k = severity_of(float(self.rng.random()))
         self.fdm["atmosphere/turbulence/milspec/severity"] = k
         self.fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = w20_mps / FT  # ft/s
