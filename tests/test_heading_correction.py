@@ -183,6 +183,34 @@ def test_true_heading_aircraft_get_an_offset_only_table():
     assert np.allclose(fit.lut_, -fit.coef_["A"])
 
 
+def test_one_route_flown_both_ways_fixes_the_sinusoid_along_its_axis_only():
+    """Out and back on one spoke: the data hold d(z_a) and d(z_a + 180), so A and the
+    sinusoid's component along the axis, s = B sin z_a + C cos z_a, are identified, the
+    perpendicular component is not (the fit sets it to 0), and the table corrects the
+    headings flown."""
+    rng = np.random.default_rng(21)
+    a = gen.AircraftTruth("N490XJ", A=1.0, B=2.0, C=-1.5, cruise_tas_kt=280.0, spoke=2)
+    obs = gen.generate([a], rng, flights=30)
+    fit = HeadingDeviationFit(heading="magnetic").fit(obs)
+    assert fit.status_ == "fitted" and "one axis" in fit.reason_, fit.reason_
+    rows = heading_errors(obs)
+    z = rows.loc[rows["gate"] == "used", "heading_mag_deg"].to_numpy()
+    z2 = np.radians(2 * z)
+    za = 0.5 * np.arctan2(np.sin(z2).mean(), np.cos(z2).mean())  # the flown axis: mean doubled angle
+    along = np.array([np.sin(za), np.cos(za)])
+    s_true = along @ [a.B, a.C]
+    s_fit = along @ [fit.coef_["B"], fit.coef_["C"]]
+    se_s = np.hypot(fit.se_["B"], fit.se_["C"])  # the two are one parameter projected
+    assert abs(s_fit - s_true) < 3 * se_s + 0.05, (s_fit, s_true, se_s)
+    assert abs(fit.coef_["A"] - a.A) < 3 * fit.se_["A"] + 0.05
+    perp = np.array([np.cos(za), -np.sin(za)]) @ [fit.coef_["B"], fit.coef_["C"]]
+    assert abs(perp) < 0.15 * abs(s_fit)  # the fitted axis is the flown one (+- the spread of headings)
+    for h in (np.degrees(za), np.degrees(za) + 180):  # on the headings flown the table is right
+        assert abs(float(fit.correction(h)) + float(a.deviation(h))) < 0.3
+    offset = HeadingDeviationFit(heading="magnetic", terms="offset").fit(obs)
+    assert abs(float(offset.correction(np.degrees(za))) + float(a.deviation(np.degrees(za)))) > 0.7 * abs(s_true)  # what an offset misses
+
+
 def test_heading_error_equals_the_deviation_on_noise_free_reports():
     """Eqs. 3 and 4 with a perfect reference: psi - psi' is the deviation at the measured heading.
     Only the 0.01-deg position quantisation blurs the heading axis: <= ~1.1 km over a >= 10-km

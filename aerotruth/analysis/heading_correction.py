@@ -40,11 +40,16 @@ Bootstrap (`HeadingDeviationFit.bootstrap`): whole flights resampled with replac
 symmetric bootstrap-t intervals b -+ q se with q the quantile of |b* - b| / se* (CR3 se of
 each resample); percentile intervals on request (they undercover with ~40 flights).
 
-Identifiability (refusal of the sinusoid): the sinusoid B, C is fitted only when the
-smaller eigenvalue of the weighted covariance of (sin z', cos z') over the used reports
-is >= 0.1 (headings uniform round the compass give 0.5; one heading, or one route flown
-both ways, gives ~0); below it only the offset A is fitted (status `offset_only`, said in
-`reason`). D, E need the same of (sin 2z', cos 2z') and are kept only when the
+Identifiability of the sinusoid: the weighted covariance of (sin z', cos z') over the
+used reports has two eigenvalues (headings uniform round the compass give 0.5 and 0.5).
+Both >= 0.1: B, C are fitted. Only the larger one (one route flown both ways, e.g. a hub
+with its spokes on one side, as PenAir's Anchorage-south-west network; 1 and ~0): the
+data fix the deviation on the flown headings z_a and z_a + 180 and so the sinusoid's
+component along that axis, s cos(z' - z_a), but nothing of the perpendicular
+component; the fit is A + s cos(z' - z_a) (B = s sin z_a, C = s cos z_a, their standard
+errors the one of s projected, status `fitted`, the axis named in `reason`): the minimum-
+norm sinusoid, exact on the headings flown. Both < 0.1 (one heading): only the offset A
+(status `offset_only`, said in `reason`). D, E need the same of (sin 2z', cos 2z') and are kept only when the
 cluster-robust Wald test of D = E = 0 rejects at level 0.001 (F(2, G-1), G flights) —
 a Wald test on flight clusters, not dBIC: BIC counts correlated reports as independent.
 
@@ -387,15 +392,21 @@ def robust_fit(X: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray, 
     return _Fit(beta, cov, scale, infl, groups[starts])
 
 
-def heading_spread(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1) -> float:
-    """Smaller eigenvalue of the weighted covariance of (sin nz, cos nz): 0.5 for headings
-    uniform round the compass, 0 for one heading (or, n = 1, one route both ways)."""
+def heading_axes(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1) -> tuple[np.ndarray, np.ndarray]:
+    """Eigenvalues (ascending) and unit eigenvectors (columns, in (sin nz, cos nz)) of the
+    weighted covariance of (sin nz, cos nz) of the headings."""
     z = harmonic * np.asarray(heading_deg) * DEG
     V = np.column_stack([np.sin(z), np.cos(z)])
     ww = w / w.sum()
     mu = ww @ V
     cov = (V * ww[:, None]).T @ V - np.outer(mu, mu)
-    return float(np.linalg.eigvalsh(cov)[0])
+    return np.linalg.eigh(cov)
+
+
+def heading_spread(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1) -> float:
+    """Smaller eigenvalue of the weighted covariance of (sin nz, cos nz): 0.5 for headings
+    uniform round the compass, 0 for one heading (or, n = 1, one route both ways)."""
+    return float(heading_axes(heading_deg, w, harmonic)[0][0])
 
 
 def octants_occupied(heading_deg: np.ndarray, min_share: float = 0.03) -> int:
@@ -514,14 +525,26 @@ class HeadingDeviationFit:
                                 f"(need {self.min_reports} in {self.min_flights})")
         reason = []
         full = None
+        T = None  # fitted parameters -> A..E (None: the first k terms themselves)
         if self.offset_only or self.terms == "offset":
             k = 1
             reason.append("aircraft gives true heading: only an offset can be corrected" if self.offset_only
                           else "offset only, as asked")
         elif self.coverage_ < self.min_coverage:
             k = 1
-            reason.append(f"heading coverage cannot identify the sinusoid (spread {self.coverage_:.2f} < {self.min_coverage}, "
-                          f"{self.octants_} of 8 octants occupied): offset only fitted")
+            lam, vec = heading_axes(self._z, self._w)
+            if lam[1] >= self.min_coverage:  # one axis flown both ways: its component of the sinusoid
+                k = 3
+                u = vec[:, 1]
+                T = np.zeros((5, 2))
+                T[0, 0], T[1, 1], T[2, 1] = 1.0, u[0], u[1]
+                za = math.degrees(math.atan2(u[0], u[1])) % 180.0
+                reason.append(f"headings on one axis ({za:.0f}/{za + 180:.0f} deg; spread {self.coverage_:.2f} < "
+                              f"{self.min_coverage}): sinusoid fitted along that axis only, its perpendicular part "
+                              f"(not identifiable) set to 0")
+            else:
+                reason.append(f"heading coverage cannot identify the sinusoid (spread {self.coverage_:.2f} < "
+                              f"{self.min_coverage}, {self.octants_} of 8 octants occupied): offset only fitted")
         else:
             k = 5 if self.terms == "full" else 3
             if self.terms in ("auto", "full"):
@@ -539,14 +562,17 @@ class HeadingDeviationFit:
                         k = 5
                         reason.append(f"D, E kept (Wald p = {self.de_p_:.1e})")
         self._k = k
-        f = full if k == 5 and full is not None else robust_fit(self._X[:, :k], self._y, self._w, self._g,
+        self._T = np.eye(5)[:, :k] if T is None else T
+        f = full if k == 5 and full is not None else robust_fit(self._X @ self._T, self._y, self._w, self._g,
                                                                self.robust, self.huber_c)
         self._fit = f
         self.terms_ = TERM_NAMES[:k]
-        self.coef_ = {t: (float(f.beta[i]) if i < k else 0.0) for i, t in enumerate(TERM_NAMES)}
-        se = np.sqrt(np.diag(f.cov))
+        beta = self._T @ f.beta
+        cov = self._T @ f.cov @ self._T.T
+        self.coef_ = {t: (float(beta[i]) if i < k else 0.0) for i, t in enumerate(TERM_NAMES)}
+        se = np.sqrt(np.diag(cov))
         self.se_ = {t: (float(se[i]) if i < k else math.nan) for i, t in enumerate(TERM_NAMES)}
-        self.cov_ = f.cov
+        self.cov_ = cov[:k, :k]
         self.scale_deg_ = float(f.scale)
         self.status_ = "offset_only" if k == 1 else "fitted"
         self._consistency(k, reason)
@@ -574,14 +600,14 @@ class HeadingDeviationFit:
         fits = {}
         for s in srcs:
             m = self._src == self._src_names.index(s)
-            f = robust_fit(self._X[m, :k], self._y[m], self._w[m], self._g[m], self.robust, self.huber_c,
+            f = robust_fit(self._X[m] @ self._T, self._y[m], self._w[m], self._g[m], self.robust, self.huber_c,
                            beta0=self._fit.beta)
-            infl = np.zeros((len(flights), k))
+            infl = np.zeros((len(flights), self._T.shape[1]))
             infl[np.searchsorted(flights, f.groups)] = f.influence
             fits[s] = (f.beta, infl)
         G = len(flights)
         n_pairs = len(srcs) * (len(srcs) - 1) // 2
-        zz = design(np.arange(360.0), k)
+        zz = design(np.arange(360.0), 5) @ self._T
         worst = None
         for i, a in enumerate(srcs):
             for b in srcs[i + 1:]:
@@ -589,7 +615,8 @@ class HeadingDeviationFit:
                 dh = fits[a][1] - fits[b][1]
                 V = dh.T @ dh * G / max(G - 1, 1)
                 W = float(delta @ np.linalg.pinv(V) @ delta)
-                p = min(1.0, float(stats.f.sf(W / k, k, max(G - 1, 1))) * n_pairs)  # Bonferroni over pairs
+                q = len(delta)
+                p = min(1.0, float(stats.f.sf(W / q, q, max(G - 1, 1))) * n_pairs)  # Bonferroni over pairs
                 diff = float(np.max(np.abs(zz @ delta)))
                 self.consistency_[f"{a}-{b}"] = {"p": p, "max_diff_deg": diff}
                 if worst is None or p < worst[1]:
@@ -636,14 +663,16 @@ class HeadingDeviationFit:
             raise ValueError(f"method: expected 'studentized' or 'percentile', got {method!r}")
         rng = rng or np.random.default_rng()
         k = self._k
-        X = design(self._z, k)
+        T = self._T  # fitted parameters -> A..E (an axis fit has 2 parameters for A, B, C)
+        X = self._X @ T
         starts = _starts(self._g)
         ends = np.r_[starts[1:], len(self._g)]
         G = len(starts)
-        est = np.empty((n_boot, k))
-        tstat = np.empty((n_boot, k))
-        beta = np.array([self.coef_[t] for t in self.terms_])
-        se = np.array([self.se_[t] for t in self.terms_])
+        p = T.shape[1]
+        est = np.empty((n_boot, p))
+        tstat = np.empty((n_boot, p))
+        beta = self._fit.beta
+        se = np.sqrt(np.diag(self._fit.cov))
         for b in range(n_boot):
             pick = rng.integers(0, G, G)
             lens = ends[pick] - starts[pick]
@@ -657,12 +686,15 @@ class HeadingDeviationFit:
             tstat[b] = (f.beta - beta) / np.sqrt(np.diag(f.cov))
         a = (1 - level) / 2
         names = list(self.terms_)
+        Tk = T[:k]  # each term is one fitted parameter times a constant
+        full = est @ Tk.T
         if method == "percentile":
-            lo, hi = np.quantile(est, a, axis=0), np.quantile(est, 1 - a, axis=0)
+            lo, hi = np.quantile(full, a, axis=0), np.quantile(full, 1 - a, axis=0)
         else:
-            q = np.quantile(np.abs(tstat), level, axis=0)  # symmetric bootstrap-t
-            lo, hi = beta - q * se, beta + q * se
-        return pd.DataFrame({"estimate": beta, "lo": lo, "hi": hi, "boot_se": est.std(axis=0, ddof=1)}, index=names)
+            q = np.quantile(np.abs(tstat), level, axis=0)  # symmetric bootstrap-t, per fitted parameter
+            half = np.abs(Tk) @ (q * se)
+            lo, hi = Tk @ beta - half, Tk @ beta + half
+        return pd.DataFrame({"estimate": Tk @ beta, "lo": lo, "hi": hi, "boot_se": full.std(axis=0, ddof=1)}, index=names)
 
     # -- learned state
     def to_table(self) -> pd.DataFrame:
