@@ -14,3 +14,21 @@ def test_quick_campaign_matches_its_baseline(tmp_path, capsys):
     assert main(["run", str(ROOT / "campaigns" / "quick.yaml"), "--out", str(out), "--quiet", "--no-report"]) == 0
     code = main(["regress", str(out), str(ROOT / "campaigns" / "quick.baseline.json")])
     assert code == 0, capsys.readouterr().out
+
+
+def test_a_coarser_report_quantization_fails_the_regression(tmp_path, capsys):
+    """The baseline's tolerances catch a deliberate sensor change: TAMDAR lat/lon reported
+    on a 0.02-deg grid instead of 0.01 (the truth is reused from the store: nothing re-flies)."""
+    import yaml
+
+    spec = yaml.safe_load((ROOT / "campaigns" / "quick.yaml").read_text())
+    for study in ("wind_reports", "heading_correction"):
+        spec["studies"][study].setdefault("sensors", {})["reports"] = {"lat_lon_step_deg": 0.02}
+    path = tmp_path / "quick.yaml"
+    path.write_text(yaml.safe_dump(spec))
+    out = tmp_path / "quick"
+    assert main(["run", str(path), "--out", str(out), "--quiet", "--no-report"]) == 0
+    capsys.readouterr()
+    assert main(["regress", str(out), str(ROOT / "campaigns" / "quick.baseline.json")]) == 1
+    moved = capsys.readouterr().out
+    assert "wind_reports." in moved and "heading_correction." in moved, moved
