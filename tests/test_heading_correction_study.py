@@ -118,3 +118,49 @@ def test_published_cells_sit_beside_the_simulated_ones_with_their_role():
     assert t[["component", "paper_kt", "role"]].values.tolist() == [["total", 10.8, "calibrated"], ["longitudinal", 5.4, "calibrated"],
                                                                     ["total", 9.0, "predicted"]]
     assert t["difference_kt"].iloc[:2].tolist() == pytest.approx([0.2, -0.4]) and np.isnan(t["simulated_kt"].iloc[2])
+
+
+def test_rms_by_altitude_and_the_trustworthy_days_by_hand():
+    """The figure tables (wind paper Figs. 5/6, 10, 11-14): a band's RMS is the root mean
+    square of every (report, model) vector difference in it; the poor group's after rows are
+    adjusted by the control's change of the whole table; an aircraft is trustworthy on a day
+    when that day's RMS is under the threshold."""
+    from aerotruth.sim.studies.heading_correction import ALTITUDE_BANDS_FT, rms_by_altitude, trustworthy_by_day
+
+    rng = np.random.default_rng(8)
+    truths = [gen.AircraftTruth("N1", 0.0, 0.3, 0.0), gen.AircraftTruth("N2", 2.0, 4.0, -2.0)]
+    scored = {}
+    for stage, t0 in (("before", 1_250_294_400.0), ("after", 1_256_000_000.0)):
+        o = gen.generate(truths, rng, flights=12, t_start=t0)
+        o["date"] = pd.to_datetime(o["time"], unit="s").dt.date.astype(str)
+        o["group"] = np.where(o["aircraft"] == "N2", "poor", "control")
+        scored[stage] = o
+    table = pd.DataFrame([{"group": "control", "period": "change", "rms_kt": 0.5, "longitudinal_rms_kt": 0.2,
+                           "transverse_rms_kt": 0.4}])
+    alt = rms_by_altitude(scored, table)
+
+    def e(o):
+        u = lambda s, d: -s * np.sin(np.radians(d))  # noqa: E731
+        v = lambda s, d: -s * np.cos(np.radians(d))  # noqa: E731
+        return np.hypot(u(o.wind_speed_kt, o.wind_dir_deg) - u(o.ref_wind_speed_kt, o.ref_wind_dir_deg),
+                        v(o.wind_speed_kt, o.wind_dir_deg) - v(o.ref_wind_speed_kt, o.ref_wind_dir_deg))
+
+    b = scored["before"]
+    band = (b["group"] == "poor") & (b["pressure_altitude_ft"] >= 10000) & (b["pressure_altitude_ft"] < 15000)
+    row = alt[(alt.group == "poor") & (alt.period == "before") & (alt.phase == "all") & (alt.altitude_band == "10000-15000")]
+    assert row["n"].iloc[0] == band.sum()
+    assert row["rms_kt"].iloc[0] == pytest.approx(float(np.sqrt(np.mean(e(b[band]) ** 2))), rel=1e-9)
+    after = alt[(alt.group == "poor") & (alt.period == "after")].set_index(["phase", "altitude_band"])
+    adj = alt[(alt.group == "poor") & (alt.period == "after_adjusted")].set_index(["phase", "altitude_band"])
+    assert (adj["rms_kt"] - after.loc[adj.index, "rms_kt"]).to_numpy() == pytest.approx(-0.5)
+    assert (adj["transverse_rms_kt"] - after.loc[adj.index, "transverse_rms_kt"]).to_numpy() == pytest.approx(-0.4)
+    assert set(alt["phase"]) >= {"all", "level"} and (alt["n"] >= 20).all()
+    assert len(ALTITUDE_BANDS_FT) >= 2
+
+    daily = trustworthy_by_day(scored, _section(trustworthy_rms_kt=6.0))
+    for r in daily.itertuples():
+        o = scored[r.period]
+        day = o[o["date"] == r.date]
+        rms = np.sqrt((e(day) ** 2).groupby(day["aircraft"]).mean())
+        assert (r.trustworthy, r.untrustworthy) == (int((rms < 6.0).sum()), int((rms >= 6.0).sum()))
+    assert daily["trustworthy"].sum() > 0 and daily["untrustworthy"].sum() > 0

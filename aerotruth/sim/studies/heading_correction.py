@@ -198,17 +198,19 @@ class HeadingCorrection(Study):
         if corr is None or rows.empty:
             return Summary(m, {})
         group_of = corr.set_index("aircraft")["group"]
-        cells, per_ac = [], []
+        cells, per_ac, scored = [], [], {}
         for stage in ("before", "after"):
             obs = unbanked(observations_only(rows[rows["stage"] == stage]), section.max_roll_deg)
             if obs.empty:
                 continue
             obs = obs.assign(group=obs["aircraft"].astype(str).map(group_of).fillna("other"))
+            scored[stage] = obs
             for g in ("poor", "control"):
                 cells.append({"group": g, "period": stage, **group_rms(obs[obs["group"] == g])})
             per_ac.append(per_aircraft_rms(obs).assign(period=stage))
         table = pd.DataFrame(cells)
         table = adjusted_table(table)
+        by_altitude = rms_by_altitude(scored, table)
         for r in table.itertuples():
             for col, label in COMPONENTS:
                 m[f"{r.group}.{r.period}.{label}_rms_kt"] = None if pd.isna(getattr(r, col)) else float(getattr(r, col))
@@ -237,7 +239,8 @@ class HeadingCorrection(Study):
         tables = {"groups": table}
         if section.paper is not None:
             tables["versus_paper"] = versus_paper(table, section.paper)
-        tables.update({"per_aircraft": wide, "heading_error_vs_truth": residual, "fits": fits})
+        tables.update({"per_aircraft": wide, "heading_error_vs_truth": residual, "fits": fits,
+                       "rms_by_altitude": by_altitude, "trustworthy_by_day": trustworthy_by_day(scored, section)})
         return Summary(m, tables,
                        exports={"observations": observations_only(rows)})
 
@@ -263,6 +266,23 @@ class HeadingCorrection(Study):
             save(fig, out_dir, "heading_correction_per_aircraft")
             figs.append(Figure("heading_correction_per_aircraft", "RMS vector difference per aircraft before and after "
                                "(poor: table uploaded; control: unchanged)"))
+        alt = summary.tables.get("rms_by_altitude")
+        if alt is not None and len(alt):
+            figs += altitude_figures(alt, out_dir)
+        daily = summary.tables.get("trustworthy_by_day")
+        if daily is not None and len(daily):
+            fig, ax = plt.subplots(figsize=(max(6, 0.3 * len(daily)), 3.5))
+            x = np.arange(len(daily))
+            ax.bar(x, daily["untrustworthy"], color="tab:blue", label="untrustworthy")
+            ax.bar(x, daily["trustworthy"], bottom=daily["untrustworthy"], color="tab:green", label="trustworthy")
+            ax.set_xticks(x, [f"{d} ({p})" for d, p in zip(daily["date"], daily["period"])], rotation=90, fontsize=7)
+            ax.set_ylabel("aircraft reporting")
+            ax.legend(fontsize=8)
+            ax.set_title(f"Trustworthy: the day's RMS vector difference < {float(daily['threshold_kt'].iloc[0]):g} kt "
+                         "(wind paper Fig. 10)", fontsize=9)
+            save(fig, out_dir, "heading_correction_trustworthy")
+            figs.append(Figure("heading_correction_trustworthy", "Trustworthy and untrustworthy aircraft per day, "
+                               "before and after the tables (every aircraft of the fleet)"))
         corr = learned.get("corrections")
         fit_obs = observations_only(rows[rows["stage"] == "fit"]) if "stage" in rows else pd.DataFrame()
         if corr is not None and len(fit_obs):
@@ -293,6 +313,108 @@ class HeadingCorrection(Study):
                 figs.append(Figure("heading_correction_fits", "Fit-period heading errors of the poorest aircraft "
                                    "with the fitted eq. 2 curve"))
         return figs
+
+
+ALTITUDE_BANDS_FT = tuple(float(x) for x in range(0, 45001, 5000))
+MIN_BAND_REPORTS = 20  # an altitude band with fewer (report, model) rows is not shown
+
+
+def rms_by_altitude(scored: dict[str, pd.DataFrame], table: pd.DataFrame) -> pd.DataFrame:
+    """Total/longitudinal/transverse RMS by group, period, flight phase ("all" and each of
+    ascent/descent/level) and 5,000-ft pressure-altitude band (wind paper Figs. 5/6, 11/12,
+    13/14); the poor group's after rows also adjusted by the control group's change of the
+    whole table (period "after_adjusted", the paper's Fig. 14: "0.6 kn ... subtracted")."""
+    from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
+
+    parts = []
+    for stage, obs in scored.items():
+        sel = obs[obs["group"].isin(["poor", "control"])]
+        if sel.empty:
+            continue
+        for group, g in sel.groupby("group", sort=True, observed=True):
+            err = wind_errors(g)
+            for phase_by in ([], ["phase"]):
+                t = wind_error_summary(err, by=[*phase_by, "altitude_band"], altitude_bands_ft=ALTITUDE_BANDS_FT)
+                if not phase_by:
+                    t["phase"] = "all"
+                parts.append(t.assign(period=stage, group=group))
+    if not parts:
+        return pd.DataFrame()
+    out = pd.concat(parts, ignore_index=True)
+    out = out[out["n"] >= MIN_BAND_REPORTS].copy()
+    out["altitude_band"] = out["altitude_band"].astype(str)
+    change = table[(table["group"] == "control") & (table["period"] == "change")] if len(table) else table
+    if len(change):
+        adj = out[(out["group"] == "poor") & (out["period"] == "after")].copy()
+        for col, _ in COMPONENTS:
+            adj[col] = adj[col] - float(change[col].iloc[0])
+        out = pd.concat([out, adj.assign(period="after_adjusted")], ignore_index=True)
+    return out[["group", "period", "phase", "altitude_band", "n", *(c for c, _ in COMPONENTS)]]
+
+
+def trustworthy_by_day(scored: dict[str, pd.DataFrame], section: HeadingCorrectionConfig) -> pd.DataFrame:
+    """Per day of the before and after periods: how many aircraft reported and how many of
+    them had a day's RMS vector difference under `trustworthy_rms_kt` (wind paper Fig. 10;
+    AirDat's flag is set by its quality system, whose rule is not published)."""
+    from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
+
+    rows = []
+    for stage, obs in scored.items():
+        for date, day in obs.groupby(obs["date"].astype(str), sort=True):
+            per = wind_error_summary(wind_errors(day), by=["aircraft"])
+            ok = int((per["rms_kt"] < section.trustworthy_rms_kt).sum())
+            rows.append({"date": date, "period": stage, "trustworthy": ok, "untrustworthy": int(len(per)) - ok,
+                         "threshold_kt": section.trustworthy_rms_kt})
+    return pd.DataFrame(rows)
+
+
+def altitude_figures(alt: pd.DataFrame, out_dir: Path) -> list[Figure]:
+    """RMS and its components vs altitude: control vs poor before (Figs. 5/6), poor before
+    vs after (Figs. 11/12), and the poor group by flight phase before and after adjusted
+    (Figs. 13/14)."""
+    import matplotlib.pyplot as plt
+
+    from aerotruth.sim.figures import save
+
+    def mid(bands):
+        return [np.mean([float(x) for x in str(b).split("-")]) for b in bands]
+
+    panels = [("control", "before"), ("poor", "before"), ("poor", "after_adjusted")]
+    panels = [(g, p) for g, p in panels if ((alt["group"] == g) & (alt["period"] == p) & (alt["phase"] == "all")).any()]
+    figs = []
+    if panels:
+        fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 4), sharex=True, sharey=True, squeeze=False)
+        for ax, (g, p) in zip(axes[0], panels):
+            t = alt[(alt["group"] == g) & (alt["period"] == p) & (alt["phase"] == "all")]
+            for col, label, color in (("rms_kt", "total", "tab:blue"), ("longitudinal_rms_kt", "longitudinal", "tab:pink"),
+                                      ("transverse_rms_kt", "transverse", "tab:brown")):
+                ax.plot(t[col], mid(t["altitude_band"]), "o-", color=color, label=label)
+            ax.set_title(f"{g}, {p.replace('_', ' ')}", fontsize=9)
+            ax.set_xlabel("RMS (kt)")
+            ax.grid(alpha=0.3)
+        axes[0][0].set_ylabel("pressure altitude (ft)")
+        axes[0][0].legend(fontsize=7)
+        fig.suptitle("RMS wind difference vs altitude (wind paper Figs. 5/6 and 11/12)", fontsize=10)
+        save(fig, out_dir, "heading_correction_rms_altitude")
+        figs.append(Figure("heading_correction_rms_altitude", "Total, longitudinal and transverse RMS vs altitude: "
+                           "control and poor groups before, poor group after (adjusted by the control's change)"))
+    poor = alt[(alt["group"] == "poor") & (alt["phase"] != "all")]
+    periods = [p for p in ("before", "after_adjusted") if (poor["period"] == p).any()]
+    if periods:
+        fig, axes = plt.subplots(1, len(periods), figsize=(4 * len(periods), 4), sharex=True, sharey=True, squeeze=False)
+        for ax, p in zip(axes[0], periods):
+            for phase, t in poor[poor["period"] == p].groupby("phase", sort=True):
+                ax.plot(t["rms_kt"], mid(t["altitude_band"]), "o-", label=phase)
+            ax.set_title(f"poor group, {p.replace('_', ' ')}", fontsize=9)
+            ax.set_xlabel("RMS vector difference (kt)")
+            ax.grid(alpha=0.3)
+        axes[0][0].set_ylabel("pressure altitude (ft)")
+        axes[0][0].legend(fontsize=7)
+        fig.suptitle("By flight phase (wind paper Figs. 13/14)", fontsize=10)
+        save(fig, out_dir, "heading_correction_phase")
+        figs.append(Figure("heading_correction_phase", "Poor group's RMS vs altitude by flight phase, before and after "
+                           "(after adjusted by the control group's change)"))
+    return figs
 
 
 def uploaded_correction(corrections: pd.DataFrame, aircraft: str):
