@@ -1,0 +1,77 @@
+"""The wind paper's Tables I-IV as predictions over campaign seeds: reads the
+`heading_correction` side-by-side table (tables/heading_correction.versus_paper.parquet)
+of several run directories of one campaign (one per campaign seed, e.g. made with
+`aerotruth run campaigns/mesaba_2009.yaml --size reduced --out runs/m-<seed>` after setting
+`seed:`), and prints per cell the mean over the seeds, the seed-to-seed standard deviation
+(the reduced run's statistical precision), the standard error of the mean, the paper's
+value, the cell's role (calibrated or predicted) and, for the cells the method issue
+judges (the poor group's adjusted after cell and the improvement, total RMS), whether the
+mean lands within max(1.0 kn, 2 standard errors) of the paper.
+
+    python benchmarks/paper_tables.py RUN_DIR [RUN_DIR ...] [--markdown]
+
+Prints `label: value` lines (`cell.<group>.<period>.<component>: mean sd se paper role`)
+and `judged.<group>.<period>: pass|fail (|mean - paper| = x <= tol y)`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import pandas as pd
+
+JUDGED = (("poor", "after_adjusted"), ("poor", "improvement"))
+TOLERANCE_KT = 1.0
+
+
+def collect(run_dirs: list[str]) -> pd.DataFrame:
+    """The versus_paper rows of every run, with the run's directory."""
+    parts = []
+    for d in run_dirs:
+        path = Path(d) / "tables" / "heading_correction.versus_paper.parquet"
+        if not path.exists():
+            sys.exit(f"{d}: no {path.relative_to(d)} (was the run finished with a `paper:` section?)")
+        parts.append(pd.read_parquet(path).assign(run=str(d)))
+    return pd.concat(parts, ignore_index=True)
+
+
+def summarize(rows: pd.DataFrame) -> pd.DataFrame:
+    """Mean, seed-to-seed sd, se of the mean per (group, period, component), beside the paper."""
+    g = rows.groupby(["group", "period", "component"], sort=False)
+    out = g.agg(paper_kt=("paper_kt", "first"), role=("role", "first"), n_seeds=("simulated_kt", "count"),
+                mean_kt=("simulated_kt", "mean"), sd_kt=("simulated_kt", "std")).reset_index()
+    out["se_kt"] = out["sd_kt"] / out["n_seeds"].clip(lower=1) ** 0.5
+    out["difference_kt"] = out["mean_kt"] - out["paper_kt"]
+    out["tolerance_kt"] = [max(TOLERANCE_KT, 2 * se) if math.isfinite(se) else TOLERANCE_KT for se in out["se_kt"]]
+    judged = [(r.group, r.period) in JUDGED and r.component == "total" for r in out.itertuples()]
+    out["verdict"] = ["" if not j else ("pass" if abs(r.difference_kt) <= r.tolerance_kt else "fail")
+                      for j, r in zip(judged, out.itertuples())]
+    return out
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("runs", nargs="+", help="run directories of one campaign, one per seed")
+    ap.add_argument("--markdown", action="store_true", help="also print the table as Markdown")
+    a = ap.parse_args()
+    rows = collect(a.runs)
+    t = summarize(rows)
+    print(f"seeds: {len(a.runs)}")
+    for r in t.itertuples():
+        print(f"cell.{r.group}.{r.period}.{r.component}: mean {r.mean_kt:.2f} sd {r.sd_kt:.2f} se {r.se_kt:.2f} "
+              f"paper {r.paper_kt:.1f} {r.role}")
+    for r in t[t["verdict"] != ""].itertuples():
+        print(f"judged.{r.group}.{r.period}: {r.verdict} (|mean - paper| = {abs(r.difference_kt):.2f}, tolerance "
+              f"{r.tolerance_kt:.2f})")
+    if a.markdown:
+        cols = ["group", "period", "component", "role", "paper_kt", "mean_kt", "sd_kt", "se_kt", "difference_kt", "verdict"]
+        from aerotruth.sim.markdown import to_markdown
+
+        print(to_markdown(t[cols].round(2)))
+
+
+if __name__ == "__main__":
+    main()
