@@ -27,6 +27,12 @@ def test_control_adjustment_reproduces_the_papers_table_ii_rows():
     assert t.loc[("poor", "after_adjusted"), cols].tolist() == pytest.approx([8.4, 5.1, 6.3])
     assert t.loc[("poor", "improvement"), cols].tolist() == pytest.approx([2.4, 0.3, 3.5])
     assert t.loc[("control", "change"), cols].tolist() == pytest.approx([0.6, 0.4, 0.5])
+    # with the paired twin (the poor group's after reports without tables) the table's own effect
+    twin = {"group": "poor", "period": "after_untreated", "n": 142971, "rms_kt": 11.0, "longitudinal_rms_kt": 5.6,
+            "transverse_rms_kt": 9.9}
+    t = adjusted_table(pd.concat([cells, pd.DataFrame([twin])], ignore_index=True)).set_index(["group", "period"])
+    assert t.loc[("poor", "table_effect"), cols].tolist() == pytest.approx([2.0, 0.1, 3.1])
+    assert t.loc[("poor", "improvement"), cols].tolist() == pytest.approx([2.4, 0.3, 3.5])
 
 
 def _section(poor=2, control=1, **kw):

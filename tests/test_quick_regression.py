@@ -14,6 +14,14 @@ def test_quick_campaign_matches_its_baseline(tmp_path, capsys):
     assert main(["run", str(ROOT / "campaigns" / "quick.yaml"), "--out", str(out), "--quiet", "--no-report"]) == 0
     code = main(["regress", str(out), str(ROOT / "campaigns" / "quick.baseline.json")])
     assert code == 0, capsys.readouterr().out
+    # the poor aircraft's after period is also reported without its table (paired twin):
+    # the same reports, and the table's own effect is the difference
+    import pandas as pd
+
+    g = pd.read_parquet(out / "tables" / "heading_correction.groups.parquet").set_index(["group", "period"])
+    assert g.loc[("poor", "after_untreated"), "n"] == g.loc[("poor", "after"), "n"] > 0
+    effect = g.loc[("poor", "after_untreated"), "rms_kt"] - g.loc[("poor", "after"), "rms_kt"]
+    assert g.loc[("poor", "table_effect"), "rms_kt"] == effect
 
 
 def test_a_coarser_report_quantization_fails_the_regression(tmp_path, capsys):

@@ -24,6 +24,13 @@ Control-group adjustment (wind paper Table II: after 9.0 kn - control change 0.6
 cell (total, longitudinal, transverse, each by subtraction). Table IV subtracts 1.2 kn
 where its control moved 1.3; here always the control's own change.
 
+Paired twin (simulation only): each after-period day of a table-carrying aircraft is also
+reported without its table — the same flights and sensor noise, since every stream is
+named — so `poor.after_untreated` is what the poor group would have reported, and
+`poor.table_effect` = after_untreated - after is the table's own effect, free of the
+regression to the mean and model changes that the paper's control subtraction has to
+estimate (the `improvement` row is that estimate, as the paper computes it).
+
 Metrics: per group and period the total, longitudinal and transverse RMS (combined
 references, reports banked over `max_roll_deg` left out), the poor group's adjusted after
 cells and improvement (kn and %), the trustworthy share of aircraft (before-period RMS
@@ -43,8 +50,8 @@ from pydantic import Field, StrictInt, model_validator
 from aerotruth.config import Campaign, References, Section
 from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_networks, day_cost, day_task
 from aerotruth.sim.studies import Figure, Study, Summary
-from aerotruth.sim.studies.wind_reports import (check_sensors, day_rows, observations_only, steady_heading_error,
-                                                 unbanked)
+from aerotruth.sim.studies.wind_reports import (DIVERGED, check_sensors, day_rows, observations_only,
+                                                 steady_heading_error, unbanked)
 from aerotruth.sim.tasks import Task
 from aerotruth.sim.wind_observations import WindSensors
 
@@ -169,13 +176,18 @@ class HeadingCorrection(Study):
         correction = None
         if task.stage == "after":
             correction = uploaded_correction(ctx.learned["corrections"], task.params["day"].aircraft)
-        return day_rows(task, ctx, correction, mark_corrected=True)
+        rows = day_rows(task, ctx, correction, mark_corrected=True).assign(untreated=False)
+        if correction is None:
+            return rows
+        # the same reports without the table: same flights, same sensor noise (named streams)
+        twin = day_rows(task, ctx, None, mark_corrected=True)
+        return pd.concat([rows, twin[twin["trigger"] != DIVERGED].assign(untreated=True)], ignore_index=True)
 
     def fit(self, name: str, rows: pd.DataFrame, section: HeadingCorrectionConfig, rng) -> pd.DataFrame:
         from aerotruth.analysis.heading_correction import FleetHeadingFit, GateSpec
 
-        fit_obs = observations_only(rows[rows["stage"] == "fit"])
-        before = unbanked(observations_only(rows[rows["stage"] == "before"]), section.max_roll_deg)
+        fit_obs = reported(rows[rows["stage"] == "fit"])
+        before = unbanked(reported(rows[rows["stage"] == "before"]), section.max_roll_deg)
         table = FleetHeadingFit(heading=section.fit_heading, gates=GateSpec(max_roll_deg=section.max_roll_deg)).fit(
             fit_obs, source="fit-period reports").to_table()
         rms = per_aircraft_rms(before).rename(columns={"n": "before_n", "rms_kt": "before_rms_kt"})
@@ -200,7 +212,7 @@ class HeadingCorrection(Study):
         group_of = corr.set_index("aircraft")["group"]
         cells, per_ac, scored = [], [], {}
         for stage in ("before", "after"):
-            obs = unbanked(observations_only(rows[rows["stage"] == stage]), section.max_roll_deg)
+            obs = unbanked(reported(rows[rows["stage"] == stage]), section.max_roll_deg)
             if obs.empty:
                 continue
             obs = obs.assign(group=obs["aircraft"].astype(str).map(group_of).fillna("other"))
@@ -208,6 +220,10 @@ class HeadingCorrection(Study):
             for g in ("poor", "control"):
                 cells.append({"group": g, "period": stage, **group_rms(obs[obs["group"] == g])})
             per_ac.append(per_aircraft_rms(obs).assign(period=stage))
+        twin = unbanked(untreated(rows[rows["stage"] == "after"]), section.max_roll_deg) if "stage" in rows else None
+        if twin is not None and len(twin):
+            cells.append({"group": "poor", "period": "after_untreated",
+                          **group_rms(twin[twin["aircraft"].astype(str).map(group_of) == "poor"])})
         table = pd.DataFrame(cells)
         table = adjusted_table(table)
         by_altitude = rms_by_altitude(scored, table)
@@ -242,7 +258,7 @@ class HeadingCorrection(Study):
         tables.update({"per_aircraft": wide, "heading_error_vs_truth": residual, "fits": fits,
                        "rms_by_altitude": by_altitude, "trustworthy_by_day": trustworthy_by_day(scored, section)})
         return Summary(m, tables,
-                       exports={"observations": observations_only(rows)})
+                       exports={"observations": reported(rows)})
 
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
@@ -284,7 +300,7 @@ class HeadingCorrection(Study):
             figs.append(Figure("heading_correction_trustworthy", "Trustworthy and untrustworthy aircraft per day, "
                                "before and after the tables (every aircraft of the fleet)"))
         corr = learned.get("corrections")
-        fit_obs = observations_only(rows[rows["stage"] == "fit"]) if "stage" in rows else pd.DataFrame()
+        fit_obs = reported(rows[rows["stage"] == "fit"]) if "stage" in rows else pd.DataFrame()
         if corr is not None and len(fit_obs):
             from aerotruth.analysis.heading_correction import GateSpec, heading_errors
 
@@ -417,6 +433,23 @@ def altitude_figures(alt: pd.DataFrame, out_dir: Path) -> list[Figure]:
     return figs
 
 
+def reported(rows: pd.DataFrame) -> pd.DataFrame:
+    """The observation rows the fleet reported (the untreated twins of corrected reports off)."""
+    obs = observations_only(rows)
+    if "untreated" not in obs.columns:
+        return obs
+    return obs[~obs["untreated"].fillna(False).astype(bool)].drop(columns="untreated").reset_index(drop=True)
+
+
+def untreated(rows: pd.DataFrame) -> pd.DataFrame:
+    """The after-period reports of table-carrying aircraft as they would have been without
+    the table (simulation only: same flights and sensor noise)."""
+    obs = observations_only(rows)
+    if "untreated" not in obs.columns:
+        return obs.iloc[0:0]
+    return obs[obs["untreated"].fillna(False).astype(bool)].drop(columns="untreated").reset_index(drop=True)
+
+
 def uploaded_correction(corrections: pd.DataFrame, aircraft: str):
     """The correction uploaded to `aircraft`: its 8-point table (magnetic-heading systems)
     or its offset (true-heading avionics) when it is in the poor group and was fitted;
@@ -450,6 +483,9 @@ def adjusted_table(cells: pd.DataFrame) -> pd.DataFrame:
             adj = idx.loc[("poor", "after"), cols] - change
             extra.append({"group": "poor", "period": "after_adjusted", **adj.to_dict()})
             extra.append({"group": "poor", "period": "improvement", **(idx.loc[("poor", "before"), cols] - adj).to_dict()})
+    if ("poor", "after_untreated") in idx.index and ("poor", "after") in idx.index:
+        effect = idx.loc[("poor", "after_untreated"), cols] - idx.loc[("poor", "after"), cols]
+        extra.append({"group": "poor", "period": "table_effect", **effect.to_dict()})
     return pd.concat([cells, pd.DataFrame(extra)], ignore_index=True)
 
 
@@ -473,7 +509,7 @@ def residual_heading_error(rows: pd.DataFrame, group_of: pd.Series) -> pd.DataFr
     (simulation only: the truth is known)."""
     out = []
     for stage in ("before", "after"):
-        obs = observations_only(rows[rows["stage"] == stage]) if "stage" in rows else pd.DataFrame()
+        obs = reported(rows[rows["stage"] == stage]) if "stage" in rows else pd.DataFrame()
         if obs.empty:
             continue
         steady = steady_heading_error(obs)
