@@ -52,10 +52,34 @@ def summarize(rows: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
+def figure(t: pd.DataFrame, path: str, title: str = "") -> None:
+    """Total-RMS cells: the paper's value and the seeds' mean +- 2 se, calibrated cells grey."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    tot = t[t["component"] == "total"].reset_index(drop=True)
+    fig, ax = plt.subplots(figsize=(7, 3.6))
+    x = range(len(tot))
+    ax.bar([i - 0.2 for i in x], tot["paper_kt"], 0.4, color="0.6", label="paper")
+    colors = ["0.35" if r == "calibrated" else "tab:blue" for r in tot["role"]]
+    ax.bar([i + 0.2 for i in x], tot["mean_kt"], 0.4, color=colors, yerr=2 * tot["se_kt"].fillna(0), capsize=3,
+           label=f"simulated, mean of {int(tot['n_seeds'].max())} seeds +- 2 se (dark: calibrated)")
+    ax.set_xticks(list(x), [f"{g}\n{p.replace('_', ' ')}" for g, p in zip(tot["group"], tot["period"])], fontsize=7)
+    ax.set_ylabel("RMS vector difference (kn)")
+    ax.set_title(title, fontsize=9)
+    ax.legend(fontsize=7)
+    ax.grid(axis="y", alpha=0.3)
+    fig.tight_layout()
+    fig.savefig(path, dpi=120)
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+", help="run directories of one campaign, one per seed")
     ap.add_argument("--markdown", action="store_true", help="also print the table as Markdown")
+    ap.add_argument("--figure", help="also draw the total cells, paper vs mean +- 2 se, to this PNG")
     a = ap.parse_args()
     rows = collect(a.runs)
     t = summarize(rows)
@@ -66,6 +90,8 @@ def main() -> None:
     for r in t[t["verdict"] != ""].itertuples():
         print(f"judged.{r.group}.{r.period}: {r.verdict} (|mean - paper| = {abs(r.difference_kt):.2f}, tolerance "
               f"{r.tolerance_kt:.2f})")
+    if a.figure:
+        figure(t, a.figure, title=str(rows["source"].iloc[0]) if "source" in rows else "")
     if a.markdown:
         cols = ["group", "period", "component", "role", "paper_kt", "mean_kt", "sd_kt", "se_kt", "difference_kt", "verdict"]
         from aerotruth.sim.markdown import to_markdown
