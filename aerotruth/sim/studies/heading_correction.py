@@ -50,8 +50,8 @@ from pydantic import Field, StrictInt, model_validator
 from aerotruth.config import Campaign, References, Section
 from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_networks, day_cost, day_task
 from aerotruth.sim.studies import Figure, Study, Summary
-from aerotruth.sim.studies.wind_reports import (DIVERGED, check_sensors, day_rows, observations_only,
-                                                 steady_heading_error, unbanked)
+from aerotruth.sim.studies.wind_reports import (DIVERGED, band_midpoints_ft, check_sensors, day_rows,
+                                                 observations_only, steady_heading_error, unbanked)
 from aerotruth.sim.tasks import Task
 from aerotruth.sim.wind_observations import WindSensors
 
@@ -388,66 +388,68 @@ def altitude_figures(alt: pd.DataFrame, out_dir: Path) -> list[Figure]:
     """RMS and its components vs altitude: control vs poor before (Figs. 5/6), poor before
     vs after (Figs. 11/12), and the poor group by flight phase before and after adjusted
     (Figs. 13/14)."""
+    def cell(g, p, phase="all"):
+        return alt[(alt["group"] == g) & (alt["period"] == p) & (alt["phase"] == phase)]
+
+    figs = []
+    components = (("rms_kt", "total", "tab:blue"), ("longitudinal_rms_kt", "longitudinal", "tab:pink"),
+                  ("transverse_rms_kt", "transverse", "tab:brown"))
+    panels = [(f"{g}, {p.replace('_', ' ')}", [(cell(g, p), col, label, color) for col, label, color in components])
+              for g, p in (("control", "before"), ("poor", "before"), ("poor", "after_adjusted")) if len(cell(g, p))]
+    if panels:
+        figs.append(_altitude_panels(panels, out_dir, "heading_correction_rms_altitude", "RMS (kt)", 3.6,
+                                     "RMS wind difference vs altitude (wind paper Figs. 5/6 and 11/12)",
+                                     "Total, longitudinal and transverse RMS vs altitude: control and poor groups "
+                                     "before, poor group after (adjusted by the control's change)"))
+    poor = alt[(alt["group"] == "poor") & (alt["phase"] != "all")]
+    panels = [(f"poor group, {p.replace('_', ' ')}",
+               [(t, "rms_kt", phase, None) for phase, t in poor[poor["period"] == p].groupby("phase", sort=True)])
+              for p in ("before", "after_adjusted") if (poor["period"] == p).any()]
+    if panels:
+        figs.append(_altitude_panels(panels, out_dir, "heading_correction_phase", "RMS vector difference (kt)", 4.0,
+                                     "By flight phase (wind paper Figs. 13/14)",
+                                     "Poor group's RMS vs altitude by flight phase, before and after (after adjusted "
+                                     "by the control group's change)"))
+    return figs
+
+
+def _altitude_panels(panels, out_dir: Path, stem: str, xlabel: str, width: float, title: str, caption: str) -> Figure:
+    """One row of panels (title, [(rows, column, label, color)]) of RMS vs altitude-band middle."""
     import matplotlib.pyplot as plt
 
     from aerotruth.sim.figures import save
 
-    def mid(bands):
-        return [np.mean([float(x) for x in str(b).split("-")]) for b in bands]
-
-    panels = [("control", "before"), ("poor", "before"), ("poor", "after_adjusted")]
-    panels = [(g, p) for g, p in panels if ((alt["group"] == g) & (alt["period"] == p) & (alt["phase"] == "all")).any()]
-    figs = []
-    if panels:
-        fig, axes = plt.subplots(1, len(panels), figsize=(3.6 * len(panels), 4), sharex=True, sharey=True, squeeze=False)
-        for ax, (g, p) in zip(axes[0], panels):
-            t = alt[(alt["group"] == g) & (alt["period"] == p) & (alt["phase"] == "all")]
-            for col, label, color in (("rms_kt", "total", "tab:blue"), ("longitudinal_rms_kt", "longitudinal", "tab:pink"),
-                                      ("transverse_rms_kt", "transverse", "tab:brown")):
-                ax.plot(t[col], mid(t["altitude_band"]), "o-", color=color, label=label)
-            ax.set_title(f"{g}, {p.replace('_', ' ')}", fontsize=9)
-            ax.set_xlabel("RMS (kt)")
-            ax.grid(alpha=0.3)
-        axes[0][0].set_ylabel("pressure altitude (ft)")
-        axes[0][0].legend(fontsize=7)
-        fig.suptitle("RMS wind difference vs altitude (wind paper Figs. 5/6 and 11/12)", fontsize=10)
-        save(fig, out_dir, "heading_correction_rms_altitude")
-        figs.append(Figure("heading_correction_rms_altitude", "Total, longitudinal and transverse RMS vs altitude: "
-                           "control and poor groups before, poor group after (adjusted by the control's change)"))
-    poor = alt[(alt["group"] == "poor") & (alt["phase"] != "all")]
-    periods = [p for p in ("before", "after_adjusted") if (poor["period"] == p).any()]
-    if periods:
-        fig, axes = plt.subplots(1, len(periods), figsize=(4 * len(periods), 4), sharex=True, sharey=True, squeeze=False)
-        for ax, p in zip(axes[0], periods):
-            for phase, t in poor[poor["period"] == p].groupby("phase", sort=True):
-                ax.plot(t["rms_kt"], mid(t["altitude_band"]), "o-", label=phase)
-            ax.set_title(f"poor group, {p.replace('_', ' ')}", fontsize=9)
-            ax.set_xlabel("RMS vector difference (kt)")
-            ax.grid(alpha=0.3)
-        axes[0][0].set_ylabel("pressure altitude (ft)")
-        axes[0][0].legend(fontsize=7)
-        fig.suptitle("By flight phase (wind paper Figs. 13/14)", fontsize=10)
-        save(fig, out_dir, "heading_correction_phase")
-        figs.append(Figure("heading_correction_phase", "Poor group's RMS vs altitude by flight phase, before and after "
-                           "(after adjusted by the control group's change)"))
-    return figs
+    fig, axes = plt.subplots(1, len(panels), figsize=(width * len(panels), 4), sharex=True, sharey=True, squeeze=False)
+    for ax, (name, lines) in zip(axes[0], panels):
+        for t, col, label, color in lines:
+            ax.plot(t[col], band_midpoints_ft(t["altitude_band"]), "o-", color=color, label=label)
+        ax.set_title(name, fontsize=9)
+        ax.set_xlabel(xlabel)
+        ax.grid(alpha=0.3)
+    axes[0][0].set_ylabel("pressure altitude (ft)")
+    axes[0][0].legend(fontsize=7)
+    fig.suptitle(title, fontsize=10)
+    save(fig, out_dir, stem)
+    return Figure(stem, caption)
 
 
 def reported(rows: pd.DataFrame) -> pd.DataFrame:
     """The observation rows the fleet reported (the untreated twins of corrected reports off)."""
-    obs = observations_only(rows)
-    if "untreated" not in obs.columns:
-        return obs
-    return obs[~obs["untreated"].fillna(False).astype(bool)].drop(columns="untreated").reset_index(drop=True)
+    return _twins(rows, False)
 
 
 def untreated(rows: pd.DataFrame) -> pd.DataFrame:
     """The after-period reports of table-carrying aircraft as they would have been without
     the table (simulation only: same flights and sensor noise)."""
+    return _twins(rows, True)
+
+
+def _twins(rows: pd.DataFrame, twin: bool) -> pd.DataFrame:
     obs = observations_only(rows)
     if "untreated" not in obs.columns:
-        return obs.iloc[0:0]
-    return obs[obs["untreated"].fillna(False).astype(bool)].drop(columns="untreated").reset_index(drop=True)
+        return obs.iloc[0:0] if twin else obs
+    keep = obs["untreated"].fillna(False).astype(bool) == twin
+    return obs[keep].drop(columns="untreated").reset_index(drop=True)
 
 
 def uploaded_correction(corrections: pd.DataFrame, aircraft: str):

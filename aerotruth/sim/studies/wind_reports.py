@@ -81,6 +81,11 @@ def diverged_rows(fleet: str, aircraft: str, date: str, outcomes) -> pd.DataFram
     return pd.DataFrame(rows)
 
 
+def band_midpoints_ft(bands) -> list[float]:
+    """Middle of each "lo-hi" altitude-band label (ft), for plotting."""
+    return [float(np.mean([float(x) for x in str(b).split("-")])) for b in bands]
+
+
 def observations_only(rows: pd.DataFrame) -> pd.DataFrame:
     """The observation rows of stored task tables (placeholder rows and the task id off;
     `stage` kept: fit, before, after or main)."""
@@ -231,7 +236,7 @@ class WindReports(Study):
             for ax, col, label in zip(axes, ("rms_kt", "longitudinal_rms_kt", "transverse_rms_kt"),
                                       ("total", "longitudinal", "transverse")):
                 for (fleet, klass), g in by_alt.groupby(["fleet", "heading_class"], sort=True):
-                    mid = [np.mean([float(x) for x in str(b).split("-")]) for b in g["altitude_band"]]
+                    mid = band_midpoints_ft(g["altitude_band"])
                     ax.plot(g[col], mid, "o-", label=f"{fleet} {klass}")
                 ax.set_xlabel(f"{label} RMS (kt)")
                 ax.grid(alpha=0.3)
