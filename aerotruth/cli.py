@@ -41,7 +41,7 @@ def _output_file(value: str, option: str = "--out") -> Path:
 
 def _cmd_fly(args: argparse.Namespace) -> int:
     from aerotruth.truth.airframes import airframe
-    from aerotruth.truth.days import day_atmosphere, parse_departure, plan_in_weather
+    from aerotruth.truth.days import day_atmosphere, on_airway, parse_departure, plan_in_weather
     from aerotruth.truth.flight import FlightDiverged, fly_leg
     from aerotruth.truth.weather import region_for_airport
     from aerotruth.units import NM
@@ -55,6 +55,8 @@ def _cmd_fly(args: argparse.Namespace) -> int:
         region = args.region or region_for_airport(origin)
         plan = plan_in_weather(origin, destination, departure, weather_seed=weather_seed, region=region,
                                cruise_flight_level=args.cruise_fl, flight_id=args.flight_id or "")
+        if not args.direct:
+            plan = on_airway(plan, args.seed)
         atmosphere = day_atmosphere(plan.departure_utc.date(), weather_seed, region)
         track = fly_leg(plan, seed=args.seed, aircraft=args.aircraft, turbulence=args.turbulence, atmosphere=atmosphere)
     except (ValueError, FlightDiverged) as e:
@@ -240,13 +242,15 @@ def build_parser() -> argparse.ArgumentParser:
     fly.add_argument("--from", dest="origin", required=True, help="departure airport ICAO code")
     fly.add_argument("--to", dest="destination", required=True, help="arrival airport ICAO code")
     fly.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (departure 13:00 UTC) or ISO date-time of departure")
-    fly.add_argument("--seed", type=_non_negative_int, default=0, help="flight seed (turbulence); also the weather seed unless --weather-seed")
+    fly.add_argument("--seed", type=_non_negative_int, default=0,
+                     help="flight seed (en-route fixes, turbulence); also the weather seed unless --weather-seed")
     fly.add_argument("--weather-seed", type=_non_negative_int, default=None, help="seed of the day's truth atmosphere (default: --seed)")
     fly.add_argument("--region", default=None, help="truth-atmosphere region (default: that of the departure airport)")
     fly.add_argument("--cruise-fl", type=_positive_int, default=None, help="cruise flight level (default: by distance and direction)")
     fly.add_argument("--flight-id", default=None, help="flight id recorded in the track's metadata")
     fly.add_argument("--aircraft", default=None, help="aircraft type (default: the project default, saab340)")
     fly.add_argument("--turbulence", action="store_true", help="switch on JSBSim turbulence")
+    fly.add_argument("--direct", action="store_true", help="no en-route fixes: direct from the climb-out to the arrival fix")
     fly.add_argument("--out", required=True, help="output Parquet file")
     fly.set_defaults(func=_cmd_fly)
     _add_campaign_commands(sub)

@@ -23,6 +23,7 @@ from aerotruth.truth.routes import (
     plan_leg,
     runway_frame_xy_m,
     semicircular_altitude_ft,
+    with_airway,
 )
 from aerotruth.units import FT, KT, NM
 
@@ -375,3 +376,59 @@ def test_schedule_rejects_bad_input():
         day_schedule("mesaba", date(2009, 8, 15), 7, aircraft_id="N1")
     with pytest.raises(ValueError, match="aircraft_id"):
         day_schedule("mesaba", date(2009, 8, 15), rng, aircraft_id="")
+
+
+def _courses(plan):
+    return [float(inverse(a.lat, a.lon, b.lat, b.lon)[0]) for a, b in zip(plan.waypoints[:-1], plan.waypoints[1:])]
+
+
+def test_airway_fixes_keep_the_ends_their_margins_and_the_paths_closure():
+    plan = plan_leg("KMSP", "KDTW", datetime(2009, 8, 15, 13, tzinfo=timezone.utc))
+    names = [w.name for w in plan.waypoints]
+    i = names.index("CLIMB")
+    climb, nxt = plan.waypoints[i], plan.waypoints[i + 1]
+    rng = np.random.default_rng(3)
+    n_with = 0
+    for _ in range(50):
+        q = with_airway(plan, rng)
+        awy = [w for w in q.waypoints if w.name.startswith("AWY")]
+        n_with += bool(awy)
+        # the ends are unchanged, the fixes sit between CLIMB and the next waypoint
+        assert q.waypoints[: i + 1] == plan.waypoints[: i + 1]
+        assert q.waypoints[i + 1 + len(awy):] == plan.waypoints[i + 1:]
+        assert [w.name for w in q.waypoints[i + 1: i + 1 + len(awy)]] == [f"AWY{k}" for k in range(1, len(awy) + 1)]
+        for w in awy:
+            assert inverse(climb.lat, climb.lon, w.lat, w.lon)[2] > 20 * NM * 0.95
+            assert inverse(w.lat, w.lon, nxt.lat, nxt.lon)[2] > 20 * NM * 0.95
+        assert q.segment_lengths_m == pytest.approx(
+            [inverse(a.lat, a.lon, b.lat, b.lon)[2] for a, b in zip(q.waypoints[:-1], q.waypoints[1:])])
+    assert n_with >= 45  # a 466-nm leg: ~4 fixes on average
+
+
+def test_airway_course_changes_have_the_stated_size_and_cost_about_one_percent():
+    # independent expectation: segment courses N(0, 9 deg) -> a change at a fix with rms
+    # sqrt(2) x 9 = 12.7 deg, mean |change| sqrt(2/pi) x 12.7 = 10.2 deg; extra distance
+    # E(1 - cos theta) = 9^2 / 2 deg^2 = 1.2 %
+    plan = plan_leg("KMSP", "KDTW", datetime(2009, 8, 15, 13, tzinfo=timezone.utc))
+    rng = np.random.default_rng(11)
+    changes, extra, counts = [], [], []
+    for _ in range(400):
+        q = with_airway(plan, rng)
+        c = _courses(q)
+        names = [w.name for w in q.waypoints]
+        changes += [(c[k] - c[k - 1] + 180) % 360 - 180 for k in range(1, len(c)) if names[k].startswith("AWY")]
+        extra.append(q.total_distance_m / plan.total_distance_m - 1)
+        counts.append(sum(n.startswith("AWY") for n in names))
+    assert 9.0 < np.mean(np.abs(changes)) < 11.5
+    assert 0.004 < np.mean(extra) < 0.015
+    # gamma(2) spacing of mean 100 nm over (466 - 5 - 12 - 2 x 20) nm of en-route path
+    assert 3.3 < np.mean(counts) < 4.8
+
+
+def test_airway_is_deterministic_and_short_legs_stay_direct():
+    plan = plan_leg("KMSP", "KDTW", datetime(2009, 8, 15, 13, tzinfo=timezone.utc))
+    assert with_airway(plan, np.random.default_rng(7)) == with_airway(plan, np.random.default_rng(7))
+    short = plan_leg("KDTW", "KFNT", datetime(2009, 8, 15, 13, tzinfo=timezone.utc))
+    assert with_airway(short, np.random.default_rng(7)) == short
+    with pytest.raises(ValueError, match="rng"):
+        with_airway(plan, 7)

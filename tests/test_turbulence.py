@@ -6,7 +6,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from aerotruth.truth.turbulence import POE_OF_SEVERITY, PATCH_MEAN_M, TurbulencePatches, severity_of
+from aerotruth.truth.turbulence import (
+    CHOP_SCALE_M,
+    GUST_DT_S,
+    POE_OF_SEVERITY,
+    PATCH_MEAN_M,
+    ChopGusts,
+    TurbulencePatches,
+    chop_sigma_w,
+    severity_of,
+)
 
 
 @pytest.mark.parametrize("u,k", [(0.9, 1), (0.2, 1), (0.15, 1), (0.1, 2), (0.05, 2), (0.01, 3), (0.002, 3),
@@ -36,3 +45,68 @@ def test_patches_follow_the_probabilities_of_exceedance_and_their_mean_length():
     assert np.mean(lengths) == pytest.approx(PATCH_MEAN_M, rel=0.02)
     assert fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] == pytest.approx(7.0 / 0.3048)
     assert fdm["atmosphere/turbulence/milspec/severity"] == sev[-1]
+
+
+@pytest.mark.parametrize("u,sigma", [(0.0, 0.095), (0.5, 0.212), (0.3, 0.149 + 0.2 * (0.212 - 0.149)), (1.0, 0.913)])
+def test_chop_intensity_is_the_a320_quantile_interpolated(u, sigma):
+    # hand-interpolated between the tabulated quantiles (benchmarks/chop_climatology.py)
+    assert chop_sigma_w(u) == pytest.approx(sigma)
+
+
+class _Node:
+    def __init__(self):
+        self.values = []
+
+    def set_double_value(self, v):
+        self.values.append(v)
+
+
+class _Manager:
+    def __init__(self):
+        self.nodes = {}
+
+    def get_node(self, name, create=False):
+        return self.nodes.setdefault(name, _Node())
+
+
+class _Fdm:
+    def __init__(self):
+        self.pm = _Manager()
+
+    def get_property_manager(self):
+        return self.pm
+
+
+def test_chop_gusts_have_the_dryden_first_order_variances_and_time_constants():
+    # analytic: an AR(1) x' = a x + sigma sqrt(1 - a^2) n is stationary with rms sigma and
+    # lag-one correlation a = exp(-dt / tau); tau_u = L / V, tau_v = tau_w = L / (2 V),
+    # sigma_p = 1.9 sigma_w / sqrt(L b) (Yeager 1998 eq. 8)
+    fdm, v, span = _Fdm(), 140.0, 21.44
+    chop = ChopGusts(fdm, np.random.default_rng(2), span)
+    chop.sigma_w = 0.5
+    n = 200_000
+    x = np.empty((n, 4))
+    for k in range(n):
+        chop.step(v, 0.0)  # heading north: u is the north gust, v the east one
+        x[k] = chop.x
+    assert np.std(x[:, :3], axis=0) == pytest.approx([0.5, 0.5, 0.5], rel=0.05)
+    assert np.std(x[:, 3]) == pytest.approx(1.9 * 0.5 / np.sqrt(CHOP_SCALE_M * span), rel=0.05)
+    for j, tau in enumerate([CHOP_SCALE_M / v, CHOP_SCALE_M / (2 * v), CHOP_SCALE_M / (2 * v)]):
+        r1 = np.corrcoef(x[:-1, j], x[1:, j])[0, 1]
+        assert r1 == pytest.approx(np.exp(-GUST_DT_S / tau), abs=0.005)
+    nodes = fdm.pm.nodes
+    assert nodes["atmosphere/gust-north-fps"].values[-1] == pytest.approx(x[-1, 0] / 0.3048)
+    assert nodes["atmosphere/gust-east-fps"].values[-1] == pytest.approx(x[-1, 1] / 0.3048)
+    assert nodes["atmosphere/chop/p-rad_sec"].values[-1] == pytest.approx(x[-1, 3])
+
+
+def test_chop_patches_draw_the_climatology():
+    chop = ChopGusts(_Fdm(), np.random.default_rng(4), 21.44)
+    path = 0.0
+    while len(chop.patches) < 20_000:
+        chop.update(path)
+        path = chop.next_m
+    s = np.array([sw for _, sw in chop.patches])
+    assert np.median(s) == pytest.approx(0.212, abs=0.005)
+    assert np.mean(s > 0.642) == pytest.approx(0.05, abs=0.006)
+    assert np.mean(np.diff([a for a, _ in chop.patches])) == pytest.approx(PATCH_MEAN_M, rel=0.03)

@@ -71,14 +71,15 @@ class AircraftDay:
             region = NETWORK_REGION[self.network]
             atm = day_atmosphere(self.date, self.weather_seed, region)
             plans = day_schedule(self.network, self.date, rng, aircraft_id=self.aircraft, surface_wind=surface_wind_from(atm, self.date))
-            out = [PlannedLeg(p, region, self.weather_seed, self.flight_seed(k)) for k, p in enumerate(plans)]
+            out = [PlannedLeg(on_airway(p, self.flight_seed(k)), region, self.weather_seed, self.flight_seed(k))
+                   for k, p in enumerate(plans)]
         else:
             for k, leg in enumerate(self.legs):
                 dep = dt.datetime.combine(self.date, dt.time.fromisoformat(leg.departure_utc), tzinfo=dt.timezone.utc)
                 region = region_for_airport(leg.origin)
                 plan = plan_in_weather(leg.origin, leg.destination, dep, weather_seed=self.weather_seed, region=region, rng=rng,
                                        flight_id=f"{self.aircraft}-{self.date:%Y%m%d}-{k + 1}")
-                out.append(PlannedLeg(plan, region, self.weather_seed, self.flight_seed(k)))
+                out.append(PlannedLeg(on_airway(plan, self.flight_seed(k)), region, self.weather_seed, self.flight_seed(k)))
         return out[: self.max_legs] if self.max_legs is not None else out
 
 
@@ -122,6 +123,14 @@ def day_atmosphere(date: dt.date, weather_seed: int, region: str):
             _ATMOSPHERES.clear()
         _ATMOSPHERES[key] = TruthAtmosphere.for_day(date, weather_seed, region)
     return _ATMOSPHERES[key]
+
+
+def on_airway(plan, flight_seed: int):
+    """The plan with its en-route fixes (routes.with_airway) drawn from the named stream
+    ("airway") of the leg's flight seed, so that `aerotruth fly --seed` re-flies them."""
+    from aerotruth.truth.routes import with_airway
+
+    return with_airway(plan, seeds.generator(seeds.child(seeds.seed_sequence(int(flight_seed), ()), "airway")))
 
 
 def plan_in_weather(origin: str, destination: str, departure_utc: dt.datetime, *, weather_seed: int,

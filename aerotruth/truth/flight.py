@@ -24,7 +24,7 @@ from aerotruth.truth.airframes import Airframe, airframe, new_fdm, quiet_jsbsim
 from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, turn_anticipation_m
 from aerotruth.truth.track import PHASES, TruthTrack
 from aerotruth.truth.weather import ISA_LAPSE, Atmosphere, UniformAtmosphere
-from aerotruth.truth.turbulence import W20_HEIGHT_M, TurbulencePatches
+from aerotruth.truth.turbulence import W20_HEIGHT_M, ChopGusts, TurbulencePatches
 from aerotruth.units import DEG, FT, KT, NM
 
 DT = 0.01  # s: JSBSim step (100 Hz, a multiple of 50 Hz: IMU and 10 Hz samples fall on steps)
@@ -294,6 +294,8 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
     # JSBSim's milspec turbulence in patches along the path with the MIL-F-8785C climatology
     # (aerotruth.truth.turbulence); its generator is seeded from the flight's stream
     patches = TurbulencePatches(fdm, rng) if turbulence else None
+    # light chop below the MIL-F-8785C curves (the A320 recorder's climatology), its own stream
+    chop = ChopGusts(fdm, rng.spawn(1)[0], fdm["metrics/bw-ft"] * FT) if turbulence else None
     path_m = 0.0
     # guidance and targets before the initial condition is run: JSBSim evaluates the
     # autopilot (filters, rate limiters) during initialisation and trim, and stale targets
@@ -324,6 +326,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
             "position/lat-geod-deg", "position/long-gc-deg", "position/geod-alt-ft", "atmosphere/pressure-altitude",
             "velocities/v-north-fps", "velocities/v-east-fps", "velocities/v-down-fps", "simulation/sim-time-sec",
             "velocities/vtrue-fps", "velocities/vc-fps", "attitude/phi-rad", "attitude/theta-rad"))
+    g_psi = pm.get_node("attitude/psi-rad").get_double_value
     wind_nodes = [pm.get_node(f"ap/wind/{k}") for k in
                   ("t0-sec", "north-fps", "east-fps", "down-fps", "north-rate-fps2", "east-rate-fps2", "down-rate-fps2")]
     w_prev = (fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"])
@@ -365,6 +368,8 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
                 u20, v20, _ = (float(np.asarray(c).ravel()[0]) for c in
                                atmosphere.wind(lat, lon, ground + W20_HEIGHT_M, t0_s + t, ground_elevation_m=ground))
                 patches.update(path_m, math.hypot(u20, v20))
+            if chop.due(path_m):
+                chop.update(path_m)
             path_m += gs * dt_g
         w_next = (v / FPS, u / FPS, -w / FPS)
         wind_nodes[0].set_double_value(t)
@@ -379,6 +384,8 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         for _ in range(GUIDE_EVERY // RECORD_EVERY):
             rows.append([g() for g in getters])
             tags.append(tag)
+            if chop is not None:
+                chop.step(g_vt() * FPS, g_psi())
             for _ in range(RECORD_EVERY):
                 run()
 
@@ -400,6 +407,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
                            "course_deg": route.arrival_course_deg},
         "turbulence": bool(turbulence),
         "turbulence_patches": [[round(a, 1), k] for a, k in patches.patches] if patches is not None else [],
+        "chop_patches": [[round(a, 1), round(sw, 3)] for a, sw in chop.patches] if chop is not None else [],
         "rate_hz": 1.0 / (DT * RECORD_EVERY),
     })
     meta["config_hash"] = _digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})

@@ -11,7 +11,9 @@ A leg is flown from just after take-off to a point on final approach:
   of more than 90 deg at the IF, a ``BASE`` point ``BASE_OFFSET_NM`` abeam the IF, on
   the side the aircraft comes from, is inserted first;
 * the final point ``FINAL`` on the centreline ``FINAL_POINT_NM`` from the threshold,
-  where the flight ends 2,000 ft above the runway.
+  where the flight ends 2,000 ft above the runway;
+* with :func:`with_airway`, en-route fixes between the climb-out and the arrival
+  (airway doglegs): course changes in climb, cruise and descent as airline legs have.
 
 Heights the flight loop targets are WGS-84 ellipsoidal (through the one conversion
 :func:`aerotruth.truth.airports.ellipsoidal_height_m`); the cruise level is a pressure
@@ -22,7 +24,7 @@ deterministic given the inputs; random choices come only from the Generator pass
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from datetime import date, datetime, time, timedelta, timezone
 from typing import Callable
 from zoneinfo import ZoneInfo
@@ -57,6 +59,19 @@ MIN_CRUISE_NM = 10.0
 # (KDTW-KFNT, 48 nm, flown at 4,000-6,000 ft by the airline) while 2,000 ft of cruise
 # above the profile's floor remain
 LOWEST_CRUISE_FT = 4000.0
+
+# En-route fixes (with_airway), from the real A320 recorder extract in ../shared/real-data
+# (fuelflow_a320.json.gz, 1,360 nm above 10,000 ft): 14 course changes of more than 2 deg,
+# mean |change| 11.4 deg (2-38 deg), one per ~100 nm. Fix spacing is gamma distributed
+# (shape 2, mean AIRWAY_FIX_SPACING_NM); each segment's course departs from the direct one
+# by N(0, AIRWAY_SEGMENT_SIGMA_DEG), so the change at a fix has rms sqrt(2) x 9 = 13 deg,
+# mean |change| 10 deg (11 deg over the changes > 2 deg, as the A320's are counted), after
+# the path is closed onto the arrival fix (a linear ramp of the cross-track offsets);
+# ~1 % extra distance.
+AIRWAY_FIX_SPACING_NM = 100.0
+AIRWAY_SPACING_SHAPE = 2.0
+AIRWAY_SEGMENT_SIGMA_DEG = 9.0
+AIRWAY_MARGIN_NM = 20.0  # no fix this close to the climb-out point or to the arrival fix
 
 BLOCK_SPEED_KT = 250.0  # schedule: block time = distance / 250 kt + 15 min
 BLOCK_OVERHEAD_MIN = 15.0
@@ -347,6 +362,46 @@ def plan_leg(
         segment_lengths_m=segments,
         block_time_s=block_time_s(float(distance)),
     )
+
+
+def with_airway(plan: LegPlan, rng: np.random.Generator) -> LegPlan:
+    """The plan with en-route fixes ``AWY1``, ``AWY2``, ... inserted between the climb-out
+    point and the next waypoint (``BASE`` or ``IF``), not within ``AIRWAY_MARGIN_NM`` of
+    either: gamma-distributed spacing, each segment's course off the direct one by
+    N(0, ``AIRWAY_SEGMENT_SIGMA_DEG``), the path closed onto the arrival fix (module
+    constants and their source). Legs too short for a fix are returned unchanged."""
+    if not isinstance(rng, np.random.Generator):
+        raise ValueError(f"rng: expected a numpy.random.Generator, got {rng!r}")
+    names = [w.name for w in plan.waypoints]
+    if "CLIMB" not in names:
+        raise ValueError("plan: expected a CLIMB waypoint (a plan from plan_leg)")
+    i = names.index("CLIMB")
+    a, b = plan.waypoints[i], plan.waypoints[i + 1]
+    course, _, length = inverse(a.lat, a.lon, b.lat, b.lon)
+    lo, hi = AIRWAY_MARGIN_NM * NM, float(length) - AIRWAY_MARGIN_NM * NM
+    xs: list[float] = []
+    x = lo - AIRWAY_MARGIN_NM * NM
+    while True:
+        x += float(rng.gamma(AIRWAY_SPACING_SHAPE, AIRWAY_FIX_SPACING_NM * NM / AIRWAY_SPACING_SHAPE))
+        if x >= hi:
+            break
+        if x > lo:
+            xs.append(x)
+    if not xs:
+        return plan
+    bounds = np.array([0.0, *xs, float(length)])
+    theta = np.radians(rng.normal(0.0, AIRWAY_SEGMENT_SIGMA_DEG, len(bounds) - 1))
+    y = np.concatenate([[0.0], np.cumsum(np.diff(bounds) * np.tan(theta))])
+    y -= y[-1] * bounds / bounds[-1]  # closes onto the arrival fix
+    fixes = []
+    for k, (x, yk) in enumerate(zip(xs, y[1:-1]), start=1):
+        lat, lon, back = forward(a.lat, a.lon, course, x)
+        # the course there is back + 180, so its right is back - 90; y > 0: right of the path
+        lat, lon, _ = forward(lat, lon, float(back) - 90.0, float(yk))
+        fixes.append(Waypoint(f"AWY{k}", float(lat), float(lon)))
+    path = list(plan.waypoints[: i + 1]) + fixes + list(plan.waypoints[i + 1:])
+    segments = tuple(float(inverse(p.lat, p.lon, q.lat, q.lon)[2]) for p, q in zip(path[:-1], path[1:]))
+    return replace(plan, waypoints=tuple(path), segment_lengths_m=segments)
 
 
 def block_time_s(distance_m: float) -> float:

@@ -16,9 +16,26 @@ start. Patch lengths are exponential with mean PATCH_MEAN_M (an assumption: clea
 turbulence comes in patches of tens of km; no source with a distribution was at hand).
 The severity of a leg's patches is what the leg's seed draws; JSBSim's own generator
 (seeded from the same stream) makes the gusts.
+
+Light chop (:class:`ChopGusts`), below what the curves above resolve: the MIL-F-8785C
+curves put no turbulence at all on 90 % of the path above 7,500 ft, while the real A320
+recorder extract (../shared/real-data) shows continuous low-level vertical-load and roll
+activity in cruise. Chop patches (same patch lengths) carry an rms gust sigma_w drawn from
+the distribution measured on that recorder (CHOP_SIGMA_W_QUANTILES, derived in
+benchmarks/chop_climatology.py: the A320's vertical load factor per 120-s window above
+10,000 ft divided by its gust load factor and the share of a Dryden gust's rms the
+recorder keeps), applied at every height. The gusts are the first-order forms of the
+Dryden model that JSBSim's milspec type uses (MIL-HDBK-1797 as in Yeager 1998, eqs. 30-33:
+u with time constant L/V, v and w with L/(2V), the rolling gust p with
+sigma_p = 1.9 sigma_w / sqrt(L b) and L_p = sqrt(L b) / 2.6; L = 1,750 ft), discretized
+exactly at 10 Hz and fed to JSBSim's gust inputs (atmosphere/gust-*-fps) and, for p, to
+the aircraft's roll-damping term (``atmosphere/chop/p-rad_sec``; an aircraft file without that term
+feels u, v, w only).
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -62,4 +79,58 @@ class TurbulencePatches:
         self.next_m = path_m + float(self.rng.exponential(PATCH_MEAN_M))
 
 
-__all__ = ["POE_OF_SEVERITY", "PATCH_MEAN_M", "TurbulencePatches", "severity_of"]
+# sigma_w (m/s) at these probabilities of the A320's windows (benchmarks/chop_climatology.py)
+CHOP_QUANTILE_PROBS = (0.0, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 1.0)
+# (90 windows of one A320 flight, FL160-FL360; an upper bound: the load factor also holds
+# the autopilot's own pitch activity). Quantization of the recorder removed.
+CHOP_SIGMA_W_QUANTILES = (0.095, 0.115, 0.124, 0.149, 0.212, 0.300, 0.478, 0.642, 0.913)
+CHOP_SCALE_M = 1750.0 * FT  # MIL-F-8785C scale length above 2,000 ft
+GUST_DT_S = 0.1  # the gust inputs are updated at the truth's 10 Hz
+
+
+def chop_sigma_w(u: float) -> float:
+    """The rms vertical gust (m/s) of a chop patch whose quantile is u (0..1)."""
+    return float(np.interp(u, CHOP_QUANTILE_PROBS, CHOP_SIGMA_W_QUANTILES))
+
+
+class ChopGusts:
+    """Light chop in patches along a leg, fed to JSBSim as gusts (module docstring)."""
+
+    def __init__(self, fdm, rng: np.random.Generator, span_m: float):
+        self.rng, self.span_m = rng, span_m
+        pm = fdm.get_property_manager()
+        self.nodes = [pm.get_node(p) for p in ("atmosphere/gust-north-fps", "atmosphere/gust-east-fps",
+                                              "atmosphere/gust-down-fps")]
+        self.p_node = pm.get_node("atmosphere/chop/p-rad_sec", True)
+        self.x = np.zeros(4)  # u, v, w (m/s), p (rad/s)
+        self.sigma_w = 0.0
+        self.next_m = 0.0
+        self.patches: list[tuple[float, float]] = []  # (start along the path, m; sigma_w, m/s)
+
+    def due(self, path_m: float) -> bool:
+        return path_m >= self.next_m
+
+    def update(self, path_m: float) -> None:
+        """Starts the next chop patch at `path_m` (when `due`)."""
+        self.sigma_w = chop_sigma_w(float(self.rng.random()))
+        self.patches.append((path_m, self.sigma_w))
+        self.next_m = path_m + float(self.rng.exponential(PATCH_MEAN_M))
+
+    def step(self, tas_mps: float, psi_rad: float) -> None:
+        """Advances the gusts by GUST_DT_S at true airspeed `tas_mps` and heading `psi_rad`
+        and sets them: u along the heading, v to its right, w down (NED in ft/s)."""
+        v = max(tas_mps, 30.0)
+        lb = math.sqrt(CHOP_SCALE_M * self.span_m)
+        tau = np.array([CHOP_SCALE_M / v, CHOP_SCALE_M / (2 * v), CHOP_SCALE_M / (2 * v), lb / 2.6 / v])
+        sig = self.sigma_w * np.array([1.0, 1.0, 1.0, 1.9 / lb])
+        a = np.exp(-GUST_DT_S / tau)
+        self.x = a * self.x + sig * np.sqrt(1.0 - a * a) * self.rng.standard_normal(4)
+        u, vv, w, p = self.x
+        c, s = math.cos(psi_rad), math.sin(psi_rad)
+        for node, val in zip(self.nodes, (u * c - vv * s, u * s + vv * c, w)):
+            node.set_double_value(val / FT)
+        self.p_node.set_double_value(p)
+
+
+__all__ = ["CHOP_QUANTILE_PROBS", "CHOP_SIGMA_W_QUANTILES", "ChopGusts", "POE_OF_SEVERITY", "PATCH_MEAN_M",
+           "TurbulencePatches", "chop_sigma_w", "severity_of"]

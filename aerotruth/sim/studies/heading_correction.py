@@ -45,7 +45,7 @@ from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
-from pydantic import Field, StrictInt, model_validator
+from pydantic import Field, StrictBool, StrictInt, model_validator
 
 from aerotruth.config import Campaign, References, Section
 from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_networks, day_cost, day_task
@@ -99,6 +99,8 @@ class HeadingCorrectionConfig(Section):
     fleets: list[str] = Field(min_length=1)
     periods: PeriodRoles
     max_legs_per_day: StrictInt | None = Field(default=None, ge=1)
+    turbulence: StrictBool = Field(default=False, description="fly the truth legs in turbulence (MIL-F-8785C "
+                                   "patches and light chop, aerotruth.truth.turbulence)")
     sensors: WindSensors = Field(default_factory=WindSensors)
     selection: Selection
     fit_heading: Literal["true", "magnetic"] = Field(
@@ -118,7 +120,7 @@ class HeadingCorrectionConfig(Section):
     def flights(self, role: str) -> FlightSelection:
         """The aircraft-days of one role."""
         return FlightSelection(fleets=self.fleets, periods=[getattr(self.periods, role)],
-                               max_legs_per_day=self.max_legs_per_day)
+                               max_legs_per_day=self.max_legs_per_day, turbulence=self.turbulence)
 
 
 def group_rms(obs: pd.DataFrame) -> dict[str, float]:
