@@ -35,6 +35,8 @@ def test_hidden_heading_lag_is_found_in_the_campaign_and_truth_is_flown_once(tmp
     m = json.loads((tmp_path / "run" / "metrics.json").read_text())["metrics"]
     assert m["modes_diagnose.detection_rate"] == 1.0
     (row,) = pd.read_parquet(next((tmp_path / "run" / "tasks").glob("modes_diagnose--*.parquet"))).query("rank == 1").to_dict("records")
-    # one day's estimate: within 3 of its standard errors
-    assert abs(row["value"] - 2.0) < 3 * row["se"] and m["modes_diagnose.estimate_mean"] == pytest.approx(row["value"])
+    # one day's estimate: within 3 of its standard errors of 2 s plus the decoder's own
+    # heading-vs-track sample age (the 1-s trajectory holds each register's last value: on
+    # this day without a hidden lag diagnose measures 0.14-0.22 s, below its resolution)
+    assert abs(row["value"] - 2.0) < 3 * row["se"] + 0.25 and m["modes_diagnose.estimate_mean"] == pytest.approx(row["value"])
     assert s.legs_flown <= 4  # the two studies share the aircraft-day's four legs
