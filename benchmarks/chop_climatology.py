@@ -14,13 +14,18 @@ from the real A320 recorder extract in ../shared/real-data (fuelflow_a320.json.g
    LSB 1/256 g) is removed in quadrature.
 
 Prints `label: value` lines: the windows, the median K and F, and the quantiles of sigma_w
-(m/s) that the module carries.
+(m/s) that the module carries. With `--truth-days N`, the check of the chain: Mesaba
+aircraft-days flown in turbulence, the SAAB 340's own load factor (from the truth's
+vertical velocity, 1-Hz samples, the same windows) beside its quasi-static expectation
+sigma_w x K x F (K from the SAAB model's CL_alpha 5.40/rad, 12,000 kg, S = 41.81 m^2).
 
-    python benchmarks/chop_climatology.py
+    python benchmarks/chop_climatology.py [--truth-days 3]
 """
 
 from __future__ import annotations
 
+import argparse
+import datetime as dt
 import gzip
 import json
 from pathlib import Path
@@ -78,7 +83,45 @@ def density(h_m: float) -> float:
     return float(isa_pressure_pa(h_m)) / (287.053 * float(isa_temperature_k(h_m)))
 
 
+SAAB_CL_ALPHA, SAAB_MASS_KG, SAAB_S = 5.40, 12000.0, 41.81
+
+
+def truth_check(days: int) -> None:
+    """The SAAB's load factor in the chop against sigma_w x K x F, quantile by quantile."""
+    from aerotruth.truth.days import AircraftDay
+    from aerotruth.truth.flight import FlightDiverged, fly_leg
+    from aerotruth.truth.turbulence import CHOP_QUANTILE_PROBS, CHOP_SIGMA_W_QUANTILES
+
+    sig, kf = [], []
+    for k in range(days):
+        day = AircraftDay.for_campaign(2009, f"N40{k + 1}XJ", dt.date(2009, 8, 15) + dt.timedelta(days=k),
+                                       network="mesaba", turbulence=True)
+        for leg in day.plans():
+            try:
+                df = fly_leg(leg.plan, seed=leg.flight_seed, turbulence=True, atmosphere=leg.atmosphere()).df
+            except FlightDiverged:
+                continue
+            n = (-np.gradient(df["vd_mps"].to_numpy(), 0.1) / G)[::10]  # load factor increment, 1 Hz
+            h, tas = df["pressure_altitude_m"].to_numpy()[::10], df["tas_mps"].to_numpy()[::10]
+            hp = n - uniform_filter1d(n, HIGHPASS_S)
+            for i in range(0, len(n) - WINDOW_S, WINDOW_S):
+                s = slice(i, i + WINDOW_S)
+                if h[s].min() < 10000 * FT:
+                    continue
+                v = float(tas[s].mean())
+                sig.append(float(hp[s].std()))
+                kf.append(density(float(h[s].mean())) * v * SAAB_CL_ALPHA / (2 * SAAB_MASS_KG * G / SAAB_S) * kept_share(v))
+    print(f"saab.windows: {len(sig)}")
+    print(f"saab.gust_load_factor_x_kept_share: {np.median(kf):.4f}")
+    for p, q in zip(CHOP_QUANTILE_PROBS[1:-1], CHOP_SIGMA_W_QUANTILES[1:-1]):
+        print(f"saab.sigma_n_q{int(round(100 * p)):02d}_g: {np.quantile(sig, p):.4f}")
+        print(f"expected.sigma_n_q{int(round(100 * p)):02d}_g: {q * np.median(kf):.4f}")
+
+
 def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--truth-days", type=int, default=0, help="also fly this many Mesaba aircraft-days and check the chain")
+    args = ap.parse_args()
     a = pd.DataFrame(json.load(gzip.open(REAL))).sort_values("timestamp")
     n = a["vertical_acceleration"].to_numpy(float)
     hp = n - uniform_filter1d(n, HIGHPASS_S)
@@ -102,6 +145,8 @@ def main() -> None:
     print(f"a320.kept_rms_share: {np.median(fs):.3f}")
     for p in CHOP_QUANTILE_PROBS:
         print(f"sigma_w_q{int(round(100 * p)):02d}_mps: {np.quantile(sig_w, p):.3f}")
+    if args.truth_days:
+        truth_check(args.truth_days)
 
 
 if __name__ == "__main__":
