@@ -34,12 +34,12 @@ import numpy as np
 import pandas as pd
 from scipy.ndimage import uniform_filter1d
 
-from aerotruth.truth.isa import isa_pressure_pa, isa_temperature_k
+from aerotruth.truth.isa import G0, ISA_P0_PA, ISA_R_AIR, isa_pressure_pa, isa_temperature_k
 from aerotruth.truth.turbulence import CHOP_QUANTILE_PROBS
 from aerotruth.units import FT, KT
 
 REAL = Path(__file__).resolve().parents[1].parent / "shared" / "real-data" / "fuelflow_a320.json.gz"
-G = 9.80665
+G = G0
 S_A320 = 122.6  # m^2
 ASPECT = 9.5
 SWEEP_HALF_CHORD_DEG = 22.0
@@ -70,17 +70,17 @@ def kept_share(tas_mps: float) -> float:
 
 def tas_from_cas(cas_mps: float, h_m: float) -> tuple[float, float]:
     """(TAS m/s, Mach) from CAS at pressure altitude h (ISA, subsonic compressible)."""
-    p0, a0 = 101325.0, 340.294
+    p0, a0 = ISA_P0_PA, 340.294
     p = float(isa_pressure_pa(h_m))
     qc = p0 * ((1 + 0.2 * (cas_mps / a0) ** 2) ** 3.5 - 1)
     mach = float(np.sqrt(5 * ((qc / p + 1) ** (2 / 7) - 1)))
-    a = float(np.sqrt(1.4 * 287.053 * isa_temperature_k(h_m)))
+    a = float(np.sqrt(1.4 * ISA_R_AIR * isa_temperature_k(h_m)))
     return mach * a, mach
 
 
 def density(h_m: float) -> float:
     """ISA density (kg/m^3) at pressure altitude h."""
-    return float(isa_pressure_pa(h_m)) / (287.053 * float(isa_temperature_k(h_m)))
+    return float(isa_pressure_pa(h_m)) / (ISA_R_AIR * float(isa_temperature_k(h_m)))
 
 
 SAAB_CL_ALPHA, SAAB_MASS_KG, SAAB_S = 5.40, 12000.0, 41.81

@@ -380,7 +380,7 @@ def with_airway(plan: LegPlan, rng: np.random.Generator) -> LegPlan:
     course, _, length = inverse(a.lat, a.lon, b.lat, b.lon)
     lo, hi = AIRWAY_MARGIN_NM * NM, float(length) - AIRWAY_MARGIN_NM * NM
     xs: list[float] = []
-    x = lo - AIRWAY_MARGIN_NM * NM
+    x = 0.0
     while True:
         x += float(rng.gamma(AIRWAY_SPACING_SHAPE, AIRWAY_FIX_SPACING_NM * NM / AIRWAY_SPACING_SHAPE))
         if x >= hi:

@@ -97,7 +97,8 @@ class ChopGusts:
     """Light chop in patches along a leg, fed to JSBSim as gusts (module docstring)."""
 
     def __init__(self, fdm, rng: np.random.Generator, span_m: float):
-        self.rng, self.span_m = rng, span_m
+        self.rng = rng
+        self.lb = math.sqrt(CHOP_SCALE_M * span_m)  # sqrt(L b): the rolling gust's scale
         pm = fdm.get_property_manager()
         self.nodes = [pm.get_node(p) for p in ("atmosphere/gust-north-fps", "atmosphere/gust-east-fps",
                                               "atmosphere/gust-down-fps")]
@@ -106,6 +107,16 @@ class ChopGusts:
         self.sigma_w = 0.0
         self.next_m = 0.0
         self.patches: list[tuple[float, float]] = []  # (start along the path, m; sigma_w, m/s)
+
+    @property
+    def sigma_w(self) -> float:
+        """The current patch's rms gust (m/s)."""
+        return self._sigma_w
+
+    @sigma_w.setter
+    def sigma_w(self, value: float) -> None:
+        self._sigma_w = value
+        self.sig = value * np.array([1.0, 1.0, 1.0, 1.9 / self.lb])  # rms of u, v, w (m/s), p (rad/s)
 
     def due(self, path_m: float) -> bool:
         return path_m >= self.next_m
@@ -120,11 +131,9 @@ class ChopGusts:
         """Advances the gusts by GUST_DT_S at true airspeed `tas_mps` and heading `psi_rad`
         and sets them: u along the heading, v to its right, w down (NED in ft/s)."""
         v = max(tas_mps, 30.0)
-        lb = math.sqrt(CHOP_SCALE_M * self.span_m)
-        tau = np.array([CHOP_SCALE_M / v, CHOP_SCALE_M / (2 * v), CHOP_SCALE_M / (2 * v), lb / 2.6 / v])
-        sig = self.sigma_w * np.array([1.0, 1.0, 1.0, 1.9 / lb])
+        tau = np.array([CHOP_SCALE_M / v, CHOP_SCALE_M / (2 * v), CHOP_SCALE_M / (2 * v), self.lb / 2.6 / v])
         a = np.exp(-GUST_DT_S / tau)
-        self.x = a * self.x + sig * np.sqrt(1.0 - a * a) * self.rng.standard_normal(4)
+        self.x = a * self.x + self.sig * np.sqrt(1.0 - a * a) * self.rng.standard_normal(4)
         u, vv, w, p = self.x
         c, s = math.cos(psi_rad), math.sin(psi_rad)
         for node, val in zip(self.nodes, (u * c - vv * s, u * s + vv * c, w)):
