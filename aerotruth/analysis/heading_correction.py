@@ -205,8 +205,9 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
         if vals:
             raise DataError(f"{source}: column 'heading_input': {sorted(vals)[0]!r}, expected 'magnetic' or 'true'")
     ac_code = out["aircraft"].codes
-    req = np.column_stack([out[c] for c in ("time_s", *REQUIRED_COLUMNS[2:])])
-    keep = (ac_code >= 0) & np.isfinite(req).all(axis=1)
+    keep = ac_code >= 0
+    for c in ("time_s", *REQUIRED_COLUMNS[2:]):
+        keep &= np.isfinite(out[c])
     ref_code = out["ref_source"].codes
     order = np.lexsort((ref_code, out["time_s"], ac_code))
     order = order[keep[order]]
@@ -216,7 +217,11 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
     order = order[~dup]
     if len(order) == 0:
         raise DataError(f"{source}: every row has an empty required cell")
-    df = pd.DataFrame({k: (v[order] if isinstance(v, np.ndarray) else v.take(order)) for k, v in out.items()})
+    if len(order) == len(obs) and np.array_equal(order, np.arange(len(order))):  # already in order: no copies
+        df = pd.DataFrame(out, copy=False)
+    else:
+        df = pd.DataFrame({k: (v[order] if isinstance(v, np.ndarray) else v.take(order)) for k, v in out.items()},
+                          copy=False)  # copy=False: no consolidation into one block (a copy of every column)
     df.attrs.update(source=source, dropped_empty=int((~keep).sum()), dropped_duplicates=int(dup.sum()))
     return df
 
@@ -276,19 +281,23 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     # for report k: segment 1 = seg[k-1], segment 2 = seg[k]
     has = np.zeros(m, dtype=bool)
     has[1:-1] = same[:-1] & same[1:]
-    s1 = np.r_[0, np.arange(m - 1)].clip(0, max(m - 2, 0))
-    s2 = np.arange(m).clip(0, max(m - 2, 0))
-    if m < 2:
-        de1 = dn1 = de2 = dn2 = dt1 = dt2 = np.zeros(m)
-    else:
-        de1, dn1, dt1 = de[s1], dn[s1], dts[s1]
-        de2, dn2, dt2 = de[s2], dn[s2], dts[s2]
+    # per segment k -> k+1, then segment 1 (seg[k-1]) and 2 (seg[k]) of report k, the ends
+    # padded with their neighbour's segment (they fail `has` first anyway)
     with np.errstate(divide="ignore", invalid="ignore"):
-        gs1 = np.hypot(de1, dn1) / dt1
-        gs2 = np.hypot(de2, dn2) / dt2
+        seg_gs = np.hypot(de, dn) / dts
+    seg_course = np.arctan2(de, dn)
+
+    def first_second(x):
+        if m < 2:
+            return np.zeros(m), np.zeros(m)
+        return np.concatenate([x[:1], x]), np.concatenate([x, x[-1:]])
+
+    (de1, de2), (dn1, dn2), (dt1, dt2) = first_second(de), first_second(dn), first_second(dts)
+    (gs1, gs2), (c1, c2) = first_second(seg_gs), first_second(seg_course)
+    with np.errstate(divide="ignore", invalid="ignore"):
         vg_e = (de1 + de2) / (dt1 + dt2)
         vg_n = (dn1 + dn2) / (dt1 + dt2)
-        dcourse = np.degrees(np.abs((np.arctan2(de2, dn2) - np.arctan2(de1, dn1) + np.pi) % (2 * np.pi) - np.pi))
+        dcourse = np.degrees(np.abs((c2 - c1 + np.pi) % (2 * np.pi) - np.pi))
         dspeed = np.abs(gs2 - gs1) / (0.5 * (gs1 + gs2))
     gate = np.zeros(m, dtype=np.int8)
     checks = [
@@ -305,38 +314,56 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
         checks.append(np.zeros(m, dtype=bool))
     for code in range(len(checks), 0, -1):  # first failing gate wins
         gate[checks[code - 1]] = code
-    # per (report, model) row
-    ve, vn = vg_e[rep_of_row], vg_n[rep_of_row]
-    wt_e, wt_n = towards_from_report(df["wind_speed_kt"].to_numpy(), df["wind_dir_deg"].to_numpy())
-    wr_e, wr_n = towards_from_report(df["ref_wind_speed_kt"].to_numpy(), df["ref_wind_dir_deg"].to_numpy())
-    va_e, va_n = ve - wt_e, vn - wt_n  # wind paper eq. 3
-    vap_e, vap_n = ve - wr_e, vn - wr_n  # wind paper eq. 4
-    psi = np.degrees(np.arctan2(va_e, va_n)) % 360.0
-    psi_ref = np.degrees(np.arctan2(vap_e, vap_n)) % 360.0
-    d = (psi - psi_ref + 180.0) % 360.0 - 180.0
-    heading = psi.copy()
+    # the aircraft's side, once per report (every row of a report must agree on it)
+    own = [c for c in ("wind_speed_kt", "wind_dir_deg", "heading_deg", "tas_kt", "heading_mag_deg", "declination_deg",
+                       "lat", "lon", "roll_deg") if c in df.columns]
+    if m < n:
+        same_rep = ~new_rep[1:]  # row i+1 repeats row i's report for another reference model
+        for c in own:
+            v = df[c].to_numpy()
+            bad = (v[1:] != v[:-1]) & same_rep
+            if bad.any():
+                j = np.flatnonzero(bad)
+                j = j[~(np.isnan(v[j]) & np.isnan(v[j + 1]))]  # both empty: the same
+                if len(j):
+                    i = int(j[0]) + 1
+                    raise DataError(f"{df.attrs.get('source', source)}: column '{c}': the rows of one report (aircraft "
+                                    f"{df['aircraft'].iloc[i]}, time {t[i]:.3f}) differ ({v[i - 1]:g} vs {v[i]:g}); a "
+                                    f"report's own values must be the same on each reference model's row")
+    wt_e, wt_n = towards_from_report(df["wind_speed_kt"].to_numpy()[first], df["wind_dir_deg"].to_numpy()[first])
+    va_e_r, va_n_r = vg_e - wt_e, vg_n - wt_n  # wind paper eq. 3
+    psi = np.degrees(np.arctan2(va_e_r, va_n_r))
+    psi += 360.0 * (psi < 0)
+    heading = psi
     if "heading_deg" in df.columns:
-        h = df["heading_deg"].to_numpy()
-        heading = np.where(np.isfinite(h), h % 360.0, heading)
-    tas = np.hypot(va_e, va_n)
+        h = df["heading_deg"].to_numpy()[first]
+        heading = np.where(np.isfinite(h), h % 360.0, psi)
+    tas = np.hypot(va_e_r, va_n_r)
     if "tas_kt" in df.columns:
-        tk = df["tas_kt"].to_numpy() * KT
+        tk = df["tas_kt"].to_numpy()[first] * KT
         tas = np.where(np.isfinite(tk), tk, tas)
-    heading_mag = np.full(n, np.nan)
+    heading_mag = np.full(m, np.nan)
     if "declination_deg" in df.columns:
-        heading_mag = (heading - df["declination_deg"].to_numpy()) % 360.0
+        heading_mag = (heading - df["declination_deg"].to_numpy()[first]) % 360.0
     if "heading_mag_deg" in df.columns:
-        hm = df["heading_mag_deg"].to_numpy()
+        hm = df["heading_mag_deg"].to_numpy()[first]
         heading_mag = np.where(np.isfinite(hm), hm % 360.0, heading_mag)
+    # per (report, model) row
+    wr_e, wr_n = towards_from_report(df["ref_wind_speed_kt"].to_numpy(), df["ref_wind_dir_deg"].to_numpy())
+    va_e, va_n, ve, vn = va_e_r[rep_of_row], va_n_r[rep_of_row], vg_e[rep_of_row], vg_n[rep_of_row]
+    vap_e, vap_n = ve - wr_e, vn - wr_n  # wind paper eq. 4
+    # d = psi - psi' wrapped to (-180, 180]: the angle from V_A' to V_A, clockwise
+    d = np.degrees(np.arctan2(va_e * vap_n - va_n * vap_e, va_n * vap_n + va_e * vap_e))
+    tas = tas[rep_of_row]
     row_gate = gate[rep_of_row]
     with np.errstate(invalid="ignore"):
         implausible = ~((tas >= g.min_tas_kt * KT) & (tas <= g.max_tas_kt * KT) & (np.abs(d) <= g.max_heading_error_deg))
     row_gate = np.where((row_gate == 0) & implausible, GATE_NAMES.index("implausible"), row_gate).astype(np.int8)
     true_input = (df["heading_input"] == "true").to_numpy() if "heading_input" in df.columns else np.zeros(n, dtype=bool)
-    out = pd.DataFrame({
+    out = pd.DataFrame(copy=False, data={  # copy=False: not consolidated into one block (a full copy)
         "aircraft": df["aircraft"].array, "ref_source": df["ref_source"].array, "flight": flight[rep_of_row], "report": rep_of_row,
-        "time_s": t, "heading_deg": heading, "heading_mag_deg": heading_mag, "error_deg": d, "tas_ms": tas,
-        "va_e": va_e, "va_n": va_n, "dw_e": wt_e - wr_e, "dw_n": wt_n - wr_n,
+        "time_s": t, "heading_deg": heading[rep_of_row], "heading_mag_deg": heading_mag[rep_of_row], "error_deg": d,
+        "tas_ms": tas, "va_e": va_e, "va_n": va_n, "dw_e": wt_e[rep_of_row] - wr_e, "dw_n": wt_n[rep_of_row] - wr_n,
         "gate": pd.Categorical.from_codes(row_gate, GATE_NAMES), "true_heading_input": true_input,
     })
     out.attrs.update(df.attrs)
@@ -348,8 +375,14 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
 def design(heading_deg: np.ndarray, k: int) -> np.ndarray:
     """Columns of wind paper eq. 2: 1, sin z, cos z, sin 2z, cos 2z (first k of them)."""
     z = np.asarray(heading_deg, dtype=float) * DEG
-    cols = [np.ones_like(z), np.sin(z), np.cos(z), np.sin(2 * z), np.cos(2 * z)]
-    return np.column_stack(cols[:k])
+    X = np.empty((len(z), 5))
+    X[:, 0] = 1.0
+    if k > 1:
+        sz, cz = np.sin(z), np.cos(z)
+        X[:, 1], X[:, 2] = sz, cz
+        if k > 3:  # double-angle identities: two fewer trig evaluations
+            X[:, 3], X[:, 4] = 2 * sz * cz, (cz - sz) * (cz + sz)
+    return X[:, :k]
 
 
 @dataclass
@@ -369,18 +402,23 @@ def robust_fit(X: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray, 
                c: float = 1.345, max_iter: int = 50, beta0: np.ndarray | None = None) -> _Fit:
     """Huber IRLS (or weighted least squares) with flight-cluster sandwich covariance.
     Rows must be contiguous by `groups`."""
+    XT = np.ascontiguousarray(X.T)  # (k, n): row-wise products and reductions run on contiguous rows
+    k = len(XT)
     sw = np.sqrt(w)
-    beta, scale = _irls(X, y, w, robust, c, max_iter, beta0)
-    u = (y - X @ beta) * sw / scale
+    beta, scale = _irls_t(XT, y, w, robust, c, max_iter, beta0)
+    u = (y - beta @ XT) * sw / scale
     cc = c if robust else np.inf
     psi = np.clip(u, -cc, cc)
-    dpsi = (np.abs(u) <= cc).astype(float)
-    Xb = X * (w * dpsi / scale)[:, None]
+    XbT = XT * (w * (np.abs(u) <= cc) / scale)
     starts = _starts(groups)
     G = len(starts)
-    bread = Xb.T @ X
-    bread_g = np.add.reduceat(Xb[:, :, None] * X[:, None, :], starts, axis=0)  # (G, k, k)
-    scores = np.add.reduceat(X * (sw * psi)[:, None], starts, axis=0)
+    bread = XbT @ X
+    iu, ju = np.triu_indices(k)
+    tri = np.add.reduceat(XbT[iu] * XT[ju], starts, axis=1)  # (k(k+1)/2, G): per flight, upper triangle
+    bread_g = np.empty((G, k, k))
+    bread_g[:, iu, ju] = tri.T
+    bread_g[:, ju, iu] = tri.T
+    scores = np.add.reduceat(XT * (sw * psi), starts, axis=1).T  # (G, k)
     # leave-one-flight-out influence (CR3, the linearised cluster jackknife): the plain
     # sandwich undercovers with ~40 flights of unequal size
     loo = bread[None, :, :] - bread_g
@@ -415,16 +453,22 @@ def octants_occupied(heading_deg: np.ndarray, min_share: float = 0.03) -> int:
     return int(np.sum(np.bincount(o, minlength=8) >= min_share * max(len(o), 1)))
 
 
-def lut_correction(lut: np.ndarray, heading_deg: np.ndarray) -> np.ndarray:
+def lut_correction(lut: np.ndarray, heading_deg: np.ndarray, table: np.ndarray | None = None) -> np.ndarray:
     """Correction (deg) at the measured heading from an 8-point table at 0, 45, ..., 315 deg,
-    linear between points and round the circle (wind paper 8.1). `lut` (8,) or, one table
-    per heading, (..., 8)."""
+    linear between points and round the circle (wind paper 8.1). `lut` (8,), or (T, 8) with
+    `table` the row (0..T-1) to use at each heading, or, one table per heading, (..., 8)."""
     h = np.asarray(heading_deg, dtype=float) % 360.0
-    i = (h // 45.0).astype(np.int64) % 8
-    frac = (h - 45.0 * (h // 45.0)) / 45.0
+    q = h // 45.0
+    frac = (h - 45.0 * q) / 45.0
+    i = q.astype(np.int64) % 8
     lut = np.asarray(lut, dtype=float)
     if lut.ndim == 1:
         return lut[i] * (1 - frac) + lut[(i + 1) % 8] * frac
+    if table is not None:  # flat index: no (n, 8) table per heading
+        flat = lut.ravel()
+        base = np.asarray(table, dtype=np.int64) * 8
+        j = (i + 1) & 7
+        return flat[base + i] * (1 - frac) + flat[base + j] * frac
     lo = np.take_along_axis(lut, i[..., None], axis=-1)[..., 0]
     hi = np.take_along_axis(lut, ((i + 1) % 8)[..., None], axis=-1)[..., 0]
     return lo * (1 - frac) + hi * frac
@@ -511,7 +555,7 @@ class HeadingDeviationFit:
         self.n_used_ = int(len(sel))
         self.n_flights_ = int(len(_starts(self._g))) if len(sel) else 0
         self._src_names = [str(x) for x in a["src_names"]]
-        self.ref_sources_ = [self._src_names[i] for i in np.unique(self._src)]
+        self.ref_sources_ = [self._src_names[i] for i in np.flatnonzero(np.bincount(self._src))]
         self.valid_from_ = _iso_date(times.min()) if len(times) else ""
         self.valid_to_ = _iso_date(times.max()) if len(times) else ""
         self.heading_frame_ = self.heading
@@ -592,11 +636,11 @@ class HeadingDeviationFit:
 
     def _consistency(self, k: int, reason: list[str]) -> None:
         """Each reference model alone, pairwise Wald test of equal coefficients."""
-        codes, counts = np.unique(self._src, return_counts=True)
-        srcs = [self._src_names[c] for c, n in zip(codes, counts) if n >= self.min_reports]
+        counts = np.bincount(self._src)
+        srcs = [self._src_names[c] for c in np.flatnonzero(counts >= max(self.min_reports, 1))]
         if len(srcs) < 2:
             return
-        flights = np.unique(self._g)
+        flights = self._g[_starts(self._g)]  # rows are sorted by flight
         fits = {}
         for s in srcs:
             m = self._src == self._src_names.index(s)
@@ -734,25 +778,47 @@ class HeadingDeviationFit:
         return self
 
 
+def _median(x: np.ndarray) -> float:
+    """np.median of a finite 1-D array without its generic machinery (a third of an IRLS
+    step's time): the middle element, or the mean of the two middle ones."""
+    n = len(x)
+    h = n // 2
+    if n % 2:
+        return float(np.partition(x, h)[h])
+    p = np.partition(x, (h - 1, h))
+    return float(0.5 * (p[h - 1] + p[h]))
+
+
 def _irls(X: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float, max_iter: int = 50,
           beta0: np.ndarray | None = None) -> tuple[np.ndarray, float]:
-    """Huber IRLS (module docstring): coefficients and the final MAD scale. Normal
-    equations (k <= 5 bounded columns: well conditioned whenever the coverage gate passes)."""
+    """Huber IRLS (module docstring) on the (n, k) design X: coefficients and the final MAD scale."""
+    return _irls_t(np.ascontiguousarray(X.T), y, w, robust, c, max_iter, beta0)
+
+
+def _irls_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float, max_iter: int = 50,
+            beta0: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+    """Huber IRLS on the transposed (k, n) design. Normal equations (k <= 5 bounded
+    columns: well conditioned whenever the coverage gate passes), y carried as a last row
+    so that one product gives X^T W X and X^T W y."""
+    k = len(XT)
+    Xy = np.vstack([XT, y])
+
     def solve(wt):
-        Xw = X * wt[:, None]
-        return np.linalg.solve(Xw.T @ X, Xw.T @ y)
+        A = (Xy[:k] * wt) @ Xy.T
+        return np.linalg.solve(A[:, :k], A[:, k])
 
     beta = solve(w) if beta0 is None else beta0
     sw = np.sqrt(w)
     for _ in range(max_iter if robust else 0):
-        r = (y - X @ beta) * sw
-        scale = max(1.4826 * float(np.median(np.abs(r))), 1e-9)
-        new = solve(w * np.minimum(1.0, c * scale / np.maximum(np.abs(r), 1e-300)))
+        r = (y - beta @ XT) * sw
+        ar = np.abs(r)
+        scale = max(1.4826 * _median(ar), 1e-9)
+        new = solve(w * np.minimum(1.0, c * scale / np.maximum(ar, 1e-300)))
         done = np.max(np.abs(new - beta)) < 1e-5  # deg: far below any standard error
         beta = new
         if done:
             break
-    scale = max(1.4826 * float(np.median(np.abs((y - X @ beta) * sw))), 1e-9)
+    scale = max(1.4826 * _median(np.abs((y - beta @ XT) * sw)), 1e-9)
     return beta, scale
 
 
@@ -772,7 +838,12 @@ class FleetHeadingFit:
         arrays = _used_arrays(rows, self.params.get("heading", "true"))
         ac = pd.Categorical(rows["aircraft"])
         codes = ac.codes
-        order = np.lexsort((rows["time_s"].to_numpy(), arrays["g"], codes))  # identity for heading_errors output
+        t, g = rows["time_s"].to_numpy(), arrays["g"]
+        dc, dg, dt_ = np.diff(codes), np.diff(g), np.diff(t)
+        if np.all((dc > 0) | ((dc == 0) & ((dg > 0) | ((dg == 0) & (dt_ >= 0))))):  # heading_errors output: in order already
+            order = np.arange(len(codes))
+        else:
+            order = np.lexsort((t, g, codes))
         starts = _starts(codes[order])
         ends = np.r_[starts[1:], len(order)]
         true_input = rows["true_heading_input"].to_numpy()
@@ -807,7 +878,8 @@ class FleetHeadingFit:
             cat = pd.Categorical(aircraft)  # cheap when it already is one
             idx = pd.Index(names).get_indexer(cat.categories.astype(str))[cat.codes]
             idx[cat.codes < 0] = -1
-        return (h + lut_correction(luts[idx].reshape(h.shape + (8,)), h)) % 360.0  # code -1 -> the zero row
+        idx = np.where(idx < 0, len(names), idx).reshape(h.shape)  # no fit -> the zero row
+        return (h + lut_correction(luts, h, table=idx)) % 360.0
 
 
 # ----------------------------------------------------------------------------- metrics
@@ -816,8 +888,9 @@ def wind_error_components(dw_e, dw_n, heading_deg) -> dict[str, float]:
     """RMS of the wind error vector (reported - reference), and of its longitudinal (along
     the aircraft's heading) and transverse components (wind paper section 6), knots."""
     z = np.asarray(heading_deg) * DEG
-    lon_ = dw_e * np.sin(z) + dw_n * np.cos(z)
-    tr = dw_e * np.cos(z) - dw_n * np.sin(z)
+    sz, cz = np.sin(z), np.cos(z)
+    lon_ = dw_e * sz + dw_n * cz
+    tr = dw_e * cz - dw_n * sz
     rms = lambda x: float(np.sqrt(np.mean(np.square(x))) / KT) if len(x) else math.nan  # noqa: E731
     return {"rms_kt": rms(np.hypot(dw_e, dw_n)), "longitudinal_kt": rms(lon_), "transverse_kt": rms(tr)}
 
@@ -828,6 +901,7 @@ def corrected_wind_error(rows: pd.DataFrame, correction_deg: np.ndarray) -> tupl
     c = np.asarray(correction_deg) * DEG
     va_e, va_n = rows["va_e"].to_numpy(), rows["va_n"].to_numpy()
     # rotating a heading clockwise by c: (E, N) -> (E cos c + N sin c, N cos c - E sin c)
-    rot_e = va_e * np.cos(c) + va_n * np.sin(c)
-    rot_n = va_n * np.cos(c) - va_e * np.sin(c)
+    sc, cc = np.sin(c), np.cos(c)
+    rot_e = va_e * cc + va_n * sc
+    rot_n = va_n * cc - va_e * sc
     return rows["dw_e"].to_numpy() + va_e - rot_e, rows["dw_n"].to_numpy() + va_n - rot_n
