@@ -270,6 +270,10 @@ def test_shuffled_table_with_repeated_rows_gives_the_same_fit():
      ["obs.csv", "column 'ref_wind_speed_kt'", "data row 4", "'calm'"]),
     (lambda df: df.assign(time=df["time"].astype(object).where(df.index != 2, "yesterday")), ["obs.csv", "column 'time'", "'yesterday'"]),
     (lambda df: df.assign(lat=df["lat"].where(df.index != 0, 123.0)), ["obs.csv", "column 'lat'", "outside"]),
+    # one report whose second reference model's row carries another reported wind
+    (lambda df: df.assign(wind_speed_kt=df["wind_speed_kt"].where(
+        ~((df["time"] == df["time"].iloc[5]) & (df["ref_source"] != df["ref_source"].iloc[5])), 99.0)),
+     ["obs.csv", "column 'wind_speed_kt'", "rows of one report", "N510XJ", "99"]),
 ])
 def test_bad_observation_tables_raise_one_line_naming_file_and_column(tmp_path, mutate, words):
     obs = gen.generate([gen.AircraftTruth("N510XJ", A=0.0, B=0.0, C=0.0)], np.random.default_rng(16), flights=2)
