@@ -430,21 +430,25 @@ def robust_fit(X: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray, 
     return _Fit(beta, cov, scale, infl, groups[starts])
 
 
-def heading_axes(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1) -> tuple[np.ndarray, np.ndarray]:
+def heading_axes(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1,
+                 sin_cos: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (ascending) and unit eigenvectors (columns, in (sin nz, cos nz)) of the
-    weighted covariance of (sin nz, cos nz) of the headings."""
-    z = harmonic * np.asarray(heading_deg) * DEG
-    V = np.column_stack([np.sin(z), np.cos(z)])
+    weighted covariance of (sin nz, cos nz) of the headings (`sin_cos`: those two columns,
+    (n, 2), when already at hand)."""
+    if sin_cos is None:
+        z = harmonic * np.asarray(heading_deg) * DEG
+        sin_cos = np.column_stack([np.sin(z), np.cos(z)])
     ww = w / w.sum()
-    mu = ww @ V
-    cov = (V * ww[:, None]).T @ V - np.outer(mu, mu)
+    mu = ww @ sin_cos
+    cov = (sin_cos.T * ww) @ sin_cos - np.outer(mu, mu)
     return np.linalg.eigh(cov)
 
 
-def heading_spread(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1) -> float:
+def heading_spread(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1,
+                   sin_cos: np.ndarray | None = None) -> float:
     """Smaller eigenvalue of the weighted covariance of (sin nz, cos nz): 0.5 for headings
     uniform round the compass, 0 for one heading (or, n = 1, one route both ways)."""
-    return float(heading_axes(heading_deg, w, harmonic)[0][0])
+    return float(heading_axes(heading_deg, w, harmonic, sin_cos)[0][0])
 
 
 def octants_occupied(heading_deg: np.ndarray, min_share: float = 0.03) -> int:
@@ -561,7 +565,7 @@ class HeadingDeviationFit:
         self.heading_frame_ = self.heading
         self.consistency_ = {}
         self._X = design(self._z, 5)
-        self.coverage_ = heading_spread(self._z, self._w) if self.n_used_ >= 3 else 0.0
+        self.coverage_ = heading_spread(self._z, self._w, 1, self._X[:, 1:3]) if self.n_used_ >= 3 else 0.0
         self.octants_ = octants_occupied(self._z)
         self.de_p_ = math.nan
         if self.n_used_ < self.min_reports or self.n_flights_ < self.min_flights:
@@ -576,7 +580,7 @@ class HeadingDeviationFit:
                           else "offset only, as asked")
         elif self.coverage_ < self.min_coverage:
             k = 1
-            lam, vec = heading_axes(self._z, self._w)
+            lam, vec = heading_axes(self._z, self._w, 1, self._X[:, 1:3])
             if lam[1] >= self.min_coverage:  # one axis flown both ways: its component of the sinusoid
                 k = 3
                 u = vec[:, 1]
@@ -592,7 +596,7 @@ class HeadingDeviationFit:
         else:
             k = 5 if self.terms == "full" else 3
             if self.terms in ("auto", "full"):
-                spread2 = heading_spread(self._z, self._w, 2)
+                spread2 = heading_spread(self._z, self._w, 2, self._X[:, 3:5])
                 if spread2 < self.min_coverage:
                     k = 3
                     reason.append(f"D, E not identifiable (2z spread {spread2:.2f})")
