@@ -30,14 +30,19 @@ from aerotruth.units import DEG, FT
 REAL = Path(__file__).resolve().parents[1].parent / "shared" / "real-data" / "fuelflow_a320.json.gz"
 
 
-def roll_stats(roll_deg: np.ndarray, alt_ft: np.ndarray) -> dict[str, float]:
-    """p95/max of |roll(k+1) - roll(k)| (1 Hz samples) and share |roll| > 10 deg, below and above 10,000 ft."""
+def roll_stats(roll_deg: np.ndarray, alt_ft: np.ndarray, lsb_deg: float | None = None) -> dict[str, float]:
+    """p95/max of |roll(k+1) - roll(k)| (1 Hz samples) and share |roll| > 10 deg, below and
+    above 10,000 ft; with the recorder's resolution `lsb_deg`, also the share of 1-s roll
+    changes of 2 or more steps (at 0.35 deg steps p95 can only be 0.35 or 0.70: it is 0.70
+    exactly when this share exceeds 5 %)."""
     rr = np.abs(np.diff(roll_deg))
     al = alt_ft[1:]
     out = {}
     for name, sel in (("below_10000ft", al < 10000), ("above_10000ft", al >= 10000)):
         r = rr[sel & np.isfinite(rr)]
         out[f"{name}.roll_rate_p95_deg_s"] = float(np.percentile(r, 95)) if len(r) else float("nan")
+        if lsb_deg:
+            out[f"{name}.share_roll_change_ge_2_steps"] = float(np.mean(r >= 1.5 * lsb_deg)) if len(r) else float("nan")
         out[f"{name}.roll_rate_max_deg_s"] = float(r.max()) if len(r) else float("nan")
         rl = roll_deg[1:][sel]
         out[f"{name}.share_roll_over_10deg"] = float(np.mean(np.abs(rl[np.isfinite(rl)]) > 10.0))
@@ -58,8 +63,8 @@ def main() -> None:
     args = ap.parse_args()
     args.turbulence = not args.calm
     a = pd.DataFrame(json.load(gzip.open(REAL))).sort_values("timestamp")
-    real = roll_stats(a["roll"].to_numpy(float), a["altitude"].to_numpy(float))
     lsb = recorder_step_deg(a["roll"].to_numpy(float))
+    real = roll_stats(a["roll"].to_numpy(float), a["altitude"].to_numpy(float), lsb)
     rolls, alts, betas = [], [], []
     n_legs = n_div = 0
     for k in range(args.days):
@@ -77,7 +82,7 @@ def main() -> None:
             alts += [one["pressure_altitude_m"].to_numpy() / FT, [np.nan]]
             betas.append(df[["roll_rad", "beta_rad", "p_radps"]].to_numpy())
     roll_1hz = np.concatenate(rolls)
-    truth = roll_stats(np.round(roll_1hz / lsb) * lsb, np.concatenate(alts))  # recorded as the A320's recorder would
+    truth = roll_stats(np.round(roll_1hz / lsb) * lsb, np.concatenate(alts), lsb)  # recorded as the A320's recorder would
     print(f"a320.roll_resolution_deg: {lsb:.4f}")
     print(f"legs: {n_legs}")
     print(f"legs_diverged: {n_div}")
