@@ -259,6 +259,25 @@ def test_slaving_step_response_is_first_order_with_time_constant_tau():
     assert np.degrees(out[np.searchsorted(t, 160.0)] - 1.0) == pytest.approx(10 * (1 - math.exp(-1)), abs=1e-6)
 
 
+def test_saturating_slaving_ramps_at_its_rate_limit_then_decays_with_tau():
+    """A 10-deg valve step, torquer limited to 2 deg/min, tau 60 s: the loop is linear only
+    within rate x tau = 2 deg of the valve, so the system heading ramps at 2 deg/min for
+    (10 - 2) / 2 = 4 min, then closes the last 2 deg as exp(-t/tau) (hand-worked)."""
+    t = np.arange(9000) * 0.1
+    psi = np.full(t.size, 1.0)
+    valve = np.where(t >= 100.0, 1.0 + 10 * DEG, 1.0)
+    out = slaved_heading(t, valve, psi, np.zeros(t.size), tau_s=60.0, cutout_bank_rad=10 * DEG,
+                         rate_max_rad_s=2 * DEG / 60.0)
+    dt_ = t - 100.0
+    expected = np.where(dt_ < 0, 0.0, np.where(dt_ < 240.0, 2.0 * dt_ / 60.0, 10.0 - 2.0 * np.exp(-(dt_ - 240.0) / 60.0)))
+    assert np.max(np.abs(np.degrees(out - 1.0) - expected)) < 0.01  # 0.1-s steps round the corner
+    # below the limit it is the linear loop exactly
+    small = np.where(t >= 100.0, 1.0 + 1.5 * DEG, 1.0)
+    lin = slaved_heading(t, small, psi, np.zeros(t.size), tau_s=60.0, cutout_bank_rad=10 * DEG)
+    sat = slaved_heading(t, small, psi, np.zeros(t.size), tau_s=60.0, cutout_bank_rad=10 * DEG, rate_max_rad_s=2 * DEG / 60.0)
+    assert np.max(np.abs(lin - sat)) < 1e-12
+
+
 def test_no_slaving_while_bank_exceeds_the_cutout():
     t = np.arange(6000) * 0.1
     psi = np.full(t.size, 1.0)

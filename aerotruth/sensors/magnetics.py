@@ -68,7 +68,9 @@ it slowly,
     dpsi/dt = r_gyro + s(t) (psi_valve - psi) / tau,   s = 1 if |phi| <= phi_cut else 0
 
 r_gyro = dpsi_true/dt + drift (the gyro's azimuth rate; Earth and transport rate taken
-as compensated). Written as psi = psi_g + e with psi_g = integral of r_gyro, the error
+as compensated). Optionally (`slaving_rate_max_deg_min`) the slaving term saturates at the
+torquer's rate, clip((psi_valve - psi)/tau, -r_max, r_max): textbook slaved compasses
+precess at about 2 deg/min whatever the error (an assumption; default off). Written as psi = psi_g + e with psi_g = integral of r_gyro, the error
 e is a gated first-order low-pass of u = psi_valve - psi_g. Exact discretisation for
 readings held over a sample interval: e_k = e_{k-1} + s_{k-1} alpha (u_{k-1} - e_{k-1}),
 alpha = 1 - exp(-dt/tau); at power-up the gyro is slewed to the valve (e_0 = u_0; `HeadingSystem`
@@ -276,6 +278,8 @@ class FluxValveSpec(Section):
         default=((0.0, 0.0, 0.0),) * 3, description="induced magnetism S (3x3, dimensionless, rows body x, y, z): m = (I + S) b + p")
     mounting_deg: Finite = Field(default=0.0, ge=-180, le=180, description="valve reference line yawed right of the fore-aft axis")
     slaving_tau_s: Finite = Field(default=60.0, gt=0, description="slaving time constant (assumption: ~1 deg/min per deg of error)")
+    slaving_rate_max_deg_min: Finite | None = Field(
+        default=None, gt=0, description="the slaving torquer's largest correction rate (None: the loop never saturates)")
     slaving_cutout_bank_deg: Finite = Field(default=10.0, gt=0, le=90, description="no slaving while |roll| exceeds this")
     gyro_drift_deg_h: Finite = Field(default=0.0, description="uncompensated directional-gyro drift")
     declination_epoch: _dt.date | Literal["truth"] = Field(
@@ -307,6 +311,7 @@ class FluxValveFleetSpec(Section):
     poor_mounting_sigma_deg: Finite | None = Field(default=None, ge=0, description="sigma of the mounting (offset) "
                                                    "error of poor systems (default: mounting_sigma_deg)")
     slaving_tau_s: Finite = Field(default=60.0, gt=0)
+    slaving_rate_max_deg_min: Finite | None = Field(default=None, gt=0)
     slaving_cutout_bank_deg: Finite = Field(default=10.0, gt=0, le=90)
     gyro_drift_deg_h: Finite = 0.0
     declination_epoch: _dt.date | Literal["truth"] = "truth"
@@ -325,7 +330,8 @@ class FluxValveFleetSpec(Section):
         mount = float(np.clip(rng.normal() * m_sigma, -180.0, 180.0))
         return ("poor" if poor else "healthy"), FluxValveSpec(
             hard_iron_nT=tuple(p.tolist()), soft_iron=tuple(tuple(r) for r in s.tolist()), mounting_deg=mount,
-            slaving_tau_s=self.slaving_tau_s, slaving_cutout_bank_deg=self.slaving_cutout_bank_deg,
+            slaving_tau_s=self.slaving_tau_s, slaving_rate_max_deg_min=self.slaving_rate_max_deg_min,
+            slaving_cutout_bank_deg=self.slaving_cutout_bank_deg,
             gyro_drift_deg_h=self.gyro_drift_deg_h, declination_epoch=self.declination_epoch)
 
 
@@ -453,12 +459,14 @@ def _unwrap(x: np.ndarray) -> np.ndarray:
 
 def slaved_heading(time_s: ArrayLike, valve_heading_mag_rad: ArrayLike, heading_rad: ArrayLike, roll_rad: ArrayLike,
                    tau_s: float, cutout_bank_rad: float, drift_rad_s: float = 0.0,
-                   initial_valve_rad: float | None = None) -> np.ndarray:
+                   initial_valve_rad: float | None = None, rate_max_rad_s: float | None = None) -> np.ndarray:
     """Magnetic heading (rad, [0, 2 pi)) of a directional gyro slaved to the valve:
     dpsi/dt = r_gyro + s (psi_valve - psi)/tau, s = 0 while |roll| > cutout (module
     docstring). `heading_rad` is the true heading whose rate the gyro senses; samples
     must be equally spaced in time. `initial_valve_rad`: the valve reading the gyro was
-    slewed to at power-up (default: the first sample's reading)."""
+    slewed to at power-up (default: the first sample's reading). `rate_max_rad_s`: the
+    slaving correction saturates at this rate (the torquer's limit), the slaving term
+    becoming clip((psi_valve - psi)/tau, -rate_max, rate_max)."""
     t = np.asarray(time_s, dtype=float)
     fv, psi, roll = (np.asarray(a, dtype=float) for a in (valve_heading_mag_rad, heading_rad, roll_rad))
     n = t.size
@@ -482,7 +490,12 @@ def slaved_heading(time_s: ArrayLike, valve_heading_mag_rad: ArrayLike, heading_
     alpha = -math.expm1(-step / tau_s)
     on = np.abs(roll[:-1]) <= cutout_bank_rad  # slaving during interval k-1 -> k
     e0 = u[0] if initial_valve_rad is None else e_init
-    e_on = _slaving_filter(u[:-1][on], alpha, e0)
+    if rate_max_rad_s is None:
+        e_on = _slaving_filter(u[:-1][on], alpha, e0)
+    else:
+        if not rate_max_rad_s > 0:
+            raise ValueError(f"rate_max_rad_s: expected > 0, got {rate_max_rad_s}")
+        e_on = _saturating_slaving_filter(u[:-1][on], alpha, e0, rate_max_rad_s * step)
     e = np.concatenate(([e0], e_on))[np.concatenate(([0], np.cumsum(on)))]
     return _mod_2pi(psi_g + e)
 
@@ -517,6 +530,37 @@ def _slaving_filter(x: np.ndarray, alpha: float, e0: float) -> np.ndarray:
     return y
 
 
+def _saturating_slaving_filter(x: np.ndarray, alpha: float, e0: float, max_step: float) -> np.ndarray:
+    """e_k = e_{k-1} + clip(alpha wrap(x_{k-1} - e_{k-1}), -max_step, max_step): the slaving
+    loop of `_slaving_filter` with its correction per sample limited (a saturating
+    torquer). Runs the linear filter where it never reaches the limit and steps sample by
+    sample from the first sample that does, back to the linear filter once the error is
+    inside the linear band again for a block."""
+    y = np.empty_like(x)
+    e = float(e0)
+    k, n = 0, x.size
+    band = max_step / alpha  # |x - e| below this: the linear loop
+    while k < n:
+        lin = _slaving_filter(x[k:k + _SLAVING_BLOCK], alpha, e)
+        prev = np.concatenate(([e], lin[:-1]))
+        over = np.flatnonzero(np.abs(x[k:k + lin.size] - prev) > band)
+        if over.size == 0:  # the whole block is linear
+            y[k:k + lin.size] = lin
+            e = float(lin[-1])
+            k += lin.size
+            continue
+        j = k + int(over[0])
+        y[k:j] = lin[:j - k]
+        e = float(prev[j - k])
+        end = min(n, j + 20 * _SLAVING_BLOCK)  # saturated stretch: sample by sample
+        for i in range(j, end):
+            d = (x[i] - e + math.pi) % (2 * math.pi) - math.pi
+            e += min(max(alpha * d, -max_step), max_step)
+            y[i] = e
+        k = end
+    return y
+
+
 class HeadingSystem:
     """Flux valve + slaved gyro + the receiver's declination: what a SAAB 340 hands TAMDAR."""
 
@@ -545,7 +589,9 @@ class HeadingSystem:
         fv0 = float(self.valve.heading_mag(comps.ned_nT()[:1], 0.0, 0.0, psi0)[0])
         psi_mag = slaved_heading(df["time_s"].to_numpy(float), fv, df["heading_rad"].to_numpy(float), roll,
                                  self.spec.slaving_tau_s, cutout, self.spec.gyro_drift_deg_h * DEG / 3600.0,
-                                 initial_valve_rad=fv0)
+                                 initial_valve_rad=fv0, rate_max_rad_s=(
+                                     None if self.spec.slaving_rate_max_deg_min is None
+                                     else self.spec.slaving_rate_max_deg_min * DEG / 60.0))
         epoch = self.spec.declination_epoch
         want = field.when if epoch == "truth" else _as_datetime(epoch)
         if receiver_field is not None and receiver_field.when != want:
