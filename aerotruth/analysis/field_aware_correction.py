@@ -145,7 +145,7 @@ def compare_on(fit_obs: pd.DataFrame, test_obs: pd.DataFrame, heading: str = "ma
     both fitted on `fit_obs` and applied ground-side to the uncorrected reports of
     `test_obs`: per aircraft and overall, RMS vector difference (kt) uncorrected, with the
     constant table and with the field-aware correction, and the report count."""
-    from aerotruth.analysis.heading_correction import FleetHeadingFit, corrected_wind_error, lut_correction
+    from aerotruth.analysis.heading_correction import FleetHeadingFit, corrected_wind_error
     from aerotruth.units import KT
 
     const = FleetHeadingFit(heading=heading, gates=gates).fit(fit_obs)
@@ -154,8 +154,7 @@ def compare_on(fit_obs: pd.DataFrame, test_obs: pd.DataFrame, heading: str = "ma
     zdeg = rows[aware.heading_col_].to_numpy()
     used = (rows["gate"].cat.codes.to_numpy() == 0) & np.isfinite(zdeg) & np.isfinite(h)
     ac = rows["aircraft"].astype(str).to_numpy()
-    luts = np.vstack([np.nan_to_num(np.asarray(const.fits_[a].lut_, float)) if a in const.fits_ else np.zeros(8) for a in ac])
-    c_const = lut_correction(luts, zdeg)
+    c_const = (const.correct(ac, zdeg) - zdeg + 180.0) % 360.0 - 180.0  # the table's correction (0 without a fit)
     c_aware = -aware.deviation(ac, zdeg, h, zf)
     out = []
     for name, sel in [(a, used & (ac == a)) for a in sorted(set(ac[used]))] + [("all", used)]:

@@ -222,8 +222,36 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
     else:
         df = pd.DataFrame({k: (v[order] if isinstance(v, np.ndarray) else v.take(order)) for k, v in out.items()},
                           copy=False)  # copy=False: no consolidation into one block (a copy of every column)
+    _check_report_rows(df, source)
     df.attrs.update(source=source, dropped_empty=int((~keep).sum()), dropped_duplicates=int(dup.sum()))
     return df
+
+
+REPORT_OWN_COLUMNS = ("wind_speed_kt", "wind_dir_deg", "heading_deg", "tas_kt", "heading_mag_deg", "declination_deg",
+                      "lat", "lon", "roll_deg")
+
+
+def _check_report_rows(df: pd.DataFrame, source: str) -> None:
+    """The rows of one report (same aircraft and time, one per reference model) must agree
+    on the aircraft's own values (REPORT_OWN_COLUMNS): `heading_errors` takes them once per
+    report. `df` sorted by aircraft and time."""
+    ac, t = df["aircraft"].cat.codes.to_numpy(), df["time_s"].to_numpy()
+    same_rep = (ac[1:] == ac[:-1]) & (t[1:] == t[:-1])  # row i+1 repeats row i's report
+    if not same_rep.any():
+        return
+    for c in REPORT_OWN_COLUMNS:
+        if c not in df.columns:
+            continue
+        v = df[c].to_numpy()
+        bad = (v[1:] != v[:-1]) & same_rep
+        if bad.any():
+            j = np.flatnonzero(bad)
+            j = j[~(np.isnan(v[j]) & np.isnan(v[j + 1]))]  # both empty: the same
+            if len(j):
+                i = int(j[0]) + 1
+                raise DataError(f"{source}: column '{c}': the rows of one report (aircraft {df['aircraft'].iloc[i]}, "
+                                f"time {t[i]:.3f}) differ ({v[i - 1]:g} vs {v[i]:g}); a report's own values must be "
+                                f"the same on each reference model's row")
 
 
 # ----------------------------------------------------------------------------- section 5.1
@@ -314,22 +342,7 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
         checks.append(np.zeros(m, dtype=bool))
     for code in range(len(checks), 0, -1):  # first failing gate wins
         gate[checks[code - 1]] = code
-    # the aircraft's side, once per report (every row of a report must agree on it)
-    own = [c for c in ("wind_speed_kt", "wind_dir_deg", "heading_deg", "tas_kt", "heading_mag_deg", "declination_deg",
-                       "lat", "lon", "roll_deg") if c in df.columns]
-    if m < n:
-        same_rep = ~new_rep[1:]  # row i+1 repeats row i's report for another reference model
-        for c in own:
-            v = df[c].to_numpy()
-            bad = (v[1:] != v[:-1]) & same_rep
-            if bad.any():
-                j = np.flatnonzero(bad)
-                j = j[~(np.isnan(v[j]) & np.isnan(v[j + 1]))]  # both empty: the same
-                if len(j):
-                    i = int(j[0]) + 1
-                    raise DataError(f"{df.attrs.get('source', source)}: column '{c}': the rows of one report (aircraft "
-                                    f"{df['aircraft'].iloc[i]}, time {t[i]:.3f}) differ ({v[i - 1]:g} vs {v[i]:g}); a "
-                                    f"report's own values must be the same on each reference model's row")
+    # the aircraft's side, once per report (validate_observations checked its rows agree)
     wt_e, wt_n = towards_from_report(df["wind_speed_kt"].to_numpy()[first], df["wind_dir_deg"].to_numpy()[first])
     va_e_r, va_n_r = vg_e - wt_e, vg_n - wt_n  # wind paper eq. 3
     psi = np.degrees(np.arctan2(va_e_r, va_n_r))
@@ -459,8 +472,8 @@ def octants_occupied(heading_deg: np.ndarray, min_share: float = 0.03) -> int:
 
 def lut_correction(lut: np.ndarray, heading_deg: np.ndarray, table: np.ndarray | None = None) -> np.ndarray:
     """Correction (deg) at the measured heading from an 8-point table at 0, 45, ..., 315 deg,
-    linear between points and round the circle (wind paper 8.1). `lut` (8,), or (T, 8) with
-    `table` the row (0..T-1) to use at each heading, or, one table per heading, (..., 8)."""
+    linear between points and round the circle (wind paper 8.1). `lut` (8,), or several
+    tables (T, 8) with `table` the row (0..T-1) to use at each heading."""
     h = np.asarray(heading_deg, dtype=float) % 360.0
     q = h // 45.0
     frac = (h - 45.0 * q) / 45.0
@@ -468,14 +481,11 @@ def lut_correction(lut: np.ndarray, heading_deg: np.ndarray, table: np.ndarray |
     lut = np.asarray(lut, dtype=float)
     if lut.ndim == 1:
         return lut[i] * (1 - frac) + lut[(i + 1) % 8] * frac
-    if table is not None:  # flat index: no (n, 8) table per heading
-        flat = lut.ravel()
-        base = np.asarray(table, dtype=np.int64) * 8
-        j = (i + 1) & 7
-        return flat[base + i] * (1 - frac) + flat[base + j] * frac
-    lo = np.take_along_axis(lut, i[..., None], axis=-1)[..., 0]
-    hi = np.take_along_axis(lut, ((i + 1) % 8)[..., None], axis=-1)[..., 0]
-    return lo * (1 - frac) + hi * frac
+    if table is None or lut.ndim != 2 or lut.shape[1] != 8:
+        raise ValueError(f"lut: expected (8,), or (T, 8) with `table`, got shape {lut.shape}")
+    base = np.asarray(table, dtype=np.int64) * 8  # flat index: no (n, 8) table per heading
+    flat = lut.ravel()
+    return flat[base + i] * (1 - frac) + flat[base + (i + 1) % 8] * frac
 
 
 def _iso_date(t: float) -> str:

@@ -70,9 +70,10 @@ it slowly,
 r_gyro = dpsi_true/dt + drift (the gyro's azimuth rate; Earth and transport rate taken
 as compensated). Optionally (`slaving_rate_max_deg_min`) the slaving term saturates at the
 torquer's rate, clip((psi_valve - psi)/tau, -r_max, r_max): textbook slaved compasses
-precess at about 2 deg/min whatever the error (an assumption; default off). Written as psi = psi_g + e with psi_g = integral of r_gyro, the error
-e is a gated first-order low-pass of u = psi_valve - psi_g. Exact discretisation for
-readings held over a sample interval: e_k = e_{k-1} + s_{k-1} alpha (u_{k-1} - e_{k-1}),
+precess at about 2 deg/min whatever the error (an assumption; default off).
+Written as psi = psi_g + e with psi_g = integral of r_gyro, the error e is a gated
+first-order low-pass of u = psi_valve - psi_g. Exact discretisation for readings held
+over a sample interval: e_k = e_{k-1} + s_{k-1} alpha (u_{k-1} - e_{k-1}),
 alpha = 1 - exp(-dt/tau); at power-up the gyro is slewed to the valve (e_0 = u_0; `HeadingSystem`
 uses the valve's static reading at the first heading: a track starts airborne, long after
 the gyro was slaved on the ground).
@@ -533,9 +534,9 @@ def _slaving_filter(x: np.ndarray, alpha: float, e0: float) -> np.ndarray:
 def _saturating_slaving_filter(x: np.ndarray, alpha: float, e0: float, max_step: float) -> np.ndarray:
     """e_k = e_{k-1} + clip(alpha wrap(x_{k-1} - e_{k-1}), -max_step, max_step): the slaving
     loop of `_slaving_filter` with its correction per sample limited (a saturating
-    torquer). Runs the linear filter where it never reaches the limit and steps sample by
-    sample from the first sample that does, back to the linear filter once the error is
-    inside the linear band again for a block."""
+    torquer). Runs the linear filter block by block while no step reaches the limit; from
+    the first sample that does, steps sample by sample for 20 blocks, then tries the
+    linear filter again."""
     y = np.empty_like(x)
     e = float(e0)
     k, n = 0, x.size
