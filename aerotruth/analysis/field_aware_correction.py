@@ -20,7 +20,7 @@ Identifiability: over one region H0/H and Z/H both grow northwards and are nearl
 collinear; the vertical terms are fitted only when the correlation of the two scale
 factors over the used reports is below `max_scale_correlation` (0.95), else the
 hard-iron form alone (the paper's dominant cause) — `terms_` says which. The fit is the
-same Huber IRLS with flight-clustered (CR3) errors as the constant method
+same Huber M-estimate with flight-clustered (CR3) errors as the constant method
 (aerotruth.analysis.heading_correction.robust_fit), weights (TAS / median TAS)^2.
 
 Correction (ground side; an onboard table would need the field model onboard): the

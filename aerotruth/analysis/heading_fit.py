@@ -134,7 +134,7 @@ def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: 
             "## Method and criteria", "",
             "* Heading error psi - psi' = angle(V_G - V_W,TAM) - angle(V_G - V_W,REF) (wind paper eqs. 3, 4) against "
             "the measured heading (the `heading_deg` column where given, else the angle of V_A).",
-            "* Fit of d = A + B sin z + C cos z + D sin 2z + E cos 2z (eq. 2): Huber IRLS (c = 1.345, MAD scale), "
+            "* Fit of d = A + B sin z + C cos z + D sin 2z + E cos 2z (eq. 2): Huber M-estimate (c = 1.345, MAD scale), "
             "weights TAS^2; standard errors clustered by flight (leave-one-flight-out, CR3).",
             "* Sinusoid fitted only when the smaller eigenvalue of the covariance of (sin z, cos z) is >= 0.1 "
             "(uniform headings 0.5); else offset only. D, E kept when the flight-clustered Wald test rejects "
