@@ -297,3 +297,41 @@ def test_estimator_parameters_are_checked():
         HeadingDeviationFit(terms="cubic").fit(pd.DataFrame())
     with pytest.raises(ValueError, match="heading"):
         FleetHeadingFit(heading="grid")
+
+
+def _huber_by_irls_and_newton(XT, y, w, monkeypatch):
+    import aerotruth.analysis.heading_correction as hc
+    newton = hc._irls_t(XT, y, w, True, 1.345)
+    monkeypatch.setattr(hc, "_NEWTON_STEPS", 0)  # IRLS steps only: another algorithm, the same estimator
+    irls = hc._irls_t(XT, y, w, True, 1.345)
+    return newton, irls
+
+
+def test_newton_huber_steps_reach_the_irls_fixed_point(monkeypatch):
+    """Heavy-tailed noise (t with 2 dof) and 10 % gross errors: the Newton solution equals
+    the IRLS one (both iterate to 1e-5 deg), scale included."""
+    rng = np.random.default_rng(7)
+    z = rng.uniform(0.0, 360.0, 4000)
+    X = np.column_stack([np.ones_like(z), np.sin(np.radians(z)), np.cos(np.radians(z)),
+                         np.sin(np.radians(2 * z)), np.cos(np.radians(2 * z))])
+    y = X @ np.array([1.5, -2.0, 0.7, 0.3, -0.2]) + rng.standard_t(2, len(z))
+    y[rng.random(len(z)) < 0.1] += 25.0
+    w = rng.uniform(0.6, 1.4, len(z))
+    (bn, sn), (bi, si) = _huber_by_irls_and_newton(np.ascontiguousarray(X.T), y, w, monkeypatch)
+    assert np.max(np.abs(bn - bi)) < 5e-5
+    assert sn == pytest.approx(si, rel=1e-4)
+
+
+def test_newton_huber_falls_back_to_irls_when_its_matrix_is_singular(monkeypatch):
+    """Most reports at one heading with tiny residuals, the rest far off at three others:
+    the unclipped reports then span one direction only (singular Newton matrix); the fit
+    must still reach the IRLS solution, finite."""
+    rng = np.random.default_rng(3)
+    n0, n1 = 600, 400
+    z = np.r_[np.zeros(n0), rng.choice([90.0, 180.0, 270.0], n1)]
+    X = np.column_stack([np.ones_like(z), np.sin(np.radians(z)), np.cos(np.radians(z))])
+    y = np.r_[1e-4 * rng.standard_normal(n0), rng.choice([-30.0, 40.0], n1) + rng.standard_normal(n1)]
+    w = np.ones_like(z)
+    (bn, sn), (bi, si) = _huber_by_irls_and_newton(np.ascontiguousarray(X.T), y, w, monkeypatch)
+    assert np.all(np.isfinite(bn))
+    assert np.max(np.abs(bn - bi)) < 5e-5
