@@ -53,13 +53,14 @@ def summarize(rows: pd.DataFrame) -> pd.DataFrame:
     return out
 
 
-def calibration_chi2(t: pd.DataFrame) -> float:
+def calibration_chi2(t: pd.DataFrame) -> tuple[float, int]:
     """The campaigns' calibration rule: over the calibrated cells (the before cells, totals
     and components), the sum of ((mean - paper) / seed-to-seed sd)^2 — each miss in units of
     one campaign's spread, since the paper's cell is itself one draw of a few aircraft. Of
-    the parameter variants tried, the one with the smallest value is kept."""
+    the parameter variants tried, the one with the smallest value is kept. Returns the
+    sum and the number of cells in it."""
     c = t[(t["role"] == "calibrated") & (t["sd_kt"] > 0)]
-    return float((((c["mean_kt"] - c["paper_kt"]) / c["sd_kt"]) ** 2).sum())
+    return float((((c["mean_kt"] - c["paper_kt"]) / c["sd_kt"]) ** 2).sum()), len(c)
 
 
 def figure(t: pd.DataFrame, path: str, title: str = "") -> None:
@@ -100,8 +101,8 @@ def main() -> None:
     for r in t[t["verdict"] != ""].itertuples():
         print(f"judged.{r.group}.{r.period}: {r.verdict} (|mean - paper| = {abs(r.difference_kt):.2f}, tolerance "
               f"{r.tolerance_kt:.2f})")
-    print(f"calibration.chi2: {calibration_chi2(t):.1f} over {int(((t['role'] == 'calibrated') & (t['sd_kt'] > 0)).sum())} "
-          f"calibrated cells")
+    chi2, n_cells = calibration_chi2(t)
+    print(f"calibration.chi2: {chi2:.1f} over {n_cells} calibrated cells")
     if a.figure:
         figure(t, a.figure, title=str(rows["source"].iloc[0]) if "source" in rows else "")
     if a.markdown:

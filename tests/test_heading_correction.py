@@ -301,9 +301,9 @@ def test_estimator_parameters_are_checked():
 
 def _huber_by_irls_and_newton(XT, y, w, monkeypatch):
     import aerotruth.analysis.heading_correction as hc
-    newton = hc._irls_t(XT, y, w, True, 1.345)
+    newton = hc._huber_t(XT, y, w, True, 1.345)[:2]
     monkeypatch.setattr(hc, "_NEWTON_STEPS", 0)  # IRLS steps only: another algorithm, the same estimator
-    irls = hc._irls_t(XT, y, w, True, 1.345)
+    irls = hc._huber_t(XT, y, w, True, 1.345)[:2]
     return newton, irls
 
 

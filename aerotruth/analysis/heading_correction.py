@@ -37,7 +37,8 @@ reports stops changing): 3.8 steps per fit against IRLS's 6.2 on the method benc
 coefficients equal to 1.4e-6 deg (the same fixed point; IRLS takes over if a step's
 matrix is singular or Newton has not converged in 20 steps). Where the unclipped reports
 leave a term nearly unidentified (nearly all on one heading) the joint iteration of b and
-s can have several fixed points and the two algorithms may stop at different ones. Standard errors: cluster-robust sandwich with whole flights as clusters
+s can have several fixed points and the two algorithms may stop at different ones.
+Standard errors: cluster-robust sandwich with whole flights as clusters
 (reference-model errors are correlated along a flight) in its jackknife form (CR3):
 cov = (G-1)/G sum_g q_g q_g^T, q_g = (B - B_g)^-1 h_g, B = sum_i x_i x_i^T w_i psi'(u_i)/s,
 B_g the same over flight g, h_g = sum_{i in g} x_i sqrt(w_i) psi(u_i) (the plain sandwich
@@ -425,8 +426,8 @@ def robust_fit(X: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray, 
     XT = np.ascontiguousarray(X.T)  # (k, n): row-wise products and reductions run on contiguous rows
     k = len(XT)
     sw = np.sqrt(w)
-    beta, scale = _irls_t(XT, y, w, robust, c, max_iter, beta0)
-    u = (y - beta @ XT) * sw / scale
+    beta, scale, r = _huber_t(XT, y, w, robust, c, max_iter, beta0)
+    u = r / scale  # r = sqrt(w) (y - X b) at the solution, from the solver
     cc = c if robust else np.inf
     psi = np.clip(u, -cc, cc)
     wb = w * (np.abs(u) <= cc) / scale  # B's weights: psi'(u) w / s
@@ -748,7 +749,7 @@ class HeadingDeviationFit:
             lens = ends[pick] - starts[pick]
             idx = np.repeat(starts[pick] - np.r_[0, np.cumsum(lens)[:-1]], lens) + np.arange(lens.sum())
             if method == "percentile":
-                est[b] = _irls(X[idx], self._y[idx], self._w[idx], self.robust, self.huber_c)[0]
+                est[b] = _huber(X[idx], self._y[idx], self._w[idx], self.robust, self.huber_c)[0]
                 continue
             f = robust_fit(X[idx], self._y[idx], self._w[idx], np.repeat(np.arange(G), lens), self.robust, self.huber_c,
                            beta0=beta)
@@ -804,35 +805,31 @@ class HeadingDeviationFit:
         return self
 
 
-def _median(x: np.ndarray, scratch: np.ndarray | None = None) -> float:
+def _median(x: np.ndarray, scratch: np.ndarray) -> float:
     """np.median of a finite 1-D array without its generic machinery (a third of an iteration's
-    time): the middle element, or the mean of the two middle ones. `scratch` (same length):
-    partitioned in place instead of a fresh copy of x."""
+    time): the middle element, or the mean of the two middle ones. `scratch` (same length)
+    is partitioned in place, x left as it is."""
     n = len(x)
     h = n // 2
-    kth = h if n % 2 else (h - 1, h)
-    if scratch is None:
-        p = np.partition(x, kth)
-    else:
-        p = scratch
-        np.copyto(p, x)
-        p.partition(kth)
-    return float(p[h]) if n % 2 else float(0.5 * (p[h - 1] + p[h]))
+    np.copyto(scratch, x)
+    scratch.partition(h if n % 2 else (h - 1, h))
+    return float(scratch[h]) if n % 2 else float(0.5 * (scratch[h - 1] + scratch[h]))
 
 
 _NEWTON_STEPS = 20  # then IRLS (module docstring)
 
 
-def _irls(X: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float, max_iter: int = 50,
-          beta0: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+def _huber(X: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float, max_iter: int = 50,
+           beta0: np.ndarray | None = None) -> tuple[np.ndarray, float]:
     """Huber M-estimate (module docstring) on the (n, k) design X: coefficients and the final MAD scale."""
-    return _irls_t(np.ascontiguousarray(X.T), y, w, robust, c, max_iter, beta0)
+    return _huber_t(np.ascontiguousarray(X.T), y, w, robust, c, max_iter, beta0)[:2]
 
 
-def _irls_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float, max_iter: int = 50,
-            beta0: np.ndarray | None = None) -> tuple[np.ndarray, float]:
+def _huber_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float, max_iter: int = 50,
+             beta0: np.ndarray | None = None) -> tuple[np.ndarray, float, np.ndarray]:
     """Huber M-estimate on the transposed (k, n) design (module docstring: Newton steps,
-    IRLS as the fallback). Normal equations (k <= 5 bounded columns: well conditioned
+    IRLS as the fallback): coefficients, the final MAD scale and the weighted residuals
+    sqrt(w) (y - X b) at the solution. Normal equations (k <= 5 bounded columns: well conditioned
     whenever the coverage gate passes), y carried as a last row so that one product gives
     X^T W X and X^T W y. The per-report work runs in buffers allocated once per fit (fresh
     arrays each step cost more in page faults than the arithmetic)."""
@@ -881,7 +878,7 @@ def _irls_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float
             break
     residuals(beta)
     scale = max(1.4826 * _median(ar, tmp), 1e-9)
-    return beta, scale
+    return beta, scale, r
 
 
 class FleetHeadingFit:
