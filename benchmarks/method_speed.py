@@ -34,8 +34,8 @@ import pandas as pd  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import obs_generator as gen  # noqa: E402
 
-from aerotruth.analysis.heading_correction import (FleetHeadingFit, corrected_wind_error, heading_errors,  # noqa: E402
-                                                   validate_observations, wind_error_components)
+from aerotruth.analysis.heading_correction import (FleetHeadingFit, heading_errors, validate_observations,  # noqa: E402
+                                                   wind_errors_before_after)
 
 
 def table(copies: int) -> pd.DataFrame:
@@ -66,11 +66,7 @@ def run(obs: pd.DataFrame) -> dict[str, float]:
     m = rows["gate"].cat.codes.to_numpy() == 0  # "used"
     used = pd.DataFrame({c: rows[c].array[m] for c in ("aircraft", "heading_deg", "va_e", "va_n", "dw_e", "dw_n")},
                         copy=False)  # only the columns the metrics read
-    h = used["heading_deg"].to_numpy()
-    corr = (fleet.correct(used["aircraft"].array, h) - h + 180.0) % 360.0 - 180.0
-    before = wind_error_components(used["dw_e"].to_numpy(), used["dw_n"].to_numpy(), h)
-    ae, an = corrected_wind_error(used, corr)
-    after = wind_error_components(ae, an, h + corr)
+    before, after = wind_errors_before_after(used, fleet.correction(used["aircraft"].array, used["heading_deg"].to_numpy()))
     t4 = time.perf_counter()
     return {"validate_s": t1 - t0, "tracks_s": t2 - t1, "fit_s": t3 - t2, "metrics_s": t4 - t3, "total_s": t4 - t0,
             "rms_before_kt": before["rms_kt"], "rms_after_kt": after["rms_kt"]}

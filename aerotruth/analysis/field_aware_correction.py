@@ -154,7 +154,7 @@ def compare_on(fit_obs: pd.DataFrame, test_obs: pd.DataFrame, heading: str = "ma
     zdeg = rows[aware.heading_col_].to_numpy()
     used = (rows["gate"].cat.codes.to_numpy() == 0) & np.isfinite(zdeg) & np.isfinite(h)
     ac = rows["aircraft"].astype(str).to_numpy()
-    c_const = (const.correct(ac, zdeg) - zdeg + 180.0) % 360.0 - 180.0  # the table's correction (0 without a fit)
+    c_const = const.correction(ac, zdeg)  # the table's correction (0 without a fit)
     c_aware = -aware.deviation(ac, zdeg, h, zf)
     out = []
     for name, sel in [(a, used & (ac == a)) for a in sorted(set(ac[used]))] + [("all", used)]:

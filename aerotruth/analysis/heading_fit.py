@@ -24,8 +24,7 @@ import numpy as np
 import pandas as pd
 
 from aerotruth.analysis.heading_correction import (LUT_HEADINGS_DEG, FleetHeadingFit, GATE_NAMES, TABLE_COLUMNS,
-                                                   corrected_wind_error, heading_errors, validate_observations,
-                                                   wind_error_components)
+                                                   heading_errors, validate_observations, wind_errors_before_after)
 from aerotruth.errors import DataError
 from aerotruth.files import atomic_write, atomic_write_text
 
@@ -120,11 +119,7 @@ def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: 
                                     "B_se_deg", "C_se_deg"]]), ""]
     used = rows["gate"].to_numpy() == "used"
     ru = rows.loc[used]
-    corr = fleet.correct(ru["aircraft"].array, ru["heading_deg"].to_numpy()) - ru["heading_deg"].to_numpy()
-    corr = (corr + 180.0) % 360.0 - 180.0
-    before = wind_error_components(ru["dw_e"].to_numpy(), ru["dw_n"].to_numpy(), ru["heading_deg"].to_numpy())
-    ae, an = corrected_wind_error(ru, corr)
-    after = wind_error_components(ae, an, (ru["heading_deg"].to_numpy() + corr) % 360.0)
+    before, after = wind_errors_before_after(ru, fleet.correction(ru["aircraft"].array, ru["heading_deg"].to_numpy()))
     out += ["## Wind error against the references, used reports (in sample)", "",
             "| | RMS kt | longitudinal kt | transverse kt |", "|---|---|---|---|",
             f"| before | {before['rms_kt']:.2f} | {before['longitudinal_kt']:.2f} | {before['transverse_kt']:.2f} |",
