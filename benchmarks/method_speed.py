@@ -3,10 +3,12 @@ validation -> three-report ground tracks and air vectors (eqs. 3, 4) -> per-airc
 robust fit with D/E test and cross-model check -> lookup-table correction and the wind
 error metrics before/after (RMS, longitudinal, transverse).
 
-Data: the independent test generator (tests/obs_generator.py), a fleet of 12 aircraft x
-40 flights with two reference models, repeated later in time (`--copies` times, default
-25: 1000 flights per aircraft, ~1.1 M rows, about what a season of such a fleet sends),
-held in memory as read back from Parquet.
+Data: the independent test generator (tests/obs_generator.py), a fleet of 12 aircraft
+with two reference models, 40 flights each `--copies` times (default 25: 1000 flights per
+aircraft, ~1.1 M rows, about what a season of such a fleet sends), each batch of flights
+later in time with its own random stream (new flights and reference errors: repeating one
+batch would repeat its errors, and the two models' fits would then differ by 5x their
+standard errors), held in memory as read back from Parquet (~30 s to generate).
 
 Prints `reports/s` (aircraft reports, each with its reference rows), `rows/s` ((report,
 reference) rows), and the stage times; then `one_model.*`: the same reports against the
@@ -40,13 +42,12 @@ from aerotruth.analysis.heading_correction import (FleetHeadingFit, heading_erro
 
 def table(copies: int) -> pd.DataFrame:
     rng = np.random.default_rng(2009)
-    base = gen.generate(gen.fleet(12, rng, tas_kt=(400.0, 460.0)), rng, spoke_km=(700.0, 1500.0),
-                        cruise_ft=(25000.0, 35000.0))
-    span = base["time"].max() - base["time"].min() + 86400.0
-    parts = []
-    for c in range(copies):  # the same aircraft flying on: a season of a 12-aircraft fleet
-        p = base.copy()
-        p["time"] = p["time"] + c * span
+    fleet = gen.fleet(12, rng, tas_kt=(400.0, 460.0))
+    parts, t0 = [], 1_249_084_800.0
+    for c in range(copies):  # the same aircraft flying on, new flights and reference errors: a season
+        p = gen.generate(fleet, np.random.default_rng([2009, c]), spoke_km=(700.0, 1500.0), cruise_ft=(25000.0, 35000.0),
+                         t_start=t0)
+        t0 = p["time"].max() + 86400.0
         parts.append(p)
     # as a user's table arrives, read from a file (one Arrow chunk per string column, not the
     # 24,000 chunks the concatenation leaves, which cost 4x in factorising the labels)
