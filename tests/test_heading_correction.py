@@ -361,3 +361,33 @@ def test_fit_from_a_nearby_start_matches_the_iterated_fit(start_se):
     near = fit_from_t(XT, y, w, g, start)
     assert np.all(np.abs(near.beta - full.beta) < 0.1 * se), (near.beta - full.beta) / se
     assert np.allclose(np.sqrt(np.diag(near.cov)), se, rtol=0.05)
+
+
+def test_wind_errors_before_after_against_a_hand_rotation():
+    """Before/after wind error components on rows paired by report (two reference models
+    each, so the trigonometry is shared per report): against the wind recomputed by hand
+    with V_A rotated clockwise by the correction, and components along/across the heading."""
+    from aerotruth.analysis.heading_correction import wind_errors_before_after
+    from aerotruth.units import KT
+
+    rng = np.random.default_rng(4)
+    n_rep = 20
+    h = np.repeat(rng.uniform(0, 360, n_rep), 2)
+    tas = np.repeat(rng.uniform(100, 150, n_rep), 2)
+    va_e, va_n = tas * np.sin(np.radians(h)), tas * np.cos(np.radians(h))
+    dw_e, dw_n = rng.normal(0, 3, 2 * n_rep), rng.normal(0, 3, 2 * n_rep)
+    c = np.repeat(rng.uniform(-4, 4, n_rep), 2)
+    rows = pd.DataFrame({"heading_deg": h, "va_e": va_e, "va_n": va_n, "dw_e": dw_e, "dw_n": dw_n})
+    before, after = wind_errors_before_after(rows, c)
+
+    def comps(e, n, hd):
+        lon = e * np.sin(np.radians(hd)) + n * np.cos(np.radians(hd))
+        tr = e * np.cos(np.radians(hd)) - n * np.sin(np.radians(hd))
+        r = lambda x: np.sqrt(np.mean(x ** 2)) / KT  # noqa: E731
+        return r(np.hypot(e, n)), r(lon), r(tr)
+
+    # corrected heading h + c: V_A' = TAS (sin(h + c), cos(h + c)); wind' = wind + V_A - V_A'
+    e2 = dw_e + va_e - tas * np.sin(np.radians(h + c))
+    n2 = dw_n + va_n - tas * np.cos(np.radians(h + c))
+    for got, want in ((before, comps(dw_e, dw_n, h)), (after, comps(e2, n2, h + c))):
+        assert np.allclose([got["rms_kt"], got["longitudinal_kt"], got["transverse_kt"]], want, rtol=1e-12)

@@ -1126,9 +1126,20 @@ def wind_errors_before_after(rows: pd.DataFrame, correction_deg: np.ndarray) -> 
     """wind_error_components of the `heading_errors` rows as reported and after correcting
     their heading (`heading_deg`) by c (corrected_wind_error), the corrected heading's sine
     and cosine by the angle-sum identities (no second evaluation)."""
-    z = rows["heading_deg"].to_numpy() * DEG
-    c = np.asarray(correction_deg, dtype=float) * DEG
-    sz, cz, sc, cc = np.sin(z), np.cos(z), np.sin(c), np.cos(c)
+    z = rows["heading_deg"].to_numpy()
+    c = np.asarray(correction_deg, dtype=float)
+    # the rows of one report (one per reference model) are adjacent and share heading and
+    # correction: the sines and cosines once per run of equal values (the same numbers)
+    head = np.ones(len(z), dtype=bool)
+    head[1:] = (z[1:] != z[:-1]) | (c[1:] != c[:-1])
+    first = np.flatnonzero(head)
+    if len(first) > 0.8 * len(z):
+        zr, cr = z * DEG, c * DEG
+        sz, cz, sc, cc = np.sin(zr), np.cos(zr), np.sin(cr), np.cos(cr)
+    else:
+        counts = np.diff(np.r_[first, len(z)])
+        zr, cr = z[first] * DEG, c[first] * DEG
+        sz, cz, sc, cc = (np.repeat(f(v), counts) for f, v in ((np.sin, zr), (np.cos, zr), (np.sin, cr), (np.cos, cr)))
     before = _components(rows["dw_e"].to_numpy(), rows["dw_n"].to_numpy(), sz, cz)
     ae, an = _rotated_error(rows, sc, cc)
     s2 = sz * cc
