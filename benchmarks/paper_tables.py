@@ -9,10 +9,18 @@ judges (the poor group's adjusted after cell and the improvement, total RMS), wh
 mean lands within max(1.0 kn, 2 standard errors) of the paper.
 
     python benchmarks/paper_tables.py RUN_DIR [RUN_DIR ...] [--markdown]
+    python benchmarks/paper_tables.py RUN_DIR ... --baseline BASE_DIR ...
 
 Prints `label: value` lines (`cell.<group>.<period>.<component>: mean sd se paper role`),
 `judged.<group>.<period>: pass|fail (|mean - paper| = x <= tol y)` and
 `calibration.chi2` (the campaigns' calibration rule: see `calibration_chi2`).
+
+`--baseline`: these runs are a variant (one sensor or method option changed) of baseline
+runs on the same campaign seeds, given in the same order. Runs of one seed share their
+flights and sensor noise (named random streams), so the per-seed difference cancels most
+of the seed-to-seed spread: `paired.<group>.<period>.<component>: difference se` per cell
+(variant minus baseline, mean over the seeds and its standard error), a far tighter
+measure of what the change does than the difference of the two means.
 """
 
 from __future__ import annotations
@@ -50,6 +58,20 @@ def summarize(rows: pd.DataFrame) -> pd.DataFrame:
     judged = [(r.group, r.period) in JUDGED and r.component == "total" for r in out.itertuples()]
     out["verdict"] = ["" if not j else ("pass" if abs(r.difference_kt) <= r.tolerance_kt else "fail")
                       for j, r in zip(judged, out.itertuples())]
+    return out
+
+
+def paired(rows: pd.DataFrame, base: pd.DataFrame) -> pd.DataFrame:
+    """Per (group, period, component): mean and standard error over the seeds of variant
+    minus baseline, the i-th variant run paired with the i-th baseline run."""
+    key = ["group", "period", "component"]
+    a, b = rows.copy(), base.copy()
+    for t in (a, b):
+        t["pair"] = t.groupby(key, sort=False).cumcount()
+    m = a.merge(b, on=key + ["pair"], suffixes=("", "_base"))
+    m["difference_kt"] = m["simulated_kt"] - m["simulated_kt_base"]
+    out = m.groupby(key, sort=False)["difference_kt"].agg(mean_kt="mean", sd_kt="std", n="count").reset_index()
+    out["se_kt"] = out["sd_kt"] / out["n"].clip(lower=1) ** 0.5
     return out
 
 
@@ -91,7 +113,12 @@ def main() -> None:
     ap.add_argument("runs", nargs="+", help="run directories of one campaign, one per seed")
     ap.add_argument("--markdown", action="store_true", help="also print the table as Markdown")
     ap.add_argument("--figure", help="also draw the total cells, paper vs mean +- 2 se, to this PNG")
+    ap.add_argument("--baseline", nargs="+", help="baseline runs on the same seeds, in the same order: also print "
+                    "the paired differences (these runs minus the baseline)")
     a = ap.parse_args()
+    if a.baseline and len(a.baseline) != len(a.runs):
+        sys.exit(f"--baseline: expected {len(a.runs)} run directories (one per run, same seeds, same order), "
+                 f"got {len(a.baseline)}")
     rows = collect(a.runs)
     t = summarize(rows)
     print(f"seeds: {len(a.runs)}")
@@ -103,6 +130,9 @@ def main() -> None:
               f"{r.tolerance_kt:.2f})")
     chi2, n_cells = calibration_chi2(t)
     print(f"calibration.chi2: {chi2:.1f} over {n_cells} calibrated cells")
+    if a.baseline:
+        for r in paired(rows, collect(a.baseline)).itertuples():
+            print(f"paired.{r.group}.{r.period}.{r.component}: {r.mean_kt:+.2f} se {r.se_kt:.2f}")
     if a.figure:
         figure(t, a.figure, title=str(rows["source"].iloc[0]) if "source" in rows else "")
     if a.markdown:
