@@ -13,7 +13,7 @@ import pytest
 
 import obs_generator as gen
 from aerotruth.analysis.heading_correction import (TABLE_COLUMNS, FleetHeadingFit, HeadingDeviationFit, heading_errors,
-                                                   towards_from_report)
+                                                   towards_from_report, validate_observations)
 from aerotruth.analysis.heading_fit import heading_fit_main
 
 REQUIRED_HEAD = ("aircraft, status, reason, n_used, A_deg, B_deg, C_deg, D_deg, E_deg, A_se_deg, B_se_deg, C_se_deg, "
@@ -391,3 +391,28 @@ def test_wind_errors_before_after_against_a_hand_rotation():
     n2 = dw_n + va_n - tas * np.cos(np.radians(h + c))
     for got, want in ((before, comps(dw_e, dw_n, h)), (after, comps(e2, n2, h + c))):
         assert np.allclose([got["rms_kt"], got["longitudinal_kt"], got["transverse_kt"]], want, rtol=1e-12)
+
+
+@pytest.mark.parametrize("storage", ["object", "arrow", "arrow-chunks", "python"])
+def test_text_labels_are_read_the_same_whatever_their_storage(storage):
+    """Aircraft and reference labels stripped, empty reference -> "ref", rows sorted by
+    aircraft, time and reference (labels in order of first appearance): by hand, for text held as Python objects, Arrow strings (one chunk,
+    or several as a concatenation leaves them) or pandas' Python strings."""
+    rows = {"aircraft": [" N2", "N1", "N1 ", "N2", "N1"], "time": [5.0, 9.0, 1.0, 2.0, 1.0],
+            "ref_source": ["rr", "rr", "", "rr", "rr"]}
+    n = len(rows["time"])
+    obs = pd.DataFrame({**rows, "lat": 45.0, "lon": -93.0, "pressure_altitude_ft": 9000.0, "wind_speed_kt": 20.0, "wind_dir_deg": 270.0,
+                        "ref_wind_speed_kt": 18.0, "ref_wind_dir_deg": 265.0}, index=range(n))
+    for c in ("aircraft", "ref_source"):
+        if storage == "arrow":
+            obs[c] = obs[c].astype("string[pyarrow]")
+        elif storage == "arrow-chunks":
+            obs[c] = pd.concat([obs[c][:2].astype("string[pyarrow]"), obs[c][2:].astype("string[pyarrow]")],
+                               ignore_index=True)
+        elif storage == "python":
+            obs[c] = obs[c].astype("string[python]")
+    df = validate_observations(obs)
+    assert list(df["aircraft"].astype(str)) == ["N2", "N2", "N1", "N1", "N1"]
+    assert list(df["time_s"]) == [2.0, 5.0, 1.0, 1.0, 9.0]
+    assert list(df["ref_source"].astype(str)) == ["rr", "rr", "rr", "ref", "rr"]
+    assert set(df["aircraft"].cat.categories) == {"N1", "N2"}
