@@ -738,8 +738,13 @@ class HeadingDeviationFit:
                         reason.append(f"D, E kept (Wald p = {self.de_p_:.1e})")
         self._k = k
         self._T = np.eye(5)[:, :k] if T is None else T
-        f = full if k == 5 and full is not None else robust_fit_t(self._fit_design(), self._y, self._w, self._g,
-                                                                 self.robust, self.huber_c)
+        if k == 5 and full is not None:
+            f = full
+        elif full is not None and T is None:  # D, E dropped: the 5-term fit's A, B, C are a near start
+            f = robust_fit_t(self._fit_design(), self._y, self._w, self._g, self.robust, self.huber_c,
+                             beta0=full.beta[:k], scale_guess=full.scale)
+        else:
+            f = robust_fit_t(self._fit_design(), self._y, self._w, self._g, self.robust, self.huber_c)
         self._fit = f
         self.terms_ = TERM_NAMES[:k]
         beta = self._T @ f.beta
