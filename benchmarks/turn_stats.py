@@ -8,6 +8,11 @@ The truth side: the legs of Mesaba aircraft-days (the campaign's daily schedules
 day's truth weather, JSBSim turbulence on), resampled to 1 Hz as the recorder is.
 
 Prints `label: value` lines (A320 and truth side by side, and the truth/A320 ratios).
+`wings_level.*`: 10-s windows above 10,000 ft with |roll| < 3 deg, the small bank angles of
+straight flight (the truth's roll and track rounded to the recorder's steps, 0.35 and 0.088
+deg): their rms, the rms track rate, and how far they are coordinated turning
+(the regression of the window's track rate on g tan(roll) / V: slope and correlation; 1 and
+1 for pure turning, ~0 for roll that does not turn the aircraft).
 
     python benchmarks/turn_stats.py [--days 3] [--turbulence]
 """
@@ -49,9 +54,33 @@ def roll_stats(roll_deg: np.ndarray, alt_ft: np.ndarray, lsb_deg: float | None =
     return out
 
 
+def wings_level_stats(roll_deg: np.ndarray, track_deg: np.ndarray, gs_mps: np.ndarray, alt_ft: np.ndarray,
+                      window_s: int = 10) -> dict[str, float]:
+    """1-Hz samples (NaN between legs): rms roll and track rate of straight-flight windows
+    above 10,000 ft, and the slope and correlation of track rate on g tan(roll) / V."""
+    ok = (alt_ft > 10000.0) & (np.abs(roll_deg) < 3.0)
+    trk = np.radians(track_deg)
+    phi, rate, v = [], [], []
+    for i in range(0, len(roll_deg) - window_s, window_s):
+        if not ok[i:i + window_s + 1].all():
+            continue
+        turn = np.angle(np.exp(1j * (trk[i + window_s] - trk[i])))  # wrapped to (-pi, pi]
+        phi.append(np.radians(roll_deg[i:i + window_s]).mean())
+        rate.append(turn / window_s)
+        v.append(gs_mps[i:i + window_s].mean())
+    phi, rate, v = map(np.asarray, (phi, rate, v))
+    if len(phi) < 3:
+        return {}
+    coordinated = 9.81 * np.tan(phi) / v
+    return {"windows": float(len(phi)), "roll_rms_deg": float(np.degrees(np.sqrt(np.mean(phi ** 2)))),
+            "track_rate_rms_deg_min": float(np.degrees(np.sqrt(np.mean(rate ** 2))) * 60.0),
+            "turning_slope": float(np.polyfit(coordinated, rate, 1)[0]),
+            "turning_corr": float(np.corrcoef(coordinated, rate)[0, 1])}
+
+
 def recorder_step_deg(roll_deg: np.ndarray) -> float:
-    """The recorder's roll resolution: the smallest non-zero change between samples (the
-    A320 extract: 0.352 deg, an ARINC 429 word's least significant bit)."""
+    """A recorded parameter's resolution: the smallest non-zero change between samples (the
+    A320 extract's roll: 0.352 deg, an ARINC 429 word's least significant bit; track 0.088)."""
     d = np.abs(np.diff(roll_deg[np.isfinite(roll_deg)]))
     return float(d[d > 1e-9].min())
 
@@ -65,7 +94,9 @@ def main() -> None:
     a = pd.DataFrame(json.load(gzip.open(REAL))).sort_values("timestamp")
     lsb = recorder_step_deg(a["roll"].to_numpy(float))
     real = roll_stats(a["roll"].to_numpy(float), a["altitude"].to_numpy(float), lsb)
-    rolls, alts, betas = [], [], []
+    real_wl = wings_level_stats(a["roll"].to_numpy(float), a["track"].to_numpy(float),
+                                a["groundspeed"].to_numpy(float) * 0.514444, a["altitude"].to_numpy(float))
+    rolls, alts, betas, tracks, speeds = [], [], [], [], []
     n_legs = n_div = 0
     for k in range(args.days):
         day = AircraftDay.for_campaign(2009, f"N40{k + 1}XJ", dt.date(2009, 8, 15) + dt.timedelta(days=k),
@@ -80,6 +111,8 @@ def main() -> None:
             one = df.iloc[::10]  # 10 Hz -> 1 Hz, as the recorder samples
             rolls += [one["roll_rad"].to_numpy() / DEG, [np.nan]]
             alts += [one["pressure_altitude_m"].to_numpy() / FT, [np.nan]]
+            tracks += [np.degrees(np.arctan2(one["ve_mps"].to_numpy(), one["vn_mps"].to_numpy())), [np.nan]]
+            speeds += [np.hypot(one["ve_mps"].to_numpy(), one["vn_mps"].to_numpy()), [np.nan]]
             betas.append(df[["roll_rad", "beta_rad", "p_radps"]].to_numpy())
     roll_1hz = np.concatenate(rolls)
     truth = roll_stats(np.round(roll_1hz / lsb) * lsb, np.concatenate(alts), lsb)  # recorded as the A320's recorder would
@@ -91,6 +124,12 @@ def main() -> None:
         print(f"truth.{k}: {truth[k]:.3f}")
         if "rate" in k:
             print(f"ratio.{k}: {truth[k] / real[k]:.2f}")
+    trk_lsb = recorder_step_deg(a["track"].to_numpy(float))  # 0.088 deg: as recorded, like the roll
+    truth_wl = wings_level_stats(np.round(roll_1hz / lsb) * lsb, np.round(np.concatenate(tracks) / trk_lsb) * trk_lsb,
+                                 np.concatenate(speeds), np.concatenate(alts))
+    for k in real_wl:
+        print(f"a320.wings_level.{k}: {real_wl[k]:.3f}")
+        print(f"truth.wings_level.{k}: {truth_wl.get(k, float('nan')):.3f}")
     b = np.vstack(betas)
     roll, beta, p = np.degrees(b[:, 0]), np.degrees(b[:, 1]), np.degrees(b[:, 2])
     steady = (np.abs(roll) > 15.0) & (np.abs(p) < 0.5)
