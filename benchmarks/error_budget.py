@@ -30,15 +30,11 @@ import numpy as np
 import pandas as pd
 import yaml
 
+from aerotruth.analysis.heading_correction import towards_from_report, wind_error_components
+from aerotruth.sim.studies.wind_reports import unbanked
+
 CLIMB_BINS_S = (0.0, 60.0, 180.0, 600.0, np.inf)
 CLIMB_LABELS = ("0-1min", "1-3min", "3-10min", "10min+")
-
-
-def _vector(speed_kt: pd.Series, from_deg: pd.Series) -> tuple[np.ndarray, np.ndarray]:
-    """(east, north) kt of a wind given as speed and meteorological 'from' direction."""
-    a = np.radians(from_deg.to_numpy(float))
-    s = speed_kt.to_numpy(float)
-    return -s * np.sin(a), -s * np.cos(a)
 
 
 def scored_reports(run: Path) -> pd.DataFrame:
@@ -56,7 +52,7 @@ def scored_reports(run: Path) -> pd.DataFrame:
     if missing:
         sys.exit(f"{obs_path}: missing columns {missing} (the export of a simulated run carries the truth)")
     group = pd.read_parquet(groups_path).set_index("aircraft")["group"]
-    obs = obs[obs["stage"].isin(["before", "after"]) & (obs["roll_deg"].abs() <= max_roll)].copy()
+    obs = unbanked(obs[obs["stage"].isin(["before", "after"])], max_roll)
     obs["group"] = obs["aircraft"].astype(str).map(group)
     return obs[obs["group"].isin(["poor", "control"])]
 
@@ -64,21 +60,22 @@ def scored_reports(run: Path) -> pd.DataFrame:
 def budget(obs: pd.DataFrame) -> dict[str, float]:
     """One run's budget and heading-error lines (label -> value)."""
     out: dict[str, float] = {}
-    oe, on = _vector(obs["wind_speed_kt"], obs["wind_dir_deg"])
-    re_, rn = _vector(obs["ref_wind_speed_kt"], obs["ref_wind_dir_deg"])
-    te, tn = _vector(obs["truth_wind_speed_kt"], obs["truth_wind_dir_deg"])
-    h = np.radians(obs["truth_heading_deg"].to_numpy(float))
-    along = (oe - te) * np.sin(h) + (on - tn) * np.cos(h)
-    across = (oe - te) * np.cos(h) - (on - tn) * np.sin(h)
-    parts = pd.DataFrame({"total": (oe - re_) ** 2 + (on - rn) ** 2, "model": (re_ - te) ** 2 + (rn - tn) ** 2,
-                          "own": (oe - te) ** 2 + (on - tn) ** 2, "own_along": along ** 2, "own_across": across ** 2},
-                         index=obs.index)
+    oe, on = towards_from_report(obs["wind_speed_kt"], obs["wind_dir_deg"])  # m/s
+    re_, rn = towards_from_report(obs["ref_wind_speed_kt"], obs["ref_wind_dir_deg"])
+    te, tn = towards_from_report(obs["truth_wind_speed_kt"], obs["truth_wind_dir_deg"])
+    head = obs["truth_heading_deg"].to_numpy(float)
     dh = (obs["heading_deg"] - obs["truth_heading_deg"] + 180.0) % 360.0 - 180.0
     since = obs["time"] - obs.groupby("flight")["time"].transform("min")
+    one_ref = obs["ref_source"] == obs["ref_source"].iloc[0]  # the heading is the report's: once per report
     for (g, st), idx in obs.groupby(["group", "stage"]).groups.items():
-        for part, v in parts.loc[idx].mean().items():
-            out[f"budget.{g}.{st}.{part}_kt"] = float(np.sqrt(v))
-        d = obs.loc[idx]
+        i = obs.index.get_indexer(idx)
+        own = wind_error_components(oe[i] - te[i], on[i] - tn[i], head[i])
+        parts = {"total": wind_error_components(oe[i] - re_[i], on[i] - rn[i], head[i])["rms_kt"],
+                 "model": wind_error_components(re_[i] - te[i], rn[i] - tn[i], head[i])["rms_kt"],
+                 "own": own["rms_kt"], "own_along": own["longitudinal_kt"], "own_across": own["transverse_kt"]}
+        for part, v in parts.items():
+            out[f"budget.{g}.{st}.{part}_kt"] = float(v)
+        d = obs.loc[idx][one_ref[idx]]
         for phase, sub in d.groupby("phase"):
             out[f"heading.{g}.{st}.{phase}_deg"] = float(np.sqrt((dh[sub.index] ** 2).mean()))
         climb = d[d["phase"] == "ascent"]

@@ -396,13 +396,14 @@ def test_wind_errors_before_after_against_a_hand_rotation():
 @pytest.mark.parametrize("storage", ["object", "arrow", "arrow-chunks", "python"])
 def test_text_labels_are_read_the_same_whatever_their_storage(storage):
     """Aircraft and reference labels stripped, empty reference -> "ref", rows sorted by
-    aircraft, time and reference (labels in order of first appearance): by hand, for text held as Python objects, Arrow strings (one chunk,
-    or several as a concatenation leaves them) or pandas' Python strings."""
+    aircraft, time and reference (labels in order of first appearance): by hand, for text
+    held as Python objects, Arrow strings (one chunk, or several as a concatenation leaves
+    them) or pandas' Python strings."""
     rows = {"aircraft": [" N2", "N1", "N1 ", "N2", "N1"], "time": [5.0, 9.0, 1.0, 2.0, 1.0],
             "ref_source": ["rr", "rr", "", "rr", "rr"]}
     n = len(rows["time"])
-    obs = pd.DataFrame({**rows, "lat": 45.0, "lon": -93.0, "pressure_altitude_ft": 9000.0, "wind_speed_kt": 20.0, "wind_dir_deg": 270.0,
-                        "ref_wind_speed_kt": 18.0, "ref_wind_dir_deg": 265.0}, index=range(n))
+    obs = pd.DataFrame({**rows, "lat": 45.0, "lon": -93.0, "pressure_altitude_ft": 9000.0, "wind_speed_kt": 20.0,
+                        "wind_dir_deg": 270.0, "ref_wind_speed_kt": 18.0, "ref_wind_dir_deg": 265.0}, index=range(n))
     for c in ("aircraft", "ref_source"):
         if storage == "arrow":
             obs[c] = obs[c].astype("string[pyarrow]")

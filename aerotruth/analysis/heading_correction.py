@@ -492,9 +492,7 @@ def fit_from_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray,
     The CR3 covariance of a kept step carries each flight's scores linearly to the new
     coefficients. `scale_guess` (a nearby scale) only speeds up the medians."""
     sw = np.sqrt(w)
-    r = np.matmul(beta, XT)
-    np.subtract(y, r, out=r)
-    r *= sw
+    r = _weighted_residuals(beta, XT, y, sw, np.empty(len(y)))
     ar, scratch = np.abs(r), np.empty(len(r))
     scale = max(1.4826 * _median(ar, scratch, scale_guess / 1.4826), 1e-9)
     starts = _starts(groups)
@@ -508,9 +506,7 @@ def fit_from_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray,
     scores -= bread_g @ step  # h_g(b + step) = h_g(b) - B_g step: the scores sum to 0 again
     infl, cov = _cr3(bread_g, scores)
     if robust:  # the next step, at the new coefficients and scale: B over the same reports
-        np.matmul(new, XT, out=r)
-        np.subtract(y, r, out=r)
-        r *= sw
+        _weighted_residuals(new, XT, y, sw, r)
         np.abs(r, out=ar)
         s2 = max(1.4826 * _median(ar, scratch, scale / 1.4826), 1e-9)
         np.clip(r, -c * s2, c * s2, out=r)
@@ -519,6 +515,14 @@ def fit_from_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray,
         if np.any(np.abs(nxt) > tol_se * np.sqrt(np.diag(cov))):
             return robust_fit_t(XT, y, w, groups, robust, c, beta0=new, scale_guess=s2)
     return _Fit(new, cov, scale, infl, groups[starts])
+
+
+def _weighted_residuals(beta: np.ndarray, XT: np.ndarray, y: np.ndarray, sw: np.ndarray, out: np.ndarray) -> np.ndarray:
+    """r = sqrt(w) (y - X b) into `out` (no fresh array), `sw` = sqrt(w)."""
+    np.matmul(beta, XT, out=out)
+    np.subtract(y, out, out=out)
+    np.multiply(out, sw, out=out)
+    return out
 
 
 def _cluster_parts(XT: np.ndarray, r: np.ndarray, w: np.ndarray, starts: np.ndarray, scale: float,
@@ -740,7 +744,7 @@ class HeadingDeviationFit:
         self._T = np.eye(5)[:, :k] if T is None else T
         if k == 5 and full is not None:
             f = full
-        elif full is not None and T is None:  # D, E dropped: the 5-term fit's A, B, C are a near start
+        elif full is not None:  # D, E dropped: the 5-term fit's A, B, C are a near start
             f = robust_fit_t(self._fit_design(), self._y, self._w, self._g, self.robust, self.huber_c,
                              beta0=full.beta[:k], scale_guess=full.scale)
         else:
@@ -953,12 +957,6 @@ _NEWTON_STEPS = 20  # then IRLS (module docstring)
 _NEWTON_MAX_COND = 1e10  # a Newton matrix worse conditioned than this: the unclipped reports do not span the terms
 
 
-def _huber(X: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float, max_iter: int = 50,
-           beta0: np.ndarray | None = None) -> tuple[np.ndarray, float]:
-    """Huber M-estimate (module docstring) on the (n, k) design X: coefficients and the final MAD scale."""
-    return _huber_t(np.ascontiguousarray(X.T), y, w, robust, c, max_iter, beta0)[:2]
-
-
 def _huber_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float, max_iter: int = 50,
              beta0: np.ndarray | None = None, scale_guess: float = math.nan) -> tuple[np.ndarray, float, np.ndarray]:
     """Huber M-estimate on the transposed (k, n) design (module docstring: Newton steps,
@@ -977,9 +975,7 @@ def _huber_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: floa
         return np.linalg.solve(A, XW @ y), A
 
     def residuals(b):  # r = sqrt(w) (y - X b), ar = |r|
-        np.matmul(b, XT, out=r)
-        np.subtract(y, r, out=r)
-        np.multiply(r, sw, out=r)
+        _weighted_residuals(b, XT, y, sw, r)
         np.abs(r, out=ar)
 
     if beta0 is None:
