@@ -12,7 +12,8 @@ Prints `label: value` lines (A320 and truth side by side, and the truth/A320 rat
 straight flight (the truth's roll and track rounded to the recorder's steps, 0.35 and 0.088
 deg): their rms, the rms track rate, and how far they are coordinated turning
 (the regression of the window's track rate on g tan(roll) / V: slope and correlation; 1 and
-1 for pure turning, ~0 for roll that does not turn the aircraft).
+1 for pure turning, ~0 for roll that does not turn the aircraft); and the bank's
+autocorrelation at 1, 2, 5 and 10 s in straight stretches of >= 60 s (how long the weave lasts).
 
     python benchmarks/turn_stats.py [--days 3] [--turbulence]
 """
@@ -78,6 +79,19 @@ def wings_level_stats(roll_deg: np.ndarray, track_deg: np.ndarray, gs_mps: np.nd
             "turning_corr": float(np.corrcoef(coordinated, rate)[0, 1])}
 
 
+def wings_level_acf(roll_deg: np.ndarray, alt_ft: np.ndarray, lags=(1, 2, 5, 10), min_len: int = 60) -> dict[str, float]:
+    """Autocorrelation of the bank in straight flight above 10,000 ft (1-Hz samples, stretches
+    of >= `min_len` s with |roll| < 2 deg, each stretch's mean removed): how long the weave lasts."""
+    ok = (alt_ft >= 10000) & (np.abs(roll_deg) < 2.0) & np.isfinite(roll_deg)
+    edges = np.flatnonzero(np.diff(np.r_[0, ok.astype(int), 0]))
+    parts = [roll_deg[a:b] - roll_deg[a:b].mean() for a, b in zip(edges[::2], edges[1::2]) if b - a >= min_len]
+    var = sum(float(np.sum(x * x)) for x in parts)
+    out = {}
+    for lag in lags:
+        out[f"roll_acf_{lag}s"] = sum(float(np.sum(x[:-lag] * x[lag:])) for x in parts) / var if var > 0 else float("nan")
+    return out
+
+
 def recorder_step_deg(roll_deg: np.ndarray) -> float:
     """A recorded parameter's resolution: the smallest non-zero change between samples (the
     A320 extract's roll: 0.352 deg, an ARINC 429 word's least significant bit; track 0.088)."""
@@ -96,6 +110,7 @@ def main() -> None:
     real = roll_stats(a["roll"].to_numpy(float), a["altitude"].to_numpy(float), lsb)
     real_wl = wings_level_stats(a["roll"].to_numpy(float), a["track"].to_numpy(float),
                                 a["groundspeed"].to_numpy(float) * 0.514444, a["altitude"].to_numpy(float))
+    real_wl.update(wings_level_acf(a["roll"].to_numpy(float), a["altitude"].to_numpy(float)))
     rolls, alts, betas, tracks, speeds = [], [], [], [], []
     n_legs = n_div = 0
     for k in range(args.days):
@@ -127,6 +142,7 @@ def main() -> None:
     trk_lsb = recorder_step_deg(a["track"].to_numpy(float))  # 0.088 deg: as recorded, like the roll
     truth_wl = wings_level_stats(np.round(roll_1hz / lsb) * lsb, np.round(np.concatenate(tracks) / trk_lsb) * trk_lsb,
                                  np.concatenate(speeds), np.concatenate(alts))
+    truth_wl.update(wings_level_acf(np.round(roll_1hz / lsb) * lsb, np.concatenate(alts)))
     for k in real_wl:
         print(f"a320.wings_level.{k}: {real_wl[k]:.3f}")
         print(f"truth.wings_level.{k}: {truth_wl.get(k, float('nan')):.3f}")

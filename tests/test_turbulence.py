@@ -110,3 +110,23 @@ def test_chop_patches_draw_the_climatology():
     assert np.median(s) == pytest.approx(0.212, abs=0.005)
     assert np.mean(s > 0.642) == pytest.approx(0.05, abs=0.006)
     assert np.mean(np.diff([a for a, _ in chop.patches])) == pytest.approx(PATCH_MEAN_M, rel=0.03)
+
+
+def test_steering_wander_is_gauss_markov_with_its_variance_and_correlation_time():
+    # first-order Gauss-Markov: variance sigma^2 at every step (started stationary) and
+    # autocorrelation exp(-lag / tau); 200 independent runs x 600 steps
+    from aerotruth.truth.steering import STEER_DT_S, STEER_PROPERTY, SteeringWander
+
+    sigma, tau, n_runs, n = 0.01, 5.0, 200, 600
+    lag = int(round(tau / STEER_DT_S))
+    x = np.empty((n_runs, n))
+    for r in range(n_runs):
+        fdm = _Fdm()
+        w = SteeringWander(fdm, np.random.default_rng([7, r]), sigma_rad=sigma, tau_s=tau)
+        for k in range(n):
+            w.step()
+        x[r] = fdm.pm.nodes[STEER_PROPERTY].values
+    assert np.std(x[:, 0]) == pytest.approx(sigma, rel=0.15)  # stationary from the first step
+    assert np.std(x) == pytest.approx(sigma, rel=0.05)
+    rho = np.mean(x[:, :-lag] * x[:, lag:]) / np.mean(x * x)
+    assert rho == pytest.approx(np.exp(-1.0), abs=0.04)

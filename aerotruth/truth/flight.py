@@ -24,6 +24,7 @@ from aerotruth.truth.airframes import Airframe, airframe, new_fdm, quiet_jsbsim
 from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, turn_anticipation_m
 from aerotruth.truth.track import PHASES, TruthTrack
 from aerotruth.truth.weather import ISA_LAPSE, Atmosphere, UniformAtmosphere
+from aerotruth.truth.steering import SteeringWander
 from aerotruth.truth.turbulence import W20_HEIGHT_M, ChopGusts, TurbulencePatches
 from aerotruth.units import DEG, FT, KT, NM
 
@@ -283,7 +284,10 @@ def _set_atmosphere(fdm, route: Route, atmosphere: Atmosphere, lat: float, lon: 
 
 def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atmosphere: Atmosphere | None = None,
               turbulence: bool = False, max_duration_s: float | None = None, meta: dict | None = None) -> TruthTrack:
-    """Fly `route` with JSBSim and return its TruthTrack (10 Hz). Raises FlightDiverged."""
+    """Fly `route` with JSBSim and return its TruthTrack (10 Hz). `turbulence`: the
+    disturbances of a real flight (MIL-F-8785C patches, light chop and the autopilot's
+    steering wander, aerotruth.truth.steering); without it the flight is calm and its
+    guidance noiseless. Raises FlightDiverged."""
     af = aircraft if isinstance(aircraft, Airframe) else airframe(aircraft)
     atmosphere = atmosphere if atmosphere is not None else UniformAtmosphere()
     rng = np.random.default_rng(seed)
@@ -296,6 +300,8 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
     patches = TurbulencePatches(fdm, rng) if turbulence else None
     # light chop below the MIL-F-8785C curves (the A320 recorder's climatology), its own stream
     chop = ChopGusts(fdm, rng.spawn(1)[0], fdm["metrics/bw-ft"] * FT) if turbulence else None
+    # the autopilot's steering wander (the A320 recorder's weave in straight flight), its own stream
+    wander = SteeringWander(fdm, rng.spawn(1)[0]) if turbulence else None
     path_m = 0.0
     # guidance and targets before the initial condition is run: JSBSim evaluates the
     # autopilot (filters, rate limiters) during initialisation and trim, and stale targets
@@ -386,6 +392,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
             tags.append(tag)
             if chop is not None:
                 chop.step(g_vt() * FPS, g_psi())
+                wander.step()
             for _ in range(RECORD_EVERY):
                 run()
 
@@ -465,7 +472,7 @@ def fly_leg(plan, *, seed, aircraft: str | Airframe | None = None, turbulence: b
             atmosphere: Atmosphere | None = None, region: str | None = None) -> TruthTrack:
     """Fly a routes.LegPlan through the day's truth atmosphere (unless one is given).
     `seed` (int or SeedSequence) selects the atmosphere realization of the day and the
-    flight's own draws (turbulence severity). Raises FlightDiverged."""
+    flight's own draws (turbulence, chop, steering wander). Raises FlightDiverged."""
     if atmosphere is None:
         from aerotruth.truth.weather import truth_atmosphere_for
 

@@ -99,8 +99,9 @@ class HeadingCorrectionConfig(Section):
     fleets: list[str] = Field(min_length=1)
     periods: PeriodRoles
     max_legs_per_day: StrictInt | None = Field(default=None, ge=1)
-    turbulence: StrictBool = Field(default=False, description="fly the truth legs in turbulence (MIL-F-8785C "
-                                   "patches and light chop, aerotruth.truth.turbulence)")
+    turbulence: StrictBool = Field(default=False, description="fly the truth legs with a real flight's disturbances "
+                                   "(MIL-F-8785C patches and light chop, aerotruth.truth.turbulence; the "
+                                   "autopilot's steering wander, aerotruth.truth.steering)")
     sensors: WindSensors = Field(default_factory=WindSensors)
     selection: Selection
     fit_heading: Literal["true", "magnetic"] = Field(
