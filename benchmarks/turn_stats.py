@@ -2,10 +2,13 @@
 (../shared/real-data/fuelflow_a320.json.gz; not the A310 file, a zero-g flight with
 interpolated samples): roll rate differenced at 1 Hz below and above 10,000 ft (p95 and
 max; the truth's roll rounded to the recorder's resolution first, as the A320's is), the share of samples banked more than 10 deg, and the sideslip of the truth in
-steady turns and at turn entry (no real data for it).
+steady turns and at turn entry (no real data for it): `turn_entry` every 10-Hz sample
+rolling faster than 1 deg/s (in turbulence, gusts too), `roll_in` only those banked more
+than 3 deg and rolling further away from wings level.
 
 The truth side: the legs of Mesaba aircraft-days (the campaign's daily schedules in the
-day's truth weather, JSBSim turbulence on), resampled to 1 Hz as the recorder is.
+day's truth weather; turbulence, light chop and the steering wander on unless `--calm`),
+resampled to 1 Hz as the recorder is.
 
 Prints `label: value` lines (A320 and truth side by side, and the truth/A320 ratios).
 `wings_level.*`: 10-s windows above 10,000 ft with |roll| < 3 deg, the small bank angles of
@@ -149,10 +152,13 @@ def main() -> None:
     b = np.vstack(betas)
     roll, beta, p = np.degrees(b[:, 0]), np.degrees(b[:, 1]), np.degrees(b[:, 2])
     steady = (np.abs(roll) > 15.0) & (np.abs(p) < 0.5)
-    entry = (np.abs(p) > 1.0)
+    entry = (np.abs(p) > 1.0)  # any roll rate above 1 deg/s: gusts included
+    roll_in = (np.abs(roll) > 3.0) & (p * np.sign(roll) > 1.0)  # banking further away from wings level
     print(f"truth.sideslip_steady_turn_p95_deg: {np.percentile(np.abs(beta[steady]), 95):.3f}")
     print(f"truth.sideslip_turn_entry_max_deg: {np.abs(beta[entry]).max():.3f}")
     print(f"truth.sideslip_turn_entry_p99_deg: {np.percentile(np.abs(beta[entry]), 99):.3f}")
+    print(f"truth.sideslip_roll_in_max_deg: {np.abs(beta[roll_in]).max():.3f}")
+    print(f"truth.sideslip_roll_in_p99_deg: {np.percentile(np.abs(beta[roll_in]), 99):.3f}")
     print(f"truth.max_bank_deg: {np.abs(roll).max():.2f}")
 
 
