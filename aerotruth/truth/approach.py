@@ -37,7 +37,7 @@ import numpy as np
 from aerotruth.sensors.ils import IlsFacilitySpec
 from aerotruth.truth.airframes import Airframe, airframe, new_fdm
 from aerotruth.truth.airports import Runway, airport
-from aerotruth.truth.flight import (DT, FPS, FlightDiverged, _digest, _Recorder, _set_atmosphere, _trim,
+from aerotruth.truth.flight import (DT, FPS, FlightDiverged, _digest, _Recorder, _set_atmosphere, _trim, _WindAhead,
                                      seed_repr)
 from aerotruth.truth.guidance import GreatCircleLeg
 from aerotruth.truth.runway import RunwayFrame
@@ -335,9 +335,7 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
         ("t", "simulation/sim-time-sec"), ("vn", "velocities/v-north-fps"), ("ve", "velocities/v-east-fps"),
         ("vd", "velocities/v-down-fps"), ("vc", "velocities/vc-fps"), ("phi", "attitude/phi-rad"),
         ("theta", "attitude/theta-rad"))}
-    wind_nodes = [pm.get_node(f"ap/wind/{k}") for k in
-                  ("t0-sec", "north-fps", "east-fps", "down-fps", "north-rate-fps2", "east-rate-fps2", "down-rate-fps2")]
-    w_prev = (fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"])
+    wind_ahead = _WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * DT)
     steps_per_sample = int(round(1.0 / (rate_hz * DT)))
     rows, tags = [], []
     run = fdm.run
@@ -355,18 +353,7 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
         vn, ve, vd = g["vn"]() * FPS, g["ve"]() * FPS, g["vd"]() * FPS
         if step(t, x, y, z, h, vn, ve, vd, g["vc"]() * FPS / KT):
             break
-        dt_g = GUIDE_EVERY * DT
-        lat1 = lat + vn * dt_g / 6371008.8 / DEG
-        lon1 = lon + ve * dt_g / (6371008.8 * math.cos(lat * DEG)) / DEG
-        h1 = h - vd * dt_g - und
-        u, v, w = (float(np.asarray(c).ravel()[0]) for c in
-                   atmosphere.wind(lat1, lon1, h1, t0_s + t + dt_g, ground_elevation_m=ground_elevation_m))
-        w_next = (v / FPS, u / FPS, -w / FPS)
-        wind_nodes[0].set_double_value(t)
-        for k in range(3):
-            wind_nodes[1 + k].set_double_value(w_prev[k])
-            wind_nodes[4 + k].set_double_value((w_next[k] - w_prev[k]) / dt_g)
-        w_prev = w_next
+        wind_ahead.update(t, lat, lon, h, und, vn, ve, vd, ground_elevation_m)
         if int(round(t)) % 10 == 0:
             _set_atmosphere(fdm, _Und(und), atmosphere, lat, lon, t0_s + t)
         tag = (0, 3)
@@ -378,49 +365,83 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
     return rec, rows, tags
 
 
-def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = None,
-                 atmosphere: Atmosphere | None = None, schedule: ApproachSchedule | None = None) -> TruthTrack:
-    """Fly one ILS approach and return its 50 Hz TruthTrack. Raises FlightDiverged."""
+@dataclass
+class IlsSetup:
+    """What an ILS flight (an approach, a flight-inspection mission) starts from: the
+    airframe, the runway with its 3-D frame and glide path, the atmosphere, the flight's
+    random stream, the start time (s after 0 UTC), the geoid undulation and a fresh FDM."""
+
+    af: Airframe
+    runway: Runway
+    frame: RunwayFrame
+    gp: _GlidePath
+    atmosphere: Atmosphere
+    rng: np.random.Generator
+    t0_s: float
+    undulation_m: float
+    fdm: jsbsim.FGFDMExec
+
+
+def ils_setup(spec, seed, aircraft: str | Airframe | None, atmosphere: Atmosphere | None, what: str,
+              why: str = "") -> IlsSetup:
+    """The IlsSetup of `spec` (an ApproachSpec or MissionSpec: airport, runway, ils,
+    start_utc); only the SAAB 340 flies `what` (its flaps and Vref)."""
     af = aircraft if isinstance(aircraft, Airframe) else airframe(aircraft)
     if af.name != "saab340":
-        raise ValueError(f"aircraft: approaches are flown by the saab340 only (its flaps and Vref), got {af.name!r}")
-    sched = schedule or ApproachSchedule()
+        raise ValueError(f"aircraft: {what} are flown by the saab340 only{why}, got {af.name!r}")
     runway = find_runway(spec.airport, spec.runway)
-    frame = RunwayFrame.of(runway)
-    gp = _GlidePath(spec.ils, runway)
-    atmosphere = atmosphere if atmosphere is not None else UniformAtmosphere()
-    rng = np.random.default_rng(seed)
     day0 = spec.start_utc.replace(hour=0, minute=0, second=0, microsecond=0)
-    t0_s = (spec.start_utc - day0).total_seconds()
-    und = runway.undulation_m
-    fdm = new_fdm(af, DT)
-    _ic(fdm, frame, gp, spec, af, sched, atmosphere, und, t0_s)
-    imu = spec.points_m["imu"]
-    for axis, value in zip("xyz", imu):
-        fdm[f"imu/location-{axis}-in"] = value / IN
-    if spec.turbulence:
-        fdm["atmosphere/turb-type"] = 3
-        fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = float(rng.uniform(5.0, 25.0)) / FPS * KT
-        fdm["atmosphere/turbulence/milspec/severity"] = int(rng.integers(1, 3))
-        fdm["simulation/randomseed"] = int(rng.integers(0, 2**31 - 1))
-    # guidance targets before the initial condition is run: JSBSim evaluates the autopilot
-    # (filters, rate limiters) during initialisation and trim, and stale geometry there
-    # would start the approach with a full-bank command
-    far = frame.to_geodetic(-40 * NM, 0.0, 0.0)
-    end = frame.to_geodetic(runway.length_m + 5 * NM, 0.0, 0.0)
-    leg = GreatCircleLeg("LOC", float(far[0]), float(far[1]), float(end[0]), float(end[1]))
+    return IlsSetup(af, runway, RunwayFrame.of(runway), _GlidePath(spec.ils, runway),
+                    atmosphere if atmosphere is not None else UniformAtmosphere(), np.random.default_rng(seed),
+                    (spec.start_utc - day0).total_seconds(), runway.undulation_m, new_fdm(af, DT))
+
+
+def milspec_turbulence(fdm, rng: np.random.Generator) -> None:
+    """JSBSim's MIL-F-8785C turbulence for an ILS flight: 5-25 kt at 20 ft, light or
+    moderate, its own generator seeded from the flight's stream."""
+    fdm["atmosphere/turb-type"] = 3
+    fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = float(rng.uniform(5.0, 25.0)) / FPS * KT
+    fdm["atmosphere/turbulence/milspec/severity"] = int(rng.integers(1, 3))
+    fdm["simulation/randomseed"] = int(rng.integers(0, 2**31 - 1))
+
+
+def engage(fdm, af: Airframe, leg: GreatCircleLeg, ias_kt: float) -> None:
+    """Lateral guidance on `leg`, altitude and speed held, then the initial condition run,
+    engines running, trimmed, in the approach configuration. The guidance targets come
+    before the initial condition is run: JSBSim evaluates the autopilot (filters, rate
+    limiters) during initialisation and trim, and stale geometry there would start the
+    flight with a full-bank command."""
     for k, c in zip("xyz", leg.normal):
         fdm[f"ap/nav/n{k}"] = float(c)
     fdm["ap/nav/mode"] = 1
     fdm["ap/gain/xtk-to-track"] = 0.00025  # localizer tracking: ~25 s time constant at 130 kt
     fdm["ap/target/use-pressure-altitude"] = 0
     fdm["ap/target/altitude-ft"] = fdm["ic/h-sl-ft"]
-    fdm["ap/target/ias-kt"] = sched.initial_ias_kt
+    fdm["ap/target/ias-kt"] = ias_kt
     fdm.run_ic()
     fdm["propulsion/set-running"] = -1
     _trim(fdm, af)
     for prop, value in af.phase_properties.get("approach", {}).items():
         fdm[prop] = value
+
+
+def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = None,
+                 atmosphere: Atmosphere | None = None, schedule: ApproachSchedule | None = None) -> TruthTrack:
+    """Fly one ILS approach and return its 50 Hz TruthTrack. Raises FlightDiverged."""
+    sched = schedule or ApproachSchedule()
+    ils = ils_setup(spec, seed, aircraft, atmosphere, "approaches", " (its flaps and Vref)")
+    af, runway, frame, gp, atmosphere, fdm = ils.af, ils.runway, ils.frame, ils.gp, ils.atmosphere, ils.fdm
+    und, t0_s = ils.undulation_m, ils.t0_s
+    _ic(fdm, frame, gp, spec, af, sched, atmosphere, und, t0_s)
+    imu = spec.points_m["imu"]
+    for axis, value in zip("xyz", imu):
+        fdm[f"imu/location-{axis}-in"] = value / IN
+    if spec.turbulence:
+        milspec_turbulence(fdm, ils.rng)
+    far = frame.to_geodetic(-40 * NM, 0.0, 0.0)
+    end = frame.to_geodetic(runway.length_m + 5 * NM, 0.0, 0.0)
+    engage(fdm, af, GreatCircleLeg("LOC", float(far[0]), float(far[1]), float(end[0]), float(end[1])),
+           sched.initial_ias_kt)
     guide = _Guide(fdm, spec, sched, gp, frame)
     fdm["ap/active"] = 1
 

@@ -270,6 +270,37 @@ def _initial_conditions(fdm, route: Route, af: Airframe, atmosphere: Atmosphere,
     fdm["ic/vt-kts"] = math.hypot(math.hypot(gn, ge), climb) / KT
 
 
+class _WindAhead:
+    """The autopilot's wind input (ap/wind/*, eased in by the XML between guidance ticks):
+    at each tick the truth wind one tick ahead at the dead-reckoned position, reached
+    linearly from the value set at the previous tick."""
+
+    def __init__(self, fdm, atmosphere: Atmosphere, t0_s: float, dt_g: float):
+        pm = fdm.get_property_manager()
+        self._nodes = [pm.get_node(f"ap/wind/{k}") for k in
+                       ("t0-sec", "north-fps", "east-fps", "down-fps", "north-rate-fps2", "east-rate-fps2", "down-rate-fps2")]
+        self._prev = (fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"])
+        self._atmosphere, self._t0_s, self._dt = atmosphere, t0_s, dt_g
+
+    def update(self, t: float, lat: float, lon: float, h_m: float, undulation_m: float, vn: float, ve: float,
+               vd: float, ground_elevation_m: float) -> None:
+        """Tick at sim time t (s) from geodetic lat/lon (deg), ellipsoidal height (m), the
+        geoid undulation there (m) and NED velocity (m/s)."""
+        dt = self._dt
+        lat1 = lat + vn * dt / 6371008.8 / DEG
+        lon1 = lon + ve * dt / (6371008.8 * math.cos(lat * DEG)) / DEG
+        u, v, w = (float(np.asarray(c).ravel()[0]) for c in
+                   self._atmosphere.wind(lat1, lon1, h_m - vd * dt - undulation_m, self._t0_s + t + dt,
+                                         ground_elevation_m=ground_elevation_m))
+        nodes, prev = self._nodes, self._prev
+        nxt = (v / FPS, u / FPS, -w / FPS)
+        nodes[0].set_double_value(t)
+        for k in range(3):
+            nodes[1 + k].set_double_value(prev[k])
+            nodes[4 + k].set_double_value((nxt[k] - prev[k]) / dt)
+        self._prev = nxt
+
+
 def _set_atmosphere(fdm, route: Route, atmosphere: Atmosphere, lat: float, lon: float, t_s: float) -> None:
     """JSBSim's 'sea level' is the ellipsoid; the truth atmosphere is referenced to mean sea
     level. Give JSBSim the truth pressure at the ellipsoid (MSL height -N) as its sea-level
@@ -333,9 +364,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
             "velocities/v-north-fps", "velocities/v-east-fps", "velocities/v-down-fps", "simulation/sim-time-sec",
             "velocities/vtrue-fps", "velocities/vc-fps", "attitude/phi-rad", "attitude/theta-rad"))
     g_psi = pm.get_node("attitude/psi-rad").get_double_value
-    wind_nodes = [pm.get_node(f"ap/wind/{k}") for k in
-                  ("t0-sec", "north-fps", "east-fps", "down-fps", "north-rate-fps2", "east-rate-fps2", "down-rate-fps2")]
-    w_prev = (fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"])
+    wind_ahead = _WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * DT)
     max_bank, max_pitch, min_pitch = af.max_bank_deg * DEG, af.max_pitch_deg * DEG, af.min_pitch_deg * DEG
     floor_ft = (route.lowest_runway_ellipsoid_m - 150.0) / FT
     seed_id = seed_repr(seed)
@@ -361,14 +390,9 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         gs = math.hypot(vn, ve)
         if not guide.update(t, lat, lon, gs, h_ft * FT, g_palt() * FT, g_vt() / KT * FPS, g_vc() / KT * FPS):
             break
-        # truth wind one guidance period ahead, at the dead-reckoned position
         dt_g = GUIDE_EVERY * DT
-        lat1 = lat + vn * dt_g / 6371008.8 / DEG
-        lon1 = lon + ve * dt_g / (6371008.8 * math.cos(lat * DEG)) / DEG
-        h1 = h_ft * FT - vd * dt_g - route.undulation_m
         ground = route.departure_elevation_msl_m if guide.phase < 2 else route.arrival_elevation_msl_m
-        u, v, w = (float(np.asarray(c).ravel()[0]) for c in
-                   atmosphere.wind(lat1, lon1, h1, t0_s + t + dt_g, ground_elevation_m=ground))
+        wind_ahead.update(t, lat, lon, h_ft * FT, route.undulation_m, vn, ve, vd, ground)
         if patches is not None:
             if patches.due(path_m):
                 u20, v20, _ = (float(np.asarray(c).ravel()[0]) for c in
@@ -377,12 +401,6 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
             if chop.due(path_m):
                 chop.update(path_m)
             path_m += gs * dt_g
-        w_next = (v / FPS, u / FPS, -w / FPS)
-        wind_nodes[0].set_double_value(t)
-        for k in range(3):
-            wind_nodes[1 + k].set_double_value(w_prev[k])
-            wind_nodes[4 + k].set_double_value((w_next[k] - w_prev[k]) / dt_g)
-        w_prev = w_next
         ticks += 1
         if ticks % ATMOSPHERE_EVERY == 0:
             _set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s + t)

@@ -42,15 +42,15 @@ from pydantic import Field
 
 from aerotruth.config import Section
 from aerotruth.sensors.ils import IlsFacilitySpec
-from aerotruth.truth.airframes import Airframe, airframe, new_fdm
-from aerotruth.truth.approach import (DEFAULT_POINTS_M, ApproachSchedule, _GlidePath, add_frame_columns, find_runway,
-                                      fly_loop, frame_meta, initial_conditions)
-from aerotruth.truth.flight import DT, FPS, FlightDiverged, _digest, _trim, seed_repr
+from aerotruth.truth.airframes import Airframe
+from aerotruth.truth.approach import (DEFAULT_POINTS_M, ApproachSchedule, _GlidePath, add_frame_columns, engage,
+                                      fly_loop, frame_meta, ils_setup, initial_conditions, milspec_turbulence)
+from aerotruth.truth.flight import FlightDiverged, _digest, seed_repr
 from aerotruth.truth.guidance import GreatCircleLeg
 from aerotruth.truth.runway import RunwayFrame
 from aerotruth.truth.track import TruthTrack
-from aerotruth.truth.weather import Atmosphere, UniformAtmosphere
-from aerotruth.units import DEG, FT, KT, NM
+from aerotruth.truth.weather import Atmosphere
+from aerotruth.units import DEG, FT, NM
 
 RATE_HZ = 10
 RUN_TYPES = ("level_run", "arc", "crossing", "approach", "low_pass")
@@ -238,19 +238,10 @@ class _MissionGuide:
 def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = None,
                 atmosphere: Atmosphere | None = None) -> TruthTrack:
     """Fly the mission's runs in order and return the 10 Hz TruthTrack (module docstring)."""
-    af = aircraft if isinstance(aircraft, Airframe) else airframe(aircraft)
-    if af.name != "saab340":
-        raise ValueError(f"aircraft: missions are flown by the saab340 only, got {af.name!r}")
     sched = ApproachSchedule()
-    runway = find_runway(spec.airport, spec.runway)
-    frame = RunwayFrame.of(runway)
-    gp = _GlidePath(spec.ils, runway)
-    atmosphere = atmosphere if atmosphere is not None else UniformAtmosphere()
-    rng = np.random.default_rng(seed)
-    day0 = spec.start_utc.replace(hour=0, minute=0, second=0, microsecond=0)
-    t0_s = (spec.start_utc - day0).total_seconds()
-    und = runway.undulation_m
-    fdm = new_fdm(af, DT)
+    ils = ils_setup(spec, seed, aircraft, atmosphere, "missions")
+    af, runway, frame, gp, atmosphere, fdm = ils.af, ils.runway, ils.frame, ils.gp, ils.atmosphere, ils.fdm
+    und, t0_s = ils.undulation_m, ils.t0_s
     first = spec.runs[0]
     path = run_path(first, gp, runway.length_m)
     (x0, y0), (x1, y1) = path[0], path[1]
@@ -262,27 +253,13 @@ def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = No
     initial_conditions(fdm, frame, start[0], start[1], first.height_ft * FT, track_deg, af, spec.mass_kg, ias0,
                        15.0 if first.type in ("approach", "low_pass") else 0.0, atmosphere, und, t0_s)
     if spec.turbulence:
-        fdm["atmosphere/turb-type"] = 3
-        fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = float(rng.uniform(5.0, 25.0)) / FPS * KT
-        fdm["atmosphere/turbulence/milspec/severity"] = int(rng.integers(1, 3))
-        fdm["simulation/randomseed"] = int(rng.integers(0, 2**31 - 1))
+        milspec_turbulence(fdm, ils.rng)
     guide = _MissionGuide(fdm, spec, gp, frame, runway.length_m, sched)
     guide.plan_run(start[0], start[1], first=True)
     a, b, _ = guide.legs[0]
     la, loa, _ = frame.to_geodetic(a[0], a[1], 0.0)
     lb, lob, _ = frame.to_geodetic(b[0], b[1], 0.0)
-    for k, c in zip("xyz", GreatCircleLeg("M", float(la), float(loa), float(lb), float(lob)).normal):
-        fdm[f"ap/nav/n{k}"] = float(c)
-    fdm["ap/nav/mode"] = 1
-    fdm["ap/gain/xtk-to-track"] = 0.00025
-    fdm["ap/target/use-pressure-altitude"] = 0
-    fdm["ap/target/altitude-ft"] = fdm["ic/h-sl-ft"]
-    fdm["ap/target/ias-kt"] = ias0
-    fdm.run_ic()
-    fdm["propulsion/set-running"] = -1
-    _trim(fdm, af)
-    for prop, value in af.phase_properties.get("approach", {}).items():
-        fdm[prop] = value
+    engage(fdm, af, GreatCircleLeg("M", float(la), float(loa), float(lb), float(lob)), ias0)
     fdm["ap/active"] = 1
     seed_id = seed_repr(seed)
     t_limit = 3600.0 * 0.5 + 900.0 * len(spec.runs)
