@@ -9,7 +9,14 @@ and UTC hour. A flight level is a pressure altitude; its height above mean sea l
 is found on the day's pressure profile at each point. Metrics per level: mean, RMS,
 median, 95th percentile and maximum of the horizontal speed, mean u and v, RMS of w, and
 the vector RMS of the mesoscale part (total minus synoptic wind; at flight levels the
-boundary-layer factor is 1, so the difference is the mesoscale field alone).
+boundary-layer factor is 1, so the difference is the mesoscale field alone); and per
+region, period and level (`wind_by_region`) the mean, standard deviation, median and 95th
+percentile of the speed with the mean u, v - the truth side of a climatology comparison
+(flight levels 50, 180 and 300 are the 843, 506 and 301 hPa pressure altitudes, the
+radiosonde's 850, 500 and 300 hPa within 10 hPa). A `reference:` section holds a cited
+climatology's cells (region, period, level; mean speed and its spread, or the mean wind
+vector); the report puts each beside the truth with their ratio and flags a mean off by
+more than `tolerance` (default 30 %) and by more than `min_difference_kt` (default 5 kt).
 """
 
 from __future__ import annotations
@@ -58,12 +65,50 @@ class RegionBox(Section):
         return self
 
 
+class ReferenceCell(Section):
+    """One cell of a cited wind climatology for a region, period and flight level (the
+    pressure altitude nearest the source's level): the mean wind speed (kt, with its spread
+    where the source gives it), or the mean wind vector (m/s east and north: what a
+    climatological-mean model gives), or both."""
+
+    region: str = Field(min_length=1)
+    period: str = Field(min_length=1)
+    flight_level: StrictInt = Field(ge=0, le=450)
+    mean_speed_kt: float | None = Field(default=None, gt=0)
+    sd_speed_kt: float | None = Field(default=None, gt=0)
+    mean_u_mps: float | None = None
+    mean_v_mps: float | None = None
+
+    @model_validator(mode="after")
+    def _something(self) -> ReferenceCell:
+        if (self.mean_u_mps is None) != (self.mean_v_mps is None):
+            raise ValueError("give both mean_u_mps and mean_v_mps (the mean wind vector), or neither")
+        if self.mean_speed_kt is None and self.mean_u_mps is None:
+            raise ValueError("expected mean_speed_kt, or mean_u_mps and mean_v_mps")
+        if self.sd_speed_kt is not None and self.mean_speed_kt is None:
+            raise ValueError("sd_speed_kt needs mean_speed_kt")
+        return self
+
+
+class ReferenceClimatology(Section):
+    """A published radiosonde or reanalysis climatology, cited, its cells shown beside the
+    truth's (nothing computes from them)."""
+
+    source: str = Field(min_length=1, description="citation: who, what data, which years")
+    tolerance: float = Field(default=0.30, gt=0, lt=1, description="flag a truth mean off the source's by more than this fraction")
+    min_difference_kt: float = Field(default=5.0, ge=0, description="and by more than this: a relative test means nothing "
+                                     "for a near-zero mean, and ~5 kt is the sampling error of a two-month regional mean "
+                                     "(day-to-day sd ~20 kt over ~20 independent days)")
+    cells: list[ReferenceCell] = Field(min_length=1)
+
+
 class WindClimatologyConfig(Section):
     """Wind statistics of the truth atmosphere: each region is sampled at random points at the
     given flight levels and UTC hours, one task per region and day."""
 
     regions: list[RegionBox] = Field(min_length=1)
     periods: list[str] = Field(min_length=1)
+    reference: ReferenceClimatology | None = Field(default=None, description="a cited climatology shown beside the truth")
     flight_levels: list[StrictInt] = Field(default=[50, 100, 150, 200, 250], min_length=1, description="hundreds of feet")
     hours_utc: list[float] = Field(default=[0.0, 6.0, 12.0, 18.0], min_length=1)
     points: StrictInt = Field(default=36, ge=1, le=1_000_000, description="random sample points per level and hour, uniform over the box area")
@@ -135,6 +180,13 @@ class WindClimatology(Study):
         for i, n in enumerate(names):
             if names.index(n) != i:
                 raise refs.error(("regions", i, "name"), f"duplicate name {n!r}")
+        if cfg.reference is not None:
+            for i, c in enumerate(cfg.reference.cells):
+                for field, known in (("region", names), ("period", cfg.periods), ("flight_level", cfg.flight_levels)):
+                    if getattr(c, field) not in known:
+                        raise refs.error(("reference", "cells", i, field),
+                                         f"expected one of the study's {field}s ({', '.join(map(str, known))}), "
+                                         f"got {refs.value(getattr(c, field))}")
         if any(r.network is not None for r in cfg.regions):
             from aerotruth.truth.airports import networks
 
@@ -145,6 +197,7 @@ class WindClimatology(Study):
 
     def expand(self, campaign: Campaign, cfg: WindClimatologyConfig) -> list[Task]:
         days = campaign.days(cfg.periods)
+        member = {d: [p for p in cfg.periods if d in set(campaign.days([p]))] for d in days}
         tasks = []
         for region in cfg.regions:
             box = region_box(region)
@@ -156,6 +209,7 @@ class WindClimatology(Study):
                     "flight_levels": list(cfg.flight_levels),
                     "hours_utc": list(cfg.hours_utc),
                     "points": cfg.points,
+                    "periods": member[day],
                 }))
         return tasks
 
@@ -184,13 +238,28 @@ class WindClimatology(Study):
                 frames.append(pd.DataFrame({
                     "region": str(ident["region"]), "date": day.isoformat(), "flight_level": int(fl), "hour_utc": float(hour),
                     "lat_deg": lat, "lon_deg": lon, "alt_msl_m": alt, "u_mps": u, "v_mps": v, "w_mps": w,
-                    "u_synoptic_mps": us, "v_synoptic_mps": vs,
+                    "u_synoptic_mps": us, "v_synoptic_mps": vs, "periods": PERIOD_SEP.join(p.get("periods", [])),
                 }))
         return pd.concat(frames, ignore_index=True)
 
-    def summarize(self, rows: pd.DataFrame, learned, section) -> Summary:
+    def summarize(self, rows: pd.DataFrame, learned, section: WindClimatologyConfig) -> Summary:
         metrics = self._metrics(rows)
-        return Summary(metrics, self._tables(metrics))
+        by_region = wind_by_region(rows)
+        for r in by_region.itertuples(index=False):
+            key = f"{r.region}.{r.period}.FL{r.flight_level:03d}"
+            metrics[f"{key}.speed_mean_mps"] = r.mean_mps
+            metrics[f"{key}.speed_sd_mps"] = r.sd_mps
+            metrics[f"{key}.speed_p50_mps"] = r.p50_mps
+        tables = self._tables(metrics)
+        tables["wind_by_region"] = _region_table(by_region)
+        if section.reference is not None:
+            vs = versus_reference(by_region, section.reference)
+            tables["versus_reference"] = vs
+            metrics["reference_cells"] = int(len(vs))
+            metrics["reference_cells_off"] = int(vs["off"].sum())
+            metrics["reference_tolerance"] = float(section.reference.tolerance)
+            metrics["reference_min_difference_kt"] = float(section.reference.min_difference_kt)
+        return Summary(metrics, tables)
 
     def _metrics(self, rows: pd.DataFrame) -> dict[str, Any]:
         out: dict[str, Any] = {"samples": int(len(rows)), "tasks": int(rows["task_id"].nunique()) if len(rows) else 0}
@@ -260,7 +329,110 @@ class WindClimatology(Study):
         ax.set_title("Day-to-day variation of the truth wind")
         save(fig, out_dir, "wind_speed_by_day")
         figs.append(Figure("wind_speed_by_day", "Daily mean truth wind speed per region and flight level"))
+
+        vs = summary.tables.get("versus_reference")
+        if vs is not None and len(vs):
+            stats = [k for k in ("mean wind vector (m/s)", "mean speed (kt)") if (vs["statistic"] == k).any()]
+            fig, axes = plt.subplots(1, len(stats), figsize=(5.2 * len(stats), 4.8), squeeze=False)
+            tol = float(summary.metrics.get("reference_tolerance", 0.3))
+            floor_kt = float(summary.metrics.get("reference_min_difference_kt", 0.0))
+            for ax, stat in zip(axes[0], stats):
+                g = vs[vs["statistic"] == stat]
+                top = 1.1 * float(np.nanmax(np.r_[g["source"], g["truth"]]))
+                x = np.linspace(0.0, top, 100)
+                band = np.maximum(tol * x, floor_kt * (KT if "m/s" in stat else 1.0))
+                ax.fill_between(x, x - band, x + band, color="0.9", label=f"within {tol:.0%} or {floor_kt:g} kt")
+                ax.plot(x, x, "k-", lw=0.8)
+                for fl, marker in zip(sorted(g["flight_level"].unique()), "o^sDv"):
+                    h = g[g["flight_level"] == fl]
+                    ax.scatter(h["source"], h["truth"], marker=marker, label=fl,
+                               c=["tab:red" if o else "tab:green" for o in h["off"]], edgecolors="k", linewidths=0.4)
+                ax.set_xlim(0, top)
+                ax.set_ylim(0, top)
+                ax.set_xlabel(f"source: {stat}")
+                ax.set_ylabel(f"truth: {stat}")
+                ax.grid(alpha=0.3)
+                ax.legend(fontsize="small", title="red: off")
+            fig.suptitle(f"Truth atmosphere vs {str(vs['reference'].iloc[0]).split(':')[0]}", fontsize=9)
+            save(fig, out_dir, "wind_versus_reference")
+            figs.append(Figure("wind_versus_reference", "Truth wind statistics against the cited climatology, per region, "
+                               "season and level (red: off by more than the tolerance)"))
         return figs
+
+
+PERIOD_SEP = "|"  # joins the names of the periods a sampled day belongs to
+
+
+def wind_by_region(rows: pd.DataFrame) -> pd.DataFrame:
+    """Speed statistics (m/s) per region, period and flight level: samples, mean, standard
+    deviation (ddof 1), median, 95th percentile, mean u and v, first and last date. A day in
+    several periods counts in each."""
+    cols = ["region", "period", "flight_level", "samples", "mean_mps", "sd_mps", "p50_mps", "p95_mps", "u_mean_mps",
+            "v_mean_mps", "first_date", "last_date"]
+    if not len(rows) or "periods" not in rows.columns:
+        return pd.DataFrame(columns=cols)
+    df = rows[["region", "flight_level", "date", "u_mps", "v_mps", "periods"]].copy()
+    df["period"] = df.pop("periods").astype(str).str.split(PERIOD_SEP, regex=False)
+    df = df.explode("period")
+    df = df[df["period"] != ""]
+    df["speed"] = np.hypot(df["u_mps"].to_numpy(float), df["v_mps"].to_numpy(float))
+    out = []
+    for (region, period, fl), g in df.groupby(["region", "period", "flight_level"], sort=True):
+        sp = g["speed"].to_numpy()
+        out.append({"region": region, "period": period, "flight_level": int(fl), "samples": len(sp),
+                    "mean_mps": float(sp.mean()), "sd_mps": float(sp.std(ddof=1)) if len(sp) > 1 else math.nan,
+                    "p50_mps": float(np.percentile(sp, 50)), "p95_mps": float(np.percentile(sp, 95)),
+                    "u_mean_mps": float(g["u_mps"].mean()), "v_mean_mps": float(g["v_mps"].mean()),
+                    "first_date": str(g["date"].min()), "last_date": str(g["date"].max())})
+    return pd.DataFrame(out, columns=cols)
+
+
+def _region_table(by_region: pd.DataFrame) -> pd.DataFrame:
+    """wind_by_region for the report: speeds in knots, the level's ISA pressure."""
+    from aerotruth.truth.isa import isa_pressure_pa
+
+    b = by_region
+    return pd.DataFrame({
+        "region": b["region"], "period": b["period"],
+        "days": [f"{a} - {z}" for a, z in zip(b["first_date"], b["last_date"])],
+        "flight level": [f"FL{fl:03d}" for fl in b["flight_level"]],
+        "pressure (hPa)": [round(float(isa_pressure_pa(fl * 100.0 * FT)) / 100.0) for fl in b["flight_level"]],
+        "samples": b["samples"],
+        "mean speed (kt)": b["mean_mps"] / KT, "sd (kt)": b["sd_mps"] / KT, "median (kt)": b["p50_mps"] / KT,
+        "95 % (kt)": b["p95_mps"] / KT, "mean u (m/s)": b["u_mean_mps"], "mean v (m/s)": b["v_mean_mps"],
+    })
+
+
+def versus_reference(by_region: pd.DataFrame, ref: ReferenceClimatology) -> pd.DataFrame:
+    """Each cited statistic beside the truth's, one row per cell and statistic: the mean
+    speed (kt), its spread (kt), the mean wind vector's magnitude (m/s, with the truth's
+    and the source's u, v), the ratio truth / source, and `off` where a mean (speed or
+    vector) is outside the source's by more than the tolerance and by more than
+    `min_difference_kt`; a cell the truth did not sample is off, its truth NaN. The spread
+    is shown, not judged."""
+    idx = by_region.set_index(["region", "period", "flight_level"]) if len(by_region) else None
+    rows = []
+    for c in ref.cells:
+        key = (c.region, c.period, c.flight_level)
+        t = idx.loc[key] if idx is not None and key in idx.index else None
+        get = (lambda col: float(t[col])) if t is not None else (lambda col: math.nan)
+        base = {"region": c.region, "period": c.period, "flight_level": f"FL{c.flight_level:03d}"}
+        stats = []
+        if c.mean_speed_kt is not None:
+            stats.append(("mean speed (kt)", c.mean_speed_kt, get("mean_mps") / KT, True, {}))
+        if c.sd_speed_kt is not None:
+            stats.append(("speed sd (kt)", c.sd_speed_kt, get("sd_mps") / KT, False, {}))
+        if c.mean_u_mps is not None:
+            tu, tv = get("u_mean_mps"), get("v_mean_mps")
+            stats.append(("mean wind vector (m/s)", math.hypot(c.mean_u_mps, c.mean_v_mps), math.hypot(tu, tv), True,
+                          {"source_u_mps": c.mean_u_mps, "source_v_mps": c.mean_v_mps, "truth_u_mps": tu, "truth_v_mps": tv}))
+        for name, src, tru, judged, extra in stats:
+            ratio = tru / src if src > 0 else math.nan
+            floor = ref.min_difference_kt * (KT if "m/s" in name else 1.0)
+            rows.append({**base, "statistic": name, "source": src, "truth": tru, "ratio": ratio,
+                         "off": bool(judged and not (abs(tru - src) <= max(ref.tolerance * src, floor))),
+                         **{k: extra.get(k, math.nan) for k in ("source_u_mps", "source_v_mps", "truth_u_mps", "truth_v_mps")}})
+    return pd.DataFrame(rows).assign(reference=ref.source)
 
 
 def _by_level(rows: pd.DataFrame):
