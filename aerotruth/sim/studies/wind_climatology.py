@@ -80,7 +80,7 @@ class ReferenceCell(Section):
     mean_v_mps: float | None = None
 
     @model_validator(mode="after")
-    def _something(self) -> ReferenceCell:
+    def _one_statistic_at_least(self) -> ReferenceCell:
         if (self.mean_u_mps is None) != (self.mean_v_mps is None):
             raise ValueError("give both mean_u_mps and mean_v_mps (the mean wind vector), or neither")
         if self.mean_speed_kt is None and self.mean_u_mps is None:
@@ -91,8 +91,9 @@ class ReferenceCell(Section):
 
 
 class ReferenceClimatology(Section):
-    """A published radiosonde or reanalysis climatology, cited, its cells shown beside the
-    truth's (nothing computes from them)."""
+    """A published climatology (radiosonde or reanalysis statistics, or an empirical model
+    fitted to such data), cited, its cells shown beside the truth's (nothing computes from
+    them)."""
 
     source: str = Field(min_length=1, description="citation: who, what data, which years")
     tolerance: float = Field(default=0.30, gt=0, lt=1, description="flag a truth mean off the source's by more than this fraction")
