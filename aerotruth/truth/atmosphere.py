@@ -167,6 +167,16 @@ class WindFieldSpec:
             raise ValueError("WindFieldSpec.mesoscale must be a MesoscaleSpec")
 
 
+def _season_weight(doy: int, peak_doy: float) -> float:
+    """0.5 (1 + cos(2 pi (doy - peak) / 365.25)): 1 on the peak day, 0 half a year away."""
+    return 0.5 * (1 + math.cos(2 * math.pi * (doy - peak_doy) / 365.25))
+
+
+def _seasonal(summer: float, winter: float, weight: float) -> float:
+    """The summer value moved towards the winter value by `weight` (0 summer, 1 winter)."""
+    return summer + (winter - summer) * weight
+
+
 def _stable_words(text: str) -> tuple[int, int]:
     d = hashlib.sha256(text.encode("utf-8")).digest()
     return int.from_bytes(d[:4], "little"), int.from_bytes(d[4:8], "little")
@@ -219,20 +229,18 @@ class TruthAtmosphere:
         self.f0 = 2 * OMEGA_EARTH * math.sin(math.radians(lat0))
         self._coslat0 = math.cos(math.radians(lat0))
         doy = date.timetuple().tm_yday
-        self.winterness = 0.5 * (1 + math.cos(2 * math.pi * (doy - 20) / 365.25))  # 1 on 20 Jan
+        self.winterness = _season_weight(doy, 20.0)  # 1 on 20 Jan
 
         # mean flow
-        jet = s.jet_speed_summer_ms + (s.jet_speed_winter_ms - s.jet_speed_summer_ms) * self.winterness
+        jet = _seasonal(s.jet_speed_summer_ms, s.jet_speed_winter_ms, self.winterness)
         self.jet_speed_ms = float(jet * (1 + s.jet_speed_spread * rng_syn.uniform(-1, 1)))
         self.jet_altitude_m = float(s.jet_altitude_m + s.jet_altitude_seasonal_m * (0.5 - self.winterness)
                                     + rng_syn.uniform(-300.0, 300.0))
         self.surface_ms = float(s.surface_geostrophic_ms)
-        self.jet_lower_width_m = float(s.jet_lower_width_summer_m
-                                       + (s.jet_lower_width_m - s.jet_lower_width_summer_m) * self.winterness)
+        self.jet_lower_width_m = float(_seasonal(s.jet_lower_width_summer_m, s.jet_lower_width_m, self.winterness))
         self._g0 = math.exp(-((self.jet_altitude_m / self.jet_lower_width_m) ** 2))  # G(z=0)
-        southness = 0.5 * (1 + math.cos(2 * math.pi * (doy - s.jet_latitude_southmost_doy) / 365.25))
-        self.jet_lat_deg = float(s.jet_latitude_summer_deg
-                                 + (s.jet_latitude_winter_deg - s.jet_latitude_summer_deg) * southness
+        southness = _season_weight(doy, s.jet_latitude_southmost_doy)
+        self.jet_lat_deg = float(_seasonal(s.jet_latitude_summer_deg, s.jet_latitude_winter_deg, southness)
                                  + rng_syn.normal(0.0, s.jet_latitude_sd_deg))
         # waves: psi_j = A_j cos(Theta_j) cos(l_j (lat - lat_j))
         n = int(s.n_waves)

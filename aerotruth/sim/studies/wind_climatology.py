@@ -198,7 +198,8 @@ class WindClimatology(Study):
 
     def expand(self, campaign: Campaign, cfg: WindClimatologyConfig) -> list[Task]:
         days = campaign.days(cfg.periods)
-        member = {d: [p for p in cfg.periods if d in set(campaign.days([p]))] for d in days}
+        period_days = {p: set(campaign.days([p])) for p in cfg.periods}  # once per period, not per day
+        member = {d: [p for p in cfg.periods if d in period_days[p]] for d in days}
         tasks = []
         for region in cfg.regions:
             box = region_box(region)
@@ -333,7 +334,7 @@ class WindClimatology(Study):
 
         vs = summary.tables.get("versus_reference")
         if vs is not None and len(vs):
-            stats = [k for k in ("mean wind vector (m/s)", "mean speed (kt)") if (vs["statistic"] == k).any()]
+            stats = [k for k in REFERENCE_STATISTICS if k != "speed sd (kt)" and (vs["statistic"] == k).any()]
             fig, axes = plt.subplots(1, len(stats), figsize=(5.2 * len(stats), 4.8), squeeze=False)
             tol = float(summary.metrics.get("reference_tolerance", 0.3))
             floor_kt = float(summary.metrics.get("reference_min_difference_kt", 0.0))
@@ -341,7 +342,7 @@ class WindClimatology(Study):
                 g = vs[vs["statistic"] == stat]
                 top = 1.1 * float(np.nanmax(np.r_[g["source"], g["truth"]]))
                 x = np.linspace(0.0, top, 100)
-                band = np.maximum(tol * x, floor_kt * (KT if "m/s" in stat else 1.0))
+                band = np.maximum(tol * x, floor_kt * REFERENCE_STATISTICS[stat])
                 ax.fill_between(x, x - band, x + band, color="0.9", label=f"within {tol:.0%} or {floor_kt:g} kt")
                 ax.plot(x, x, "k-", lw=0.8)
                 for fl, marker in zip(sorted(g["flight_level"].unique()), "o^sDv"):
@@ -362,6 +363,8 @@ class WindClimatology(Study):
 
 
 PERIOD_SEP = "|"  # joins the names of the periods a sampled day belongs to
+# the statistics a reference cell may give, with the size of 1 kt in each one's unit
+REFERENCE_STATISTICS = {"mean wind vector (m/s)": KT, "mean speed (kt)": 1.0, "speed sd (kt)": 1.0}
 
 
 def wind_by_region(rows: pd.DataFrame) -> pd.DataFrame:
@@ -429,7 +432,7 @@ def versus_reference(by_region: pd.DataFrame, ref: ReferenceClimatology) -> pd.D
                           {"source_u_mps": c.mean_u_mps, "source_v_mps": c.mean_v_mps, "truth_u_mps": tu, "truth_v_mps": tv}))
         for name, src, tru, judged, extra in stats:
             ratio = tru / src if src > 0 else math.nan
-            floor = ref.min_difference_kt * (KT if "m/s" in name else 1.0)
+            floor = ref.min_difference_kt * REFERENCE_STATISTICS[name]
             rows.append({**base, "statistic": name, "source": src, "truth": tru, "ratio": ratio,
                          "off": bool(judged and not (abs(tru - src) <= max(ref.tolerance * src, floor))),
                          **{k: extra.get(k, math.nan) for k in ("source_u_mps", "source_v_mps", "truth_u_mps", "truth_v_mps")}})
