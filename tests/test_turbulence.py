@@ -130,3 +130,42 @@ def test_steering_wander_is_gauss_markov_with_its_variance_and_correlation_time(
     assert np.std(x) == pytest.approx(sigma, rel=0.05)
     rho = np.mean(x[:, :-lag] * x[:, lag:]) / np.mean(x * x)
     assert rho == pytest.approx(np.exp(-1.0), abs=0.04)
+
+
+def test_mil8785_intensity_matches_hand_worked_values():
+    from aerotruth.truth.turbulence import mil8785_intensity
+    # low altitude (MIL-F-8785C 3.7.3): h = 100 ft, W20 = 30 ft/s
+    f = 0.177 + 0.000823 * 100.0
+    su, sw, lu, lw = mil8785_intensity(100.0, 30.0, 4)
+    assert (su, sw, lu, lw) == pytest.approx((3.0 / f ** 0.4, 3.0, 100.0 / f ** 1.2, 100.0))
+    # at and below 10 ft the height is clipped to 10 ft
+    assert mil8785_intensity(2.0, 30.0, 1) == pytest.approx(mil8785_intensity(10.0, 30.0, 1))
+    # medium altitude: Figure 7's 1e-2 curve between 1,750 ft (6.9) and 3,750 ft (7.4)
+    assert mil8785_intensity(3000.0, 30.0, 3) == pytest.approx((7.2125, 7.2125, 1750.0, 1750.0))
+    # transition at 1,500 ft, W20 = 20 ft/s, curve 2e-1: halfway between the low-altitude
+    # values at 1,000 ft (sigma 2.0, f = 1 so sigma_u = sigma_w, L = 1,000) and the curve at
+    # 1,500 ft (3.2 - 1000/1250 x 1.0 = 2.4; L 1,750)
+    assert mil8785_intensity(1500.0, 20.0, 1) == pytest.approx((2.2, 2.2, 1375.0, 1375.0))
+
+
+@pytest.mark.parametrize("w20_kt", [0.0, 30.0])
+def test_approach_gusts_near_the_ground_follow_the_wind_at_20ft(w20_kt):
+    """Below 1,000 ft above the runway (KDLH: 1,428 ft above sea level, where JSBSim's own
+    milspec model would use its POE curves) the vertical gust's rms is 0.1 x W20."""
+    import math
+    from datetime import date
+
+    from aerotruth.truth.approach import approach_spec, fly_approach
+    from aerotruth.truth.weather import UniformAtmosphere
+    from aerotruth.units import FT, KT
+    frm = math.radians(312.0)
+    atm = UniformAtmosphere(u_mps=-w20_kt * KT * math.sin(frm), v_mps=-w20_kt * KT * math.cos(frm))
+    sd = []
+    for seed in (3, 4, 5):
+        df = fly_approach(approach_spec("KDLH", "27", date(2009, 8, 15), turbulence=True), seed=seed,
+                          atmosphere=atm).df
+        low = (df["z_m"] > 50 * FT) & (df["z_m"] < 900 * FT)
+        sd.append(df.loc[low, "wind_w_mps"].std())
+    expect = 0.1 * w20_kt * KT
+    # ~100 s of 50 Hz samples per flight with L_w = h: each rms within ~15 % of the model's
+    assert np.mean(sd) == pytest.approx(expect, rel=0.15, abs=1e-3)  # abs: what decays from above 1,000 ft

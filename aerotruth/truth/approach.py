@@ -42,6 +42,7 @@ from aerotruth.truth.flight import (DT, FPS, FlightDiverged, _digest, _Recorder,
 from aerotruth.truth.guidance import GreatCircleLeg
 from aerotruth.truth.runway import RunwayFrame
 from aerotruth.truth.track import TruthTrack
+from aerotruth.truth.turbulence import W20_HEIGHT_M, Mil8785Gusts, TurbulencePatches
 from aerotruth.truth.weather import Atmosphere, UniformAtmosphere
 from aerotruth.units import DEG, FT, KT, NM
 
@@ -319,14 +320,22 @@ def add_frame_columns(df, frame: RunwayFrame, cg_in: np.ndarray) -> None:
 
 
 def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: float, ground_elevation_m: float,
-             step, seed_id, rate_hz: int, extra_props=(), min_height_m: float = 3.0, max_bank_deg: float = 45.0):
+             step, seed_id, rate_hz: int, extra_props=(), min_height_m: float = 3.0, max_bank_deg: float = 45.0,
+             turbulence: TurbulencePatches | None = None):
     """The recorded flight loop shared by approaches and inspection missions: every
     second the guidance `step(t, x, y, z, h_ell, vn, ve, vd, vc_kt)` (runway frame, m,
     m/s, KCAS) sets its targets and returns True to stop; the truth wind is fed to the
     autopilot as a value and a rate for the coming second (as in flight.py); the
     atmosphere is refreshed every 10 s; samples at `rate_hz` (route columns plus
     `extra_props`). Returns (recorder, rows, tags). Raises FlightDiverged on NaN, an
-    attitude beyond the limits or a height below `min_height_m` over the runway plane."""
+    attitude beyond the limits or a height below `min_height_m` over the runway plane.
+    `turbulence`: MIL-F-8785C turbulence in patches along the path, their severity as on
+    the route legs (aerotruth.truth.turbulence), each patch's wind at 20 ft the truth
+    atmosphere's over the runway at the patch's start, the gusts evaluated at the height
+    above the runway (Mil8785Gusts: below 1,000 ft sigma_w = 0.1 x that wind, so the
+    approach's gusts follow the day's surface wind) and updated at 50 Hz. No light chop
+    here: the chop climatology was measured in cruise, and near the ground the
+    low-altitude model's gusts are of its size already."""
     rec = _Recorder(fdm)
     pm = fdm.get_property_manager()
     getters = rec.getters + [pm.get_node(p).get_double_value for p in extra_props]
@@ -337,8 +346,17 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
         ("theta", "attitude/theta-rad"))}
     wind_ahead = _WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * DT)
     steps_per_sample = int(round(1.0 / (rate_hz * DT)))
+    if steps_per_sample % 2 or GUIDE_EVERY % steps_per_sample:
+        raise ValueError(f"rate_hz: expected 50 Hz or a divisor of it that divides 1 Hz, got {rate_hz}")
     rows, tags = [], []
     run = fdm.run
+    path_m = 0.0
+    gusts = None
+    if turbulence is not None:
+        gusts = Mil8785Gusts(fdm, turbulence.rng.spawn(1)[0], fdm["metrics/bw-ft"] * FT, turbulence)
+        g_vt, g_psi = (pm.get_node(p).get_double_value for p in ("velocities/vtrue-fps", "attitude/psi-rad"))
+    pairs_per_sample = steps_per_sample // 2  # the gusts are updated every second step (50 Hz)
+    rows_append, tags_append = rows.append, tags.append
     while True:
         t = g["t"]()
         lat, lon, h = g["lat"](), g["lon"](), g["h"]() * FT
@@ -354,14 +372,31 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
         if step(t, x, y, z, h, vn, ve, vd, g["vc"]() * FPS / KT):
             break
         wind_ahead.update(t, lat, lon, h, und, vn, ve, vd, ground_elevation_m)
+        if turbulence is not None:
+            if turbulence.due(path_m):
+                u20, v20, _ = (float(np.asarray(c).ravel()[0]) for c in atmosphere.wind(
+                    frame.lat0_deg, frame.lon0_deg, ground_elevation_m + W20_HEIGHT_M, t0_s + t,
+                    ground_elevation_m=ground_elevation_m))
+                turbulence.update(path_m, math.hypot(u20, v20))
+            path_m += math.hypot(vn, ve) * GUIDE_EVERY * DT
         if int(round(t)) % 10 == 0:
             _set_atmosphere(fdm, _Und(und), atmosphere, lat, lon, t0_s + t)
         tag = (0, 3)
-        for _ in range(GUIDE_EVERY // steps_per_sample):
-            rows.append([gg() for gg in getters])
-            tags.append(tag)
-            for _ in range(steps_per_sample):
-                run()
+        if gusts is None:
+            for _ in range(GUIDE_EVERY // steps_per_sample):
+                rows_append([gg() for gg in getters])
+                tags_append(tag)
+                for _ in range(pairs_per_sample):
+                    run()
+                    run()
+            continue
+        for k in range(GUIDE_EVERY // 2):
+            if k % pairs_per_sample == 0:
+                rows.append([gg() for gg in getters])
+                tags.append(tag)
+            gusts.step(2 * DT, g["h"]() * FT - frame.h0_m, g_vt() * FPS, g_psi())
+            run()
+            run()
     return rec, rows, tags
 
 
@@ -396,15 +431,6 @@ def ils_setup(spec, seed, aircraft: str | Airframe | None, atmosphere: Atmospher
                     (spec.start_utc - day0).total_seconds(), runway.undulation_m, new_fdm(af, DT))
 
 
-def milspec_turbulence(fdm, rng: np.random.Generator) -> None:
-    """JSBSim's MIL-F-8785C turbulence for an ILS flight: 5-25 kt at 20 ft, light or
-    moderate, its own generator seeded from the flight's stream."""
-    fdm["atmosphere/turb-type"] = 3
-    fdm["atmosphere/turbulence/milspec/windspeed_at_20ft_AGL-fps"] = float(rng.uniform(5.0, 25.0)) / FPS * KT
-    fdm["atmosphere/turbulence/milspec/severity"] = int(rng.integers(1, 3))
-    fdm["simulation/randomseed"] = int(rng.integers(0, 2**31 - 1))
-
-
 def engage(fdm, af: Airframe, leg: GreatCircleLeg, ias_kt: float) -> None:
     """Lateral guidance on `leg`, altitude and speed held, then the initial condition run,
     engines running, trimmed, in the approach configuration. The guidance targets come
@@ -436,8 +462,6 @@ def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = 
     imu = spec.points_m["imu"]
     for axis, value in zip("xyz", imu):
         fdm[f"imu/location-{axis}-in"] = value / IN
-    if spec.turbulence:
-        milspec_turbulence(fdm, ils.rng)
     far = frame.to_geodetic(-40 * NM, 0.0, 0.0)
     end = frame.to_geodetic(runway.length_m + 5 * NM, 0.0, 0.0)
     engage(fdm, af, GreatCircleLeg("LOC", float(far[0]), float(far[1]), float(end[0]), float(end[1])),
@@ -458,8 +482,10 @@ def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = 
             state["end_t"] = guide.events["threshold_s"] + spec.past_threshold_s
         return state["end_t"] is not None and t >= state["end_t"]
 
+    turb = TurbulencePatches(fdm, ils.rng) if spec.turbulence else None
     rec, rows, tags = fly_loop(fdm, frame, atmosphere, und, t0_s, runway.elevation_m, step, seed_id,
-                               RATE_HZ, INERTIAL_PROPS, min_height_m=3.0)
+                               RATE_HZ, INERTIAL_PROPS, min_height_m=3.0,
+                               turbulence=turb)
     nrec = len(rec.PROPS)
     data = np.asarray(rows, dtype=float)
     extra = data[:, nrec:]
@@ -484,6 +510,7 @@ def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = 
         "points_structural_m": {k: list(v) for k, v in spec.points_m.items()},
         "imu": "dv_*, dtheta_*: increments over the 20 ms ending at the sample, body axes, at the IMU point",
         "turbulence": bool(spec.turbulence),
+        "turbulence_patches": [[round(a, 1), k] for a, k in turb.patches] if turb is not None else [],
         "rate_hz": RATE_HZ,
     }
     meta["config_hash"] = _digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})

@@ -44,11 +44,12 @@ from aerotruth.config import Section
 from aerotruth.sensors.ils import IlsFacilitySpec
 from aerotruth.truth.airframes import Airframe
 from aerotruth.truth.approach import (DEFAULT_POINTS_M, ApproachSchedule, _GlidePath, add_frame_columns, engage,
-                                      fly_loop, frame_meta, ils_setup, initial_conditions, milspec_turbulence)
+                                      fly_loop, frame_meta, ils_setup, initial_conditions)
 from aerotruth.truth.flight import FlightDiverged, _digest, seed_repr
 from aerotruth.truth.guidance import GreatCircleLeg
 from aerotruth.truth.runway import RunwayFrame
 from aerotruth.truth.track import TruthTrack
+from aerotruth.truth.turbulence import TurbulencePatches
 from aerotruth.truth.weather import Atmosphere
 from aerotruth.units import DEG, FT, NM
 
@@ -252,8 +253,6 @@ def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = No
     ias0 = sched.initial_ias_kt if first.type in ("approach", "low_pass") else first.ias_kt
     initial_conditions(fdm, frame, start[0], start[1], first.height_ft * FT, track_deg, af, spec.mass_kg, ias0,
                        15.0 if first.type in ("approach", "low_pass") else 0.0, atmosphere, und, t0_s)
-    if spec.turbulence:
-        milspec_turbulence(fdm, ils.rng)
     guide = _MissionGuide(fdm, spec, gp, frame, runway.length_m, sched)
     guide.plan_run(start[0], start[1], first=True)
     a, b, _ = guide.legs[0]
@@ -272,9 +271,10 @@ def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = No
         run_tags.extend([guide.current_run] * (RATE_HZ))
         return guide.done
 
+    turb = TurbulencePatches(fdm, ils.rng) if spec.turbulence else None
     cg_props = tuple(f"inertia/cg-{a}-in" for a in "xyz")
     rec, rows, tags = fly_loop(fdm, frame, atmosphere, und, t0_s, runway.elevation_m, step, seed_id, RATE_HZ, cg_props,
-                               min_height_m=3.0)
+                               min_height_m=3.0, turbulence=turb)
     nrec = len(rec.PROPS)
     data = np.asarray(rows, dtype=float)
     df = rec.frame(data[:, :nrec], tags)
@@ -292,6 +292,7 @@ def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = No
         "mass_kg": spec.mass_kg,
         "points_structural_m": {k: list(v) for k, v in spec.points_m.items()},
         "turbulence": bool(spec.turbulence),
+        "turbulence_patches": [[round(a, 1), k] for a, k in turb.patches] if turb is not None else [],
         "rate_hz": RATE_HZ,
     }
     meta["config_hash"] = _digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})

@@ -61,7 +61,9 @@ class FitsStudyConfig(Section):
     periods: list[str] = Field(min_length=1, description="campaign periods whose dates are flown")
     approaches_per_day: int = Field(default=1, ge=1, description="per runway and date, 20 min apart")
     start_hour_utc: float = Field(default=15.0, ge=0, lt=24)
-    turbulence: bool = Field(default=True, description="JSBSim turbulence on the approach (light to moderate)")
+    turbulence: bool = Field(default=True, description="MIL-F-8785C turbulence on the approach: patches of the route legs' "
+                             "severity climatology, near the ground 0.1 x the day's wind at 20 ft "
+                             "(aerotruth.truth.turbulence.Mil8785Gusts)")
     calm: bool = Field(default=False, description="no truth atmosphere (still air), for clean checks")
     mass_kg: tuple[float, float] = Field(default=(10500.0, 12900.0), description="landing mass drawn uniformly per approach")
     offset_nm: float = Field(default=0.0, ge=0, le=3, description="start this far beside the centreline (side drawn per approach) ...")
