@@ -42,7 +42,7 @@ from aerotruth.truth.flight import (DT, FPS, FlightDiverged, _digest, _Recorder,
 from aerotruth.truth.guidance import GreatCircleLeg
 from aerotruth.truth.runway import RunwayFrame
 from aerotruth.truth.track import TruthTrack
-from aerotruth.truth.turbulence import W20_HEIGHT_M, Mil8785Gusts, TurbulencePatches
+from aerotruth.truth.turbulence import Mil8785Gusts, TurbulencePatches
 from aerotruth.truth.weather import Atmosphere, UniformAtmosphere
 from aerotruth.units import DEG, FT, KT, NM
 
@@ -374,10 +374,7 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
         wind_ahead.update(t, lat, lon, h, und, vn, ve, vd, ground_elevation_m)
         if turbulence is not None:
             if turbulence.due(path_m):
-                u20, v20, _ = (float(np.asarray(c).ravel()[0]) for c in atmosphere.wind(
-                    frame.lat0_deg, frame.lon0_deg, ground_elevation_m + W20_HEIGHT_M, t0_s + t,
-                    ground_elevation_m=ground_elevation_m))
-                turbulence.update(path_m, math.hypot(u20, v20))
+                turbulence.update_from(path_m, atmosphere, frame.lat0_deg, frame.lon0_deg, ground_elevation_m, t0_s + t)
             path_m += math.hypot(vn, ve) * GUIDE_EVERY * DT
         if int(round(t)) % 10 == 0:
             _set_atmosphere(fdm, _Und(und), atmosphere, lat, lon, t0_s + t)
@@ -392,8 +389,8 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
             continue
         for k in range(GUIDE_EVERY // 2):
             if k % pairs_per_sample == 0:
-                rows.append([gg() for gg in getters])
-                tags.append(tag)
+                rows_append([gg() for gg in getters])
+                tags_append(tag)
             gusts.step(2 * DT, g["h"]() * FT - frame.h0_m, g_vt() * FPS, g_psi())
             run()
             run()
@@ -510,7 +507,7 @@ def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = 
         "points_structural_m": {k: list(v) for k, v in spec.points_m.items()},
         "imu": "dv_*, dtheta_*: increments over the 20 ms ending at the sample, body axes, at the IMU point",
         "turbulence": bool(spec.turbulence),
-        "turbulence_patches": [[round(a, 1), k] for a, k in turb.patches] if turb is not None else [],
+        "turbulence_patches": turb.meta() if turb is not None else [],
         "rate_hz": RATE_HZ,
     }
     meta["config_hash"] = _digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})

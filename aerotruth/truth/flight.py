@@ -25,7 +25,7 @@ from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, turn_anticipat
 from aerotruth.truth.track import PHASES, TruthTrack
 from aerotruth.truth.weather import ISA_LAPSE, Atmosphere, UniformAtmosphere
 from aerotruth.truth.steering import SteeringWander
-from aerotruth.truth.turbulence import W20_HEIGHT_M, ChopGusts, TurbulencePatches
+from aerotruth.truth.turbulence import ChopGusts, TurbulencePatches
 from aerotruth.units import DEG, FT, KT, NM
 
 DT = 0.01  # s: JSBSim step (100 Hz, a multiple of 50 Hz: IMU and 10 Hz samples fall on steps)
@@ -395,9 +395,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         wind_ahead.update(t, lat, lon, h_ft * FT, route.undulation_m, vn, ve, vd, ground)
         if patches is not None:
             if patches.due(path_m):
-                u20, v20, _ = (float(np.asarray(c).ravel()[0]) for c in
-                               atmosphere.wind(lat, lon, ground + W20_HEIGHT_M, t0_s + t, ground_elevation_m=ground))
-                patches.update(path_m, math.hypot(u20, v20))
+                patches.update_from(path_m, atmosphere, lat, lon, ground, t0_s + t)
             if chop.due(path_m):
                 chop.update(path_m)
             path_m += gs * dt_g
@@ -431,7 +429,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         "arrival_runway": {"threshold_lat": thr[0], "threshold_lon": thr[1], "far_lat": far[0], "far_lon": far[1],
                            "course_deg": route.arrival_course_deg},
         "turbulence": bool(turbulence),
-        "turbulence_patches": [[round(a, 1), k] for a, k in patches.patches] if patches is not None else [],
+        "turbulence_patches": patches.meta() if patches is not None else [],
         "chop_patches": [[round(a, 1), round(sw, 3)] for a, sw in chop.patches] if chop is not None else [],
         "rate_hz": 1.0 / (DT * RECORD_EVERY),
     })

@@ -292,7 +292,7 @@ def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = No
         "mass_kg": spec.mass_kg,
         "points_structural_m": {k: list(v) for k, v in spec.points_m.items()},
         "turbulence": bool(spec.turbulence),
-        "turbulence_patches": [[round(a, 1), k] for a, k in turb.patches] if turb is not None else [],
+        "turbulence_patches": turb.meta() if turb is not None else [],
         "rate_hz": RATE_HZ,
     }
     meta["config_hash"] = _digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})

@@ -128,6 +128,18 @@ class TurbulencePatches:
         """Whether the current patch has been flown at `path_m` (m along the path)."""
         return path_m >= self.next_m
 
+    def update_from(self, path_m: float, atmosphere, lat_deg: float, lon_deg: float, ground_m: float,
+                    t_s: float) -> None:
+        """`update` with the wind at 20 ft over `ground_m` (m above MSL) at (lat, lon) and
+        time `t_s` (s after 0 UTC) taken from the truth `atmosphere`."""
+        u20, v20, _ = (float(np.asarray(c).ravel()[0]) for c in
+                       atmosphere.wind(lat_deg, lon_deg, ground_m + W20_HEIGHT_M, t_s, ground_elevation_m=ground_m))
+        self.update(path_m, math.hypot(u20, v20))
+
+    def meta(self) -> list[list]:
+        """The patches for a track's metadata: [start along the path (m, 0.1 m), severity]."""
+        return [[round(a, 1), k] for a, k in self.patches]
+
     def update(self, path_m: float, w20_mps: float) -> None:
         """Starts the next patch at `path_m` (when `due`), with the truth wind at 20 ft (m/s)."""
         k = severity_of(float(self.rng.random()))
