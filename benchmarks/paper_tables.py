@@ -129,7 +129,7 @@ def main() -> None:
         print(f"judged.{r.group}.{r.period}: {r.verdict} (|mean - paper| = {abs(r.difference_kt):.2f}, tolerance "
               f"{r.tolerance_kt:.2f})")
     chi2, n_cells = calibration_chi2(t)
-    print(f"calibration.chi2: {chi2:.1f} over {n_cells} calibrated cells")
+    print(f"calibration.chi2: {chi2:.2f} over {n_cells} calibrated cells")
     if a.baseline:
         for r in paired(rows, collect(a.baseline)).itertuples():
             print(f"paired.{r.group}.{r.period}.{r.component}: {r.mean_kt:+.2f} se {r.se_kt:.2f}")
