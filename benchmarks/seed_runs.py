@@ -1,0 +1,129 @@
+"""A campaign over several campaign seeds, optionally with parameters changed: the seed grid
+behind each calibration and prediction in the wind-paper campaigns' YAML comments.
+
+For every seed: copies the campaign with `seed:` set and each `--set` applied, runs it
+(`aerotruth run COPY --size SIZE --out OUT/<tag>-<seed>`, one after the other, each using
+all cores), then prints the paper-table summary of the finished runs (benchmarks/
+paper_tables.py: mean, seed-to-seed sd, standard error, judged cells, calibration chi2).
+A seed whose run directory already holds metrics.json is not run again, so a grid can be
+stopped and resumed. Sensor-only variants re-use the flown truth from the truth store
+(seconds a seed); the first run of a seed flies it (minutes).
+
+    python benchmarks/seed_runs.py campaigns/penair_2010.yaml --seeds 2010-2014 --out runs/seeds
+    python benchmarks/seed_runs.py campaigns/penair_2010.yaml --seeds 2010-2014 --out runs/seeds \\
+        --tag hi620 --set studies.heading_correction.sensors.fleets.penair.heading.poor_hard_iron_sigma_nT=620 \\
+        --baseline-tag base
+
+`--set PATH=VALUE`: PATH dotted through the YAML's mappings (a list item by its index, or
+by the value of its `name:`), VALUE parsed as YAML (`620`, `2003-01-01`, `[a, b]`). The
+path must already exist, so a misspelt key is an error, not a silently added one.
+`--baseline-tag T`: also print the paired differences against the runs OUT/T-<seed>
+(the same seeds; see paper_tables.py --baseline).
+"""
+
+from __future__ import annotations
+
+import argparse
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import yaml
+
+HERE = Path(__file__).resolve().parent
+
+
+def parse_seeds(text: str) -> list[int]:
+    """'2010-2014' or '2010,2012,2015' (or a mix) -> the seeds."""
+    seeds: list[int] = []
+    for part in text.split(","):
+        lo, _, hi = part.strip().partition("-")
+        try:
+            seeds += list(range(int(lo), int(hi) + 1)) if hi else [int(lo)]
+        except ValueError:
+            sys.exit(f"--seeds: expected integers or ranges like 2010-2014, got {part!r}")
+    return seeds
+
+
+def apply_set(doc: dict, assignment: str) -> None:
+    """Apply one `PATH=VALUE` to the loaded campaign, in place."""
+    path, sep, raw = assignment.partition("=")
+    if not sep or not path:
+        sys.exit(f"--set: expected PATH=VALUE, got {assignment!r}")
+    keys = path.split(".")
+    node = doc
+    for i, key in enumerate(keys):
+        where = ".".join(keys[: i + 1])
+        last = i == len(keys) - 1
+        if isinstance(node, list):
+            match = [j for j, item in enumerate(node) if isinstance(item, dict) and item.get("name") == key]
+            if key.isdigit() and int(key) < len(node):
+                idx = int(key)
+            elif len(match) == 1:
+                idx = match[0]
+            else:
+                sys.exit(f"--set {path}: {where!r} is neither an index nor a `name:` of the list there")
+            if last:
+                node[idx] = yaml.safe_load(raw)
+            node = node[idx]
+        elif isinstance(node, dict):
+            if key not in node:
+                sys.exit(f"--set {path}: the campaign has no {where!r} (keys there: {', '.join(map(str, node))})")
+            if last:
+                node[key] = yaml.safe_load(raw)
+            node = node[key]
+        else:
+            sys.exit(f"--set {path}: {'.'.join(keys[:i])!r} is a value, not a mapping or list")
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("campaign", help="campaign YAML")
+    ap.add_argument("--seeds", required=True, help="e.g. 2010-2014 or 2010,2015-2019")
+    ap.add_argument("--out", required=True, help="directory of the runs (OUT/<tag>-<seed>)")
+    ap.add_argument("--tag", default="base", help="name of this variant (default base)")
+    ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="change a campaign parameter")
+    ap.add_argument("--size", default="reduced", help="the campaign's size (default reduced; 'full' for none)")
+    ap.add_argument("--baseline-tag", help="print paired differences against OUT/<this tag>-<seed>")
+    a = ap.parse_args()
+
+    src = Path(a.campaign)
+    try:
+        doc = yaml.safe_load(src.read_text())
+    except (OSError, yaml.YAMLError) as exc:
+        sys.exit(f"{src}: cannot read the campaign ({exc})")
+    if not isinstance(doc, dict) or "seed" not in doc:
+        sys.exit(f"{src}: expected a campaign mapping with a `seed:`")
+    for s in a.set:
+        apply_set(doc, s)
+    out = Path(a.out)
+    out.mkdir(parents=True, exist_ok=True)
+    runs = []
+    for seed in parse_seeds(a.seeds):
+        run = out / f"{a.tag}-{seed}"
+        runs.append(run)
+        if (run / "metrics.json").exists():
+            print(f"{run}: done before, kept", flush=True)
+            continue
+        doc["seed"] = seed
+        copy = out / f"{a.tag}-{seed}.yaml"
+        copy.write_text(f"# {src} with seed {seed}" + "".join(f"; {s}" for s in a.set) + "\n"
+                        + yaml.safe_dump(doc, sort_keys=False))
+        cmd = ["aerotruth", "run", str(copy), "--out", str(run), "--quiet", "--no-report"]
+        if a.size != "full":
+            cmd[3:3] = ["--size", a.size]
+        t0 = time.perf_counter()
+        with open(out / f"{a.tag}-{seed}.log", "w") as log:
+            rc = subprocess.call(cmd, stdout=log, stderr=subprocess.STDOUT)
+        if rc:
+            sys.exit(f"{run}: `{' '.join(cmd)}` failed (exit {rc}); see {out / f'{a.tag}-{seed}.log'}")
+        print(f"run_seconds.{a.tag}.{seed}: {time.perf_counter() - t0:.0f}", flush=True)
+    tables = [sys.executable, str(HERE / "paper_tables.py"), *map(str, runs)]
+    if a.baseline_tag:
+        tables += ["--baseline", *(str(out / f"{a.baseline_tag}-{seed}") for seed in parse_seeds(a.seeds))]
+    sys.exit(subprocess.call(tables))
+
+
+if __name__ == "__main__":
+    main()
