@@ -12,6 +12,20 @@ reports the study scores: |roll| <= the study's max_roll_deg) into
 then gives the reported heading's error against the truth heading by flight phase and, in
 climbs, by time since the flight's first report (the departure minutes).
 
+Bounds on what any heading table could do (`bound.<case>.<cell>_kt`, the judged cells
+poor after, adjusted after, improvement): `scored` as the study scores them (a check:
+equals the run's own cells); `full_static_table`: the poor group's remaining heading error
+after its table, fitted per aircraft on all its after reports (every phase, every
+heading: the coverage a one-axis network does not give the real fit) as A + B sin + C cos
++ D sin 2 + E cos 2 of the measured magnetic heading, and removed - the most a static
+table can do; `no_heading_error`: all of that error removed. Removing an error dpsi
+rotates the report's air vector: W' = W + TAS (u(psi) - u(psi - dpsi)), u the unit vector
+along the heading. Reports banked beyond 5 deg keep their error in both cases (the wind's
+heading there is a window average, not the reported sample). `octant.poor.after.<hdg>`:
+the poor group's after heading error (rms, deg) by octant of measured magnetic heading,
+with its table (`_table_deg`) and with the full static table (`_full_deg`), and the share
+of reports there.
+
     python benchmarks/error_budget.py RUN_DIR [RUN_DIR ...]
 
 Prints `label: mean sd` lines over the runs (one per campaign seed):
@@ -32,6 +46,7 @@ import yaml
 
 from aerotruth.analysis.heading_correction import towards_from_report, wind_error_components
 from aerotruth.sim.studies.wind_reports import unbanked
+from aerotruth.units import KT
 
 CLIMB_BINS_S = (0.0, 60.0, 180.0, 600.0, np.inf)
 CLIMB_LABELS = ("0-1min", "1-3min", "3-10min", "10min+")
@@ -89,11 +104,55 @@ def budget(obs: pd.DataFrame) -> dict[str, float]:
     return out
 
 
+def _cells(e2: pd.Series, obs: pd.DataFrame) -> dict[str, float]:
+    r = np.sqrt(e2.groupby([obs["group"], obs["stage"]]).mean())
+    adjusted = r["poor", "after"] - (r["control", "after"] - r["control", "before"])
+    return {"poor_after": r["poor", "after"], "adjusted_after": adjusted, "improvement": r["poor", "before"] - adjusted}
+
+
+def table_bounds(obs: pd.DataFrame) -> dict[str, float]:
+    """The judged cells as scored, with a full static table and with no heading error on
+    the poor group's after reports (module docstring)."""
+    oe, on = (np.asarray(v) / KT for v in towards_from_report(obs["wind_speed_kt"], obs["wind_dir_deg"]))
+    re_, rn = (np.asarray(v) / KT for v in towards_from_report(obs["ref_wind_speed_kt"], obs["ref_wind_dir_deg"]))
+    psi = np.radians(obs["heading_deg"].to_numpy(float))
+    tas = obs["tas_kt"].to_numpy(float)
+    dh = ((obs["heading_deg"] - obs["truth_heading_deg"] + 180.0) % 360.0 - 180.0).to_numpy()
+    mag = obs["heading_mag_deg"] if "heading_mag_deg" in obs else obs["heading_deg"]
+    hm = np.radians(mag.to_numpy(float))
+    poor_after = ((obs["group"] == "poor") & (obs["stage"] == "after")).to_numpy()
+    eligible = poor_after & (obs["roll_deg"].abs() <= 5.0).to_numpy()
+    design = np.column_stack([np.ones(len(obs)), np.sin(hm), np.cos(hm), np.sin(2 * hm), np.cos(2 * hm)])
+    full = np.zeros(len(obs))  # the full static table's fitted heading error
+    for ac in np.unique(obs["aircraft"].astype(str).to_numpy()[eligible]):
+        k = eligible & (obs["aircraft"].astype(str).to_numpy() == ac)
+        coef, *_ = np.linalg.lstsq(design[k], dh[k], rcond=None)
+        full[k] = design[k] @ coef
+    out: dict[str, float] = {}
+    for case, removed in (("scored", np.zeros(len(obs))), ("full_static_table", full),
+                          ("no_heading_error", np.where(eligible, dh, 0.0))):
+        p2 = psi - np.radians(removed)
+        ex = oe + tas * (np.sin(psi) - np.sin(p2)) - re_
+        ey = on + tas * (np.cos(psi) - np.cos(p2)) - rn
+        for cell, v in _cells(pd.Series(ex ** 2 + ey ** 2, index=obs.index), obs).items():
+            out[f"bound.{case}.{cell}_kt"] = float(v)
+    octant = (np.round(np.degrees(hm) / 45.0).astype(int) % 8) * 45
+    one_ref = (obs["ref_source"] == obs["ref_source"].iloc[0]).to_numpy()
+    sel = eligible & one_ref
+    for o in range(0, 360, 45):
+        k = sel & (octant == o)
+        if k.any():
+            out[f"octant.poor.after.{o:03d}_table_deg"] = float(np.sqrt(np.mean(dh[k] ** 2)))
+            out[f"octant.poor.after.{o:03d}_full_deg"] = float(np.sqrt(np.mean((dh[k] - full[k]) ** 2)))
+            out[f"octant.poor.after.{o:03d}_share"] = float(k.sum() / sel.sum())
+    return out
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+", help="run directories of one heading_correction campaign, one per seed")
     a = ap.parse_args()
-    table = pd.DataFrame([budget(scored_reports(Path(r))) for r in a.runs])
+    table = pd.DataFrame([(lambda o: {**budget(o), **table_bounds(o)})(scored_reports(Path(r))) for r in a.runs])
     print(f"runs: {len(a.runs)}")
     for label in table.columns:
         v = table[label].dropna()
