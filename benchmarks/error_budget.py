@@ -44,7 +44,8 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from aerotruth.analysis.heading_correction import towards_from_report, wind_error_components
+from aerotruth.analysis.heading_correction import corrected_wind_error, towards_from_report, wind_error_components
+from aerotruth.sim.studies.heading_correction import COMPONENTS, adjusted_table
 from aerotruth.sim.studies.wind_reports import unbanked
 from aerotruth.units import KT
 
@@ -72,14 +73,23 @@ def scored_reports(run: Path) -> pd.DataFrame:
     return obs[obs["group"].isin(["poor", "control"])]
 
 
-def budget(obs: pd.DataFrame) -> dict[str, float]:
-    """One run's budget and heading-error lines (label -> value)."""
+def winds(obs: pd.DataFrame) -> dict[str, np.ndarray]:
+    """The reported, reference and truth winds (towards, east/north, m/s) and the reported
+    heading's error against the truth (deg, wrapped to +-180), once per run."""
+    w = {}
+    for name, prefix in (("o", ""), ("r", "ref_"), ("t", "truth_")):
+        e, n = towards_from_report(obs[f"{prefix}wind_speed_kt"], obs[f"{prefix}wind_dir_deg"])
+        w[name + "e"], w[name + "n"] = np.asarray(e), np.asarray(n)
+    w["dh"] = ((obs["heading_deg"] - obs["truth_heading_deg"] + 180.0) % 360.0 - 180.0).to_numpy()
+    return w
+
+
+def budget(obs: pd.DataFrame, w: dict[str, np.ndarray]) -> dict[str, float]:
+    """One run's budget and heading-error lines (label -> value); `w` = winds(obs)."""
     out: dict[str, float] = {}
-    oe, on = towards_from_report(obs["wind_speed_kt"], obs["wind_dir_deg"])  # m/s
-    re_, rn = towards_from_report(obs["ref_wind_speed_kt"], obs["ref_wind_dir_deg"])
-    te, tn = towards_from_report(obs["truth_wind_speed_kt"], obs["truth_wind_dir_deg"])
+    oe, on, re_, rn, te, tn = (w[k] for k in ("oe", "on", "re", "rn", "te", "tn"))
     head = obs["truth_heading_deg"].to_numpy(float)
-    dh = (obs["heading_deg"] - obs["truth_heading_deg"] + 180.0) % 360.0 - 180.0
+    dh = pd.Series(w["dh"], index=obs.index)
     since = obs["time"] - obs.groupby("flight")["time"].transform("min")
     one_ref = obs["ref_source"] == obs["ref_source"].iloc[0]  # the heading is the report's: once per report
     for (g, st), idx in obs.groupby(["group", "stage"]).groups.items():
@@ -104,37 +114,41 @@ def budget(obs: pd.DataFrame) -> dict[str, float]:
     return out
 
 
-def _cells(e2: pd.Series, obs: pd.DataFrame) -> dict[str, float]:
-    r = np.sqrt(e2.groupby([obs["group"], obs["stage"]]).mean())
-    adjusted = r["poor", "after"] - (r["control", "after"] - r["control", "before"])
-    return {"poor_after": r["poor", "after"], "adjusted_after": adjusted, "improvement": r["poor", "before"] - adjusted}
+def _judged_cells(e2: pd.Series, obs: pd.DataFrame) -> dict[str, float]:
+    """Poor after, adjusted after and improvement (kn) from the squared wind errors (m/s)^2
+    of the scored reports, adjusted as the study adjusts (adjusted_table)."""
+    r = np.sqrt(e2.groupby([obs["group"], obs["stage"]]).mean()) / KT
+    cells = adjusted_table(pd.DataFrame(
+        [{"group": g, "period": p, **{c: (v if c == "rms_kt" else np.nan) for c, _ in COMPONENTS}}
+         for (g, p), v in r.items()])).set_index(["group", "period"])["rms_kt"]
+    return {"poor_after": cells["poor", "after"], "adjusted_after": cells["poor", "after_adjusted"],
+            "improvement": cells["poor", "improvement"]}
 
 
-def table_bounds(obs: pd.DataFrame) -> dict[str, float]:
+def table_bounds(obs: pd.DataFrame, w: dict[str, np.ndarray]) -> dict[str, float]:
     """The judged cells as scored, with a full static table and with no heading error on
-    the poor group's after reports (module docstring)."""
-    oe, on = (np.asarray(v) / KT for v in towards_from_report(obs["wind_speed_kt"], obs["wind_dir_deg"]))
-    re_, rn = (np.asarray(v) / KT for v in towards_from_report(obs["ref_wind_speed_kt"], obs["ref_wind_dir_deg"]))
+    the poor group's after reports (module docstring); `w` = winds(obs)."""
+    dh = w["dh"]
+    tas = obs["tas_kt"].to_numpy(float) * KT
     psi = np.radians(obs["heading_deg"].to_numpy(float))
-    tas = obs["tas_kt"].to_numpy(float)
-    dh = ((obs["heading_deg"] - obs["truth_heading_deg"] + 180.0) % 360.0 - 180.0).to_numpy()
+    rows = pd.DataFrame({"va_e": tas * np.sin(psi), "va_n": tas * np.cos(psi),
+                         "dw_e": w["oe"] - w["re"], "dw_n": w["on"] - w["rn"]})
     mag = obs["heading_mag_deg"] if "heading_mag_deg" in obs else obs["heading_deg"]
     hm = np.radians(mag.to_numpy(float))
     poor_after = ((obs["group"] == "poor") & (obs["stage"] == "after")).to_numpy()
     eligible = poor_after & (obs["roll_deg"].abs() <= 5.0).to_numpy()
     design = np.column_stack([np.ones(len(obs)), np.sin(hm), np.cos(hm), np.sin(2 * hm), np.cos(2 * hm)])
     full = np.zeros(len(obs))  # the full static table's fitted heading error
-    for ac in np.unique(obs["aircraft"].astype(str).to_numpy()[eligible]):
-        k = eligible & (obs["aircraft"].astype(str).to_numpy() == ac)
+    aircraft = obs["aircraft"].astype(str).to_numpy()
+    for ac in np.unique(aircraft[eligible]):
+        k = eligible & (aircraft == ac)
         coef, *_ = np.linalg.lstsq(design[k], dh[k], rcond=None)
         full[k] = design[k] @ coef
     out: dict[str, float] = {}
     for case, removed in (("scored", np.zeros(len(obs))), ("full_static_table", full),
                           ("no_heading_error", np.where(eligible, dh, 0.0))):
-        p2 = psi - np.radians(removed)
-        ex = oe + tas * (np.sin(psi) - np.sin(p2)) - re_
-        ey = on + tas * (np.cos(psi) - np.cos(p2)) - rn
-        for cell, v in _cells(pd.Series(ex ** 2 + ey ** 2, index=obs.index), obs).items():
+        ex, ey = corrected_wind_error(rows, -removed)  # the heading corrected by -removed
+        for cell, v in _judged_cells(pd.Series(ex ** 2 + ey ** 2, index=obs.index), obs).items():
             out[f"bound.{case}.{cell}_kt"] = float(v)
     octant = (np.round(np.degrees(hm) / 45.0).astype(int) % 8) * 45
     one_ref = (obs["ref_source"] == obs["ref_source"].iloc[0]).to_numpy()
@@ -148,11 +162,18 @@ def table_bounds(obs: pd.DataFrame) -> dict[str, float]:
     return out
 
 
+def run_lines(run: Path) -> dict[str, float]:
+    """All of one run's lines: the budget and the table bounds."""
+    obs = scored_reports(run)
+    w = winds(obs)
+    return {**budget(obs, w), **table_bounds(obs, w)}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+", help="run directories of one heading_correction campaign, one per seed")
     a = ap.parse_args()
-    table = pd.DataFrame([(lambda o: {**budget(o), **table_bounds(o)})(scored_reports(Path(r))) for r in a.runs])
+    table = pd.DataFrame([run_lines(Path(r)) for r in a.runs])
     print(f"runs: {len(a.runs)}")
     for label in table.columns:
         v = table[label].dropna()

@@ -97,10 +97,11 @@ def main() -> None:
         sys.exit(f"{src}: expected a campaign mapping with a `seed:`")
     for s in a.set:
         apply_set(doc, s)
+    seeds = parse_seeds(a.seeds)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)
     runs = []
-    for seed in parse_seeds(a.seeds):
+    for seed in seeds:
         run = out / f"{a.tag}-{seed}"
         runs.append(run)
         if (run / "metrics.json").exists():
@@ -121,7 +122,7 @@ def main() -> None:
         print(f"run_seconds.{a.tag}.{seed}: {time.perf_counter() - t0:.0f}", flush=True)
     tables = [sys.executable, str(HERE / "paper_tables.py"), *map(str, runs)]
     if a.baseline_tag:
-        tables += ["--baseline", *(str(out / f"{a.baseline_tag}-{seed}") for seed in parse_seeds(a.seeds))]
+        tables += ["--baseline", *(str(out / f"{a.baseline_tag}-{seed}") for seed in seeds)]
     sys.exit(subprocess.call(tables))
 
 

@@ -45,7 +45,7 @@ def test_a_sinusoidal_heading_error_is_removed_by_the_full_static_table():
                 "heading_deg": meas % 360, "truth_heading_deg": true_hdg, "heading_mag_deg": (mag + dpsi) % 360,
                 "ref_e": re_ - te, "ref_n": rn - tn}))
     obs = pd.concat(rows, ignore_index=True)
-    out = error_budget.table_bounds(obs)
+    out = error_budget.table_bounds(obs, error_budget.winds(obs))
     pa = (obs["group"] == "poor") & (obs["stage"] == "after")
     ref_only = float(np.sqrt((obs.loc[pa, "ref_e"] ** 2 + obs.loc[pa, "ref_n"] ** 2).mean()))
     assert out["bound.no_heading_error.poor_after_kt"] == pytest.approx(ref_only, rel=1e-6)
