@@ -454,3 +454,31 @@ def test_bad_specs_are_rejected_naming_the_field():
     assert FluxValveSpec(declination_epoch="2004-08-15").declination_epoch == dt.date(2004, 8, 15)
     with pytest.raises(ValueError, match="slaving_tau_s"):
         FluxValveSpec(slaving_tau_s=0.0)
+
+
+def test_poor_count_fixes_the_fleet_composition_and_keeps_each_valve_draw():
+    from aerotruth.sensors.magnetics import poor_valves
+
+    ids = [f"N{i}" for i in range(7)]
+    # exactly k, every k-subset reachable, each aircraft poor 4/7 of the time (hypergeometric)
+    draws = [poor_valves(ids, 4, np.random.default_rng(s)) for s in range(3000)]
+    assert all(len(d) == 4 and d <= set(ids) for d in draws)
+    share = np.mean([[a in d for a in ids] for d in draws], axis=0)
+    assert np.allclose(share, 4 / 7, atol=0.035)  # se sqrt(4/7 * 3/7 / 3000) = 0.009
+    assert len(set(draws)) == 35  # C(7, 4)
+    # the listing order does not matter, the stream does
+    assert poor_valves(ids[::-1], 4, np.random.default_rng(9)) == poor_valves(ids, 4, np.random.default_rng(9))
+    with pytest.raises(ValueError, match=r"poor_count: expected 0\.\.7"):
+        poor_valves(ids, 8, np.random.default_rng(0))
+    # a class decided for the fleet consumes the aircraft's stream as the fraction does: the
+    # valve is the fraction's draw of that class (unit normals scaled by the class's sigma)
+    spec = FluxValveFleetSpec(poor_fraction=0.5, poor_count=4, poor_hard_iron_sigma_nT=800.0,
+                              healthy_hard_iron_sigma_nT=100.0)
+    for seed in range(20):
+        cls_p, v_p = spec.draw_with_class(np.random.default_rng(seed), poor=True)
+        cls_h, v_h = spec.draw_with_class(np.random.default_rng(seed), poor=False)
+        assert (cls_p, cls_h) == ("poor", "healthy")
+        assert np.allclose(np.array(v_p.hard_iron_nT) / 800.0, np.array(v_h.hard_iron_nT) / 100.0)
+        assert v_p.soft_iron == v_h.soft_iron and v_p.mounting_deg == v_h.mounting_deg
+        by_fraction = FluxValveFleetSpec(poor_fraction=1.0, poor_hard_iron_sigma_nT=800.0).draw(np.random.default_rng(seed))
+        assert v_p.hard_iron_nT == by_fraction.hard_iron_nT

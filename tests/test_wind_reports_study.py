@@ -137,7 +137,7 @@ def test_bad_fleet_sensor_spec_names_the_field(edit, field):
     with pytest.raises(ConfigError) as e:
         parse_campaign(text)
     msg = str(e.value)
-    assert "\n" not in msg and f"studies.wind_reports.sensors.fleets.f." in msg and field in msg
+    assert "\n" not in msg and "studies.wind_reports.sensors.fleets.f." in msg and field in msg
 
 
 def test_unknown_reference_model_and_zero_quantization_and_unknown_fleet_are_one_line_errors():
@@ -148,3 +148,27 @@ def test_unknown_reference_model_and_zero_quantization_and_unknown_fleet_are_one
         parse_campaign(zero_step)
     with pytest.raises(ConfigError, match=r"sensors\.fleets\.g.*fleet of the campaign"):
         parse_campaign(campaign(PERFECT_VALVE, NO_NOISE).replace("        f: {heading", "        g: {heading"))
+
+
+def test_poor_count_gives_the_fleet_exactly_that_many_poor_valves_and_is_checked_against_the_fleet():
+    from aerotruth.sim.wind_observations import WindSensors
+
+    fleet = tuple(f"N{i}" for i in range(7))
+    spec = FluxValveFleetSpec(poor_count=4)
+    for seed in (1, 2, 3):
+        classes = [aircraft_heading(seed, "f", a, spec, fleet)[0] for a in fleet]
+        assert classes.count("poor") == 4
+    # the draw differs between campaign seeds (35 possible sets; three equal sets would be chance 1/35^2)
+    sets = {frozenset(a for a in fleet if aircraft_heading(s, "f", a, spec, fleet)[0] == "poor") for s in (1, 2, 3)}
+    assert len(sets) > 1
+    with pytest.raises(ValueError, match=r"poor_count.*aircraft of fleet 'f'"):
+        aircraft_heading(1, "f", "N1", spec)
+    text = campaign("{poor_count: 2}", NO_NOISE)
+    with pytest.raises(ConfigError, match=r"sensors\.fleets\.f\.heading\.poor_count.*at most the fleet's 1 aircraft, got 2"):
+        parse_campaign(text)
+    # a task of a fleet with poor_count carries the fleet's aircraft; other tasks keep their identity
+    from aerotruth.sim.studies.wind_reports import sensor_params
+    c = parse_campaign(campaign("{poor_count: 1}", NO_NOISE))
+    sensors = c.section("wind_reports").sensors
+    assert sensor_params(c, sensors, "f")["fleet_aircraft"] == ("N1",)
+    assert "fleet_aircraft" not in sensor_params(c, WindSensors(), "f")

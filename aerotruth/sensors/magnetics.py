@@ -298,13 +298,19 @@ class FluxValveFleetSpec(Section):
     """How flux valves vary over a fleet; `draw(rng)` gives one aircraft's FluxValveSpec.
 
     An aircraft is "poor" with probability `poor_fraction` (about half of Mesaba's SAAB
-    340s: wind paper section 4). Each body component of its hard iron is N(0, sigma^2)
+    340s: wind paper section 4), or, with `poor_count` k, exactly k of the fleet's aircraft
+    are (a fleet whose composition is known, e.g. PenAir's 4 poor + 3 healthy in Table III;
+    which k is drawn by `poor_valves` from the fleet's own stream, and the aircraft's own
+    stream is consumed as with the fraction, so that its valve draws stay the same and a
+    paired run differs only in the classes). Each body component of its hard iron is N(0, sigma^2)
     with sigma of its class, so the horizontal magnitude is Rayleigh (median 1.18 sigma:
     500 nT gives the paper's ~4 deg peak-to-peak at H = 17,400 nT). Soft-iron elements are
     N(0, soft_iron_sigma^2), the mounting error N(0, mounting_sigma_deg^2).
     """
 
     poor_fraction: Finite = Field(default=0.5, ge=0, le=1, description="probability that an aircraft's valve is poor")
+    poor_count: int | None = Field(default=None, ge=0, description="exactly this many of the fleet's aircraft have "
+                                   "poor valves (replaces poor_fraction; which ones is drawn per campaign seed)")
     poor_hard_iron_sigma_nT: Finite = Field(default=500.0, ge=0, description="per-axis hard-iron sigma, poor valves")
     healthy_hard_iron_sigma_nT: Finite = Field(default=100.0, ge=0, description="per-axis hard-iron sigma, healthy valves")
     soft_iron_sigma: Finite = Field(default=0.005, ge=0, le=0.1, description="sigma of each soft-iron element")
@@ -321,9 +327,12 @@ class FluxValveFleetSpec(Section):
         """One aircraft's valve: class, hard iron (3), soft iron (9), mounting, in that order."""
         return self.draw_with_class(rng)[1]
 
-    def draw_with_class(self, rng: np.random.Generator) -> tuple[str, FluxValveSpec]:
-        """("poor" | "healthy", valve) of one aircraft; the same draws as `draw`."""
-        poor = rng.random() < self.poor_fraction
+    def draw_with_class(self, rng: np.random.Generator, poor: bool | None = None) -> tuple[str, FluxValveSpec]:
+        """("poor" | "healthy", valve) of one aircraft; the same draws as `draw`. `poor`
+        given (the class decided for the fleet, `poor_count`): the class draw is made and
+        ignored, so that the valve's draws are those of the fraction's path."""
+        by_fraction = rng.random() < self.poor_fraction
+        poor = by_fraction if poor is None else bool(poor)
         sigma = self.poor_hard_iron_sigma_nT if poor else self.healthy_hard_iron_sigma_nT
         p = rng.normal(0.0, 1.0, 3) * sigma
         s = np.clip(rng.normal(0.0, 1.0, (3, 3)) * self.soft_iron_sigma, -0.5, 0.5)
@@ -334,6 +343,15 @@ class FluxValveFleetSpec(Section):
             slaving_tau_s=self.slaving_tau_s, slaving_rate_max_deg_min=self.slaving_rate_max_deg_min,
             slaving_cutout_bank_deg=self.slaving_cutout_bank_deg,
             gyro_drift_deg_h=self.gyro_drift_deg_h, declination_epoch=self.declination_epoch)
+
+
+def poor_valves(aircraft: list[str] | tuple[str, ...], count: int, rng: np.random.Generator) -> frozenset[str]:
+    """Which `count` of the fleet's `aircraft` have poor valves: a draw without replacement
+    over the ids in sorted order (the YAML's listing order does not matter)."""
+    ids = sorted(set(aircraft))
+    if not 0 <= count <= len(ids):
+        raise ValueError(f"poor_count: expected 0..{len(ids)} (the fleet's aircraft), got {count}")
+    return frozenset(ids[i] for i in rng.choice(len(ids), size=count, replace=False))
 
 
 # ----------------------------------------------------------------------------- physics

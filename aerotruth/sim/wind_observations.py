@@ -32,7 +32,7 @@ from pydantic import Field
 from aerotruth import seeds
 from aerotruth.config import Section
 from aerotruth.sensors.air_data import AirDataErrors, AirDataSpec
-from aerotruth.sensors.magnetics import FluxValveFleetSpec, FluxValveSpec, GeomagneticField, HeadingSystem
+from aerotruth.sensors.magnetics import FluxValveFleetSpec, FluxValveSpec, GeomagneticField, HeadingSystem, poor_valves
 from aerotruth.sensors.tamdar import HeadingCorrection, ReportSpec, generate_reports
 from aerotruth.sensors.weather_model import WeatherModelAnalysis, WeatherModelSpec, preset
 from aerotruth.truth.days import AircraftDay, PlannedLeg
@@ -78,9 +78,18 @@ def aircraft_rng(campaign_seed: int, fleet: str, aircraft: str, what: str) -> np
     return seeds.generator(seeds.named_sequence(campaign_seed, "sensor", fleet, aircraft, what))
 
 
-def aircraft_heading(campaign_seed: int, fleet: str, aircraft: str, spec: FluxValveFleetSpec) -> tuple[str, FluxValveSpec]:
-    """(class "poor" | "healthy", flux valve) of one airframe."""
-    return spec.draw_with_class(aircraft_rng(campaign_seed, fleet, aircraft, "heading"))
+def aircraft_heading(campaign_seed: int, fleet: str, aircraft: str, spec: FluxValveFleetSpec,
+                     fleet_aircraft: tuple[str, ...] | None = None) -> tuple[str, FluxValveSpec]:
+    """(class "poor" | "healthy", flux valve) of one airframe. With `spec.poor_count` the
+    class comes from the whole fleet's draw (`fleet_aircraft`: every aircraft of the fleet)."""
+    poor = None
+    if spec.poor_count is not None:
+        if not fleet_aircraft or aircraft not in fleet_aircraft:
+            raise ValueError(f"heading.poor_count: the aircraft of fleet {fleet!r} are needed to draw which "
+                             f"{spec.poor_count} are poor, and {aircraft!r} is not among {list(fleet_aircraft or [])}")
+        poor = aircraft in poor_valves(fleet_aircraft, spec.poor_count,
+                                       seeds.generator(seeds.named_sequence(campaign_seed, "sensor", fleet, "poor_valves")))
+    return spec.draw_with_class(aircraft_rng(campaign_seed, fleet, aircraft, "heading"), poor=poor)
 
 
 def aircraft_air_data(campaign_seed: int, fleet: str, aircraft: str, spec: AirDataSpec) -> AirDataErrors:
@@ -147,11 +156,13 @@ def with_references(reports: pd.DataFrame, analyses: list[WeatherModelAnalysis])
 
 
 def day_observations(campaign_seed: int, fleet: str, day: AircraftDay, sensors: WindSensors, ctx, *,
-                     correction: HeadingCorrection | None = None, legs=None) -> pd.DataFrame:
+                     correction: HeadingCorrection | None = None, legs=None,
+                     fleet_aircraft: tuple[str, ...] | None = None) -> pd.DataFrame:
     """The observation table of an aircraft-day (empty when no leg has truth). `legs`: the
-    day's LegOutcomes (from `ctx.truth` when None)."""
+    day's LegOutcomes (from `ctx.truth` when None); `fleet_aircraft`: the fleet's aircraft
+    (needed when the fleet's heading spec sets `poor_count`)."""
     fs = sensors.of(fleet)
-    heading_class, valve = aircraft_heading(campaign_seed, fleet, day.aircraft, fs.heading)
+    heading_class, valve = aircraft_heading(campaign_seed, fleet, day.aircraft, fs.heading, fleet_aircraft)
     system = HeadingSystem(valve)
     air = aircraft_air_data(campaign_seed, fleet, day.aircraft, fs.air_data)
     outcomes = ctx.truth.day(day) if legs is None else legs
@@ -192,9 +203,10 @@ def simulated_observations(days: list, sensors: WindSensors, sensor_seed: int, *
 
     store = store or TruthStore()
     frames = []
+    fleet_aircraft = tuple(sorted({day.aircraft for day in days}))
     for day in days:
         ctx = TaskContext(day_task("simulated_observations", fleet, day), campaign_seed=sensor_seed, _truth=store)
-        frames.append(day_observations(sensor_seed, fleet, day, sensors, ctx))
+        frames.append(day_observations(sensor_seed, fleet, day, sensors, ctx, fleet_aircraft=fleet_aircraft))
     frames = [f for f in frames if len(f)]
     if not frames:
         raise ValueError("simulated_observations: no leg of the days was flown")

@@ -50,8 +50,8 @@ from pydantic import Field, StrictBool, StrictInt, model_validator
 from aerotruth.config import Campaign, References, Section
 from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_networks, day_cost, day_task
 from aerotruth.sim.studies import Figure, Study, Summary
-from aerotruth.sim.studies.wind_reports import (DIVERGED, band_midpoints_ft, check_sensors, day_rows,
-                                                 observations_only, steady_heading_error, unbanked)
+from aerotruth.sim.studies.wind_reports import (DIVERGED, band_midpoints_ft, check_sensors, day_rows, observations_only,
+                                                 sensor_params, steady_heading_error, unbanked)
 from aerotruth.sim.tasks import Task
 from aerotruth.sim.wind_observations import WindSensors
 
@@ -168,8 +168,8 @@ class HeadingCorrection(Study):
         for role in STAGES:
             needs = ("corrections",) if role == "after" else ()
             for fleet, day in aircraft_days(campaign, section.flights(role)):
-                tasks.append(day_task(self.name, fleet, day, stage=role, needs=needs, sensors=section.sensors.only(fleet),
-                                      campaign_seed=campaign.seed))
+                tasks.append(day_task(self.name, fleet, day, stage=role, needs=needs,
+                                      **sensor_params(campaign, section.sensors, fleet)))
         return tasks
 
     def cost(self, task: Task) -> float:

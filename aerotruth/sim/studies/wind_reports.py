@@ -72,6 +72,21 @@ def check_sensors(campaign: Campaign, refs: References, sensors: WindSensors, pr
             if spec.name in seen:
                 raise refs.error(loc + (i, "name"), f"reference model {spec.name!r} is listed twice")
             seen.add(spec.name)
+    for fleet, spec in sensors.fleets.items():
+        k, n = spec.heading.poor_count, len(campaign.fleet(fleet).aircraft)
+        if k is not None and k > n:
+            raise refs.error(prefix + ("fleets", fleet, "heading", "poor_count"),
+                             f"expected at most the fleet's {n} aircraft, got {k}")
+
+
+def sensor_params(campaign: Campaign, sensors: WindSensors, fleet: str) -> dict[str, Any]:
+    """A day task's sensor parameters: the fleet's sensors, the campaign seed, and the
+    fleet's aircraft when its valves' classes are drawn for the whole fleet (`poor_count`;
+    absent otherwise, so that other tasks keep their identity)."""
+    params: dict[str, Any] = {"sensors": sensors.only(fleet), "campaign_seed": campaign.seed}
+    if sensors.of(fleet).heading.poor_count is not None:
+        params["fleet_aircraft"] = tuple(sorted(campaign.fleet(fleet).aircraft))
+    return params
 
 
 def diverged_rows(fleet: str, aircraft: str, date: str, outcomes) -> pd.DataFrame:
@@ -118,7 +133,7 @@ def day_rows(task: Task, ctx, correction=None, mark_corrected: bool = False) -> 
     day, fleet = task.params["day"], dict(task.identity)["fleet"]
     outcomes = ctx.truth.day(day)
     obs = day_observations(task.params["campaign_seed"], fleet, day, task.params["sensors"], ctx, correction=correction,
-                           legs=outcomes)
+                           legs=outcomes, fleet_aircraft=task.params.get("fleet_aircraft"))
     if mark_corrected and len(obs):
         obs = obs.assign(corrected=correction is not None)
     return pd.concat([obs, diverged_rows(fleet, day.aircraft, day.date.isoformat(), outcomes)], ignore_index=True)
@@ -173,7 +188,7 @@ class WindReports(Study):
         check_sensors(campaign, refs, section.sensors, prefix=("sensors",))
 
     def expand(self, campaign: Campaign, section: WindReportsConfig) -> list[Task]:
-        return [day_task(self.name, fleet, day, sensors=section.sensors.only(fleet), campaign_seed=campaign.seed)
+        return [day_task(self.name, fleet, day, **sensor_params(campaign, section.sensors, fleet))
                 for fleet, day in aircraft_days(campaign, section.flights)]
 
     def cost(self, task: Task) -> float:
