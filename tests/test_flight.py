@@ -186,7 +186,6 @@ def test_fly_re_flies_a_campaign_leg_bit_for_bit_from_its_recorded_seeds(tmp_pat
     from aerotruth.config import parse_campaign
     from aerotruth.sim.campaign import run_campaign
     from aerotruth.sim.executors import ExecutorChoice
-    from aerotruth.sim.store import RunStore
     from aerotruth.truth.store import TruthStore
 
     text = ("name: refly\nseed: 17\nfleets:\n  - {name: m, network: mesaba, aircraft: [N9]}\n"

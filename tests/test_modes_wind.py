@@ -19,7 +19,6 @@ def synthetic(A_deg=1.5, k=0.01, D_s=2.0, B_deg=0.0, C_deg=0.0, noise_mps=0.5, s
         parts.append(np.linspace(h, new, int(abs(new - h) / 1.5), endpoint=False))
         h = new
     psi = np.radians(np.concatenate(parts)[: len(t)])
-    rate = np.gradient(psi, t)
     tas = 120.0 + 5 * np.sin(2 * np.pi * t / 1800.0)
     wn = 15.0 * np.cos(2 * np.pi * t / 7200.0)
     we = 20.0 + 5.0 * np.sin(2 * np.pi * t / 5400.0)

@@ -14,7 +14,7 @@ from scipy.optimize import curve_fit
 
 from aerotruth.sensors.weather_model import WeatherModelAnalysis, WeatherModelSpec, preset
 from aerotruth.truth.atmosphere import TruthAtmosphere, WindFieldSpec
-from aerotruth.truth.isa import geometric_altitude_m, isa_pressure_pa, pressure_altitude_m
+from aerotruth.truth.isa import geometric_altitude_m, pressure_altitude_m
 from aerotruth.truth.mesoscale import MesoscaleSpec
 from aerotruth.units import EARTH_RADIUS_M, FT, HPA, KT
 
