@@ -151,7 +151,8 @@ def heading_fit_main(obs_path: str, out_dir: str) -> int:
     rows = heading_errors(obs)
     if not (rows["gate"] == "used").any():
         raise DataError(f"{obs_path}: no report passes the ground-track gates (three adjacent reports of one flight, "
-                        "collinear, constant speed, >= 10 km apart): columns 'time', 'lat', 'lon' may not be one aircraft's sequence")
+                        "collinear and at constant speed beyond what the 0.01-deg position step can fake, <= 10 min apart): "
+                        "columns 'time', 'lat', 'lon' may not be one aircraft's sequence")
     fleet = FleetHeadingFit(heading="true").fit(rows)
     mag = None
     if np.isfinite(rows["heading_mag_deg"].to_numpy()).any():

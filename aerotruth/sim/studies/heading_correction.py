@@ -118,6 +118,12 @@ class HeadingCorrectionConfig(Section):
             raise ValueError("periods: before and after must be different periods")
         return self
 
+    def gates(self):
+        """The method's ground-track gates: the study's roll limit, the reports' position step."""
+        from aerotruth.analysis.heading_correction import GateSpec
+
+        return GateSpec(max_roll_deg=self.max_roll_deg, position_step_deg=self.sensors.reports.lat_lon_step_deg)
+
     def flights(self, role: str) -> FlightSelection:
         """The aircraft-days of one role."""
         return FlightSelection(fleets=self.fleets, periods=[getattr(self.periods, role)],
@@ -187,11 +193,11 @@ class HeadingCorrection(Study):
         return pd.concat([rows, twin[twin["trigger"] != DIVERGED].assign(untreated=True)], ignore_index=True)
 
     def fit(self, name: str, rows: pd.DataFrame, section: HeadingCorrectionConfig, rng) -> pd.DataFrame:
-        from aerotruth.analysis.heading_correction import FleetHeadingFit, GateSpec
+        from aerotruth.analysis.heading_correction import FleetHeadingFit
 
         fit_obs = reported(rows[rows["stage"] == "fit"])
         before = unbanked(reported(rows[rows["stage"] == "before"]), section.max_roll_deg)
-        table = FleetHeadingFit(heading=section.fit_heading, gates=GateSpec(max_roll_deg=section.max_roll_deg)).fit(
+        table = FleetHeadingFit(heading=section.fit_heading, gates=section.gates()).fit(
             fit_obs, source="fit-period reports").to_table()
         rms = per_aircraft_rms(before).rename(columns={"n": "before_n", "rms_kt": "before_rms_kt"})
         info = fit_obs.drop_duplicates("aircraft")[["aircraft", "fleet", "heading_input", "heading_class"]]
