@@ -12,8 +12,8 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from aerotruth.analysis.heading_correction import (GateSpec, heading_errors, segment_displacements, towards_from_report,
-                                                   validate_observations, wgs84_radii)
+from aerotruth.analysis.heading_correction import (TRACK_GATES, GateSpec, heading_errors, segment_displacements,
+                                                   towards_from_report, validate_observations, wgs84_radii)
 from aerotruth.errors import DataError
 from aerotruth.units import DEG, FT
 
@@ -131,7 +131,7 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
             v = v[np.isfinite(v)]
             if len(v) >= 20 and v.max() <= 2 * np.pi + 1e-6:
                 raise DataError(f"{source}: column '{col}' lies within [0, {v.max():.2f}]: radians? expected degrees 0-360")
-    rows = heading_errors(df, gates, source)
+    rows = heading_errors(df, TRACK_GATES if gates is None else gates, source)
     used = (rows["gate"] == "used").to_numpy()
     if used.sum() < 20:
         counts = rows["gate"].value_counts().to_dict()

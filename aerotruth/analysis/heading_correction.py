@@ -153,6 +153,13 @@ class GateSpec(Section):
     max_heading_error_deg: float = Field(30.0, gt=0, description="|psi - psi'| above this is a gross error")
 
 
+# The gates of analyses that use the ground track itself, not only d (which V_G cancels
+# from to first order): |V_A| and the along-track residuals of `aerotruth diagnose` move
+# one for one with V_G's error, so they keep spans >= 10 km and fixed 10-deg / 10-% limits
+# (0.01-deg rounding: <= ~0.45 km of difference error, <= 2.6 deg of track).
+TRACK_GATES = GateSpec(min_baseline_km=10.0, noise_sigmas=0.0, max_track_noise=math.inf)
+
+
 # ----------------------------------------------------------------------------- input
 
 def _numeric(df: pd.DataFrame, col: str, source: str) -> np.ndarray:
