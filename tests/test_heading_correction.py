@@ -452,8 +452,8 @@ def test_step_noise_matches_rounding_by_monte_carlo_and_lets_a_straight_climb_th
         dsp.append((d2 - d1) / dt / gs)
         dvg.append(dspan / (2 * dt) / gs - 1.0)
         e, n = np.sin(np.radians(course)) * 2 * gs * dt, np.cos(np.radians(course)) * 2 * gs * dt
-        c, sp, r = step_noise(np.array([np.radians(la1)]), np.array([e]), np.array([n]), np.array([gs, gs]),
-                              np.array([dt, dt]), 0.01)
+        c, sp, r = step_noise(np.array([np.radians(la1)]), np.array([e]), np.array([n]), np.array([np.hypot(e, n)]),
+                              np.array([gs, gs]), np.array([dt, dt]), 0.01)
         var_c.append(c[0] ** 2)
         var_s.append(sp[0] ** 2)
         var_v.append(r[0] ** 2)

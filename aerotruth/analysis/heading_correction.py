@@ -335,12 +335,12 @@ def segment_displacements(lat_rad: np.ndarray, lon_rad: np.ndarray) -> tuple[np.
     return de, dn
 
 
-def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, seg_gs: np.ndarray, dts: np.ndarray,
-               step_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, span: np.ndarray, seg_gs: np.ndarray,
+               dts: np.ndarray, step_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Standard deviations of the course change (deg), of the relative ground-speed change
     and of V_G relative to |V_G| that positions rounded to `step_deg` make by themselves at
     the interior reports of a track: segments k-1 and k around report k (lengths
-    L = gs dt), the span (span_e, span_n) from report k-1 to k+1 (m).
+    L = gs dt), the span (span_e, span_n) from report k-1 to k+1 (m), `span` its length.
 
     Rounding errors are uniform, sd s = step/sqrt(12) per coordinate (north M s, east
     N cos(lat) s in metres); across (along) the span's course c a point errs by
@@ -352,7 +352,6 @@ def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, seg_
     rm, rn = wgs84_radii(lat_rad)
     s = math.radians(step_deg) / math.sqrt(12.0)
     s_n, s_e = rm * s, rn * np.cos(lat_rad) * s
-    span = np.hypot(span_e, span_n)
     with np.errstate(divide="ignore", invalid="ignore"):
         sc, cc = span_e / span, span_n / span
         s_x = np.sqrt((s_e * cc) ** 2 + (s_n * sc) ** 2)
@@ -417,11 +416,12 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
             dcourse = np.degrees(np.abs(wrap(np.diff(seg_course), 2 * np.pi, -np.pi)))
             dspeed = np.abs(np.diff(seg_gs)) / (0.5 * (seg_gs[:-1] + seg_gs[1:]))
             dt1, dt2 = dts[:-1], dts[1:]
-            sd_course, sd_speed, rel_vg = step_noise(lat[1:-1], span_e, span_n, seg_gs, dts, g.position_step_deg)
+            span = np.hypot(span_e, span_n)
+            sd_course, sd_speed, rel_vg = step_noise(lat[1:-1], span_e, span_n, span, seg_gs, dts, g.position_step_deg)
             checks = [
                 ~has,
                 ~interior((dt1 > 0) & (dt2 > 0) & (dt1 <= g.max_gap_s) & (dt2 <= g.max_gap_s)),
-                ~interior((np.hypot(span_e, span_n) >= g.min_baseline_km * 1000.0) & (rel_vg <= g.max_track_noise)),
+                ~interior((span >= g.min_baseline_km * 1000.0) & (rel_vg <= g.max_track_noise)),
                 ~interior(dcourse <= g.max_course_change_deg + g.noise_sigmas * sd_course),
                 ~interior(dspeed <= g.max_speed_change + g.noise_sigmas * sd_speed),
             ]
