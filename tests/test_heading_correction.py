@@ -228,8 +228,9 @@ def test_heading_error_equals_the_deviation_on_noise_free_reports():
 
 
 def test_reported_wind_from_the_west_blows_towards_the_east():
+    # to the single-precision trig's bound (aerotruth.analysis.fast_trig: 2.6e-7 of the speed)
     u, v = towards_from_report([10.0, 10.0], [270.0, 0.0])
-    assert np.allclose(u, [10 * 1852 / 3600, 0.0], atol=1e-12) and np.allclose(v, [0.0, -10 * 1852 / 3600], atol=1e-12)
+    assert np.allclose(u, [10 * 1852 / 3600, 0.0], atol=2e-6) and np.allclose(v, [0.0, -10 * 1852 / 3600], atol=2e-6)
 
 
 def test_lookup_table_correction_is_piecewise_linear_round_the_circle():
@@ -394,7 +395,9 @@ def test_wind_errors_before_after_against_a_hand_rotation():
     e2 = dw_e + va_e - tas * np.sin(np.radians(h + c))
     n2 = dw_n + va_n - tas * np.cos(np.radians(h + c))
     for got, want in ((before, comps(dw_e, dw_n, h)), (after, comps(e2, n2, h + c))):
-        assert np.allclose([got["rms_kt"], got["longitudinal_kt"], got["transverse_kt"]], want, rtol=1e-12)
+        # single-precision trig (aerotruth.analysis.fast_trig): ~2.6e-7 of |V_A| per report,
+        # 4e-5 m/s here against 3-m/s errors; the RMS averages it further
+        assert np.allclose([got["rms_kt"], got["longitudinal_kt"], got["transverse_kt"]], want, rtol=1e-6)
 
 
 @pytest.mark.parametrize("storage", ["object", "arrow", "arrow-chunks", "python"])
@@ -453,7 +456,7 @@ def test_step_noise_matches_rounding_by_monte_carlo_and_lets_a_straight_climb_th
         dvg.append(dspan / (2 * dt) / gs - 1.0)
         e, n = np.sin(np.radians(course)) * 2 * gs * dt, np.cos(np.radians(course)) * 2 * gs * dt
         c, sp, r = step_noise(np.array([np.radians(la1)]), np.array([e]), np.array([n]), np.array([np.hypot(e, n)]),
-                              np.array([gs, gs]), np.array([dt, dt]), 0.01)
+                              np.array([gs]), np.array([gs]), np.array([dt]), np.array([dt]), 0.01)
         var_c.append(c[0] ** 2)
         var_s.append(sp[0] ** 2)
         var_v.append(r[0] ** 2)
