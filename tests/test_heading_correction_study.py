@@ -170,3 +170,37 @@ def test_rms_by_altitude_and_the_trustworthy_days_by_hand():
         rms = np.sqrt((e(day) ** 2).groupby(day["aircraft"]).mean())
         assert (r.trustworthy, r.untrustworthy) == (int((rms < 6.0).sum()), int((rms >= 6.0).sum()))
     assert daily["trustworthy"].sum() > 0 and daily["untrustworthy"].sum() > 0
+
+
+def test_fit_figure_draws_the_fits_own_frame_and_gates(tmp_path):
+    """The fit-period figure (wind paper Figs. 3/8) plots the heading errors the fit used:
+    in its heading frame (magnetic here) and with its gates (the reports' position step,
+    stored with the learned tables)."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    from aerotruth.analysis.heading_correction import heading_errors
+    from aerotruth.sim.studies import Summary
+
+    rng = np.random.default_rng(8)
+    truths = [gen.AircraftTruth("N1", 1.0, 3.0, -2.0), gen.AircraftTruth("N2", 0.0, 0.2, 0.1)]
+    fit = gen.generate(truths, rng, flights=20)
+    before = gen.generate(truths, rng, flights=6, t_start=1_250_294_400.0)
+    common = {"fleet": "f", "heading_input": "magnetic", "heading_class": "x", "trigger": "pressure"}
+    rows = pd.concat([fit.assign(stage="fit", **common), before.assign(stage="before", **common)], ignore_index=True)
+    rows.insert(0, "task_id", "t")
+    section = _section(poor=1, control=1, fit_heading="magnetic", sensors={"reports": {"lat_lon_step_deg": 0.02}})
+    table = STUDY.fit("corrections", rows, section, np.random.default_rng(0))
+    assert (table["gate_position_step_deg"] == 0.02).all() and (table["gate_max_roll_deg"] == 10.0).all()
+    plt.close("all")
+    figs = STUDY.figures(rows, Summary({}, {}), {"corrections": table}, tmp_path)
+    assert "heading_correction_fits" in [f.stem for f in figs]
+    ax = plt.gcf().axes[0]
+    poor = table.loc[table["group"] == "poor", "aircraft"].iloc[0]
+    errs = heading_errors(fit[fit["aircraft"] == poor], section.gates())
+    used = errs[errs["gate"] == "used"]
+    assert "magnetic" in ax.get_xlabel()
+    assert np.sort(ax.lines[0].get_xdata()) == pytest.approx(np.sort(used["heading_mag_deg"].to_numpy()))
+    plt.close("all")

@@ -210,6 +210,8 @@ class HeadingCorrection(Study):
         out["group"] = np.where(out["aircraft"].isin(poor), "poor", np.where(out["aircraft"].isin(control), "control", "other"))
         out["status"] = out["status"].fillna("refused")
         out["reason"] = out["reason"].fillna("no fit-period reports")
+        gates = section.gates()  # how the tables were learned (the fit figure redraws with them)
+        out["gate_max_roll_deg"], out["gate_position_step_deg"] = gates.max_roll_deg, gates.position_step_deg
         return out.sort_values("aircraft").reset_index(drop=True)
 
     def summarize(self, rows: pd.DataFrame, learned, section: HeadingCorrectionConfig) -> Summary:
@@ -316,19 +318,25 @@ class HeadingCorrection(Study):
             poor = corr[(corr["group"] == "poor") & (corr["status"] != "refused")].sort_values("before_rms_kt", ascending=False)
             show = poor["aircraft"].tolist()[:4]
             if show:
-                errs = heading_errors(fit_obs[fit_obs["aircraft"].astype(str).isin(show)], GateSpec())
+                # the fit's own gates and heading frame (stored with the tables; defaults for older runs)
+                first = corr.iloc[0]
+                gates = GateSpec(**{k: float(first[f"gate_{k}"]) for k in ("max_roll_deg", "position_step_deg")
+                                    if f"gate_{k}" in corr.columns})
+                frames = corr["heading_frame"].dropna() if "heading_frame" in corr.columns else pd.Series(dtype=object)
+                frame = "heading_mag_deg" if len(frames) and frames.iloc[0] == "magnetic" else "heading_deg"
+                errs = heading_errors(fit_obs[fit_obs["aircraft"].astype(str).isin(show)], gates)
                 fig, axes = plt.subplots(1, len(show), figsize=(3.2 * len(show), 3.2), squeeze=False, sharey=True)
                 z = np.linspace(0, 360, 181)
                 for ax, ac in zip(axes[0], show):
                     e = errs[(errs["aircraft"].astype(str) == ac) & (errs["gate"] == "used")]
-                    ax.plot(e["heading_deg"], e["error_deg"], ".", ms=2, alpha=0.4)
+                    ax.plot(e[frame], e["error_deg"], ".", ms=2, alpha=0.4)
                     r = corr.set_index("aircraft").loc[ac]
                     zr = np.radians(z)
                     d = (r["A_deg"] + r["B_deg"] * np.sin(zr) + r["C_deg"] * np.cos(zr) + r["D_deg"] * np.sin(2 * zr)
                          + r["E_deg"] * np.cos(2 * zr))
                     ax.plot(z, d, "r-", lw=2)
                     ax.set_title(f"{ac} ({r['status']})", fontsize=9)
-                    ax.set_xlabel("measured heading (deg)")
+                    ax.set_xlabel(f"measured {'magnetic' if frame == 'heading_mag_deg' else 'true'} heading (deg)")
                     ax.set_xlim(0, 360)
                     ax.set_ylim(-15, 15)
                     ax.grid(alpha=0.3)
