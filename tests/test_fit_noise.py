@@ -1,0 +1,45 @@
+"""benchmarks/fit_noise.py's re-scoring on hand-built reports: the uploaded table undone
+(the heading before it recovered from the corrected one) and another applied equals
+reporting with that other table from the start."""
+
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+import fit_noise  # noqa: E402
+
+
+def test_undoing_one_table_and_applying_another_equals_reporting_with_the_other():
+    rng = np.random.default_rng(11)
+    n = 500
+    psi_u = rng.uniform(0, 360, n)  # the measured true heading before any table
+    var = rng.uniform(10, 20, n)  # declination: the table is indexed by psi - var
+    true_input = rng.random(n) < 0.2  # some reports from true-heading avionics: the offset only
+    z = np.arange(0, 360, 45.0)
+    old = np.tile(-(1.0 + 4.0 * np.sin(np.radians(z)) - 3.0 * np.cos(np.radians(z))), (n, 1))
+    new = np.tile(-(0.5 + 3.5 * np.sin(np.radians(z))), (n, 1))
+    # by hand: linear interpolation round the circle at the magnetic heading, or the mean
+    def applied(lut, psi):
+        m = (psi - var) % 360.0
+        at = np.array([np.interp(x, np.r_[z, 360.0], np.r_[row, row[0]]) for x, row in zip(m, lut)])
+        return np.where(true_input, lut.mean(axis=1), at)
+    psi_c = psi_u + applied(old, psi_u)
+    assert fit_noise.uncorrected_heading(psi_c, old, true_input, var) == pytest.approx(psi_u, abs=1e-9)
+    psi_n = psi_u + applied(new, psi_u)
+    # the wind reported with heading psi: V_G - V_A(psi), V_G from a truth wind and the true heading
+    tas, ve, vn = rng.uniform(180, 260, n), rng.normal(0, 20, n), rng.normal(0, 20, n)
+    head = np.radians(rng.uniform(0, 360, n))
+    ge, gn = ve + tas * np.sin(head), vn + tas * np.cos(head)
+
+    def report(psi):
+        we, wn = ge - tas * np.sin(np.radians(psi)), gn - tas * np.cos(np.radians(psi))
+        return np.hypot(we, wn), np.degrees(np.arctan2(-we, -wn)) % 360.0
+
+    s_c, d_c = report(psi_c)
+    s_n, d_n = report(psi_n)
+    s, d = fit_noise.rescored_wind(s_c, d_c, tas, psi_c, psi_n)
+    assert s == pytest.approx(s_n, abs=1e-9)
+    assert np.abs((d - d_n + 180.0) % 360.0 - 180.0).max() < 1e-7
