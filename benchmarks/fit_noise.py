@@ -31,35 +31,45 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from aerotruth.analysis.heading_correction import LUT_COLUMNS, FleetHeadingFit, lut_correction
+from aerotruth.analysis.heading_correction import LUT_COLUMNS, FleetHeadingFit
 from aerotruth.sim.store import RunStore
-from aerotruth.sim.studies.heading_correction import group_rms, reported
+from aerotruth.sim.studies.heading_correction import group_rms, reported, uploaded_correction
 from aerotruth.sim.studies.wind_reports import unbanked
 
 STUDY = "heading_correction"
 
 
-def _applied(lut: np.ndarray, true_input: np.ndarray, psi_mag: np.ndarray) -> np.ndarray:
-    """The correction (deg) an uploaded table adds at each report: the 8-point table at the
-    magnetic heading, or its mean (the offset) for true-heading avionics; lut (n, 8)."""
-    at = lut_correction(lut, psi_mag, table=np.arange(len(psi_mag)))
-    return np.where(true_input, lut.mean(axis=1), at)
+def onboard_correction(tables: pd.DataFrame, aircraft: np.ndarray, psi_deg: np.ndarray, var_deg: np.ndarray) -> np.ndarray:
+    """The correction (deg) each report's aircraft adds onboard with the learned `tables`
+    (the study's `corrections` rows): what the study uploads (`uploaded_correction`: the
+    8-point table at the magnetic heading psi - var, the offset for true-heading avionics,
+    nothing for other groups or refused fits) applied as the sensor applies it."""
+    out = np.zeros(len(psi_deg))
+    for ac in np.unique(aircraft):
+        c = uploaded_correction(tables, ac)
+        if c is not None:
+            k = aircraft == ac
+            psi = np.radians(psi_deg[k])
+            out[k] = np.degrees(c.apply(psi, np.radians(var_deg[k])) - psi)
+    return out
 
 
-def uncorrected_heading(psi_c: np.ndarray, luts: np.ndarray, true_input: np.ndarray, var: np.ndarray) -> np.ndarray:
-    """The heading before the uploaded table (deg): psi_u solving psi_c = psi_u + c(psi_u -
-    var), c the table `luts` (n, 8) at the magnetic heading (`_applied`). A contraction (the
-    table's slope is far below 1): 30 iterations to ~1e-12 deg."""
+def uncorrected_heading(psi_c: np.ndarray, tables: pd.DataFrame, aircraft: np.ndarray, var: np.ndarray) -> np.ndarray:
+    """The heading before the uploaded table (deg): psi_u solving psi_c = psi_u + c(psi_u),
+    c = onboard_correction. A contraction (the table's slope is far below 1): 30 iterations
+    to ~1e-12 deg."""
     psi_u = np.array(psi_c, dtype=float)
     for _ in range(30):
-        psi_u = psi_c - _applied(luts, true_input, psi_u - var)
+        psi_u = psi_c - onboard_correction(tables, aircraft, psi_u, var)
     return psi_u
 
 
 def rescored_wind(speed_kt: np.ndarray, dir_deg: np.ndarray, tas_kt: np.ndarray, psi_c: np.ndarray,
                   psi_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The reported wind (speed kt, direction from, deg) had the heading been psi_n instead
-    of psi_c: W' = W + TAS (u(psi_c) - u(psi_n)), u the unit vector along the heading."""
+    of psi_c: W' = W + TAS (u(psi_c) - u(psi_n)), u the unit vector along the heading (in
+    double precision: `corrected_wind_error` is the same rotation with the method's
+    single-precision trigonometry)."""
     d = np.radians(dir_deg)
     we, wn = -speed_kt * np.sin(d), -speed_kt * np.cos(d)  # towards
     pc, pn = np.radians(psi_c), np.radians(psi_n)
@@ -88,36 +98,40 @@ class Rescorer:
         for o in (self.before, self.after):
             o["group"] = o["aircraft"].astype(str).map(group).fillna("other")
         a = self.after
-        self.is_poor = (a["group"] == "poor").to_numpy()
-        self.true_input = (a["heading_input"] == "true").to_numpy()
+        self.aircraft = a["aircraft"].astype(str).to_numpy()
         self.var = a["declination_deg"].to_numpy()
-        psi_c = a["heading_deg"].to_numpy()
-        stored = self._luts(self.stored_tables())
-        self.psi_c, self.psi_u = psi_c, uncorrected_heading(psi_c, stored, self.true_input, self.var)
+        self.psi_c = a["heading_deg"].to_numpy()
+        self.psi_u = uncorrected_heading(self.psi_c, self.stored, self.aircraft, self.var)
 
-    def stored_tables(self) -> dict[str, np.ndarray]:
-        """The tables the run uploaded (a refused fit uploads nothing: zeros)."""
-        return {ac: np.nan_to_num(self.corr.loc[ac, LUT_COLUMNS].to_numpy(float)) for ac in self.poor}
+    @property
+    def stored(self) -> pd.DataFrame:
+        """The learned corrections the run uploaded from."""
+        return self.corr.reset_index()
 
-    def _luts(self, tables: dict[str, np.ndarray]) -> np.ndarray:
-        zero = np.zeros(8)
-        return np.vstack([tables.get(ac, zero) if p else zero
-                          for ac, p in zip(self.after["aircraft"].astype(str), self.is_poor)])
+    def with_tables(self, luts: dict[str, np.ndarray]) -> pd.DataFrame:
+        """The learned corrections with the poor aircraft's tables replaced by `luts`."""
+        t = self.corr.copy()
+        for ac, lut in luts.items():
+            t.loc[ac, LUT_COLUMNS] = lut
+            if t.loc[ac, "status"] == "refused":  # a refit that the method accepted
+                t.loc[ac, "status"] = "fitted"
+        return t.reset_index()
 
-    def fit(self, rows: np.ndarray | None = None) -> dict[str, np.ndarray]:
-        """The poor aircraft's tables from their fit reports (or the rows `rows` of them)."""
+    def fit(self, rows: np.ndarray | None = None) -> pd.DataFrame:
+        """The learned corrections with the poor aircraft's tables fitted again on their fit
+        reports (or the rows `rows` of them)."""
         obs = self.fit_obs if rows is None else self.fit_obs[rows].reset_index(drop=True)
         f = FleetHeadingFit(heading=self.section.fit_heading, gates=self.section.gates()).fit(obs, source="fit reports")
         for ac in self.poor:
             if ac not in f.fits_ or f.fits_[ac].status_ == "refused":
                 why = f.fits_[ac].reason_ if ac in f.fits_ else "no fit reports"
                 raise Refused(f"{ac}: {why}")
-        return {ac: np.asarray(f.fits_[ac].lut_, dtype=float) for ac in self.poor}
+        return self.with_tables({ac: np.asarray(f.fits_[ac].lut_, dtype=float) for ac in self.poor})
 
-    def cells(self, tables: dict[str, np.ndarray]) -> dict[tuple[str, str], float]:
-        """Total RMS per group and period with the poor group carrying `tables` after."""
-        psi_n = self.psi_u + _applied(self._luts(tables), self.true_input, self.psi_u - self.var)
-        psi_n = np.where(self.is_poor, psi_n, self.psi_c)
+    def cells(self, tables: pd.DataFrame) -> dict[tuple[str, str], float]:
+        """Total RMS per group and period with the learned corrections `tables` uploaded
+        for the after period."""
+        psi_n = self.psi_u + onboard_correction(tables, self.aircraft, self.psi_u, self.var)
         a = self.after.copy()
         a["wind_speed_kt"], a["wind_dir_deg"] = rescored_wind(a["wind_speed_kt"].to_numpy(), a["wind_dir_deg"].to_numpy(),
                                                               a["tas_kt"].to_numpy(), self.psi_c, psi_n)
@@ -141,7 +155,7 @@ def main() -> None:
             if not p.exists():
                 sys.exit(f"{run}: no {p.relative_to(run)} (a finished {STUDY} run?)")
         r = Rescorer(run)
-        stored = r.cells(r.stored_tables())
+        stored = r.cells(r.stored)
         try:
             full = r.cells(r.fit())
         except Refused as e:

@@ -6,7 +6,10 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import pandas as pd
 import pytest
+
+from aerotruth.analysis.heading_correction import LUT_COLUMNS
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import fit_noise  # noqa: E402
@@ -27,7 +30,15 @@ def test_undoing_one_table_and_applying_another_equals_reporting_with_the_other(
         at = np.array([np.interp(x, np.r_[z, 360.0], np.r_[row, row[0]]) for x, row in zip(m, lut)])
         return np.where(true_input, lut.mean(axis=1), at)
     psi_c = psi_u + applied(old, psi_u)
-    assert fit_noise.uncorrected_heading(psi_c, old, true_input, var) == pytest.approx(psi_u, abs=1e-9)
+
+    def tables(lut):  # the study's learned corrections: one magnetic-heading aircraft, one true-heading one
+        return pd.DataFrame([{"aircraft": ac, "group": "poor", "status": "fitted", "heading_input": hi,
+                              **dict(zip(LUT_COLUMNS, lut[0]))} for ac, hi in (("M", "magnetic"), ("T", "true"))])
+
+    aircraft = np.where(true_input, "T", "M")
+    assert fit_noise.uncorrected_heading(psi_c, tables(old), aircraft, var) == pytest.approx(psi_u, abs=1e-9)
+    assert (fit_noise.onboard_correction(tables(new), aircraft, psi_u, var)
+            == pytest.approx(applied(new, psi_u), abs=1e-9))
     psi_n = psi_u + applied(new, psi_u)
     # the wind reported with heading psi: V_G - V_A(psi), V_G from a truth wind and the true heading
     tas, ve, vn = rng.uniform(180, 260, n), rng.normal(0, 20, n), rng.normal(0, 20, n)

@@ -317,10 +317,14 @@ def wrap(x: np.ndarray, period: float, lo: float = 0.0) -> np.ndarray:
     return x - period * np.floor(y / period, out=y)
 
 
-def wgs84_radii(lat_rad: np.ndarray, sin_lat: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """Meridional (M) and prime-vertical (N) radii of curvature (m) at a latitude (its sine
-    `sin_lat` when already at hand)."""
-    q = 1 - _WGS84_E2 * np.square(sin_cos(lat_rad)[0] if sin_lat is None else sin_lat)
+def wgs84_radii(lat_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Meridional (M) and prime-vertical (N) radii of curvature (m) at a latitude."""
+    return _radii_from_sin(sin_cos(lat_rad)[0])
+
+
+def _radii_from_sin(sin_lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """wgs84_radii from the latitude's sine (callers that also need its cosine)."""
+    q = 1 - _WGS84_E2 * np.square(sin_lat)
     sq = np.sqrt(q)
     return _WGS84_A * (1 - _WGS84_E2) / (q * sq), _WGS84_A / sq  # q^1.5 without the slow power
 
@@ -330,7 +334,7 @@ def segment_displacements(lat_rad: np.ndarray, lon_rad: np.ndarray) -> tuple[np.
     segment's mid latitude with the WGS-84 radii of curvature M, N."""
     phi = 0.5 * (lat_rad[1:] + lat_rad[:-1])
     s, c = sin_cos(phi)
-    rm, rn = wgs84_radii(phi, s)
+    rm, rn = _radii_from_sin(s)
     dn = np.diff(lat_rad) * rm
     de = wrap(np.diff(lon_rad), 2 * np.pi, -np.pi) * rn * c
     return de, dn
@@ -357,7 +361,7 @@ def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, span
     and s_a, over the mean ground speed; V_G's error is its two end points' over the span,
     sqrt(2 (s_e^2 + s_n^2)) / |span|."""
     sin_lat, cos_lat = sin_cos(lat_rad)
-    rm, rn = wgs84_radii(lat_rad, sin_lat)
+    rm, rn = _radii_from_sin(sin_lat)
     s = math.radians(step_deg) / math.sqrt(12.0)
     s_n, s_e = rm * s, rn * cos_lat * s
     with np.errstate(divide="ignore", invalid="ignore"):
