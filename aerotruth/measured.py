@@ -31,6 +31,7 @@ from pathlib import Path
 import pandas as pd
 
 from aerotruth.errors import DataError
+from aerotruth.tables import read_csv_table
 
 OBSERVATION_COLUMNS = ("aircraft", "time", "lat", "lon", "pressure_altitude_ft", "wind_speed_kt", "wind_dir_deg",
                        "ref_wind_speed_kt", "ref_wind_dir_deg")
@@ -87,7 +88,7 @@ def _table(path: Path, data: bytes) -> pd.DataFrame | None:
     if not head or head[0] in "[{":
         return None
     try:
-        return pd.read_csv(io.BytesIO(data))
+        return read_csv_table(data)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError):
         return None
 

@@ -5,7 +5,8 @@ a reduced run fits each table on a few days (PenAir: 10 fit days, two legs each;
 For each run (one per campaign seed): the poor aircraft's tables are fitted again, as the
 study does (its gates and heading frame, from the run's resolved config), on the whole fit
 period (a check: equals the stored tables) and on random halves of each aircraft's fit
-flights (both halves of `--splits` splits); the poor group's after reports are re-scored
+days (both halves of `--splits` splits; `--by flight` splits flights instead); the poor
+group's after reports are re-scored
 with each table - the uploaded table undone and the new one applied at the heading the
 firmware indexes (measured magnetic heading for an 8-point table, the offset for
 true-heading avionics), a rotation of the air vector: W' = W + TAS (u(psi_c) - u(psi_n)),
@@ -13,7 +14,14 @@ u the unit vector along the heading. With n fit flights RMS^2(n) = R + k / n, so
 R = 2 RMS^2(n) - RMS^2(n / 2) is the cell with the fit noise gone (infinite fit data,
 every other error kept). The control cells do not depend on the tables.
 
-    python benchmarks/fit_noise.py RUN_DIR [RUN_DIR ...] [--splits 4]
+The halves are whole days by default: the reference model's error is correlated for hours
+(`aerotruth.sensors.weather_model`: L_t 3 h, L_h 150 km for RR), so a day's out and back
+legs on one route see much the same model error - which a one-axis fit reads as the same
+error of its along-axis sinusoid term from either leg (the cross-track component of a
+wind error flips sign with the heading, and so does the term). Halves that split a day's
+legs share that error, understate the half-data noise and with it k.
+
+    python benchmarks/fit_noise.py RUN_DIR [RUN_DIR ...] [--splits 4] [--by day|flight]
 
 Prints per run `run.<name>.poor_after_kt: stored reproduced half infinite` and over the
 runs `mean.<cell>_kt: mean se` for poor after and adjusted after (as fitted, with half
@@ -145,7 +153,9 @@ class Rescorer:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+")
-    ap.add_argument("--splits", type=int, default=4, help="random half splits of each aircraft's fit flights")
+    ap.add_argument("--splits", type=int, default=4, help="random half splits of each aircraft's fit days (or flights)")
+    ap.add_argument("--by", choices=("day", "flight"), default="day",
+                    help="the unit a half takes whole (default day: the model error is correlated within a day)")
     ap.add_argument("--seed", type=int, default=7)
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
@@ -164,19 +174,22 @@ def main() -> None:
         if not math.isclose(stored[("poor", "after")], full[("poor", "after")], rel_tol=1e-6):
             sys.exit(f"{run}: the refitted tables do not reproduce the stored poor after cell "
                      f"({full[('poor', 'after')]:.4f} vs {stored[('poor', 'after')]:.4f} kn)")
-        flights = r.fit_obs[["aircraft", "flight"]].drop_duplicates()
-        ac = flights["aircraft"].astype(str).to_numpy()
+        unit_col = "date" if a.by == "day" else "flight"
+        obs_ac = r.fit_obs["aircraft"].astype(str).to_numpy()
+        obs_unit = r.fit_obs[unit_col].astype(str).to_numpy()
+        units = pd.DataFrame({"aircraft": obs_ac, "unit": obs_unit}).drop_duplicates()
+        ac = units["aircraft"].to_numpy()
         half_sq = []
         try:
             for _ in range(a.splits):
-                rank = pd.Series(rng.random(len(flights))).groupby(ac).rank().to_numpy()
+                rank = pd.Series(rng.random(len(units))).groupby(ac).rank().to_numpy()
                 size = pd.Series(ac).groupby(ac).transform("size").to_numpy()
-                first = set(zip(ac[rank <= size / 2], flights["flight"].to_numpy()[rank <= size / 2]))
-                in_first = np.array([k in first for k in zip(r.fit_obs["aircraft"].astype(str), r.fit_obs["flight"])])
+                first = set(zip(ac[rank <= size / 2], units["unit"].to_numpy()[rank <= size / 2]))
+                in_first = np.array([k in first for k in zip(obs_ac, obs_unit)])
                 for part in (in_first, ~in_first):
                     half_sq.append(r.cells(r.fit(part))[("poor", "after")] ** 2)
         except Refused as e:
-            print(f"run.{run.name}.skipped: half the fit flights is too little for the method ({e})")
+            print(f"run.{run.name}.skipped: half the fit {a.by}s is too little for the method ({e})")
             continue
         after, half = full[("poor", "after")], math.sqrt(float(np.mean(half_sq)))
         inf = math.sqrt(max(2 * after**2 - half**2, 0.0))

@@ -49,6 +49,7 @@ from aerotruth.analysis.fits import FitsResult, FitsSpec, fits_approach
 from aerotruth.analysis.ils_metrics import FLOOR_HORIZONTAL_M, FLOOR_VERTICAL_M, REQUIREMENTS, approach_errors, required_error_m
 from aerotruth.errors import DataError
 from aerotruth.files import atomic_write_bytes, atomic_write_text
+from aerotruth.tables import read_csv_table
 from aerotruth.units import NM
 
 REQUIRED = ("approach", "time_s", "waas_x_m", "waas_y_m", "waas_z_m", "ins_x_m", "ins_y_m", "ins_z_m",
@@ -131,7 +132,7 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
     if not p.is_file():
         raise DataError(f"{p}: no such file (expected an approach log, CSV or Parquet)")
     try:
-        df = pd.read_parquet(p) if p.suffix.lower() in (".parquet", ".pq") else pd.read_csv(p)
+        df = pd.read_parquet(p) if p.suffix.lower() in (".parquet", ".pq") else read_csv_table(p)
     except Exception as exc:  # noqa: BLE001 - any reader failure is one line about the file
         raise DataError(f"{p}: cannot be read as CSV/Parquet ({type(exc).__name__}: {str(exc).splitlines()[0]})") from None
     missing = [c for c in REQUIRED if c not in df.columns]

@@ -241,9 +241,10 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
                 i = int(np.flatnonzero(bad)[0])
                 raise DataError(f"{source}: column '{c}', data row {i + 1}: {v[i]:g} outside [{lo:g}, {hi:g}]")
     out["ref_source"] = _labels(obs["ref_source"], "ref") if "ref_source" in obs.columns else pd.Categorical(np.full(len(obs), "ref"))
-    for c in ("flight", "heading_input"):  # `phase` is not used by the method
-        if c in obs.columns:
-            out[c] = _labels(obs[c], "")
+    if "flight" in obs.columns:  # `phase` is not used by the method
+        out["flight"] = _labels(obs["flight"], "")
+    if "heading_input" in obs.columns:  # a word, in any case ("TRUE", "Magnetic")
+        out["heading_input"] = _labels(obs["heading_input"].map(lambda v: v.lower() if isinstance(v, str) else v), "")
     if "heading_input" in out:
         vals = set(out["heading_input"].categories) - {"", "true", "magnetic"}
         if vals:

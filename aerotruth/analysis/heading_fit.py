@@ -27,6 +27,7 @@ from aerotruth.analysis.heading_correction import (LUT_HEADINGS_DEG, FleetHeadin
                                                    heading_errors, validate_observations, wind_errors_before_after)
 from aerotruth.errors import DataError
 from aerotruth.files import atomic_write, atomic_write_text
+from aerotruth.tables import read_csv_table
 
 EXTENSIONS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
 
@@ -44,7 +45,7 @@ def read_observation_table(path: str | Path) -> pd.DataFrame:
         raise DataError(f"{path}: is a folder, expected an observation table file")
     try:
         if kind == "csv":
-            df = pd.read_csv(path, low_memory=False)
+            df = read_csv_table(path)
         else:
             df = pd.read_parquet(path)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:

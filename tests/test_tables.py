@@ -1,0 +1,58 @@
+"""A user's CSV read as written (aerotruth.tables): labels stay text, the separator is the
+header's; through `aerotruth heading fit`, `fits`' log reader and `diagnose`'s loader."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import obs_generator as gen
+from aerotruth.analysis.heading_fit import heading_fit_main, read_observation_table
+from aerotruth.measured import load_measured
+from aerotruth.tables import csv_separator, read_csv_table
+
+
+def _obs() -> pd.DataFrame:
+    return gen.generate([gen.AircraftTruth("N470XJ", A=-3.0, B=1.5, C=0.0, cruise_tas_kt=280.0)],
+                        np.random.default_rng(12), flights=8)
+
+
+@pytest.mark.parametrize("header, sep", [("a,b;c", ","), ("a;b;c", ";"), ("a\tb\tc", "\t"), ("a", ",")])
+def test_separator_is_the_headers(header, sep):
+    assert csv_separator(header) == sep
+
+
+def test_labels_stay_text_and_numbers_stay_numbers(tmp_path):
+    p = tmp_path / "t.csv"
+    p.write_text("aircraft,heading_input,flight,lat\n0511,true,007,61.2\n0511,true,007,61.3\n")
+    df = read_csv_table(p)
+    assert df["aircraft"].tolist() == ["0511", "0511"]  # not 511
+    assert df["heading_input"].tolist() == ["true", "true"]  # not the boolean True
+    assert df["flight"].tolist() == ["007", "007"]
+    assert df["lat"].tolist() == [61.2, 61.3]
+
+
+def test_an_all_true_heading_fleet_in_csv_gets_offset_only_tables(tmp_path):
+    # every row "true": pandas alone reads the column as booleans, which the method refused
+    obs = _obs().assign(heading_input="true")
+    obs.to_csv(tmp_path / "obs.csv", index=False)
+    heading_fit_main(str(tmp_path / "obs.csv"), str(tmp_path / "out"))
+    dev = pd.read_csv(tmp_path / "out" / "deviation.csv")
+    assert dev["status"].tolist() == ["offset_only"] and "true heading" in dev["reason"].iloc[0]
+
+
+def test_heading_input_is_a_word_in_any_case(tmp_path):
+    obs = _obs().assign(heading_input="TRUE")
+    obs.to_csv(tmp_path / "obs.csv", index=False)
+    assert list(read_observation_table(tmp_path / "obs.csv")["heading_input"].unique()) == ["true"]
+
+
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_semicolon_and_tab_separated_tables_read_like_the_comma_one(tmp_path, sep):
+    obs = _obs()
+    obs.to_csv(tmp_path / "comma.csv", index=False)
+    obs.to_csv(tmp_path / "other.csv", index=False, sep=sep)
+    a, b = read_observation_table(tmp_path / "comma.csv"), read_observation_table(tmp_path / "other.csv")
+    pd.testing.assert_frame_equal(a, b)
+    assert load_measured(tmp_path / "other.csv").kind == "observation_table"
