@@ -217,12 +217,13 @@ def test_legacy_numeric_marks_and_a_runway_sidecar_are_read(tmp_path, capsys):
 @pytest.mark.parametrize("breakage, message", [
     ("no_ra", r"approach 2.*ra_m.*threshold"),
     ("no_tvps", r"approach 2.*tvps_y_m.*threshold"),
-    ("unsorted", r"approach 2.*time_s.*increase"),
+    ("unsorted", r"approach 2.*time_s.*increase strictly \(data row \d+: \d+(\.\d+)? after \d+(\.\d+)?\)"),
     ("gap", r"approach 2.*gap of 3\.2 s"),
     ("waas_gap", r"approach 2.*waas_\*.*gap"),
     ("missing_column", r"missing column 'iono_update'"),
     ("no_event", r"approach 2.*'event'"),
-    ("text", r"column 'ra_m' row \d+: expected a number"),
+    ("text", r"column 'ra_m' data row 6: expected a number"),
+    ("empty", r"log\.csv: no rows"),
     ("bad_event", r"column 'event': expected empty, 'thr' or 'end'"),
 ])
 def test_fits_main_refuses_a_broken_log_with_one_line_naming_the_column(tmp_path, breakage, message):
@@ -249,6 +250,8 @@ def test_fits_main_refuses_a_broken_log_with_one_line_naming_the_column(tmp_path
     elif breakage == "text":
         log["ra_m"] = log["ra_m"].astype(object)
         log.loc[log.index[5], "ra_m"] = "n/a ft"
+    elif breakage == "empty":
+        log = log.iloc[:0]
     path = write(log, tmp_path / "log.csv")
     with pytest.raises(ValueError, match=message) as err:
         fits_main(path, str(tmp_path / "out"))

@@ -128,7 +128,8 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
         d = _track_from_raw(m.df)
         excluded = {"BDS 6,0 replies without BDS 5,0 / ADS-B neighbours": int((m.df["bds"] == "60").sum() - len(d))}
     else:
-        raise DataError(f"{m.path}: diagnose of a {m.kind.replace('_', ' ')} is not possible: it carries no heading and "
+        what = {"adsb_track": "an ADS-B track", "qar": "a flight-data-recorder extract"}.get(m.kind, f"a {m.kind.replace('_', ' ')}")
+        raise DataError(f"{m.path}: diagnose of {what} is not possible: it carries no heading and "
                         "airspeed to test; Mode-S data, observation tables and approach logs are supported")
     vr = d["vertical_rate"].to_numpy(float) if "vertical_rate" in d else np.zeros(len(d))
     t = d["time_s"].to_numpy(float)

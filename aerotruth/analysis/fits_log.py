@@ -140,6 +140,8 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
         raise DataError(f"{p}: missing column {missing[0]!r} (an approach log needs {', '.join(REQUIRED)})")
     if any(c in df.columns for c in DGPS) and not all(c in df.columns for c in DGPS):
         raise DataError(f"{p}: DGPS columns must come together ({', '.join(DGPS)})")
+    if len(df) == 0:
+        raise DataError(f"{p}: no rows")
     df["event"] = event_codes(df["event"], str(p))
     for c in NUMERIC:
         if c == "event":
@@ -148,10 +150,10 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
             num = pd.to_numeric(df[c], errors="coerce")
             bad = num.isna() & df[c].notna()
             if bad.any():
-                raise DataError(f"{p}: column {c!r} row {int(np.flatnonzero(bad)[0])}: expected a number, got {df[c][bad].iloc[0]!r}")
+                raise DataError(f"{p}: column {c!r} data row {int(np.flatnonzero(bad)[0]) + 1}: expected a number, got {df[c][bad].iloc[0]!r}")
             df[c] = num.astype(float)
     if df["time_s"].isna().any():
-        raise DataError(f"{p}: column 'time_s' row {int(np.flatnonzero(df['time_s'].isna())[0])}: missing time")
+        raise DataError(f"{p}: column 'time_s' data row {int(np.flatnonzero(df['time_s'].isna())[0]) + 1}: missing time")
     for c in ("sv_change", "iono_update"):
         v = df[c].fillna(0.0)
         if not v.isin([0.0, 1.0]).all():
@@ -174,7 +176,8 @@ def _check_approach(p: Path, a, g: pd.DataFrame) -> None:
     dtt = np.diff(tt)
     if len(tt) < 2 or (dtt <= 0).any():
         i = int(np.flatnonzero(dtt <= 0)[0]) + 1 if len(tt) >= 2 else 0
-        raise DataError(f"{where}: column 'time_s' must increase strictly (row {g.index[i]}: {tt[i]!r} after {tt[max(i - 1, 0)]!r})")
+        raise DataError(f"{where}: column 'time_s' must increase strictly (data row {g.index[i] + 1}: {tt[i]:g} after "
+                        f"{tt[max(i - 1, 0)]:g})")
     marks = g["event"].isin(["thr", "1"]).any()
     g, _ = split_events(g)
     t = g["time_s"].to_numpy()
