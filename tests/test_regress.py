@@ -77,5 +77,10 @@ def test_bad_baseline_is_one_line_exit_2(tmp_path, run_dir, capsys):
 
 def test_regress_on_an_unfinished_run_is_one_line(tmp_path, capsys):
     b = baseline(tmp_path, {"metrics": {}})
+    assert main(["regress", str(tmp_path / "nothere"), b]) == 2
+    assert "nothere: no such run directory" in capsys.readouterr().err
+    assert main(["regress", str(tmp_path), b]) == 2  # a folder, but no run's
+    assert "is not a run directory" in capsys.readouterr().err
+    (tmp_path / "config.resolved.yaml").write_text("name: x\n")
     assert main(["regress", str(tmp_path), b]) == 2
     assert "has no metrics.json" in capsys.readouterr().err

@@ -273,4 +273,8 @@ class RunStore:
         try:
             return json.loads(self.metrics_path.read_text())
         except FileNotFoundError:
+            if not self.root.is_dir():
+                raise RunDirError(f"{self.root}: no such run directory") from None
+            if not self.config_path.exists():
+                raise RunDirError(f"{self.root} is not a run directory (no config.resolved.yaml)") from None
             raise RunDirError(f"{self.root} has no metrics.json: the run is unfinished; rerun `aerotruth run` to complete it") from None
