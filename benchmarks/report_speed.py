@@ -23,7 +23,8 @@ import pandas as pd
 
 import datetime as dt
 
-from aerotruth.sensors.air_data import AirDataSpec, wgs84_radii_m
+from aerotruth.ellipsoid import radii
+from aerotruth.sensors.air_data import AirDataSpec
 from aerotruth.sensors.magnetics import FluxValveSpec, GeomagneticField, HeadingSystem
 from aerotruth.sensors.tamdar import LookupTableCorrection, ReportSpec, generate_reports
 from aerotruth.truth.isa import isa_pressure_pa, pressure_altitude_m
@@ -45,7 +46,7 @@ def synthetic_track(hours: float, rng: np.random.Generator) -> pd.DataFrame:
     wind_u = 15.0 + 3.0 * np.sin(2 * np.pi * t / 900.0) + 0.5 * rng.standard_normal(t.size)
     wind_v = -5.0 + 0.5 * rng.standard_normal(t.size)
     ve, vn = tas * np.sin(heading) + wind_u, tas * np.cos(heading) + wind_v
-    m, n = wgs84_radii_m(45.0 * DEG)
+    m, n = radii(45.0 * DEG)
     lat = 45.0 + np.degrees(np.cumsum(vn) * 0.1 / m)
     lon = -93.0 + np.degrees(np.cumsum(ve) * 0.1 / (n * np.cos(45.0 * DEG)))
     p = isa_pressure_pa(h_p)

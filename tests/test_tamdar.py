@@ -12,7 +12,8 @@ import pytest
 from pyproj import Geod
 
 from aerotruth.analysis.wind_metrics import TrackGates, track_from_triples
-from aerotruth.sensors.air_data import AirDataSpec, wgs84_radii_m
+from aerotruth.ellipsoid import radii
+from aerotruth.sensors.air_data import AirDataSpec
 from aerotruth.sensors.tamdar import (LookupTableCorrection, OffsetCorrection, ReportSpec, generate_reports, quantize,
                                       report_schedule)
 from aerotruth.truth.isa import pressure_altitude_m
@@ -29,7 +30,7 @@ def _truth(knots_t_s, knots_p_hpa, tas_mps=120.0, heading_deg=0.0, wind_uv=(0.0,
     psi = heading_deg * DEG
     ve = tas_mps * np.sin(psi) + wind_uv[0]
     vn = tas_mps * np.cos(psi) + wind_uv[1]
-    m, n = wgs84_radii_m(45.0 * DEG)
+    m, n = radii(45.0 * DEG)
     return pd.DataFrame({
         "time_s": t, "lat_deg": 45.0 + np.degrees(vn * t / m), "lon_deg": -93.0 + np.degrees(ve * t / (n * np.cos(45 * DEG))),
         "h_ellipsoid_m": pressure_altitude_m(p), "pressure_altitude_m": pressure_altitude_m(p),
@@ -147,7 +148,7 @@ def test_air_data_errors_follow_their_measurement_equation():
     np.testing.assert_allclose(exact["tas_mps"], 1.01 * 100.0 + 2.0 * KT)
     np.testing.assert_allclose(exact["static_pressure_pa"], truth["static_pressure_pa"], rtol=1e-9)
     noisy = AirDataSpec(tas_noise_kt=1.0, gps_position_sigma_m=5.0, gps_velocity_sigma_mps=0.2).draw(rng).apply(truth, rng)
-    m, n = wgs84_radii_m(np.radians(truth["lat_deg"].to_numpy()))
+    m, n = radii(np.radians(truth["lat_deg"].to_numpy()))
     h = truth["h_ellipsoid_m"].to_numpy()
     assert np.std(noisy["tas_mps"] - 100.0) / KT == pytest.approx(1.0, rel=0.03)
     assert np.std(np.radians(noisy["lat_deg"] - truth["lat_deg"]) * (m + h)) == pytest.approx(5.0, rel=0.03)
@@ -190,7 +191,7 @@ def test_cruise_three_report_track_error_matches_the_quantization_analytic_estim
     rng = np.random.default_rng(2010)
     v, spacing, step, tstep = 250 * KT, 420.0, 0.01, 1.0
     gt, sel, track_err, speed_err, lat_mid, eta = _quantized_triples(rng, 40000, v, spacing, step, tstep)
-    m, n = wgs84_radii_m(lat_mid)
+    m, n = radii(lat_mid)
     sig_n = m * np.radians(step) / np.sqrt(12)  # uniform quantization: step / sqrt(12) per coordinate
     sig_e = n * np.cos(lat_mid) * np.radians(step) / np.sqrt(12)
     sig_t = tstep / np.sqrt(12)

@@ -114,6 +114,7 @@ from scipy import stats
 
 from aerotruth.analysis.fast_trig import sin_cos
 from aerotruth.config import Section
+from aerotruth.ellipsoid import A_M, E2, radii_from_sin
 from aerotruth.errors import DataError
 from aerotruth.units import DEG, KT
 
@@ -127,9 +128,6 @@ TABLE_COLUMNS = ("aircraft", "status", "reason", "n_used", *(f"{t}_deg" for t in
                  *(f"{t}_se_deg" for t in TERM_NAMES), *LUT_COLUMNS, "valid_from", "valid_to")
 STATUSES = ("fitted", "offset_only", "refused")
 GATE_NAMES = ("used", "no_neighbours", "gap", "baseline", "collinearity", "speed_change", "roll", "implausible")
-
-_WGS84_A = 6378137.0
-_WGS84_E2 = 6.69437999014e-3
 
 
 class GateSpec(Section):
@@ -319,15 +317,9 @@ def wrap(x: np.ndarray, period: float, lo: float = 0.0) -> np.ndarray:
 
 
 def wgs84_radii(lat_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Meridional (M) and prime-vertical (N) radii of curvature (m) at a latitude."""
-    return _radii_from_sin(sin_cos(lat_rad)[0])
-
-
-def _radii_from_sin(sin_lat: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """wgs84_radii from the latitude's sine (callers that also need its cosine)."""
-    q = 1 - _WGS84_E2 * np.square(sin_lat)
-    sq = np.sqrt(q)
-    return _WGS84_A * (1 - _WGS84_E2) / (q * sq), _WGS84_A / sq  # q^1.5 without the slow power
+    """Meridional (M) and prime-vertical (N) radii of curvature (m) at a latitude
+    (`aerotruth.ellipsoid`, with the method's single-precision sine)."""
+    return radii_from_sin(sin_cos(lat_rad)[0])
 
 
 def segment_displacements(lat_rad: np.ndarray, lon_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -335,7 +327,7 @@ def segment_displacements(lat_rad: np.ndarray, lon_rad: np.ndarray) -> tuple[np.
     segment's mid latitude with the WGS-84 radii of curvature M, N."""
     phi = 0.5 * (lat_rad[1:] + lat_rad[:-1])
     s, c = sin_cos(phi)
-    rm, rn = _radii_from_sin(s)
+    rm, rn = radii_from_sin(s)
     dn = np.diff(lat_rad) * rm
     de = wrap(np.diff(lon_rad), 2 * np.pi, -np.pi) * rn * c
     return de, dn
@@ -343,7 +335,7 @@ def segment_displacements(lat_rad: np.ndarray, lon_rad: np.ndarray) -> tuple[np.
 
 # an upper bound of sqrt(2 (s_e^2 + s_n^2)) per degree of position step (step_noise: s_n =
 # M s, s_e = N cos(lat) s with s = step / sqrt(12), M, N <= a / (1 - e^2)): metres
-_MAX_STEP_NOISE_M = math.sqrt(2.0 * 2.0) * _WGS84_A / (1 - _WGS84_E2) * math.radians(1.0) / math.sqrt(12.0)
+_MAX_STEP_NOISE_M = math.sqrt(2.0 * 2.0) * A_M / (1 - E2) * math.radians(1.0) / math.sqrt(12.0)
 
 
 def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, span: np.ndarray, gs1: np.ndarray,
@@ -362,7 +354,7 @@ def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, span
     and s_a, over the mean ground speed; V_G's error is its two end points' over the span,
     sqrt(2 (s_e^2 + s_n^2)) / |span|."""
     sin_lat, cos_lat = sin_cos(lat_rad)
-    rm, rn = _radii_from_sin(sin_lat)
+    rm, rn = radii_from_sin(sin_lat)
     s = math.radians(step_deg) / math.sqrt(12.0)
     s_n, s_e = rm * s, rn * cos_lat * s
     with np.errstate(divide="ignore", invalid="ignore"):

@@ -52,7 +52,7 @@ import pandas as pd
 from pydantic import Field
 
 from aerotruth.config import Section
-from aerotruth.sensors.air_data import WGS84_E2, wgs84_radii_m
+from aerotruth.ellipsoid import E2, radii
 from aerotruth.sensors.tamdar import wind_components
 from aerotruth.units import DEG, FT, KT
 
@@ -83,10 +83,10 @@ class GroundTrack:
 
 
 def _ecef(lat_rad: np.ndarray, lon_rad: np.ndarray, h_m: np.ndarray) -> np.ndarray:
-    _, n = wgs84_radii_m(lat_rad)
+    _, n = radii(lat_rad)
     cl = np.cos(lat_rad)
     return np.stack([(n + h_m) * cl * np.cos(lon_rad), (n + h_m) * cl * np.sin(lon_rad),
-                     (n * (1.0 - WGS84_E2) + h_m) * np.sin(lat_rad)])
+                     (n * (1.0 - E2) + h_m) * np.sin(lat_rad)])
 
 
 def track_from_triples(time_s: ArrayLike, lat_deg: ArrayLike, lon_deg: ArrayLike, height_m: ArrayLike = 0.0,

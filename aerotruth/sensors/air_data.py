@@ -25,30 +25,17 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from numpy.typing import ArrayLike
 import pandas as pd
 from pydantic import Field
 
 from aerotruth.config import Section
+from aerotruth.ellipsoid import radii
 from aerotruth.truth.isa import isa_pressure_pa
 from aerotruth.units import FT, KT
-
-WGS84_A_M = 6378137.0
-WGS84_F = 1.0 / 298.257223563
-WGS84_E2 = WGS84_F * (2.0 - WGS84_F)
 
 AIR_DATA_COLUMNS = ("time_s", "tas_mps", "pressure_altitude_m", "static_pressure_pa",
                     "lat_deg", "lon_deg", "vn_mps", "ve_mps")
 _TRUTH_INPUTS = ("time_s", "tas_mps", "pressure_altitude_m", "lat_deg", "lon_deg", "h_ellipsoid_m", "vn_mps", "ve_mps")
-
-
-def wgs84_radii_m(lat_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray]:
-    """Meridional (M) and prime-vertical (N) radii of curvature (m) of WGS-84 at geodetic
-    latitude lat: N = a / sqrt(1 - e^2 sin^2 lat), M = N (1 - e^2) / (1 - e^2 sin^2 lat)."""
-    s2 = np.sin(np.asarray(lat_rad, dtype=float)) ** 2
-    w = 1.0 - WGS84_E2 * s2
-    n = WGS84_A_M / np.sqrt(w)
-    return n * (1.0 - WGS84_E2) / w, n
 
 
 class AirDataSpec(Section):
@@ -92,7 +79,7 @@ class AirDataErrors:
         tas = (1.0 + self.tas_scale) * col["tas_mps"] + self.tas_bias_mps + s.tas_noise_kt * KT * noise[0]
         h_p = col["pressure_altitude_m"] + s.pressure_altitude_noise_ft * FT * noise[1]
         lat = np.radians(col["lat_deg"])
-        m, nn = wgs84_radii_m(lat)
+        m, nn = radii(lat)
         h = col["h_ellipsoid_m"]
         sp = s.gps_position_sigma_m
         lat_m = col["lat_deg"] + np.degrees(sp * noise[2] / (m + h))

@@ -28,10 +28,10 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from aerotruth import geo
+from aerotruth.ellipsoid import A_M
 
 GM = 3.986004418e14  # m^3/s^2, WGS-84 (NIMA TR8350.2)
 J2 = 1.08262982e-3  # as JSBSim's FGInertia
-A_WGS84 = 6378137.0  # m
 OMEGA_IE = 7.292115e-5  # rad/s, WGS-84 Earth rate
 
 
@@ -40,7 +40,7 @@ def gravitation_j2(r: np.ndarray) -> np.ndarray:
     r = np.asarray(r, float)
     rn = np.linalg.norm(r, axis=-1, keepdims=True)
     s2 = (r[..., 2:3] / rn) ** 2
-    k = 1.5 * J2 * (A_WGS84 / rn) ** 2
+    k = 1.5 * J2 * (A_M / rn) ** 2
     scale = np.concatenate([1.0 + k * (1.0 - 5.0 * s2)] * 2 + [1.0 + k * (3.0 - 5.0 * s2)], axis=-1)
     return -GM / rn**2 * scale * r / rn
 
@@ -91,7 +91,7 @@ def _gravity_scalar(x: float, y: float, z: float) -> tuple[float, float, float]:
     rn2 = x * x + y * y + z * z
     rn = rn2**0.5
     s2 = z * z / rn2
-    k = 1.5 * J2 * A_WGS84 * A_WGS84 / rn2
+    k = 1.5 * J2 * A_M * A_M / rn2
     f = -GM / (rn2 * rn)
     a = f * (1.0 + k * (1.0 - 5.0 * s2))
     w2 = OMEGA_IE * OMEGA_IE

@@ -42,9 +42,7 @@ from pydantic import Field
 from scipy.signal import lfilter
 
 from aerotruth.config import Section
-
-WGS84_A = 6378137.0  # m, semi-major axis
-WGS84_E2 = 6.69437999014e-3  # first eccentricity squared
+from aerotruth.ellipsoid import radii
 
 
 class WaasSpec(Section):
@@ -162,9 +160,7 @@ class WaasErrors:
             return p + err
         if frame == "llh":
             lat = np.radians(p[:, 0])
-            w = 1.0 - WGS84_E2 * np.sin(lat) ** 2
-            r_n = WGS84_A / np.sqrt(w)  # prime vertical
-            r_m = WGS84_A * (1.0 - WGS84_E2) / w**1.5  # meridian
+            r_m, r_n = radii(lat)  # meridian, prime vertical
             dlat = np.degrees(err[:, 1] / (r_m + p[:, 2]))
             dlon = np.degrees(err[:, 0] / ((r_n + p[:, 2]) * np.cos(lat)))
             return p + np.column_stack([dlat, dlon, err[:, 2]])
