@@ -19,6 +19,10 @@ by the value of its `name:`), VALUE parsed as YAML (`620`, `2003-01-01`, `[a, b]
 path must already exist, so a misspelt key is an error, not a silently added one.
 `--baseline-tag T`: also print the paired differences against the runs OUT/T-<seed>
 (the same seeds; see paper_tables.py --baseline).
+`--truth-max-gb N`: the truth store's size cap for these runs (`truth_store.max_gb`,
+default 20). Each run evicts the least recently used flights beyond the cap when it ends;
+a grid of many seeds outgrows 20 GB (a reduced PenAir seed is ~1.2 GB of truth), and a
+seed evicted mid-grid is flown again by its next variant (minutes instead of seconds).
 """
 
 from __future__ import annotations
@@ -77,6 +81,18 @@ def apply_set(doc: dict, assignment: str) -> None:
             sys.exit(f"--set {path}: {'.'.join(keys[:i])!r} is a value, not a mapping or list")
 
 
+def with_truth_cap(doc: dict, max_gb: float | None) -> None:
+    """Set the campaign's truth-store cap (GB) in place; None leaves it as it is."""
+    if max_gb is None:
+        return
+    if max_gb <= 0:
+        sys.exit(f"--truth-max-gb: expected a positive size in GB, got {max_gb:g}")
+    store = doc.get("truth_store") or {}
+    if not isinstance(store, dict):
+        sys.exit("truth_store: expected a mapping in the campaign")
+    doc["truth_store"] = {**store, "max_gb": max_gb}
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("campaign", help="campaign YAML")
@@ -86,6 +102,7 @@ def main() -> None:
     ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="change a campaign parameter")
     ap.add_argument("--size", default="reduced", help="the campaign's size (default reduced; 'full' for none)")
     ap.add_argument("--baseline-tag", help="print paired differences against OUT/<this tag>-<seed>")
+    ap.add_argument("--truth-max-gb", type=float, help="the truth store's size cap for these runs (default: the campaign's)")
     a = ap.parse_args()
 
     src = Path(a.campaign)
@@ -97,6 +114,7 @@ def main() -> None:
         sys.exit(f"{src}: expected a campaign mapping with a `seed:`")
     for s in a.set:
         apply_set(doc, s)
+    with_truth_cap(doc, a.truth_max_gb)
     seeds = parse_seeds(a.seeds)
     out = Path(a.out)
     out.mkdir(parents=True, exist_ok=True)

@@ -44,3 +44,17 @@ def test_a_misspelt_path_is_an_error_naming_it():
         seed_runs.apply_set(doc, "studies.heading_correction.sensors.fleets.penair.heading.poor_hard_iorn=3")
     with pytest.raises(SystemExit, match="PATH=VALUE"):
         seed_runs.apply_set(doc, "seed")
+
+
+def test_the_truth_cap_reaches_the_campaign_and_keeps_the_stores_path(tmp_path):
+    doc = yaml.safe_load((ROOT / "campaigns/penair_2010.yaml").read_text())
+    seed_runs.with_truth_cap(doc, 40)
+    (tmp_path / "c.yaml").write_text(yaml.safe_dump(doc, sort_keys=False))
+    assert load_campaign(tmp_path / "c.yaml").truth_store.max_gb == 40
+    doc["truth_store"] = {"path": "/x/truth", "max_gb": 5}
+    seed_runs.with_truth_cap(doc, 60)
+    assert doc["truth_store"] == {"path": "/x/truth", "max_gb": 60}
+    seed_runs.with_truth_cap(doc, None)
+    assert doc["truth_store"]["max_gb"] == 60
+    with pytest.raises(SystemExit, match="truth-max-gb"):
+        seed_runs.with_truth_cap(doc, 0)
