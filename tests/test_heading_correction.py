@@ -275,6 +275,8 @@ def test_shuffled_table_with_repeated_rows_gives_the_same_fit():
      ["obs.csv", "column 'ref_wind_speed_kt'", "data row 4", "'calm'"]),
     (lambda df: df.assign(time=df["time"].astype(object).where(df.index != 2, "yesterday")), ["obs.csv", "column 'time'", "'yesterday'"]),
     (lambda df: df.assign(lat=df["lat"].where(df.index != 0, 123.0)), ["obs.csv", "column 'lat'", "outside"]),
+    (lambda df: df.assign(time=(df["time"] * 1000).astype("int64")),  # epoch milliseconds
+     ["obs.csv", "column 'time'", "data row 1", "epoch seconds (milliseconds?)"]),
     # one report whose second reference model's row carries another reported wind
     (lambda df: df.assign(wind_speed_kt=df["wind_speed_kt"].where(
         ~((df["time"] == df["time"].iloc[5]) & (df["ref_source"] != df["ref_source"].iloc[5])), 99.0)),

@@ -175,8 +175,26 @@ def _numeric(df: pd.DataFrame, col: str, source: str) -> np.ndarray:
     return num.to_numpy(dtype=float)
 
 
+# epoch seconds of 1950-01-01 and 2200-01-01: a plausible report time (epoch milliseconds
+# of any date since 1970-04 lie beyond the latter)
+_TIME_RANGE_S = (-631152000.0, 7258118400.0)
+
+
 def _times(df: pd.DataFrame, source: str) -> np.ndarray:
-    """UTC epoch seconds from epoch numbers or ISO-8601 text."""
+    """UTC epoch seconds from epoch numbers or ISO-8601 text, checked to lie in 1950-2200."""
+    t = _parse_times(df, source)
+    bad = (t < _TIME_RANGE_S[0]) | (t > _TIME_RANGE_S[1])  # NaN (empty cells) passes
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        v = df["time"].iloc[i]
+        v = v.item() if isinstance(v, np.generic) else v
+        hint = " (milliseconds?)" if t[i] > _TIME_RANGE_S[1] else ""
+        raise DataError(f"{source}: column 'time', data row {i + 1}: {v!r} is not a time between 1950 and "
+                        f"2200 in UTC epoch seconds{hint}")
+    return t
+
+
+def _parse_times(df: pd.DataFrame, source: str) -> np.ndarray:
     s = df["time"]
     if s.dtype.kind in "iuf":
         return s.to_numpy(dtype=float)
