@@ -220,10 +220,11 @@ _RANGES = {"lat": (-90.0, 90.0), "lon": (-180.0, 360.0), "wind_speed_kt": (0.0, 
            "declination_deg": (-180.0, 180.0), "roll_deg": (-180.0, 180.0)}
 
 
-def _labels(values: pd.Series, fill: str | None = None) -> pd.Categorical:
-    """Text labels as a Categorical: stripped; empty or missing -> `fill` (None: missing)."""
+def _labels(values: pd.Series, fill: str | None = None, lower: bool = False) -> pd.Categorical:
+    """Text labels as a Categorical: stripped (and lower-cased if `lower`); empty or missing
+    -> `fill` (None: missing)."""
     codes, uniques = pd.factorize(values, use_na_sentinel=True)
-    names = np.array([str(u).strip() for u in uniques] + [""], dtype=object)
+    names = np.array([(str(u).strip().lower() if lower else str(u).strip()) for u in uniques] + [""], dtype=object)
     names[names == ""] = fill if fill is not None else np.nan
     ucodes, cats = pd.factorize(pd.Series(names, dtype=object), use_na_sentinel=True)
     return pd.Categorical.from_codes(ucodes[codes], categories=pd.Index(cats, dtype=object))  # codes -1 -> last -> fill
@@ -260,7 +261,7 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
     if "flight" in obs.columns:  # `phase` is not used by the method
         out["flight"] = _labels(obs["flight"], "")
     if "heading_input" in obs.columns:  # a word, in any case ("TRUE", "Magnetic")
-        out["heading_input"] = _labels(obs["heading_input"].map(lambda v: v.lower() if isinstance(v, str) else v), "")
+        out["heading_input"] = _labels(obs["heading_input"], "", lower=True)
     if "heading_input" in out:
         vals = set(out["heading_input"].categories) - {"", "true", "magnetic"}
         if vals:
