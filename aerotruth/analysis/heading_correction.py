@@ -794,7 +794,8 @@ class HeadingDeviationFit:
         self.octants_ = octants_occupied(self._z)
         self.de_p_ = math.nan
         if self.n_used_ < self.min_reports or self.n_flights_ < self.min_flights:
-            return self._refuse(f"too little data: {self.n_used_} usable reports in {self.n_flights_} flights "
+            flights = "flight" if self.n_flights_ == 1 else "flights"
+            return self._refuse(f"too little data: {self.n_used_} usable reports in {self.n_flights_} {flights} "
                                 f"(need {self.min_reports} in {self.min_flights})")
         reason = []
         full = None
