@@ -81,7 +81,7 @@ def test_tas_scale_one_percent():
     fleet, rng = _fleet(5)
     fleet = [replace(a, tas_scale=0.01) for a in fleet]
     findings, _, _ = _diagnose(gen.generate(fleet, rng, flights=40))
-    f = _first(findings, "tas_scale", 0.01)
+    _first(findings, "tas_scale", 0.01)
     assert len(findings) == 1
 
 
