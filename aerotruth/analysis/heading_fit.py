@@ -84,7 +84,10 @@ def _figure(fit, rows: pd.DataFrame, col: str, path: Path) -> None:
     ax.set_ylim(min(lo, -1.0) - 0.5, max(hi, 1.0) + 0.5)
     ax.set_xlabel(f"measured heading ({'magnetic' if 'mag' in col else 'true'}), deg")
     ax.set_ylabel("heading error psi - psi', deg")
-    ax.set_title(f"{fit.aircraft_}: {fit.n_used_} reports {fit.valid_from_} to {fit.valid_to_}", fontsize=10)
+    title = f"{fit.aircraft_}: {fit.n_used_} reports {fit.valid_from_} to {fit.valid_to_}"
+    if fit.status_ == "refused":  # no curve to show: say why on the figure
+        title += f"\nno fit: {fit.reason_.split(';')[0]}"
+    ax.set_title(title, fontsize=10)
     ax.legend(loc="upper right", fontsize=8)
     fig.tight_layout()
     atomic_write(path, lambda tmp: fig.savefig(tmp, format="png", dpi=120))
