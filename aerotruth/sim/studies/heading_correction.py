@@ -284,8 +284,10 @@ class HeadingCorrection(Study):
             x = np.arange(len(w))
             ax.bar(x - 0.2, w["before"], 0.4, color="maroon", label="before")
             if "after" in w:
-                colors = np.where(w["group"] == "poor", "green", "white")
-                ax.bar(x + 0.2, w["after"], 0.4, color=colors, edgecolor="k", label="after (green: table uploaded)")
+                poor = (w["group"] == "poor").to_numpy()
+                for sel, color, label in ((poor, "green", "after, table uploaded"), (~poor, "white", "after, control (unchanged)")):
+                    if sel.any():
+                        ax.bar(x[sel] + 0.2, w["after"].to_numpy()[sel], 0.4, color=color, edgecolor="k", label=label)
             ax.set_xticks(x, w["aircraft"], rotation=90, fontsize=7)
             ax.set_ylabel("RMS vector difference (kt)")
             ax.legend(fontsize=8)
