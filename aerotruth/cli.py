@@ -36,6 +36,9 @@ def _output_file(value: str, option: str = "--out") -> Path:
         raise UserError(f"{option}: {out} is a folder, expected a file name (e.g. {out / 'flight.parquet'})")
     if not out.parent.exists():
         raise UserError(f"{option}: folder {out.parent} does not exist")
+    if out.suffix and out.suffix.lower() not in (".parquet", ".pq"):
+        raise UserError(f"{option}: the TruthTrack is written as Parquet: expected a .parquet file name, "
+                        f"got '{out.name}'")
     return out
 
 

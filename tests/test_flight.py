@@ -169,6 +169,14 @@ def test_fly_refuses_a_folder_as_out_before_flying(tmp_path, capsys):
     assert not list(tmp_path.parent.glob("*.tmp")) and not list(tmp_path.glob("*"))
 
 
+def test_fly_refuses_another_formats_file_name_before_flying(tmp_path, capsys):
+    from aerotruth.cli import main
+
+    assert main(["fly", "--from", "KMSP", "--to", "KRST", "--date", "2009-08-15", "--out", str(tmp_path / "f.csv")]) == 2
+    assert "expected a .parquet file name, got 'f.csv'" in capsys.readouterr().err
+    assert not list(tmp_path.glob("*"))
+
+
 def test_negative_seed_is_refused_by_the_argument_parser(capsys):
     from aerotruth.cli import main
 
