@@ -42,6 +42,14 @@ def _output_file(value: str, option: str = "--out") -> Path:
     return out
 
 
+def _output_folder(value: str, option: str = "--out") -> Path:
+    """Check an output folder path before any work is done (it is made if missing)."""
+    out = Path(value)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{option}: {out} exists and is not a folder (expected a folder for the outputs)")
+    return out
+
+
 def _cmd_fly(args: argparse.Namespace) -> int:
     from aerotruth.truth.airframes import airframe
     from aerotruth.truth.days import day_atmosphere, on_airway, parse_departure, plan_in_weather
@@ -112,6 +120,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from aerotruth.config import load_campaign
     from aerotruth.measured import load_measured
 
+    _output_folder(args.out)
     model = load_campaign(args.model)  # the simulation the data are compared with
     measured = load_measured(args.measured)
     if measured.kind == "approach_log":
@@ -176,6 +185,7 @@ def _cmd_fits(args: argparse.Namespace) -> int:
     from aerotruth.analysis.fits import FitsSpec
     from aerotruth.analysis.fits_log import fits_main
 
+    _output_folder(args.out)
     spec = FitsSpec(ra_lever_arm_m=args.ra_lever_arm)
     try:
         return fits_main(args.log, args.out, spec)
@@ -186,6 +196,7 @@ def _cmd_fits(args: argparse.Namespace) -> int:
 def _cmd_heading_fit(args: argparse.Namespace) -> int:
     from aerotruth.analysis.heading_fit import heading_fit_main
 
+    _output_folder(args.out)
     return heading_fit_main(args.obs, args.out)
 
 

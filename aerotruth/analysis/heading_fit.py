@@ -148,10 +148,10 @@ def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: 
 def heading_fit_main(obs_path: str, out_dir: str) -> int:
     """Run the method on an observation table and write DIR/deviation.csv, figures and report.md.
     Returns 0; bad input raises DataError (a ValueError) with one line naming file and column."""
-    obs = read_observation_table(obs_path)
     out = Path(out_dir)
-    if out.exists() and not out.is_dir():
+    if out.exists() and not out.is_dir():  # before the work
         raise DataError(f"{out}: exists and is not a folder (--out expects a folder)")
+    obs = read_observation_table(obs_path)
     rows = heading_errors(obs)
     if not (rows["gate"] == "used").any():
         raise DataError(f"{obs_path}: no report passes the ground-track gates (three adjacent reports of one flight, "

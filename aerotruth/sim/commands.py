@@ -7,8 +7,10 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
+from pathlib import Path
 
 from aerotruth.config import ConfigError, load_campaign
+from aerotruth.errors import RunDirError
 
 
 def _terminate(signum: int, frame: object) -> None:
@@ -25,6 +27,8 @@ def run_cli(args: argparse.Namespace) -> int:
     from aerotruth.sim.executors import resolve
 
     campaign = load_campaign(args.campaign, size=args.size)
+    if args.out is not None and Path(args.out).exists() and not Path(args.out).is_dir():
+        raise RunDirError(f"--out: {args.out} exists and is not a folder (expected the run directory)")
     ex = campaign.executor
     # SIGTERM (e.g. a batch system's kill) unwinds like Ctrl-C: the executor stops its
     # workers instead of leaving them orphaned; finished tasks stay stored for a resume.
