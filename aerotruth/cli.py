@@ -22,6 +22,16 @@ def _non_negative_int(text: str) -> int:
     return value
 
 
+def _non_negative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text!r}") from None
+    if not value >= 0 or value == float("inf"):  # NaN fails too
+        raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text}")
+    return value
+
+
 def _positive_int(text: str) -> int:
     value = _non_negative_int(text)
     if value < 1:
@@ -239,8 +249,8 @@ def _add_campaign_commands(sub) -> None:
     reg.add_argument("run_dir", help="run directory written by `aerotruth run`")
     reg.add_argument("baseline", help="baseline JSON (metric values and tolerances)")
     reg.add_argument("--write", action="store_true", help="write the baseline from this run instead of checking")
-    reg.add_argument("--abs-tol", type=float, default=0.0, help="with --write: absolute tolerance per metric")
-    reg.add_argument("--rel-tol", type=float, default=0.01, help="with --write: relative tolerance per metric")
+    reg.add_argument("--abs-tol", type=_non_negative_float, default=0.0, help="with --write: absolute tolerance per metric")
+    reg.add_argument("--rel-tol", type=_non_negative_float, default=0.01, help="with --write: relative tolerance per metric")
     reg.add_argument("--all", action="store_true", help="print every metric, not only those that moved")
     reg.set_defaults(func=lazy("regress_cli"))
 

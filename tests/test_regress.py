@@ -84,3 +84,14 @@ def test_regress_on_an_unfinished_run_is_one_line(tmp_path, capsys):
     (tmp_path / "config.resolved.yaml").write_text("name: x\n")
     assert main(["regress", str(tmp_path), b]) == 2
     assert "has no metrics.json" in capsys.readouterr().err
+
+
+def test_write_to_a_folder_or_a_missing_folder_is_one_line(tmp_path, run_dir, capsys):
+    assert main(["regress", str(run_dir), str(tmp_path), "--write"]) == 2
+    assert "is a folder, expected the baseline's file name" in capsys.readouterr().err
+    assert main(["regress", str(run_dir), str(tmp_path / "no" / "b.json"), "--write"]) == 2
+    assert "does not exist" in capsys.readouterr().err
+    with pytest.raises(SystemExit) as e:
+        main(["regress", str(run_dir), str(tmp_path / "b.json"), "--write", "--rel-tol", "-0.1"])
+    assert e.value.code == 2 and "expected a non-negative number" in capsys.readouterr().err
+    assert not (tmp_path / "b.json").exists()

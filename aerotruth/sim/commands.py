@@ -92,6 +92,11 @@ def regress_cli(args: argparse.Namespace) -> int:
     from aerotruth.sim.regress import format_checks, regress, write_baseline
 
     if args.write:
+        target = Path(args.baseline)
+        if target.is_dir():
+            raise RunDirError(f"{target}: is a folder, expected the baseline's file name (e.g. {target / 'baseline.json'})")
+        if not target.parent.is_dir():
+            raise RunDirError(f"{target}: folder {target.parent} does not exist")
         n = write_baseline(args.run_dir, args.baseline, abs_tol=args.abs_tol, rel_tol=args.rel_tol)
         print(f"wrote {args.baseline}: {n} metrics (abs {args.abs_tol}, rel {args.rel_tol})")
         return 0
