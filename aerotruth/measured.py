@@ -93,7 +93,10 @@ def _table(path: Path, data: bytes) -> pd.DataFrame | None:
         return None
 
 
-def _json(data: bytes):
+def _json(path: Path, data: bytes):
+    """The file's JSON document, or its JSON lines as a list; None when it is neither. A
+    JSON-lines file with a line that does not parse (after one that did) is a DataError
+    naming the line: a capture cut short is said so, not dropped."""
     text = data.decode("utf-8", errors="replace").strip()
     if not text:
         return None
@@ -101,10 +104,20 @@ def _json(data: bytes):
         return json.loads(text)
     except json.JSONDecodeError:
         pass
-    try:  # JSON lines
-        return [json.loads(line) for line in text.splitlines() if line.strip()]
-    except json.JSONDecodeError:
-        return None
+    lines = text.splitlines()
+    last = max(i for i, line in enumerate(lines, 1) if line.strip())
+    records = []
+    for i, line in enumerate(lines, 1):  # JSON lines
+        if not line.strip():
+            continue
+        try:
+            records.append(json.loads(line))
+        except json.JSONDecodeError as e:
+            if not records:
+                return None
+            cut = " (the last line: a capture cut short?)" if i == last else ""
+            raise DataError(f"{path}: line {i} is not valid JSON ({e.msg}){cut}; expected one JSON object per line") from None
+    return records
 
 
 def _epoch_seconds(ts: pd.Series) -> pd.Series:
@@ -125,7 +138,7 @@ def load_measured(path: str | Path) -> Measured:
         if set(APPROACH_COLUMNS) <= cols:
             return Measured("approach_log", table, path)
         raise DataError(f"{path}: a table with columns {', '.join(map(str, table.columns[:12]))}; expected {_EXPECTED}")
-    obj = _json(data)
+    obj = _json(path, data)
     if isinstance(obj, dict) and {"timestamp", "pitch", "roll"} <= set(obj) and all(isinstance(v, dict) for v in obj.values()):
         df = pd.DataFrame({k: pd.Series(v) for k, v in obj.items()})
         df.index = df.index.astype(int)

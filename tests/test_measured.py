@@ -47,6 +47,10 @@ def test_millisecond_timestamps_become_seconds_and_trajectories_are_classified(t
     (b"", "not measured data aerotruth knows"),
     (b"a,b\n1,2\n", "a table with columns a, b; expected an observation table"),
     (b'[{"x": 1}]', "JSON records with keys x; expected"),
+    # JSON lines cut short (a capture interrupted), or with a damaged line: named, not dropped
+    (b'{"timestamp": 1, "df": "17", "frame": "8f"}\n{"timestamp": 2, "df"', "line 2 is not valid JSON"),
+    (b'{"timestamp": 1, "df": "17", "frame": "8f"}\n###\n{"timestamp": 2, "df": "17", "frame": "8f"}',
+     "line 2 is not valid JSON"),
 ])
 def test_anything_else_is_one_line_naming_the_file(tmp_path, content, expected):
     f = tmp_path / "mystery"
@@ -74,3 +78,13 @@ def test_the_real_flights_are_recognised(name, kind, rows):
     got = load_measured(REAL / name)
     assert (got.kind, len(got.df)) == (kind, rows)
     assert got.df["time_s"].is_monotonic_increasing and 1.2e9 < got.df["time_s"].iloc[0] < 1.8e9
+
+
+def test_a_mode_s_track_without_headings_is_one_line_in_diagnose(tmp_path):
+    from aerotruth.analysis.diagnose import track_from_measured
+
+    rec = [{"timestamp": 1593069386000 + 1000 * i, "latitude": 44.8, "longitude": -0.7, "altitude": 20000.0,
+            "groundspeed": 300.0, "track": 90.0, "heading": None, "TAS": 280.0} for i in range(300)]
+    (tmp_path / "t.json").write_text(json.dumps(rec))
+    with pytest.raises(DataError, match=r"t\.json: only 0 samples carry heading"):
+        track_from_measured(load_measured(tmp_path / "t.json"))

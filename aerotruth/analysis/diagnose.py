@@ -131,6 +131,9 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
         what = {"adsb_track": "an ADS-B track", "qar": "a flight-data-recorder extract"}.get(m.kind, f"a {m.kind.replace('_', ' ')}")
         raise DataError(f"{m.path}: diagnose of {what} is not possible: it carries no heading and "
                         "airspeed to test; Mode-S data, observation tables and approach logs are supported")
+    if len(d) < 200:  # before the exclusions, which need samples to work on
+        raise DataError(f"{m.path}: only {len(d)} samples carry heading, TAS, track, ground speed and position "
+                        f"({excluded}); need at least 200")
     vr = d["vertical_rate"].to_numpy(float) if "vertical_rate" in d else np.zeros(len(d))
     t = d["time_s"].to_numpy(float)
     steep = np.abs(vr) > PARABOLA_FPM
