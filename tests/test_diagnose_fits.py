@@ -77,3 +77,14 @@ def test_the_logs_lever_arms_are_used():
     no_arm, _ = diagnose_log("log", log.drop(columns=["ra_lever_arm_m"]), FitsModel())
     assert no_arm and no_arm[0].effect == "dgps_offset"
     assert no_arm[0].parameters["offset_z_m"]["value"] == pytest.approx(2.4, abs=0.1)
+
+
+def test_an_approach_too_short_for_the_filter_is_one_line_naming_it(tmp_path, capsys):
+    log, _ = gen.make_log(2, seed=34, jumps_per_s=0.0)
+    a = log["approach"] == log["approach"].iloc[-1]
+    t_thr = log.loc[a & (log["event"] == "thr"), "time_s"].iloc[0]
+    log = log[~a | (log["time_s"] - t_thr).abs().lt(12.0)]  # ~24 WAAS epochs: the filter needs 4T = 48
+    log.to_csv(tmp_path / "log.csv", index=False)
+    assert main(["diagnose", str(tmp_path / "log.csv"), "--model", "campaigns/quick.yaml", "--out", str(tmp_path / "d")]) == 2
+    err = capsys.readouterr().err
+    assert "log.csv: approach" in err and "expected at least 4T = 48" in err and err.count("\n") == 1

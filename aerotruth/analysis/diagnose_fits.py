@@ -56,6 +56,7 @@ from scipy import signal, stats
 from aerotruth.analysis.diagnose import Finding
 from aerotruth.analysis.fits import FitsSpec
 from aerotruth.analysis.fits_log import ApproachInputs, _check_approach, approach_inputs, fits_of
+from aerotruth.errors import DataError
 from aerotruth.sensors.inertial_errors import INS_GRADES, MICRO_G
 
 SG_WINDOW = 41  # epochs (s at 1 Hz): the local cubic removed before the periodogram
@@ -99,18 +100,24 @@ class _Approach(ApproachInputs):
     """An approach's FITS inputs (fits_log.approach_inputs: lever arms included) and its id."""
 
     name: object = None
+    source: str = ""  # the log's file, for errors
 
 
 def _approaches(path, df: pd.DataFrame) -> list[_Approach]:
     out = []
     for a, g in df.groupby("approach", sort=False):
         _check_approach(path, a, g)
-        out.append(_Approach(**vars(approach_inputs(g)), name=a))
+        out.append(_Approach(**vars(approach_inputs(g)), name=a, source=str(path)))
     return out
 
 
 def _fits(ap: _Approach, period_s: float, extra_flags: np.ndarray | None = None):
-    return fits_of(ap, FitsSpec(period_s=period_s), extra_flags)
+    try:
+        return fits_of(ap, FitsSpec(period_s=period_s), extra_flags)
+    except DataError:
+        raise
+    except ValueError as e:  # what the FITS cannot take (too short an approach, ...): one line naming it
+        raise DataError(f"{ap.source}: approach {ap.name!r}: {e}") from None
 
 
 def _err_rms(aps: list[_Approach], period_s: float, offset=(0.0, 0.0, 0.0), flags: dict | None = None) -> float:
