@@ -37,9 +37,20 @@ def read_csv_table(source: str | Path | bytes) -> pd.DataFrame:
     """A CSV table (a path or the file's bytes) with `TEXT_COLUMNS` read as text and the
     separator taken from the header. pandas' errors pass through (the callers name the
     file)."""
-    data = Path(source).read_bytes() if isinstance(source, (str, Path)) else source
-    first = data.split(b"\n", 1)[0].decode("utf-8", errors="replace")
-    sep = csv_separator(first)
-    columns = pd.read_csv(io.BytesIO(data), sep=sep, nrows=0).columns
+    sep = csv_separator(_first_line(source).decode("utf-8", errors="replace"))
+    columns = pd.read_csv(_readable(source), sep=sep, nrows=0).columns
     dtype = {c: str for c in TEXT_COLUMNS if c in columns}
-    return pd.read_csv(io.BytesIO(data), sep=sep, dtype=dtype, low_memory=False)
+    return pd.read_csv(_readable(source), sep=sep, dtype=dtype, low_memory=False)
+
+
+def _readable(source: str | Path | bytes):
+    """What pandas reads: a path as it is (pandas streams the file: no copy in memory), bytes
+    through a fresh buffer."""
+    return source if isinstance(source, (str, Path)) else io.BytesIO(source)
+
+
+def _first_line(source: str | Path | bytes) -> bytes:
+    if isinstance(source, (str, Path)):
+        with open(source, "rb") as f:
+            return f.readline()
+    return source.split(b"\n", 1)[0]
