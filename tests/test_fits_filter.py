@@ -257,3 +257,25 @@ def test_fits_main_refuses_a_broken_log_with_one_line_naming_the_column(tmp_path
         fits_main(path, str(tmp_path / "out"))
     assert "\n" not in str(err.value) and "log.csv" in str(err.value)
     assert not (tmp_path / "out" / "trajectory.csv").exists()
+
+
+@pytest.mark.parametrize("sidecar, message", [
+    ({"lenght_m": 2500.0}, r"unknown key 'lenght_m'; did you mean 'length_m'\?"),
+    ({"length_m": -5.0}, r"key 'length_m': -5 outside \[500, 6000\]"),
+    ({"glide_path_deg": "steep"}, r"key 'glide_path_deg': expected a number, got 'steep'"),
+    ({"approaches": {"99": {"length_m": 2500.0}}}, r"no runway geometry for approach 1 \(it has 99\)"),
+])
+def test_a_runway_sidecar_that_would_silently_misplace_the_antennas_is_one_line(tmp_path, sidecar, message):
+    log, _ = gen.make_log(2, seed=24)
+    path = write(log, tmp_path / "log.csv")
+    (tmp_path / "log.csv.runway.json").write_text(json.dumps(sidecar))
+    with pytest.raises(ValueError, match=message) as err:
+        fits_main(path, str(tmp_path / "o"))
+    assert "\n" not in str(err.value) and "log.csv.runway.json" in str(err.value)
+
+
+def test_descriptive_keys_beside_the_geometry_are_kept_out_of_the_way(tmp_path):
+    log, _ = gen.make_log(2, seed=24)
+    path = write(log, tmp_path / "log.csv")
+    (tmp_path / "log.csv.runway.json").write_text(json.dumps({"airport": "KDLH", "runway": "27", "length_m": 2500.0}))
+    assert fits_main(path, str(tmp_path / "o")) == 0

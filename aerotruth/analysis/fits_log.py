@@ -37,10 +37,10 @@ said in the output.
 
 from __future__ import annotations
 
+import difflib
+import json
 from dataclasses import dataclass
 from pathlib import Path
-
-import json
 
 import numpy as np
 import pandas as pd
@@ -62,6 +62,11 @@ EVENT_CODES = ("thr", "end")
 # 120 m aside.
 DEFAULT_RUNWAY = {"length_m": 3000.0, "loc_x_m": 3300.0, "gp_x_m": 300.0, "gp_y_m": -120.0, "glide_path_deg": 3.0,
                   "tch_m": 15.0}
+# plausible ranges (runway frame, m and deg): a runway 0.5-6 km long, the localizer beyond
+# its far threshold, the glide path antenna beside the touchdown zone, ICAO Annex 10 path
+# angles and threshold crossing heights with margin
+RUNWAY_RANGES = {"length_m": (500.0, 6000.0), "loc_x_m": (0.0, 8000.0), "gp_x_m": (0.0, 2000.0),
+                 "gp_y_m": (-500.0, 500.0), "glide_path_deg": (1.0, 10.0), "tch_m": (0.0, 50.0)}
 
 
 def event_codes(values: pd.Series, where: str) -> pd.Series:
@@ -107,13 +112,23 @@ def runway_geometry(path: Path) -> tuple[dict, str]:
     items = raw["approaches"].items() if isinstance(raw.get("approaches"), dict) else [(None, raw)]
     out = {}
     for a, geo in items:
+        where = src if a is None else f"{src}: approach {a!r}"
+        if not isinstance(geo, dict):
+            raise DataError(f"{where}: expected a JSON object with the runway geometry")
+        for k in sorted(set(geo) - set(DEFAULT_RUNWAY)):  # other keys describe (airport, runway_frame, ...);
+            near = difflib.get_close_matches(k, DEFAULT_RUNWAY, n=1, cutoff=0.8)  # a misspelt one would
+            if near:  # silently leave its default in place
+                raise DataError(f"{where}: unknown key {k!r}; did you mean {near[0]!r}?")
         g = dict(DEFAULT_RUNWAY)
         for k in DEFAULT_RUNWAY:
             if k in geo:
                 try:
                     g[k] = float(geo[k])
                 except (TypeError, ValueError):
-                    raise DataError(f"{src}: key {k!r}: expected a number, got {geo[k]!r}") from None
+                    raise DataError(f"{where}: key {k!r}: expected a number, got {geo[k]!r}") from None
+        for k, (lo, hi) in RUNWAY_RANGES.items():
+            if not lo <= g[k] <= hi:
+                raise DataError(f"{where}: key {k!r}: {g[k]:g} outside [{lo:g}, {hi:g}]")
         out[a] = g
     return out, src
 
@@ -305,6 +320,12 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
     df = read_approach_log(p)
     has_dgps = all(c in df.columns for c in DGPS) and np.isfinite(df[list(DGPS)].to_numpy()).any()
     geoms, geom_src = runway_geometry(p)
+    if None not in geoms:  # a geometry per approach: every approach of the log needs its own
+        missing = [a for a in df["approach"].unique() if a not in geoms and str(a) not in geoms]
+        if missing:
+            a = missing[0].item() if isinstance(missing[0], np.generic) else missing[0]
+            raise DataError(f"{geom_src}: no runway geometry for approach {a!r} (it has "
+                            f"{', '.join(map(str, geoms))}); give every approach one, or one for the whole log")
     traj, grid, noise, bias, errs = [], [], [], [], []
     for a, g in df.groupby("approach", sort=False):
         _check_approach(p, a, g)
