@@ -279,3 +279,15 @@ def test_descriptive_keys_beside_the_geometry_are_kept_out_of_the_way(tmp_path):
     path = write(log, tmp_path / "log.csv")
     (tmp_path / "log.csv.runway.json").write_text(json.dumps({"airport": "KDLH", "runway": "27", "length_m": 2500.0}))
     assert fits_main(path, str(tmp_path / "o")) == 0
+
+
+def test_a_parquet_logs_runway_metadata_that_is_not_json_is_one_line(tmp_path):
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    log, _ = gen.make_log(2, seed=24)
+    t = pa.Table.from_pandas(log)
+    pq.write_table(t.replace_schema_metadata({**(t.schema.metadata or {}), b"runway": b"{not json"}), tmp_path / "log.parquet")
+    with pytest.raises(ValueError, match=r"log\.parquet \(metadata key 'runway'\): not JSON") as err:
+        fits_main(str(tmp_path / "log.parquet"), str(tmp_path / "o"))
+    assert "\n" not in str(err.value)

@@ -104,7 +104,11 @@ def runway_geometry(path: Path) -> tuple[dict, str]:
 
         meta = pq.read_schema(path).metadata or {}
         if b"runway" in meta:
-            raw, src = json.loads(meta[b"runway"]), f"{path} (metadata)"
+            src = f"{path} (metadata key 'runway')"
+            try:
+                raw = json.loads(meta[b"runway"])
+            except (json.JSONDecodeError, UnicodeDecodeError) as exc:
+                raise DataError(f"{src}: not JSON ({getattr(exc, 'msg', exc)})") from None
     if raw is None:
         return {None: dict(DEFAULT_RUNWAY)}, "assumed (no runway geometry in the log)"
     if not isinstance(raw, dict):
