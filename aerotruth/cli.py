@@ -5,6 +5,7 @@ line with exit status 2."""
 from __future__ import annotations
 
 import argparse
+import math
 import sys
 from pathlib import Path
 
@@ -27,7 +28,7 @@ def _non_negative_float(text: str) -> float:
         value = float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text!r}") from None
-    if not value >= 0 or value == float("inf"):  # NaN fails too
+    if not (math.isfinite(value) and value >= 0):
         raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text}")
     return value
 
@@ -195,7 +196,6 @@ def _cmd_fits(args: argparse.Namespace) -> int:
     from aerotruth.analysis.fits import FitsSpec
     from aerotruth.analysis.fits_log import fits_main
 
-    _output_folder(args.out)
     spec = FitsSpec(ra_lever_arm_m=args.ra_lever_arm)
     try:
         return fits_main(args.log, args.out, spec)
@@ -206,7 +206,6 @@ def _cmd_fits(args: argparse.Namespace) -> int:
 def _cmd_heading_fit(args: argparse.Namespace) -> int:
     from aerotruth.analysis.heading_fit import heading_fit_main
 
-    _output_folder(args.out)
     return heading_fit_main(args.obs, args.out)
 
 

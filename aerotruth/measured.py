@@ -104,10 +104,9 @@ def _json(path: Path, data: bytes):
         return json.loads(text)
     except json.JSONDecodeError:
         pass
-    lines = text.splitlines()
-    last = max(i for i, line in enumerate(lines, 1) if line.strip())
+    lines = text.splitlines()  # JSON lines; `text` is stripped: its last line is not blank
     records = []
-    for i, line in enumerate(lines, 1):  # JSON lines
+    for i, line in enumerate(lines, 1):
         if not line.strip():
             continue
         try:
@@ -115,7 +114,7 @@ def _json(path: Path, data: bytes):
         except json.JSONDecodeError as e:
             if not records:
                 return None
-            cut = " (the last line: a capture cut short?)" if i == last else ""
+            cut = " (the last line: a capture cut short?)" if i == len(lines) else ""
             raise DataError(f"{path}: line {i} is not valid JSON ({e.msg}){cut}; expected one JSON object per line") from None
     return records
 

@@ -86,6 +86,18 @@ def rescored_wind(speed_kt: np.ndarray, dir_deg: np.ndarray, tas_kt: np.ndarray,
     return np.hypot(we, wn), np.degrees(np.arctan2(-we, -wn)) % 360.0
 
 
+def half_splits(aircraft: np.ndarray, unit: np.ndarray, rng: np.random.Generator, n: int):
+    """`n` random halvings of each aircraft's units (days or flights), one boolean per row
+    (True: the row's unit is in the first half; ties at an odd count go to the second)."""
+    code = pd.factorize(pd.Series(aircraft) + "\x1f" + pd.Series(unit))[0]  # first-appearance order
+    first_row = np.unique(code, return_index=True)[1]  # each unit's first row, in code order
+    unit_ac = aircraft[first_row]
+    size = pd.Series(unit_ac).groupby(unit_ac).transform("size").to_numpy()
+    for _ in range(n):
+        rank = pd.Series(rng.random(len(unit_ac))).groupby(unit_ac).rank().to_numpy()
+        yield (rank <= size / 2)[code]
+
+
 class Refused(Exception):
     """A (half) fit the method refuses: the split cannot be scored."""
 
@@ -175,17 +187,10 @@ def main() -> None:
             sys.exit(f"{run}: the refitted tables do not reproduce the stored poor after cell "
                      f"({full[('poor', 'after')]:.4f} vs {stored[('poor', 'after')]:.4f} kn)")
         unit_col = "date" if a.by == "day" else "flight"
-        obs_ac = r.fit_obs["aircraft"].astype(str).to_numpy()
-        obs_unit = r.fit_obs[unit_col].astype(str).to_numpy()
-        units = pd.DataFrame({"aircraft": obs_ac, "unit": obs_unit}).drop_duplicates()
-        ac = units["aircraft"].to_numpy()
         half_sq = []
         try:
-            for _ in range(a.splits):
-                rank = pd.Series(rng.random(len(units))).groupby(ac).rank().to_numpy()
-                size = pd.Series(ac).groupby(ac).transform("size").to_numpy()
-                first = set(zip(ac[rank <= size / 2], units["unit"].to_numpy()[rank <= size / 2]))
-                in_first = np.array([k in first for k in zip(obs_ac, obs_unit)])
+            for in_first in half_splits(r.fit_obs["aircraft"].astype(str).to_numpy(),
+                                        r.fit_obs[unit_col].astype(str).to_numpy(), rng, a.splits):
                 for part in (in_first, ~in_first):
                     half_sq.append(r.cells(r.fit(part))[("poor", "after")] ** 2)
         except Refused as e:

@@ -54,3 +54,14 @@ def test_undoing_one_table_and_applying_another_equals_reporting_with_the_other(
     s, d = fit_noise.rescored_wind(s_c, d_c, tas, psi_c, psi_n)
     assert s == pytest.approx(s_n, abs=1e-9)
     assert np.abs((d - d_n + 180.0) % 360.0 - 180.0).max() < 1e-7
+
+
+def test_half_splits_keep_each_unit_whole_and_halve_each_aircraft():
+    ac = np.array(["A"] * 9 + ["B"] * 6)
+    day = np.array(["d1", "d1", "d2", "d3", "d3", "d3", "d4", "d5", "d5", "e1", "e2", "e2", "e3", "e4", "e4"])
+    for first in fit_noise.half_splits(ac, day, np.random.default_rng(3), 5):
+        for a, n_units in (("A", 5), ("B", 4)):
+            k = ac == a
+            in_first = {d for d, f in zip(day[k], first[k]) if f}
+            assert all(first[k][day[k] == d].all() or not first[k][day[k] == d].any() for d in set(day[k]))
+            assert len(in_first) == n_units // 2

@@ -137,12 +137,13 @@ def runway_geometry(path: Path) -> tuple[dict, str]:
     return out, src
 
 
-def geometry_of(geoms: dict, approach) -> dict:
-    """The geometry of one approach (by its id, as text too), else the log's common one."""
+def geometry_of(geoms: dict, approach) -> dict | None:
+    """The geometry of one approach (by its id, as text too), else the log's common one;
+    None when a file of per-approach geometries has none for it."""
     for key in (approach, str(approach)):
         if key in geoms:
             return geoms[key]
-    return geoms.get(None, DEFAULT_RUNWAY)
+    return geoms.get(None)
 
 
 def read_approach_log(path: str | Path) -> pd.DataFrame:
@@ -320,16 +321,17 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
     the module docstring into `out_dir`. Bad input raises DataError (a ValueError) with one
     line naming the file, approach and column."""
     spec = spec or FitsSpec()
-    p = Path(log_path)
+    p, out = Path(log_path), Path(out_dir)
+    if out.exists() and not out.is_dir():  # before the work
+        raise DataError(f"{out}: exists and is not a folder (--out expects a folder)")
     df = read_approach_log(p)
     has_dgps = all(c in df.columns for c in DGPS) and np.isfinite(df[list(DGPS)].to_numpy()).any()
     geoms, geom_src = runway_geometry(p)
-    if None not in geoms:  # a geometry per approach: every approach of the log needs its own
-        missing = [a for a in df["approach"].unique() if a not in geoms and str(a) not in geoms]
-        if missing:
-            a = missing[0].item() if isinstance(missing[0], np.generic) else missing[0]
-            raise DataError(f"{geom_src}: no runway geometry for approach {a!r} (it has "
-                            f"{', '.join(map(str, geoms))}); give every approach one, or one for the whole log")
+    missing = [a for a in df["approach"].unique() if geometry_of(geoms, a) is None]
+    if missing:  # a file of per-approach geometries: every approach of the log needs its own
+        a = missing[0].item() if isinstance(missing[0], np.generic) else missing[0]
+        raise DataError(f"{geom_src}: no runway geometry for approach {a!r} (it has "
+                        f"{', '.join(map(str, geoms))}); give every approach one, or one for the whole log")
     traj, grid, noise, bias, errs = [], [], [], [], []
     for a, g in df.groupby("approach", sort=False):
         _check_approach(p, a, g)
@@ -354,7 +356,6 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
                 e.insert(0, "time_s", nl.t_s[ok])
                 e.insert(0, "approach", a)
                 errs.append(e)
-    out = Path(out_dir)
     out.mkdir(parents=True, exist_ok=True)
     atomic_write_text(out / "trajectory.csv", pd.concat(traj, ignore_index=True).to_csv(index=False))
     atomic_write_text(out / "trajectory_8hz.csv", pd.concat(grid, ignore_index=True).to_csv(index=False))

@@ -286,6 +286,8 @@ def run_campaign(campaign: Campaign, choice: ExecutorChoice, *, out: str | Path 
     log = log or (lambda msg: print(msg, file=sys.stderr))
     t0 = time.monotonic()
     store = RunStore(out if out is not None else default_run_dir(campaign))
+    if store.root.exists() and not store.root.is_dir():  # before any work
+        raise RunDirError(f"--out: {store.root} exists and is not a folder (expected the run directory)")
     reg = campaign_registry(campaign)
     tasks = expand(campaign, reg)
     truth = TruthStore(campaign.truth_store.path)

@@ -7,10 +7,8 @@ from __future__ import annotations
 import argparse
 import signal
 import sys
-from pathlib import Path
 
 from aerotruth.config import ConfigError, load_campaign
-from aerotruth.errors import RunDirError
 
 
 def _terminate(signum: int, frame: object) -> None:
@@ -27,8 +25,6 @@ def run_cli(args: argparse.Namespace) -> int:
     from aerotruth.sim.executors import resolve
 
     campaign = load_campaign(args.campaign, size=args.size)
-    if args.out is not None and Path(args.out).exists() and not Path(args.out).is_dir():
-        raise RunDirError(f"--out: {args.out} exists and is not a folder (expected the run directory)")
     ex = campaign.executor
     # SIGTERM (e.g. a batch system's kill) unwinds like Ctrl-C: the executor stops its
     # workers instead of leaving them orphaned; finished tasks stay stored for a resume.
@@ -92,11 +88,6 @@ def regress_cli(args: argparse.Namespace) -> int:
     from aerotruth.sim.regress import format_checks, regress, write_baseline
 
     if args.write:
-        target = Path(args.baseline)
-        if target.is_dir():
-            raise RunDirError(f"{target}: is a folder, expected the baseline's file name (e.g. {target / 'baseline.json'})")
-        if not target.parent.is_dir():
-            raise RunDirError(f"{target}: folder {target.parent} does not exist")
         n = write_baseline(args.run_dir, args.baseline, abs_tol=args.abs_tol, rel_tol=args.rel_tol)
         print(f"wrote {args.baseline}: {n} metrics (abs {args.abs_tol}, rel {args.rel_tol})")
         return 0

@@ -140,11 +140,16 @@ def regress(run_dir: str | Path, baseline_path: str | Path) -> list[Check]:
 
 def write_baseline(run_dir: str | Path, path: str | Path, *, abs_tol: float = 0.0, rel_tol: float = 0.0) -> int:
     """Write the run's metrics as a baseline with default tolerances; returns the count."""
+    target = Path(path)
+    if target.is_dir():
+        raise BaselineError(f"{target}: is a folder, expected the baseline's file name (e.g. {target / 'baseline.json'})")
+    if not target.parent.is_dir():
+        raise BaselineError(f"{target}: folder {target.parent} does not exist")
     metrics = RunStore(run_dir).read_metrics()["metrics"]
     bad = [k for k, v in metrics.items() if v is not None and (not isinstance(v, (int, float)) or isinstance(v, bool))]
     if bad:
         raise BaselineError(f"{run_dir}: metric {bad[0]} is {json.dumps(metrics[bad[0]])}; a baseline holds numbers or null "
                             "(the study should report flags as 1.0/0.0)")
     doc = {"default": {"abs": abs_tol, "rel": rel_tol}, "metrics": {k: {"value": v} for k, v in sorted(metrics.items())}}
-    atomic_write_text(Path(path), json.dumps(doc, indent=2, sort_keys=True) + "\n")
+    atomic_write_text(target, json.dumps(doc, indent=2, sort_keys=True) + "\n")
     return len(metrics)
