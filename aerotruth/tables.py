@@ -8,20 +8,25 @@ Two things a plain `pandas.read_csv` gets wrong on such files:
   `heading_input` column that says `true` on every row (an all-true-heading fleet, the
   wind paper's Chautauqua jets) stays the word, not the boolean pandas would make of it;
 * the field separator is the header's: `,` unless the header line has none and has `;`
-  (spreadsheets in locales with a decimal comma write those) or a tab. Decimal commas
-  themselves are not guessed: numbers must use a point, and a column that does not is
-  reported by the caller's number check.
+  (spreadsheets in locales with a decimal comma write those) or a tab;
+* in a `;`- or tab-separated file a comma cannot separate fields, so a column whose every
+  value is a plain number, some written with a decimal comma (`61,2`, `-149,9`, `1,5e-3`),
+  is read as those numbers. Anything else (grouped thousands `1.234,5`, a mix of points
+  and commas in one column) is left as text for the caller's number check to name:
+  not guessed.
 """
 
 from __future__ import annotations
 
 import io
+import re
 from pathlib import Path
 
 import pandas as pd
 
 TEXT_COLUMNS = ("aircraft", "flight", "ref_source", "heading_input", "phase", "fleet", "stage")
 SEPARATORS = (",", ";", "\t")
+_DECIMAL_COMMA = re.compile(r"[+-]?(\d+(,\d*)?|,\d+)([eE][+-]?\d+)?")
 
 
 def csv_separator(header_line: str) -> str:
@@ -40,7 +45,26 @@ def read_csv_table(source: str | Path | bytes) -> pd.DataFrame:
     sep = csv_separator(_first_line(source).decode("utf-8", errors="replace"))
     columns = pd.read_csv(_readable(source), sep=sep, nrows=0).columns
     dtype = {c: str for c in TEXT_COLUMNS if c in columns}
-    return pd.read_csv(_readable(source), sep=sep, dtype=dtype, low_memory=False)
+    df = pd.read_csv(_readable(source), sep=sep, dtype=dtype, low_memory=False)
+    return df if sep == "," else _decimal_commas(df)
+
+
+def _decimal_commas(df: pd.DataFrame) -> pd.DataFrame:
+    """Columns of a `;`/tab-separated table written with decimal commas, as numbers: a
+    text column (not a label) whose every non-empty value is a number with at most one
+    decimal comma and no point, at least one with the comma."""
+    for name in df.columns:
+        col = df[name]
+        if name in TEXT_COLUMNS or not (col.dtype == object or pd.api.types.is_string_dtype(col)):
+            continue
+        values = col.dropna().astype(str).str.strip()
+        values = values[values != ""]
+        if values.empty or not values.str.contains(",", regex=False).any():
+            continue
+        if values.str.fullmatch(_DECIMAL_COMMA).all():
+            df[name] = pd.to_numeric(col.astype(str).str.strip().replace("", None)
+                                     .str.replace(",", ".", regex=False), errors="raise")
+    return df
 
 
 def _readable(source: str | Path | bytes):

@@ -56,3 +56,38 @@ def test_semicolon_and_tab_separated_tables_read_like_the_comma_one(tmp_path, se
     a, b = read_observation_table(tmp_path / "comma.csv"), read_observation_table(tmp_path / "other.csv")
     pd.testing.assert_frame_equal(a, b)
     assert load_measured(tmp_path / "other.csv").kind == "observation_table"
+
+
+@pytest.mark.parametrize("sep", [";", "\t"])
+def test_decimal_commas_in_a_semicolon_or_tab_table_read_as_numbers(tmp_path, sep):
+    # a spreadsheet in a decimal-comma locale: `;` between fields, `61,2` in them
+    obs = _obs()
+    obs.to_csv(tmp_path / "comma.csv", index=False)
+    obs.to_csv(tmp_path / "locale.csv", index=False, sep=sep, decimal=",")
+    assert "," in (tmp_path / "locale.csv").read_text().splitlines()[1]
+    a, b = read_observation_table(tmp_path / "comma.csv"), read_observation_table(tmp_path / "locale.csv")
+    pd.testing.assert_frame_equal(a, b)
+
+
+def test_decimal_commas_by_hand():
+    df = read_csv_table(b"aircraft;lat;lon;n;e\n0511;61,2;-149,9;1;1,5e-3\n0511;;-150;2;,5\n")
+    assert df["aircraft"].tolist() == ["0511", "0511"]
+    assert df["lat"].iloc[0] == 61.2 and np.isnan(df["lat"].iloc[1])
+    assert df["lon"].tolist() == [-149.9, -150.0]
+    assert df["e"].tolist() == [0.0015, 0.5]
+
+
+@pytest.mark.parametrize("cell", ["1.234,5", "61.25"])
+def test_a_column_not_all_decimal_commas_is_not_guessed(tmp_path, cell):
+    # grouped thousands, or a point beside commas in one column: named by the number check
+    obs = _obs()
+    obs.to_csv(tmp_path / "locale.csv", index=False, sep=";", decimal=",")
+    lines = (tmp_path / "locale.csv").read_text().splitlines()
+    header = lines[0].split(";")
+    row = lines[1].split(";")
+    row[header.index("lat")] = cell
+    lines[1] = ";".join(row)
+    (tmp_path / "locale.csv").write_text("\n".join(lines) + "\n")
+    assert read_csv_table(tmp_path / "locale.csv")["lat"].dtype != float
+    with pytest.raises(ValueError, match="lat"):
+        read_observation_table(tmp_path / "locale.csv")
