@@ -42,8 +42,10 @@ import pandas as pd  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import obs_generator as gen  # noqa: E402
 
-from aerotruth.analysis.heading_correction import (FleetHeadingFit, heading_errors, validate_observations,  # noqa: E402
-                                                   wind_errors_before_after)
+from aerotruth.analysis.heading_correction import FleetHeadingFit  # noqa: E402
+from aerotruth.analysis.heading_errors import heading_errors  # noqa: E402
+from aerotruth.analysis.observations import validate_observations  # noqa: E402
+from aerotruth.analysis.wind_metrics import wind_errors_before_after  # noqa: E402
 
 
 def table(copies: int) -> pd.DataFrame:

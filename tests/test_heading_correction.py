@@ -12,8 +12,9 @@ import pandas as pd
 import pytest
 
 import obs_generator as gen
-from aerotruth.analysis.heading_correction import (TABLE_COLUMNS, FleetHeadingFit, GateSpec, HeadingDeviationFit, heading_errors,
-                                                   towards_from_report, validate_observations)
+from aerotruth.analysis.heading_correction import TABLE_COLUMNS, FleetHeadingFit, HeadingDeviationFit
+from aerotruth.analysis.heading_errors import GateSpec, heading_errors, towards_from_report
+from aerotruth.analysis.observations import validate_observations
 from aerotruth.analysis.heading_fit import heading_fit_main
 
 REQUIRED_HEAD = ("aircraft, status, reason, n_used, A_deg, B_deg, C_deg, D_deg, E_deg, A_se_deg, B_se_deg, C_se_deg, "
@@ -307,10 +308,10 @@ def test_estimator_parameters_are_checked():
 
 
 def _huber_by_irls_and_newton(XT, y, w, monkeypatch):
-    import aerotruth.analysis.heading_correction as hc
-    newton = hc._huber_t(XT, y, w, True, 1.345)[:2]
-    monkeypatch.setattr(hc, "_NEWTON_STEPS", 0)  # IRLS steps only: another algorithm, the same estimator
-    irls = hc._huber_t(XT, y, w, True, 1.345)[:2]
+    import aerotruth.analysis.robust_fit as rf
+    newton = rf.huber_t(XT, y, w, True, 1.345)[:2]
+    monkeypatch.setattr(rf, "_NEWTON_STEPS", 0)  # IRLS steps only: another algorithm, the same estimator
+    irls = rf.huber_t(XT, y, w, True, 1.345)[:2]
     return newton, irls
 
 
@@ -352,7 +353,7 @@ def test_fit_from_a_nearby_start_matches_the_iterated_fit(start_se):
     (robust_fit_t), started 1, 5 and 20 standard errors away (one step alone lands 1-2 SE
     off from 20): coefficients within a tenth of a standard error and standard errors within
     5 %, on heavy-tailed (t3) noise correlated within 40 flights."""
-    from aerotruth.analysis.heading_correction import design_t, fit_from_t, robust_fit_t
+    from aerotruth.analysis.robust_fit import design_t, fit_from_t, robust_fit_t
 
     rng = np.random.default_rng(21)
     G, per = 40, 150
@@ -374,7 +375,7 @@ def test_wind_errors_before_after_against_a_hand_rotation():
     """Before/after wind error components on rows paired by report (two reference models
     each, so the trigonometry is shared per report): against the wind recomputed by hand
     with V_A rotated clockwise by the correction, and components along/across the heading."""
-    from aerotruth.analysis.heading_correction import wind_errors_before_after
+    from aerotruth.analysis.wind_metrics import wind_errors_before_after
     from aerotruth.units import KT
 
     rng = np.random.default_rng(4)
@@ -434,7 +435,7 @@ def test_step_noise_matches_rounding_by_monte_carlo_and_lets_a_straight_climb_th
     itself (random offsets of the track against the grid); then the gates: a straight
     departure climb reported every 10 s (1.6-km spans, where rounding alone bends the
     track by tens of degrees) passes, a 30-deg turn over 10-km segments does not."""
-    from aerotruth.analysis.heading_correction import step_noise
+    from aerotruth.analysis.heading_errors import step_noise
     from pyproj import Geod
 
     geod = Geod(ellps="WGS84")

@@ -181,7 +181,7 @@ def test_fit_figure_draws_the_fits_own_frame_and_gates(tmp_path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from aerotruth.analysis.heading_correction import heading_errors
+    from aerotruth.analysis.heading_errors import heading_errors
     from aerotruth.sim.studies import Summary
 
     rng = np.random.default_rng(8)

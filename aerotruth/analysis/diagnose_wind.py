@@ -3,7 +3,7 @@ winds, docs/data-formats.md): where the reports disagree with the simulation's m
 wind sensors, which effect explains it, by how much, and what the extension gains on
 flights it was not fitted on.
 
-The data (wind paper section 5.1, `heading_correction.heading_errors`): for every gated
+The data (wind paper section 5.1, `aerotruth.analysis.heading_errors`): for every gated
 report and reference model, the air-vector difference V_A - V_A' = V_W,REF - V_W,TAM
 (eqs. 3, 4; the ground track cancels), split at the measured heading z into
 

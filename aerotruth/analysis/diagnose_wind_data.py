@@ -1,5 +1,5 @@
 """The data of `aerotruth diagnose` on an observation table: the gated (report, reference)
-rows of the wind paper's section 5.1 (`heading_correction.heading_errors`) split into the
+rows of the wind paper's section 5.1 (`aerotruth.analysis.heading_errors`) split into the
 transverse and along-heading air-vector differences, with the covariates the effects and
 the screening need (IGRF horizontal field and declination change, phase, turn rate, folds).
 See aerotruth.analysis.diagnose_wind for the method."""
@@ -12,8 +12,9 @@ from dataclasses import dataclass
 import numpy as np
 import pandas as pd
 
-from aerotruth.analysis.heading_correction import (TRACK_GATES, GateSpec, heading_errors, segment_displacements,
-                                                   towards_from_report, validate_observations, wgs84_radii)
+from aerotruth.analysis.heading_errors import (TRACK_GATES, GateSpec, heading_errors, segment_displacements,
+                                               towards_from_report, wgs84_radii)
+from aerotruth.analysis.observations import validate_observations
 from aerotruth.errors import DataError
 from aerotruth.units import DEG, FT
 

@@ -21,7 +21,7 @@ collinear; the vertical terms are fitted only when the correlation of the two sc
 factors over the used reports is below `max_scale_correlation` (0.95), else the
 hard-iron form alone (the paper's dominant cause) — `terms_` says which. The fit is the
 same Huber M-estimate with flight-clustered (CR3) errors as the constant method
-(aerotruth.analysis.heading_correction.robust_fit), weights (TAS / median TAS)^2.
+(aerotruth.analysis.robust_fit), weights (TAS / median TAS)^2.
 
 Correction (ground side; an onboard table would need the field model onboard): the
 heading of each report is corrected by -d(z', H, Z) at its own field and the wind
@@ -35,7 +35,9 @@ import datetime as dt
 import numpy as np
 import pandas as pd
 
-from aerotruth.analysis.heading_correction import GateSpec, heading_errors, robust_fit, validate_observations
+from aerotruth.analysis.heading_errors import GateSpec, heading_errors
+from aerotruth.analysis.observations import validate_observations
+from aerotruth.analysis.robust_fit import robust_fit
 from aerotruth.units import FT
 
 
@@ -145,7 +147,8 @@ def compare_on(fit_obs: pd.DataFrame, test_obs: pd.DataFrame, heading: str = "ma
     both fitted on `fit_obs` and applied ground-side to the uncorrected reports of
     `test_obs`: per aircraft and overall, RMS vector difference (kt) uncorrected, with the
     constant table and with the field-aware correction, and the report count."""
-    from aerotruth.analysis.heading_correction import FleetHeadingFit, corrected_wind_error
+    from aerotruth.analysis.heading_correction import FleetHeadingFit
+    from aerotruth.analysis.wind_metrics import corrected_wind_error
     from aerotruth.units import KT
 
     const = FleetHeadingFit(heading=heading, gates=gates).fit(fit_obs)

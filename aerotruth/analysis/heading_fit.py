@@ -23,8 +23,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from aerotruth.analysis.heading_correction import (LUT_HEADINGS_DEG, FleetHeadingFit, GATE_NAMES, TABLE_COLUMNS,
-                                                   heading_errors, validate_observations, wind_errors_before_after)
+from aerotruth.analysis.heading_correction import LUT_HEADINGS_DEG, FleetHeadingFit, TABLE_COLUMNS
+from aerotruth.analysis.heading_errors import GATE_NAMES, heading_errors
+from aerotruth.analysis.observations import validate_observations
+from aerotruth.analysis.wind_metrics import wind_errors_before_after
 from aerotruth.errors import DataError
 from aerotruth.files import atomic_write, atomic_write_text
 from aerotruth.tables import read_csv_table

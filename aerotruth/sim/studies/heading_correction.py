@@ -120,7 +120,7 @@ class HeadingCorrectionConfig(Section):
 
     def gates(self):
         """The method's ground-track gates: the study's roll limit, the reports' position step."""
-        from aerotruth.analysis.heading_correction import GateSpec
+        from aerotruth.analysis.heading_errors import GateSpec
 
         return GateSpec(max_roll_deg=self.max_roll_deg, position_step_deg=self.sensors.reports.lat_lon_step_deg)
 
@@ -315,7 +315,7 @@ class HeadingCorrection(Study):
         corr = learned.get("corrections")
         fit_obs = reported(rows[rows["stage"] == "fit"]) if "stage" in rows else pd.DataFrame()
         if corr is not None and len(fit_obs):
-            from aerotruth.analysis.heading_correction import GateSpec, heading_errors
+            from aerotruth.analysis.heading_errors import GateSpec, heading_errors
 
             poor = corr[(corr["group"] == "poor") & (corr["status"] != "refused")].sort_values("before_rms_kt", ascending=False)
             show = poor["aircraft"].tolist()[:4]

@@ -1,0 +1,277 @@
+"""Heading errors from wind reports (wind paper section 5.1): the ground track from three
+adjacent reports, the air vectors of eqs. 3 and 4, and d = psi - psi'.
+
+Wind paper (Mulally & Anderson, "Correction of aircraft flux valve based heading ...",
+AirDat), section 5.1, from reports only:
+
+    V_G   ground velocity from three adjacent reports i-1, i, i+1 of one flight:
+          (p[i+1] - p[i-1]) / (t[i+1] - t[i-1]), kept only when the two segments are
+          collinear (course change <= 10 deg) and flown at constant speed (ground-speed
+          change <= 10 %) - each limit widened by 3 sd of the change that the reports'
+          0.01-deg rounding makes by itself (`step_noise`) - the reports <= 10 min apart
+          and V_G's rounding error <= 0.5 |V_G|;
+          positions on a local tangent plane with the WGS-84 radii of curvature M, N
+          (error ~ (L/R)^2 ~ 1e-4 for L <= 100 km); reports with |roll| > 10 deg dropped;
+    V_A   = V_G - V_W,TAM                                    wind paper eq. 3
+    V_A'  = V_G - V_W,REF   (one row per reference model)    wind paper eq. 4
+    d     = psi - psi' = angle(V_A) - angle(V_A')            heading error (deg)
+
+V_G cancels in V_A - V_A' = V_W,REF - V_W,TAM, so d does not depend on the ground
+track's quantisation noise to first order (an error e in V_G moves d by about
+|e| |V_W,TAM - V_W,REF| / |V_A|^2: at |e| = 0.5 |V_G| and a 10-kt difference at 160 kt,
+~1.8 deg, about the reference model's own noise - hence the 0.5); the track only supplies
+the measured heading z' = angle(V_A) (and |V_A| = TAS) where the table has no
+`heading_deg` (`tas_kt`) column. The gates were once a fixed 10-km baseline and fixed
+10-deg / 10-% limits: on short spans the rounding alone fails them, and they threw away
+every departure climb - on a one-axis network (PenAir) the only reports off the axis, so
+the tables held the sinusoid's component along the axis alone (refitted on the frozen
+PenAir runs and scored against the truth heading on other days: 1.89 deg rms left, 1.47
+with the widened gates; ascents 2.45 -> 1.72; Mesaba 1.34 -> 1.32).
+
+Flights (the fits' clusters): the `flight` column when present, else a new flight wherever
+an aircraft's consecutive reports are more than `flight_gap_s` (30 min) apart.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+from pydantic import Field
+
+from aerotruth.analysis.fast_trig import sin_cos
+from aerotruth.analysis.observations import validate_observations
+from aerotruth.config import Section
+from aerotruth.ellipsoid import A_M, E2, radii_from_sin
+from aerotruth.units import DEG, KT
+
+
+GATE_NAMES = ("used", "no_neighbours", "gap", "baseline", "collinearity", "speed_change", "roll", "implausible")
+
+
+class GateSpec(Section):
+    """Quality gates of the three-report ground track (wind paper section 5.1) and the
+    plausibility limits of a report."""
+
+    max_gap_s: float = Field(600.0, gt=0, description="largest time between adjacent reports of a triple")
+    min_baseline_km: float = Field(0.0, ge=0, description="shortest distance from report i-1 to i+1 (0: none)")
+    max_course_change_deg: float = Field(10.0, gt=0, description="collinearity: course i-1->i vs i->i+1, beyond "
+                                         "what the position step can fake")
+    max_speed_change: float = Field(0.10, gt=0, description="constant speed: |gs2 - gs1| / mean(gs), beyond what "
+                                    "the position step can fake")
+    max_track_noise: float = Field(0.5, gt=0, description="baseline: the rounding error of V_G from the position "
+                                   "step (sd) over |V_G| at most this")
+    position_step_deg: float = Field(0.01, ge=0, description="the reports' lat/lon resolution (TAMDAR: 0.01 deg)")
+    noise_sigmas: float = Field(3.0, ge=0, description="the collinearity and speed limits widen by this many "
+                                "standard deviations of the change the position step alone makes")
+    max_roll_deg: float = Field(10.0, gt=0, description="reports banked more are dropped (wind paper section 4)")
+    flight_gap_s: float = Field(1800.0, gt=0, description="a longer pause between reports starts a new flight")
+    min_tas_kt: float = Field(60.0, ge=0, description="|V_A| below this is implausible")
+    max_tas_kt: float = Field(600.0, gt=0, description="|V_A| above this is implausible")
+    max_heading_error_deg: float = Field(30.0, gt=0, description="|psi - psi'| above this is a gross error")
+
+
+# The gates of analyses that use the ground track itself, not only d (which V_G cancels
+# from to first order): |V_A| and the along-track residuals of `aerotruth diagnose` move
+# one for one with V_G's error, so they keep spans >= 10 km and fixed 10-deg / 10-% limits
+# (0.01-deg rounding: <= ~0.45 km of difference error, <= 2.6 deg of track).
+TRACK_GATES = GateSpec(min_baseline_km=10.0, noise_sigmas=0.0, max_track_noise=math.inf)
+
+
+def towards_from_report(speed_kt, dir_from_deg) -> tuple[np.ndarray, np.ndarray]:
+    """(u east, v north) in m/s of a reported wind (speed kt, meteorological "from" deg)."""
+    s = np.asarray(speed_kt, dtype=float)
+    u, v = sin_cos(np.asarray(dir_from_deg, dtype=float) * DEG)
+    for x in (u, v):  # in place: no third array (fresh memory costs more than a pass)
+        x *= s
+        x *= -KT
+    return u, v
+
+
+def wrap(x: np.ndarray, period: float, lo: float = 0.0) -> np.ndarray:
+    """x wrapped into [lo, lo + period), as (x - lo) % period + lo (a floor instead of the
+    float remainder: 20x faster)."""
+    y = x - lo
+    return x - period * np.floor(y / period, out=y)
+
+
+def wgs84_radii(lat_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Meridional (M) and prime-vertical (N) radii of curvature (m) at a latitude
+    (`aerotruth.ellipsoid`, with the method's single-precision sine)."""
+    return radii_from_sin(sin_cos(lat_rad)[0])
+
+
+def segment_displacements(lat_rad: np.ndarray, lon_rad: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(east, north) metres from each point to the next, on the tangent plane at the
+    segment's mid latitude with the WGS-84 radii of curvature M, N."""
+    phi = 0.5 * (lat_rad[1:] + lat_rad[:-1])
+    s, c = sin_cos(phi)
+    rm, rn = radii_from_sin(s)
+    dn = np.diff(lat_rad) * rm
+    de = wrap(np.diff(lon_rad), 2 * np.pi, -np.pi) * rn * c
+    return de, dn
+
+
+# an upper bound of sqrt(2 (s_e^2 + s_n^2)) per degree of position step (step_noise: s_n =
+# M s, s_e = N cos(lat) s with s = step / sqrt(12), M, N <= a / (1 - e^2)): metres
+_MAX_STEP_NOISE_M = math.sqrt(2.0 * 2.0) * A_M / (1 - E2) * math.radians(1.0) / math.sqrt(12.0)
+
+
+def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, span: np.ndarray, gs1: np.ndarray,
+               gs2: np.ndarray, t1: np.ndarray, t2: np.ndarray, step_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Standard deviations of the course change (deg), of the relative ground-speed change
+    and of V_G relative to |V_G| that positions rounded to `step_deg` make by themselves at
+    interior reports k of a track: segments k-1 and k around report k (ground speeds gs1,
+    gs2 m/s over t1, t2 s: lengths L = gs t), the span (span_e, span_n) from report k-1 to
+    k+1 (m), `span` its length.
+
+    Rounding errors are uniform, sd s = step/sqrt(12) per coordinate (north M s, east
+    N cos(lat) s in metres); across (along) the span's course c a point errs by
+    s_x^2 = s_e^2 cos^2 c + s_n^2 sin^2 c (s_a^2 = s_e^2 sin^2 c + s_n^2 cos^2 c). The
+    three points enter the course change as e3/L2 - e2 (1/L1 + 1/L2) + e1/L1, so
+    var = s_x^2 (1/L1^2 + (1/L1 + 1/L2)^2 + 1/L2^2); the speed change likewise with the dt's
+    and s_a, over the mean ground speed; V_G's error is its two end points' over the span,
+    sqrt(2 (s_e^2 + s_n^2)) / |span|."""
+    sin_lat, cos_lat = sin_cos(lat_rad)
+    rm, rn = radii_from_sin(sin_lat)
+    s = math.radians(step_deg) / math.sqrt(12.0)
+    s_n, s_e = rm * s, rn * cos_lat * s
+    with np.errstate(divide="ignore", invalid="ignore"):
+        sc, cc = span_e / span, span_n / span
+        s_x = np.sqrt((s_e * cc) ** 2 + (s_n * sc) ** 2)
+        s_a = np.sqrt((s_e * sc) ** 2 + (s_n * cc) ** 2)
+        l1, l2 = gs1 * t1, gs2 * t2
+        sd_course = np.degrees(s_x * np.sqrt(1 / l1**2 + (1 / l1 + 1 / l2) ** 2 + 1 / l2**2))
+        sd_speed = s_a * np.sqrt(1 / t1**2 + (1 / t1 + 1 / t2) ** 2 + 1 / t2**2) / (0.5 * (gs1 + gs2))
+        rel_vg = np.sqrt(2.0 * (s_e**2 + s_n**2)) / span
+    return sd_course, sd_speed, rel_vg
+
+
+def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str = "observation table") -> pd.DataFrame:
+    """One row per (report, reference model): ground track (three adjacent reports, gated),
+    V_A (eq. 3), V_A' (eq. 4), heading error d = psi - psi' (deg), measured heading (true and,
+    when available, magnetic), TAS, wind error V_W,TAM - V_W,REF; `gate` names the first
+    failed gate ("used" for the rows the fit takes). Whole table, vectorised."""
+    g = gates or GateSpec()
+    df = obs if "time_s" in obs.columns and obs.attrs.get("source") else validate_observations(obs, source)
+    ac = df["aircraft"].cat.codes.to_numpy()
+    t = df["time_s"].to_numpy()
+    n = len(df)
+    new_rep = np.ones(n, dtype=bool)
+    new_rep[1:] = (ac[1:] != ac[:-1]) | (t[1:] != t[:-1])
+    rep_of_row = np.cumsum(new_rep)
+    rep_of_row -= 1
+    first = np.flatnonzero(new_rep)
+    m = len(first)
+    rt, rac = t[first], ac[first]
+    lat = df["lat"].to_numpy()[first] * DEG
+    lon = df["lon"].to_numpy()[first] * DEG
+    new_fl = np.ones(m, dtype=bool)
+    new_fl[1:] = (rac[1:] != rac[:-1]) | (np.diff(rt) > g.flight_gap_s)
+    if "flight" in df.columns:
+        rfl = df["flight"].cat.codes.to_numpy()[first]
+        new_fl[1:] |= rfl[1:] != rfl[:-1]
+    flight = np.cumsum(new_fl) - 1
+    de, dn = segment_displacements(lat, lon)
+    dts = np.diff(rt)
+    same = flight[1:] == flight[:-1]
+    # for report k: segment 1 = seg[k-1], segment 2 = seg[k]; the gates on the interior
+    # reports (the first and last have one segment and fail `has` first)
+    has = np.zeros(m, dtype=bool)
+    has[1:-1] = same[:-1] & same[1:]
+
+    def interior(v):  # per report, 0 at the ends
+        out = np.zeros(m, dtype=v.dtype)
+        out[1:-1] = v
+        return out
+
+    # V_G = (p[k+1] - p[k-1]) / (t[k+1] - t[k-1]); one segment's velocity at the ends
+    vg_e, vg_n = np.empty(m), np.empty(m)
+    with np.errstate(divide="ignore", invalid="ignore"):
+        if m >= 2:
+            span_dt = dts[:-1] + dts[1:]
+            span_e, span_n = de[:-1] + de[1:], dn[:-1] + dn[1:]
+            np.divide(span_e, span_dt, out=vg_e[1:-1])
+            np.divide(span_n, span_dt, out=vg_n[1:-1])
+            vg_e[0], vg_n[0], vg_e[-1], vg_n[-1] = de[0] / dts[0], dn[0] / dts[0], de[-1] / dts[-1], dn[-1] / dts[-1]
+            seg_gs = np.hypot(de, dn) / dts
+            # course change between the segments: the angle between them (atan2 of their cross
+            # and dot products), in [0, 180]
+            e1, n1, e2, n2 = de[:-1], dn[:-1], de[1:], dn[1:]
+            dcourse = np.degrees(np.abs(np.arctan2(e1 * n2 - n1 * e2, e1 * e2 + n1 * n2)))
+            dspeed = np.abs(np.diff(seg_gs)) / (0.5 * (seg_gs[:-1] + seg_gs[1:]))
+            dt1, dt2 = dts[:-1], dts[1:]
+            span = np.hypot(span_e, span_n)
+            # the rounding's own noise (step_noise) only where the plain limits fail: elsewhere
+            # the widened gates pass whatever it is (V_G's rounding error is at most
+            # _MAX_STEP_NOISE_M * step in metres per degree: the span gate passes above that)
+            sd_course, sd_speed, rel_vg = np.zeros(m - 2), np.zeros(m - 2), np.zeros(m - 2)
+            safe_span = _MAX_STEP_NOISE_M * g.position_step_deg / max(g.max_track_noise, 1e-300)
+            with np.errstate(invalid="ignore"):
+                plain = (dcourse <= g.max_course_change_deg) & (dspeed <= g.max_speed_change) & (span >= safe_span)
+            i = np.flatnonzero(~plain)
+            sd_course[i], sd_speed[i], rel_vg[i] = step_noise(lat[1:-1][i], span_e[i], span_n[i], span[i], seg_gs[i],
+                                                              seg_gs[i + 1], dt1[i], dt2[i], g.position_step_deg)
+            checks = [
+                ~has,
+                ~interior((dt1 > 0) & (dt2 > 0) & (dt1 <= g.max_gap_s) & (dt2 <= g.max_gap_s)),
+                ~interior((span >= g.min_baseline_km * 1000.0) & (rel_vg <= g.max_track_noise)),
+                ~interior(dcourse <= g.max_course_change_deg + g.noise_sigmas * sd_course),
+                ~interior(dspeed <= g.max_speed_change + g.noise_sigmas * sd_speed),
+            ]
+        else:  # one report
+            vg_e[:], vg_n[:] = np.nan, np.nan
+            checks = [~has] + [np.zeros(m, dtype=bool)] * 4
+    gate = np.zeros(m, dtype=np.int8)
+    for code in range(len(checks), 0, -1):  # first failing gate wins
+        gate[checks[code - 1]] = code
+    # the aircraft's side, once per report (validate_observations checked its rows agree)
+    wt_e, wt_n = towards_from_report(df["wind_speed_kt"].to_numpy()[first], df["wind_dir_deg"].to_numpy()[first])
+    va_e_r, va_n_r = vg_e - wt_e, vg_n - wt_n  # wind paper eq. 3
+    psi = np.degrees(np.arctan2(va_e_r, va_n_r))
+    psi += 360.0 * (psi < 0)
+    heading = psi
+    if "heading_deg" in df.columns:
+        h = df["heading_deg"].to_numpy()[first]
+        heading = np.where(np.isfinite(h), wrap(h, 360.0), psi)
+    tas = np.hypot(va_e_r, va_n_r)
+    if "tas_kt" in df.columns:
+        tk = df["tas_kt"].to_numpy()[first] * KT
+        tas = np.where(np.isfinite(tk), tk, tas)
+    heading_mag = np.full(m, np.nan)
+    if "declination_deg" in df.columns:
+        heading_mag = wrap(heading - df["declination_deg"].to_numpy()[first], 360.0)
+    if "heading_mag_deg" in df.columns:
+        hm = df["heading_mag_deg"].to_numpy()[first]
+        heading_mag = np.where(np.isfinite(hm), wrap(hm, 360.0), heading_mag)
+    # per (report, model) row: V_A' = V_G - V_W,REF = V_A + dw with dw = V_W,TAM - V_W,REF
+    # (eqs. 3, 4), so d = angle(V_A) - angle(V_A') from V_A and dw alone
+    wr_e, wr_n = towards_from_report(df["ref_wind_speed_kt"].to_numpy(), df["ref_wind_dir_deg"].to_numpy())
+    dw_e, dw_n = wt_e[rep_of_row], wt_n[rep_of_row]
+    dw_e -= wr_e
+    dw_n -= wr_n
+    va_e, va_n = va_e_r[rep_of_row], va_n_r[rep_of_row]
+    # d = psi - psi' wrapped to (-180, 180]: the angle from V_A' to V_A, clockwise;
+    # cross(V_A', V_A) = va_e dw_n - va_n dw_e, dot = |V_A|^2 + V_A . dw
+    cross = va_e * dw_n
+    cross -= np.multiply(va_n, dw_e, out=wr_e)
+    dot = (va_e_r * va_e_r + va_n_r * va_n_r)[rep_of_row]
+    dot += np.multiply(va_e, dw_e, out=wr_e)
+    dot += np.multiply(va_n, dw_n, out=wr_e)
+    d = np.degrees(np.arctan2(cross, dot, out=cross), out=cross)
+    implausible = GATE_NAMES.index("implausible")
+    with np.errstate(invalid="ignore"):  # TAS per report, |d| per row
+        gate[(gate == 0) & ~((tas >= g.min_tas_kt * KT) & (tas <= g.max_tas_kt * KT))] = implausible
+        row_gate = gate[rep_of_row]
+        row_gate[(row_gate == 0) & ~(np.abs(d) <= g.max_heading_error_deg)] = implausible
+    tas = tas[rep_of_row]
+    true_input = (df["heading_input"] == "true").to_numpy() if "heading_input" in df.columns else np.zeros(n, dtype=bool)
+    out = pd.DataFrame(copy=False, data={  # copy=False: not consolidated into one block (a full copy)
+        "aircraft": df["aircraft"].array, "ref_source": df["ref_source"].array, "flight": flight[rep_of_row], "report": rep_of_row,
+        "time_s": t, "heading_deg": heading[rep_of_row], "heading_mag_deg": heading_mag[rep_of_row], "error_deg": d,
+        "tas_ms": tas, "va_e": va_e, "va_n": va_n, "dw_e": dw_e, "dw_n": dw_n,
+        "gate": pd.Categorical.from_codes(row_gate, GATE_NAMES), "true_heading_input": true_input,
+    })
+    out.attrs.update(df.attrs)
+    return out

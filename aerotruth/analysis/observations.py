@@ -1,0 +1,171 @@
+"""The observation table (docs/data-formats.md) as the wind paper's method reads it:
+aircraft wind reports with the reference-model winds at each, one row per (report, model),
+checked and normalised once (`validate_observations`); every failure is one DataError
+naming the table, the column and the data row."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from aerotruth.errors import DataError
+
+
+REQUIRED_COLUMNS = ("aircraft", "time", "lat", "lon", "pressure_altitude_ft", "wind_speed_kt", "wind_dir_deg",
+                    "ref_wind_speed_kt", "ref_wind_dir_deg")
+OPTIONAL_NUMERIC = ("tas_kt", "heading_deg", "heading_mag_deg", "declination_deg", "roll_deg")
+
+
+def _numeric(df: pd.DataFrame, col: str, source: str) -> np.ndarray:
+    s = df[col]
+    if s.dtype.kind in "biuf":
+        return s.to_numpy(dtype=float)
+    if s.dtype.kind == "b":
+        raise DataError(f"{source}: column '{col}' holds true/false, expected numbers")
+    num = pd.to_numeric(s, errors="coerce")
+    bad = num.isna() & s.notna() & (s.astype(str).str.strip() != "")
+    if bad.any():
+        i = int(np.flatnonzero(bad.to_numpy())[0])
+        raise DataError(f"{source}: column '{col}', data row {i + 1}: {s.iloc[i]!r} is not a number")
+    return num.to_numpy(dtype=float)
+
+
+# epoch seconds of 1950-01-01 and 2200-01-01: a plausible report time (epoch milliseconds
+# of any date since 1970-04 lie beyond the latter)
+_TIME_RANGE_S = (-631152000.0, 7258118400.0)
+
+
+def _times(df: pd.DataFrame, source: str) -> np.ndarray:
+    """UTC epoch seconds from epoch numbers or ISO-8601 text, checked to lie in 1950-2200."""
+    t = _parse_times(df, source)
+    bad = (t < _TIME_RANGE_S[0]) | (t > _TIME_RANGE_S[1])  # NaN (empty cells) passes
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        v = df["time"].iloc[i]
+        v = v.item() if isinstance(v, np.generic) else v
+        hint = " (milliseconds?)" if t[i] > _TIME_RANGE_S[1] else ""
+        raise DataError(f"{source}: column 'time', data row {i + 1}: {v!r} is not a time between 1950 and "
+                        f"2200 in UTC epoch seconds{hint}")
+    return t
+
+
+def _parse_times(df: pd.DataFrame, source: str) -> np.ndarray:
+    s = df["time"]
+    if s.dtype.kind in "iuf":
+        return s.to_numpy(dtype=float)
+    if s.dtype.kind == "M":
+        ts = pd.to_datetime(s, utc=True)
+    else:
+        num = pd.to_numeric(s, errors="coerce")
+        if num.notna().sum() == s.notna().sum():
+            return num.to_numpy(dtype=float)
+        ts = pd.to_datetime(s.where(num.isna()), utc=True, errors="coerce", format="ISO8601")
+        bad = ts.isna() & num.isna() & s.notna()
+        if bad.any():
+            i = int(np.flatnonzero(bad.to_numpy())[0])
+            raise DataError(f"{source}: column 'time', data row {i + 1}: {s.iloc[i]!r} is neither UTC epoch seconds nor ISO-8601")
+        iso = ((ts - pd.Timestamp("1970-01-01", tz="UTC")) / pd.Timedelta(1, "s")).to_numpy(dtype=float)
+        return np.where(num.notna().to_numpy(), num.to_numpy(dtype=float), iso)
+    return ((ts - pd.Timestamp("1970-01-01", tz="UTC")) / pd.Timedelta(1, "s")).to_numpy(dtype=float)
+
+
+_RANGES = {"lat": (-90.0, 90.0), "lon": (-180.0, 360.0), "wind_speed_kt": (0.0, 500.0), "ref_wind_speed_kt": (0.0, 500.0),
+           "wind_dir_deg": (0.0, 360.0), "ref_wind_dir_deg": (0.0, 360.0), "pressure_altitude_ft": (-2000.0, 70000.0),
+           "tas_kt": (0.0, 1000.0), "heading_deg": (0.0, 360.0), "heading_mag_deg": (0.0, 360.0),
+           "declination_deg": (-180.0, 180.0), "roll_deg": (-180.0, 180.0)}
+
+
+def _labels(values: pd.Series, fill: str | None = None, lower: bool = False) -> pd.Categorical:
+    """Text labels as a Categorical: stripped (and lower-cased if `lower`); empty or missing
+    -> `fill` (None: missing)."""
+    codes, uniques = pd.factorize(values, use_na_sentinel=True)
+    names = np.array([(str(u).strip().lower() if lower else str(u).strip()) for u in uniques] + [""], dtype=object)
+    names[names == ""] = fill if fill is not None else np.nan
+    ucodes, cats = pd.factorize(pd.Series(names, dtype=object), use_na_sentinel=True)
+    return pd.Categorical.from_codes(ucodes[codes], categories=pd.Index(cats, dtype=object))  # codes -1 -> last -> fill
+
+
+def validate_observations(obs: pd.DataFrame, source: str = "observation table") -> pd.DataFrame:
+    """An observation table (docs/data-formats.md) checked and normalised: `time_s` in UTC
+    epoch seconds, numbers as float, `aircraft` and `ref_source` (filled "ref") as
+    categoricals, sorted by aircraft, time and reference; rows with an empty required cell
+    are dropped (count in attrs["dropped_empty"]), repeated (aircraft, time, ref_source)
+    rows too (attrs["dropped_duplicates"]). Raises DataError (a ValueError) naming `source`
+    and the column on anything else."""
+    if not isinstance(obs, pd.DataFrame):
+        raise DataError(f"{source}: expected a pandas DataFrame, got {type(obs).__name__}")
+    missing = [c for c in REQUIRED_COLUMNS if c not in obs.columns]
+    if missing:
+        raise DataError(f"{source}: missing column '{missing[0]}' (an observation table needs {', '.join(REQUIRED_COLUMNS)})")
+    if len(obs) == 0:
+        raise DataError(f"{source}: no rows")
+    out = {"aircraft": _labels(obs["aircraft"]), "time_s": _times(obs, source)}
+    for c in REQUIRED_COLUMNS[2:] + tuple(c for c in OPTIONAL_NUMERIC if c in obs.columns):
+        out[c] = _numeric(obs, c, source)
+    for c, (lo, hi) in _RANGES.items():
+        if c in out:
+            v = out[c]
+            if len(v) and lo <= np.fmin.reduce(v) and np.fmax.reduce(v) <= hi:  # NaN-blind extremes: no mask
+                continue
+            with np.errstate(invalid="ignore"):
+                bad = (v < lo) | (v > hi)
+            if bad.any():
+                i = int(np.flatnonzero(bad)[0])
+                raise DataError(f"{source}: column '{c}', data row {i + 1}: {v[i]:g} outside [{lo:g}, {hi:g}]")
+    out["ref_source"] = _labels(obs["ref_source"], "ref") if "ref_source" in obs.columns else pd.Categorical(np.full(len(obs), "ref"))
+    if "flight" in obs.columns:  # `phase` is not used by the method
+        out["flight"] = _labels(obs["flight"], "")
+    if "heading_input" in obs.columns:  # a word, in any case ("TRUE", "Magnetic")
+        out["heading_input"] = _labels(obs["heading_input"], "", lower=True)
+    if "heading_input" in out:
+        vals = set(out["heading_input"].categories) - {"", "true", "magnetic"}
+        if vals:
+            raise DataError(f"{source}: column 'heading_input': {sorted(vals)[0]!r}, expected 'magnetic' or 'true'")
+    ac_code = out["aircraft"].codes
+    keep = ac_code >= 0
+    for c in ("time_s", *REQUIRED_COLUMNS[2:]):
+        keep &= np.isfinite(out[c])
+    ref_code = out["ref_source"].codes
+    order = np.lexsort((ref_code, out["time_s"], ac_code))
+    order = order[keep[order]]
+    a, t, r = ac_code[order], out["time_s"][order], ref_code[order]
+    dup = np.zeros(len(order), dtype=bool)
+    dup[1:] = (a[1:] == a[:-1]) & (t[1:] == t[:-1]) & (r[1:] == r[:-1])
+    order = order[~dup]
+    if len(order) == 0:
+        raise DataError(f"{source}: every row has an empty required cell")
+    if len(order) == len(obs) and np.array_equal(order, np.arange(len(order))):  # already in order: no copies
+        df = pd.DataFrame(out, copy=False)
+    else:
+        df = pd.DataFrame({k: (v[order] if isinstance(v, np.ndarray) else v.take(order)) for k, v in out.items()},
+                          copy=False)  # copy=False: no consolidation into one block (a copy of every column)
+    _check_report_rows(df, source)
+    df.attrs.update(source=source, dropped_empty=int((~keep).sum()), dropped_duplicates=int(dup.sum()))
+    return df
+
+
+REPORT_OWN_COLUMNS = ("wind_speed_kt", "wind_dir_deg", "heading_deg", "tas_kt", "heading_mag_deg", "declination_deg",
+                      "lat", "lon", "roll_deg")
+
+
+def _check_report_rows(df: pd.DataFrame, source: str) -> None:
+    """The rows of one report (same aircraft and time, one per reference model) must agree
+    on the aircraft's own values (REPORT_OWN_COLUMNS): `heading_errors` takes them once per
+    report. `df` sorted by aircraft and time."""
+    ac, t = df["aircraft"].cat.codes.to_numpy(), df["time_s"].to_numpy()
+    same_rep = (ac[1:] == ac[:-1]) & (t[1:] == t[:-1])  # row i+1 repeats row i's report
+    if not same_rep.any():
+        return
+    for c in REPORT_OWN_COLUMNS:
+        if c not in df.columns:
+            continue
+        v = df[c].to_numpy()
+        bad = (v[1:] != v[:-1]) & same_rep
+        if bad.any():
+            j = np.flatnonzero(bad)
+            j = j[~(np.isnan(v[j]) & np.isnan(v[j + 1]))]  # both empty: the same
+            if len(j):
+                i = int(j[0]) + 1
+                raise DataError(f"{source}: column '{c}': the rows of one report (aircraft {df['aircraft'].iloc[i]}, "
+                                f"time {t[i]:.3f}) differ ({v[i - 1]:g} vs {v[i]:g}); a report's own values must be "
+                                f"the same on each reference model's row")
