@@ -11,7 +11,8 @@ import pandas as pd
 import pytest
 from pyproj import Geod
 
-from aerotruth.analysis.wind_metrics import TrackGates, track_from_triples
+from aerotruth.analysis.heading_errors import GATE_NAMES, ground_track, report_flights
+from aerotruth.analysis.wind_metrics import METRIC_GATES
 from aerotruth.ellipsoid import radii
 from aerotruth.sensors.air_data import AirDataSpec
 from aerotruth.sensors.tamdar import (LookupTableCorrection, OffsetCorrection, ReportSpec, generate_reports, quantize,
@@ -178,12 +179,13 @@ def _quantized_triples(rng, n: int, speed_mps: float, spacing_s: float, step_deg
     lat = np.stack([lat0, lat1, lat2], axis=1).ravel()
     lon = np.stack([lon0, lon1, lon2], axis=1).ravel()
     ids = np.repeat(np.arange(n), 3)
-    gt = track_from_triples(quantize(t, time_step_s), quantize(lat, step_deg), quantize(lon, step_deg),
-                            0.0, TrackGates(), aircraft=ids)
+    tq = quantize(t, time_step_s)
+    gt = ground_track(tq, np.radians(quantize(lat, step_deg)), np.radians(quantize(lon, step_deg)),
+                      report_flights(ids, tq, METRIC_GATES.flight_gap_s), METRIC_GATES)
     true_track = np.radians(np.mod(np.asarray(back1) + 180.0, 360.0))
     sel = slice(1, None, 3)
-    track_err = np.angle(np.exp(1j * (gt.track_rad[sel] - true_track)))
-    return gt, sel, track_err, gt.ground_speed_mps[sel] - speed_mps, np.radians(lat1), true_track
+    track_err = np.angle(np.exp(1j * (np.arctan2(gt.vg_e[sel], gt.vg_n[sel]) - true_track)))
+    return gt, sel, track_err, np.hypot(gt.vg_e[sel], gt.vg_n[sel]) - speed_mps, np.radians(lat1), true_track
 
 
 def test_cruise_three_report_track_error_matches_the_quantization_analytic_estimate():
@@ -208,7 +210,7 @@ def test_cruise_three_report_track_error_matches_the_quantization_analytic_estim
     # unbiased (wind paper 5.1), and every cruise triple passes the gates
     assert abs(track_err.mean()) < 4 * rms_track / np.sqrt(track_err.size)
     assert abs(speed_err.mean()) < 4 * rms_speed / np.sqrt(speed_err.size)
-    assert gt.usable[sel].all()
+    assert (gt.gate[sel] == 0).all()
 
 
 def test_climb_three_report_tracks_are_mostly_rejected_by_the_gates_and_the_distribution_is_printed():
@@ -217,12 +219,14 @@ def test_climb_three_report_tracks_are_mostly_rejected_by_the_gates_and_the_dist
     rng = np.random.default_rng(2009)
     v, spacing = 160 * KT, 11.0
     gt, sel, track_err, speed_err, lat_mid, eta = _quantized_triples(rng, 20000, v, spacing, 0.01, 1.0)
-    usable, collinear, steady = gt.usable[sel], gt.collinear[sel], gt.constant_speed[sel]
+    gate = gt.gate[sel]  # the first gate each triple fails (0: none)
+    usable, off_line = gate == 0, gate == GATE_NAMES.index("collinearity")
+    speed_change = gate == GATE_NAMES.index("speed_change")
     q = [50, 90, 99]
     print(f"climb |track error| deg p50/p90/p99: {np.percentile(np.degrees(np.abs(track_err)), q).round(2)}")
     print(f"climb |speed error| kt p50/p90/p99: {np.percentile(np.abs(speed_err) / KT, q).round(1)}")
-    print(f"climb triples: {usable.size}, collinearity gate rejects {np.mean(~collinear):.3f}, "
-          f"constant-speed gate rejects {np.mean(~steady):.3f}, usable {np.mean(usable):.3f}")
+    print(f"climb triples: {usable.size}, collinearity gate rejects {np.mean(off_line):.3f}, "
+          f"then the constant-speed gate {np.mean(speed_change):.3f}, usable {np.mean(usable):.3f}")
     if usable.any():
         print(f"climb usable |track error| deg p50/p90: "
               f"{np.percentile(np.degrees(np.abs(track_err[usable])), [50, 90]).round(2)}")

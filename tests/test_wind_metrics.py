@@ -7,8 +7,9 @@ import pandas as pd
 import pytest
 from pyproj import Geod
 
-from aerotruth.analysis.wind_metrics import (air_track_heading, longitudinal_transverse, rms_vector_difference,
-                                             track_from_triples, wind_error_summary, wind_errors)
+from aerotruth.analysis.heading_errors import GATE_NAMES, ground_track
+from aerotruth.analysis.wind_metrics import (METRIC_GATES, air_track_heading, longitudinal_transverse,
+                                             rms_vector_difference, wind_error_summary, wind_errors)
 
 
 def _obs(aircraft, times, lats, lons, wind, ref, alt_ft=5000.0, phase="ascent", ref_source="RR") -> pd.DataFrame:
@@ -61,14 +62,21 @@ def test_track_subset_mechanism_reproduces_a_transverse_rms_above_the_total_as_i
     assert s["longitudinal_rms_kt"] == pytest.approx(0.0, abs=1e-6)
 
 
+def _track(case):
+    n = len(case["times"])
+    return ground_track(np.asarray(case["times"]), np.radians(case["lats"]), np.radians(case["lons"]), np.zeros(n, int),
+                        METRIC_GATES)
+
+
 def test_three_report_track_matches_the_geodesic_between_the_end_reports():
-    gt = track_from_triples(NORTH["times"], NORTH["lats"], NORTH["lons"])
+    gt = _track(NORTH)
     _, _, dist = Geod(ellps="WGS84").inv(-93.0, 45.0, -93.0, 45.2)
-    assert gt.ground_speed_mps[1] == pytest.approx(dist / 120.0, rel=1e-6)
-    assert np.degrees(gt.track_rad[1]) == pytest.approx(0.0, abs=1e-9)
-    assert gt.usable.tolist() == [False, True, True, False]
-    turned = track_from_triples(TURN["times"], TURN["lats"], TURN["lons"])
-    assert np.degrees(turned.turn_rad[3]) == pytest.approx(90.0, abs=0.5) and not turned.collinear[3]
+    assert np.hypot(gt.vg_e[1], gt.vg_n[1]) == pytest.approx(dist / 120.0, rel=1e-6)
+    assert np.degrees(np.arctan2(gt.vg_e[1], gt.vg_n[1])) == pytest.approx(0.0, abs=1e-9)
+    assert [GATE_NAMES[g] for g in gt.gate] == ["no_neighbours", "used", "used", "no_neighbours"]
+    # the 90-deg turn at r3 fails collinearity (r1, r2 pass)
+    assert [GATE_NAMES[g] for g in _track(TURN).gate] == ["no_neighbours", "used", "used", "collinearity",
+                                                           "no_neighbours"]
 
 
 def test_air_track_axis_is_the_heading_of_ground_velocity_minus_reported_wind():

@@ -35,6 +35,7 @@ an aircraft's consecutive reports are more than `flight_gap_s` (30 min) apart.
 from __future__ import annotations
 
 import math
+from dataclasses import dataclass
 
 import numpy as np
 import pandas as pd
@@ -148,33 +149,40 @@ def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, span
     return sd_course, sd_speed, rel_vg
 
 
-def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str = "observation table") -> pd.DataFrame:
-    """One row per (report, reference model): ground track (three adjacent reports, gated),
-    V_A (eq. 3), V_A' (eq. 4), heading error d = psi - psi' (deg), measured heading (true and,
-    when available, magnetic), TAS, wind error V_W,TAM - V_W,REF; `gate` names the first
-    failed gate ("used" for the rows the fit takes). Whole table, vectorised."""
-    g = gates or GateSpec()
-    df = obs if "time_s" in obs.columns and obs.attrs.get("source") else validate_observations(obs, source)
-    ac = df["aircraft"].cat.codes.to_numpy()
-    t = df["time_s"].to_numpy()
-    n = len(df)
-    new_rep = np.ones(n, dtype=bool)
-    new_rep[1:] = (ac[1:] != ac[:-1]) | (t[1:] != t[:-1])
-    rep_of_row = np.cumsum(new_rep)
-    rep_of_row -= 1
-    first = np.flatnonzero(new_rep)
-    m = len(first)
-    rt, rac = t[first], ac[first]
-    lat = df["lat"].to_numpy()[first] * DEG
-    lon = df["lon"].to_numpy()[first] * DEG
+def report_flights(aircraft: np.ndarray, t: np.ndarray, flight_gap_s: float, flight: np.ndarray | None = None) -> np.ndarray:
+    """Flight index (0, 1, ...) of each report, the reports in time order within each
+    aircraft (`aircraft`: codes): a new flight where the aircraft changes, its reports are
+    more than `flight_gap_s` apart or (when given) the `flight` label changes."""
+    m = len(t)
     new_fl = np.ones(m, dtype=bool)
-    new_fl[1:] = (rac[1:] != rac[:-1]) | (np.diff(rt) > g.flight_gap_s)
-    if "flight" in df.columns:
-        rfl = df["flight"].cat.codes.to_numpy()[first]
-        new_fl[1:] |= rfl[1:] != rfl[:-1]
-    flight = np.cumsum(new_fl) - 1
-    de, dn = segment_displacements(lat, lon)
-    dts = np.diff(rt)
+    new_fl[1:] = (aircraft[1:] != aircraft[:-1]) | (np.diff(t) > flight_gap_s)
+    if flight is not None:
+        new_fl[1:] |= flight[1:] != flight[:-1]
+    return np.cumsum(new_fl) - 1
+
+
+@dataclass(frozen=True)
+class GroundTrack:
+    """Per report: the ground velocity from its neighbours (m/s east, north; wind paper
+    section 5.1) and the first track gate it fails (`gate`, a code of GATE_NAMES: 0 "used"
+    passes every one; 1-5 no_neighbours, gap, baseline, collinearity, speed_change)."""
+
+    vg_e: np.ndarray
+    vg_n: np.ndarray
+    gate: np.ndarray
+
+
+def ground_track(t: np.ndarray, lat_rad: np.ndarray, lon_rad: np.ndarray, flight: np.ndarray,
+                 gates: GateSpec) -> GroundTrack:
+    """V_G = (p[k+1] - p[k-1]) / (t[k+1] - t[k-1]) of every report k of a flight from its
+    neighbours and the gates of `gates` (module docstring) on it; reports in time order
+    within each flight (`flight`, as report_flights gives), positions on the tangent plane
+    of each segment (segment_displacements). The first and last report of a flight fail
+    `no_neighbours` (their V_G is one segment's, or across flights)."""
+    g = gates
+    m = len(t)
+    de, dn = segment_displacements(lat_rad, lon_rad)
+    dts = np.diff(t)
     same = flight[1:] == flight[:-1]
     # for report k: segment 1 = seg[k-1], segment 2 = seg[k]; the gates on the interior
     # reports (the first and last have one segment and fail `has` first)
@@ -211,7 +219,7 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
             with np.errstate(invalid="ignore"):
                 plain = (dcourse <= g.max_course_change_deg) & (dspeed <= g.max_speed_change) & (span >= safe_span)
             i = np.flatnonzero(~plain)
-            sd_course[i], sd_speed[i], rel_vg[i] = step_noise(lat[1:-1][i], span_e[i], span_n[i], span[i], seg_gs[i],
+            sd_course[i], sd_speed[i], rel_vg[i] = step_noise(lat_rad[1:-1][i], span_e[i], span_n[i], span[i], seg_gs[i],
                                                               seg_gs[i + 1], dt1[i], dt2[i], g.position_step_deg)
             checks = [
                 ~has,
@@ -226,6 +234,31 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     gate = np.zeros(m, dtype=np.int8)
     for code in range(len(checks), 0, -1):  # first failing gate wins
         gate[checks[code - 1]] = code
+    return GroundTrack(vg_e, vg_n, gate)
+
+
+def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str = "observation table") -> pd.DataFrame:
+    """One row per (report, reference model): ground track (three adjacent reports, gated),
+    V_A (eq. 3), V_A' (eq. 4), heading error d = psi - psi' (deg), measured heading (true and,
+    when available, magnetic), TAS, wind error V_W,TAM - V_W,REF; `gate` names the first
+    failed gate ("used" for the rows the fit takes). Whole table, vectorised."""
+    g = gates or GateSpec()
+    df = obs if "time_s" in obs.columns and obs.attrs.get("source") else validate_observations(obs, source)
+    ac = df["aircraft"].cat.codes.to_numpy()
+    t = df["time_s"].to_numpy()
+    n = len(df)
+    new_rep = np.ones(n, dtype=bool)
+    new_rep[1:] = (ac[1:] != ac[:-1]) | (t[1:] != t[:-1])
+    rep_of_row = np.cumsum(new_rep)
+    rep_of_row -= 1
+    first = np.flatnonzero(new_rep)
+    m = len(first)
+    rt, rac = t[first], ac[first]
+    lat = df["lat"].to_numpy()[first] * DEG
+    lon = df["lon"].to_numpy()[first] * DEG
+    flight = report_flights(rac, rt, g.flight_gap_s, df["flight"].cat.codes.to_numpy()[first] if "flight" in df.columns else None)
+    track = ground_track(rt, lat, lon, flight, g)
+    vg_e, vg_n, gate = track.vg_e, track.vg_n, track.gate.copy()
     # the aircraft's side, once per report (validate_observations checked its rows agree)
     wt_e, wt_n = towards_from_report(df["wind_speed_kt"].to_numpy()[first], df["wind_dir_deg"].to_numpy()[first])
     va_e_r, va_n_r = vg_e - wt_e, vg_n - wt_n  # wind paper eq. 3

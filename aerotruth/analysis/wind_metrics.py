@@ -1,24 +1,20 @@
-"""Wind metrics of aircraft reports against a reference (the wind paper, section 6), and
-the 3-report ground track they need (section 5.1).
+"""Wind metrics of aircraft reports against a reference (the wind paper, section 6).
 
-Ground track of report k from reports k-1, k, k+1 (wind paper section 5.1: "latitude,
-longitude and time of adjacent observations ... when three observations are collinear
-and the airspeed is constant"): positions in the local east/north plane of report k
-(ECEF differences rotated to ENU: a great circle through report k projects onto a
-straight line), then from the end reports
-
-    V_G = (P_{k+1} - P_{k-1}) / (t_{k+1} - t_{k-1}),   track eta = atan2(E, N).
-
-For equally spaced times this is also the least-squares line through the three points.
-Gates (thresholds are ours; the paper gives none): collinear when the turn between the
-legs k-1 -> k and k -> k+1 is at most `max_turn_deg`; constant speed when the two leg
-ground speeds differ by at most `max_speed_change` of their mean (only ground speed can
-be checked from reports: TAS is not downlinked); both legs shorter than `max_gap_s` and
-within one aircraft. With lat/lon quantized to q deg (uniform error, sigma = q/sqrt(12)
-per coordinate) and baseline L = |P_{k+1} - P_{k-1}|, the track error is
-sigma_eta^2 = 2 (sigma_E^2 cos^2 eta + sigma_N^2 sin^2 eta) / L^2 and the speed error
+The axis of the longitudinal/transverse split needs each report's ground track: the one
+ground track of wind paper section 5.1 (`aerotruth.analysis.heading_errors.ground_track`:
+V_G = (P_{k+1} - P_{k-1}) / (t_{k+1} - t_{k-1}) from the neighbouring reports), here with
+fixed gates and no minimum baseline (`METRIC_GATES`; thresholds ours, the paper gives
+none): collinear when the course changes by at most 10 deg between the legs k-1 -> k and
+k -> k+1, constant speed when the two leg ground speeds differ by at most 10 % of their
+mean (only ground speed can be checked from reports: TAS is not downlinked), both legs at
+most 15 min long, within one flight. With lat/lon quantized to q deg (uniform error,
+sigma = q/sqrt(12) per coordinate) and baseline L = |P_{k+1} - P_{k-1}|, the track error
+is sigma_eta^2 = 2 (sigma_E^2 cos^2 eta + sigma_N^2 sin^2 eta) / L^2 and the speed error
 sigma_V^2 = 2 (sigma_E^2 sin^2 eta + sigma_N^2 cos^2 eta) / T^2 + 2 V^2 sigma_t^2 / T^2
 (T = t_{k+1} - t_{k-1}, sigma_t from the time quantization); valid while L >> the step.
+Distances are on the ellipsoid's surface: at altitude h the ground speed reads R / (R + h)
+of the speed at the aircraft's height (0.2 % slow at FL 400), far below the quantization's
+noise.
 
 Metrics (wind paper section 6): per report the vector difference dW = W_report - W_ref
 (u east, v north); total = sqrt(mean |dW|^2) (RMS vector magnitude error). Longitudinal
@@ -44,19 +40,16 @@ row per pair (same report, different `ref_source`) summarised without `ref_sourc
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass
 from typing import Literal, Sequence
 
 import numpy as np
 from numpy.typing import ArrayLike
 import pandas as pd
-from pydantic import Field
 
 from aerotruth.analysis.fast_trig import sin_cos
-from aerotruth.config import Section
-from aerotruth.ellipsoid import E2, radii
+from aerotruth.analysis.heading_errors import GateSpec, ground_track, report_flights
 from aerotruth.sensors.tamdar import wind_components
-from aerotruth.units import DEG, FT, KT
+from aerotruth.units import DEG, KT
 
 
 AXES = ("air_track", "ground_track", "reported_heading")
@@ -64,73 +57,8 @@ GROUPINGS = ("aircraft", "fleet", "phase", "ref_source", "altitude_band")
 _OBS_REQUIRED = ("aircraft", "time", "lat", "lon", "wind_speed_kt", "wind_dir_deg", "ref_wind_speed_kt", "ref_wind_dir_deg")
 
 
-class TrackGates(Section):
-    """Which 3-report tracks are usable (thresholds chosen here; the paper gives none)."""
-
-    max_turn_deg: float = Field(default=10.0, gt=0, description="largest turn between the two legs (collinearity)")
-    max_speed_change: float = Field(default=0.10, gt=0, description="largest |v2 - v1| / mean(v1, v2) of the leg ground speeds")
-    max_gap_s: float = Field(default=900.0, gt=0, description="longest time between adjacent reports of one flight")
-
-
-@dataclass(frozen=True)
-class GroundTrack:
-    """Per-report 3-report ground track (NaN at the first and last report) and gate flags."""
-
-    track_rad: np.ndarray
-    ground_speed_mps: np.ndarray
-    turn_rad: np.ndarray
-    speed_change: np.ndarray
-    collinear: np.ndarray
-    constant_speed: np.ndarray
-    usable: np.ndarray
-
-
-def _ecef(lat_rad: np.ndarray, lon_rad: np.ndarray, h_m: np.ndarray) -> np.ndarray:
-    _, n = radii(lat_rad)
-    cl = np.cos(lat_rad)
-    return np.stack([(n + h_m) * cl * np.cos(lon_rad), (n + h_m) * cl * np.sin(lon_rad),
-                     (n * (1.0 - E2) + h_m) * np.sin(lat_rad)])
-
-
-def track_from_triples(time_s: ArrayLike, lat_deg: ArrayLike, lon_deg: ArrayLike, height_m: ArrayLike = 0.0,
-                       gates: TrackGates = TrackGates(), aircraft: ArrayLike | None = None) -> GroundTrack:
-    """Ground track, ground speed and gate flags of every report from its neighbours
-    (wind paper section 5.1); reports in time order, `aircraft` (optional) marks flights."""
-    t = np.asarray(time_s, dtype=float)
-    n = t.size
-    lat, lon = np.radians(np.asarray(lat_deg, dtype=float)), np.radians(np.asarray(lon_deg, dtype=float))
-    if lat.shape != (n,) or lon.shape != (n,):
-        raise ValueError(f"lat_deg, lon_deg: expected {n} values like time_s, got {lat.shape} and {lon.shape}")
-    h = np.broadcast_to(np.asarray(height_m, dtype=float), (n,))
-    out = {k: np.full(n, np.nan) for k in ("track", "speed", "turn", "change")}
-    flags = {k: np.zeros(n, dtype=bool) for k in ("collinear", "constant", "usable")}
-    if n >= 3:
-        xyz = _ecef(lat, lon, h)
-        la, lo = lat[1:-1], lon[1:-1]
-        sl, cl, so, co = np.sin(la), np.cos(la), np.sin(lo), np.cos(lo)
-
-        def enu(d: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-            return -so * d[0] + co * d[1], -sl * co * d[0] - sl * so * d[1] + cl * d[2]
-
-        ae, an = enu(xyz[:, 1:-1] - xyz[:, :-2])  # leg k-1 -> k
-        be, bn = enu(xyz[:, 2:] - xyz[:, 1:-1])  # leg k -> k+1
-        dt1, dt2 = t[1:-1] - t[:-2], t[2:] - t[1:-1]
-        with np.errstate(divide="ignore", invalid="ignore"):
-            span = dt1 + dt2
-            out["track"][1:-1] = np.mod(np.arctan2(ae + be, an + bn), 2 * np.pi)  # section 5.1, end reports
-            out["speed"][1:-1] = np.hypot(ae + be, an + bn) / span
-            out["turn"][1:-1] = np.angle(np.exp(1j * (np.arctan2(be, bn) - np.arctan2(ae, an))))
-            v1, v2 = np.hypot(ae, an) / dt1, np.hypot(be, bn) / dt2
-            out["change"][1:-1] = np.abs(v2 - v1) / (0.5 * (v1 + v2))
-        flags["collinear"][1:-1] = np.abs(out["turn"][1:-1]) <= gates.max_turn_deg * DEG
-        flags["constant"][1:-1] = out["change"][1:-1] <= gates.max_speed_change
-        ok = (dt1 > 0) & (dt2 > 0) & (dt1 <= gates.max_gap_s) & (dt2 <= gates.max_gap_s)
-        if aircraft is not None:
-            a = np.asarray(aircraft)
-            ok &= (a[:-2] == a[1:-1]) & (a[2:] == a[1:-1])
-        flags["usable"][1:-1] = ok & flags["collinear"][1:-1] & flags["constant"][1:-1]
-    return GroundTrack(out["track"], out["speed"], out["turn"], out["change"],
-                       flags["collinear"], flags["constant"], flags["usable"])
+# the gates of the metrics' axis (module docstring): fixed limits, no minimum baseline
+METRIC_GATES = GateSpec(max_gap_s=900.0, min_baseline_km=0.0, noise_sigmas=0.0, max_track_noise=math.inf)
 
 
 def air_track_heading(vg_east: ArrayLike, vg_north: ArrayLike, u: ArrayLike, v: ArrayLike) -> np.ndarray:
@@ -163,7 +91,7 @@ def _epoch_seconds(time: pd.Series) -> np.ndarray:
     return (stamps - pd.Timestamp("1970-01-01", tz="UTC")).dt.total_seconds().to_numpy()
 
 
-def wind_errors(obs: pd.DataFrame, axis: str = "air_track", gates: TrackGates = TrackGates()) -> pd.DataFrame:
+def wind_errors(obs: pd.DataFrame, axis: str = "air_track", gates: GateSpec = METRIC_GATES) -> pd.DataFrame:
     """Per (report, reference) row: vector difference report - reference (kt), its
     magnitude, the axis (deg) and the longitudinal/transverse components (NaN where the
     report has no axis). Tracks come from the reports of each aircraft in time order (rows
@@ -185,15 +113,16 @@ def wind_errors(obs: pd.DataFrame, axis: str = "air_track", gates: TrackGates = 
         axis_rad = obs["heading_deg"].to_numpy(dtype=float) * DEG
         usable = np.isfinite(axis_rad)
     else:
-        height = obs["pressure_altitude_ft"].to_numpy(dtype=float) * FT if "pressure_altitude_ft" in obs else np.zeros(len(obs))
         rows = pd.DataFrame({"aircraft": obs["aircraft"].to_numpy(), "t": t, "lat": obs["lat"].to_numpy(dtype=float),
-                             "lon": obs["lon"].to_numpy(dtype=float), "h": np.nan_to_num(height)})
+                             "lon": obs["lon"].to_numpy(dtype=float)})
         reports = rows.drop_duplicates(["aircraft", "t"]).sort_values(["aircraft", "t"], kind="stable").reset_index(drop=True)
         lookup = rows[["aircraft", "t"]].merge(reports[["aircraft", "t"]].reset_index(), on=["aircraft", "t"],
                                                how="left")["index"].to_numpy()
-        gt = track_from_triples(reports["t"].to_numpy(), reports["lat"].to_numpy(), reports["lon"].to_numpy(),
-                                reports["h"].to_numpy(), gates, aircraft=reports["aircraft"].to_numpy())
-        track, speed_kt, usable = gt.track_rad[lookup], gt.ground_speed_mps[lookup] / KT, gt.usable[lookup]
+        rt = reports["t"].to_numpy()
+        flight = report_flights(pd.factorize(reports["aircraft"])[0], rt, gates.flight_gap_s)
+        gt = ground_track(rt, reports["lat"].to_numpy() * DEG, reports["lon"].to_numpy() * DEG, flight, gates)
+        track = np.mod(np.arctan2(gt.vg_e, gt.vg_n), 2 * np.pi)[lookup]
+        speed_kt, usable = np.hypot(gt.vg_e, gt.vg_n)[lookup] / KT, (gt.gate == 0)[lookup]
         if axis == "ground_track":
             axis_rad = track
         else:  # wind paper eq. 3: V_A = V_G - V_W,TAM
