@@ -58,8 +58,9 @@ Heading frames: `heading="true"` fits on the true measured heading (the paper's 
 `heading="magnetic"` on the magnetic heading the onboard table is indexed by: the
 `heading_mag_deg` column, else true heading minus `declination_deg` (east positive).
 
-Flights (clusters): the `flight` column when present, else a new flight wherever an
-aircraft's consecutive reports are more than 30 min apart.
+Flights (the clusters of the standard errors and of the bootstrap): the `flight` column
+when present, else a new flight wherever an aircraft's consecutive reports are more than
+30 min apart (`heading_errors.report_flights`).
 """
 
 from __future__ import annotations
