@@ -290,8 +290,10 @@ def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float
             cv = _cv_rms(track, trial, knot_s, folds, k)
             p = _jackknife_p(track, knot_s, trial, eff, f, t, jk_block_s)
             ok = dbic < DBIC_THRESHOLD and p < ALPHA / len(EFFECT_COLUMNS) and cv < (1 - MIN_HELD_OUT_GAIN) * cur_cv
-            tried[eff] = {"outcome": "passes" if ok else "not significant", "values": vals, "delta_bic": float(dbic),
-                          "p_value": p, "held_out_before_kt": cur_cv / KT, "held_out_after_kt": cv / KT}
+            ses = {n: float(f["se"][f["names"].index(n)]) for n in EFFECT_COLUMNS[eff]}
+            tried[eff] = {"outcome": "passes" if ok else "not significant", "values": vals, "se": ses,
+                          "delta_bic": float(dbic), "p_value": p, "held_out_before_kt": cur_cv / KT,
+                          "held_out_after_kt": cv / KT}
             if ok and (best is None or dbic < best[1]):
                 best = (eff, dbic, f, cv, p)
         baseline["rounds"].append(tried)
@@ -362,7 +364,8 @@ def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s:
         lines += ["Candidates after the last finding (what the data say of each):", "",
                   "| effect | outcome | size | ΔBIC | jackknife p | held out (kt) |", "|---|---|---|---|---|---|"]
         for eff, c in last.items():
-            size = ", ".join(f"{k} {v:.3g}" for k, v in c.get("values", {}).items())
+            ses = c.get("se", {})
+            size = ", ".join(f"{k} {v:.3g}" + (f" ± {ses[k]:.2g}" if k in ses else "") for k, v in c.get("values", {}).items())
             ho = (f"{c['held_out_before_kt']:.3f} → {c['held_out_after_kt']:.3f}" if "held_out_after_kt" in c else "")
             lines.append(f"| {eff} | {c['outcome']} | {size} | {c['delta_bic']:.1f} | {c['p_value']:.2g} | {ho} |"
                          if "delta_bic" in c else f"| {eff} | {c['outcome']} | {size} | | | |")

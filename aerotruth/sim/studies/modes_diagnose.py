@@ -8,7 +8,10 @@ error, a heading lag; the sensor's reply and noise draws from the task's "sensor
 "modes" stream), are decoded to a 1-s trajectory and diagnosed
 (aerotruth.analysis.diagnose). One row per finding (or one empty row per day).
 Metrics: the share of days whose first finding is the hidden effect, the estimated size
-(mean and spread), and the count of other findings (false findings when nothing is hidden).
+(mean and spread), and the count of other findings (false findings when nothing is hidden);
+a table of each day's account of the hidden effect (found, or how far its test got:
+estimate, standard error, delta BIC, jackknife p), so that a day below diagnose's power
+reads as such rather than as a silent miss.
 """
 
 from __future__ import annotations
@@ -26,6 +29,32 @@ from aerotruth.sim.studies import Figure, Study, Summary
 from aerotruth.sim.tasks import Task
 
 EXPECTED = {"table_error_deg": ("heading_offset", "A_deg"), "heading_lag_s": ("heading_time_offset", "D_s")}
+
+
+HIDDEN_EMPTY = {"outcome": "", "value": np.nan, "se": np.nan, "delta_bic": np.nan, "p_value": np.nan}
+
+
+def hidden_effect_outcome(params: dict, findings, baseline: dict) -> dict:
+    """What diagnose said of the day's hidden effect (the first of EXPECTED that is set):
+    found (with its rank), or the outcome of its last test after the other findings (not
+    significant, not identifiable, below the resolution...) with the size it estimated
+    there, as `hidden_*` columns. Empty when nothing is hidden."""
+    key = next((k for k in EXPECTED if params.get(k)), None)
+    if key is None:
+        return {f"hidden_{k}": v for k, v in HIDDEN_EMPTY.items()}
+    effect, name = EXPECTED[key]
+    out = dict(HIDDEN_EMPTY)
+    for rank, f in enumerate(findings, 1):
+        if f.effect == effect:
+            out.update(outcome=f"found (rank {rank})", value=f.parameters[name]["value"], se=f.parameters[name]["se"],
+                       delta_bic=f.evidence["delta_bic"], p_value=f.evidence["p_value"])
+            break
+    else:
+        tried = (baseline.get("rounds") or [{}])[-1].get(effect, {"outcome": "not tried"})
+        out.update(outcome=tried["outcome"], value=tried.get("values", {}).get(name, np.nan),
+                   se=tried.get("se", {}).get(name, np.nan), delta_bic=tried.get("delta_bic", np.nan),
+                   p_value=tried.get("p_value", np.nan))
+    return {f"hidden_{k}": v for k, v in out.items()}
 
 
 class ModesDiagnoseConfig(Section):
@@ -60,14 +89,16 @@ class ModesDiagnose(Study):
 
         day, p = task.params["day"], task.params
         base = {"aircraft": day.aircraft, "date": day.date.isoformat(), "samples": 0, "rank": 0, "effect": "", "value": np.nan,
-                "se": np.nan, "delta_bic": np.nan, "held_out_before_kt": np.nan, "held_out_after_kt": np.nan, "note": ""}
+                "se": np.nan, "delta_bic": np.nan, "held_out_before_kt": np.nan, "held_out_after_kt": np.nan, "note": "",
+                **{f"hidden_{k}": v for k, v in HIDDEN_EMPTY.items()}}
         try:
             measured = simulated_modes_day(day, table_error_deg=p["table_error_deg"], heading_lag_s=p["heading_lag_s"],
                                            rng=ctx.rng("sensor", "modes"), store=ctx.truth)
             frame, _ = track_from_measured(measured)
         except (DataError, ValueError) as e:
             return pd.DataFrame([{**base, "note": str(e)[:200]}])
-        findings, _ = diagnose_track(frame)
+        findings, baseline = diagnose_track(frame)
+        base.update(hidden_effect_outcome(p, findings, baseline))
         rows = []
         for i, f in enumerate(findings, 1):
             name, v = next(iter(f.parameters.items()))
@@ -97,7 +128,14 @@ class ModesDiagnose(Study):
         table = rows[rows["rank"] > 0][["aircraft", "date", "rank", "effect", "value", "se", "delta_bic", "held_out_before_kt",
                                          "held_out_after_kt"]].reset_index(drop=True)
         counts = pd.DataFrame({"days": [n], "usable": [m["days_usable"]], "findings": [int((rows["rank"] > 0).sum())]})
-        return Summary(m, {"days_and_findings": counts, "findings": table})
+        tables = {"days_and_findings": counts, "findings": table}
+        if hidden and "hidden_outcome" in rows.columns:
+            # every day's account of the hidden effect: a day without it among the findings
+            # says how far its test got (its estimate and evidence), not just "0 found"
+            per_day = days.first()[["aircraft", "date", "samples", "hidden_outcome", "hidden_value", "hidden_se",
+                                    "hidden_delta_bic", "hidden_p_value"]].reset_index(drop=True)
+            tables["hidden_effect_by_day"] = per_day.rename(columns=lambda c: c.removeprefix("hidden_"))
+        return Summary(m, tables)
 
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
