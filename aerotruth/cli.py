@@ -209,6 +209,12 @@ def _cmd_heading_fit(args: argparse.Namespace) -> int:
     return heading_fit_main(args.obs, args.out)
 
 
+def _cmd_heading_apply(args: argparse.Namespace) -> int:
+    from aerotruth.analysis.heading_apply import heading_apply_main
+
+    return heading_apply_main(args.obs, args.tables, args.out)
+
+
 def _add_campaign_commands(sub) -> None:
     """run / validate / figures / report / regress: implemented in aerotruth.sim.commands."""
 
@@ -321,6 +327,12 @@ def build_parser() -> argparse.ArgumentParser:
     hfit.add_argument("obs", help="observation table (CSV or Parquet, docs/data-formats.md)")
     hfit.add_argument("--out", required=True, help="output folder")
     hfit.set_defaults(func=_cmd_heading_fit)
+    happ = hsub.add_parser("apply", help="apply the tables of `heading fit` to the reports of another period -> "
+                           "DIR/corrected.*, apply.csv (before/after per aircraft), figure, report")
+    happ.add_argument("obs", help="observation table (CSV or Parquet, docs/data-formats.md)")
+    happ.add_argument("--tables", required=True, help="the deviation.csv (or deviation_mag.csv) of `aerotruth heading fit`")
+    happ.add_argument("--out", required=True, help="output folder")
+    happ.set_defaults(func=_cmd_heading_apply)
     return p
 
 

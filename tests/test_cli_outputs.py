@@ -17,6 +17,7 @@ ROOT = Path(__file__).resolve().parents[1]
     ["fits", "{log}", "--out", "{file}"],
     ["diagnose", "{log}", "--model", str(ROOT / "campaigns/quick.yaml"), "--out", "{file}"],
     ["heading", "fit", "{obs}", "--out", "{file}"],
+    ["heading", "apply", "{obs}", "--tables", "{obs}", "--out", "{file}"],
 ])
 def test_a_file_given_as_the_output_folder_is_one_line(tmp_path, capsys, argv):
     file = tmp_path / "taken"

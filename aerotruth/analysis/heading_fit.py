@@ -131,7 +131,8 @@ def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: 
             f"| before | {before['rms_kt']:.2f} | {before['longitudinal_kt']:.2f} | {before['transverse_kt']:.2f} |",
             f"| after the lookup tables | {after['rms_kt']:.2f} | {after['longitudinal_kt']:.2f} | {after['transverse_kt']:.2f} |",
             "", "In-sample: the tables were fitted on these reports; judge them on a later period (the paper's "
-            "before/after with a control group).", "",
+            "before/after with a control group): `aerotruth heading apply LATER_OBS --tables deviation.csv --out DIR`.",
+            "",
             "## Method and criteria", "",
             "* Heading error psi - psi' = angle(V_G - V_W,TAM) - angle(V_G - V_W,REF) (wind paper eqs. 3, 4) against "
             "the measured heading (the `heading_deg` column where given, else the angle of V_A).",

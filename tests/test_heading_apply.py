@@ -1,0 +1,90 @@
+"""`aerotruth heading apply`: the tables `heading fit` learned on one period applied to the
+reports of another (tests/obs_generator.py: an independent generator with a known
+deviation), and the corrected wind against a hand-worked rotation."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import obs_generator as gen
+from aerotruth.analysis.heading_apply import APPLY_COLUMNS, corrected_wind, heading_apply_main
+from aerotruth.analysis.heading_fit import heading_fit_main
+from aerotruth.cli import main
+from aerotruth.errors import DataError
+
+TRUTHS = [gen.AircraftTruth("N401XJ", A=2.0, B=-3.0, C=1.5), gen.AircraftTruth("N402XJ", A=-1.0, B=1.0, C=2.5)]
+
+
+@pytest.fixture(scope="module")
+def periods(tmp_path_factory):
+    """Two aircraft x 40 flights, split in time: tables fitted on the first half."""
+    obs = gen.generate(TRUTHS, np.random.default_rng(5), flights=40)
+    d = tmp_path_factory.mktemp("apply")
+    late = obs["time"] >= obs["time"].quantile(0.5)
+    obs[~late].to_csv(d / "fit.csv", index=False)
+    obs[late].to_csv(d / "later.csv", index=False)
+    assert heading_fit_main(str(d / "fit.csv"), str(d / "fitted")) == 0
+    return d
+
+
+def test_corrected_wind_is_the_air_vector_turned_by_the_correction():
+    # heading north at 100 m/s, no wind: turned 90 deg clockwise the air vector points east,
+    # so the recomputed wind is V_A - R(c) V_A = (-100, 100); a small c gives
+    # (-V sin c, V (1 - cos c))
+    e, n = corrected_wind(np.array([0.0]), np.array([0.0]), np.array([0.0]), np.array([100.0]), np.array([90.0]))
+    assert (e[0], n[0]) == pytest.approx((-100.0, 100.0))
+    e, n = corrected_wind(np.array([3.0]), np.array([-4.0]), np.array([0.0]), np.array([100.0]), np.array([2.0]))
+    c = math.radians(2.0)
+    assert (e[0], n[0]) == pytest.approx((3.0 - 100 * math.sin(c), -4.0 + 100 * (1 - math.cos(c))))
+
+
+def test_tables_from_one_period_correct_the_next_out_of_sample(periods):
+    d = periods
+    assert heading_apply_main(str(d / "later.csv"), str(d / "fitted" / "deviation.csv"), str(d / "out")) == 0
+    scores = pd.read_csv(d / "out" / "apply.csv").set_index("aircraft")
+    assert list(scores.reset_index().columns) == list(APPLY_COLUMNS)
+    for a in TRUTHS:  # 3-3.5 deg of deviation at ~280 kt: most of the transverse error goes
+        s = scores.loc[a.aircraft]
+        assert s["transverse_after_kt"] < 0.5 * s["transverse_before_kt"], s
+        assert abs(s["longitudinal_after_kt"] - s["longitudinal_before_kt"]) < 0.1 * s["longitudinal_before_kt"]
+    rows = pd.read_csv(d / "out" / "corrected.csv", dtype={"aircraft": str})
+    used = rows["corrected"].to_numpy()
+    assert used.any() and (rows.loc[~used, "correction_deg"] == 0).all()
+    assert (rows.loc[~used, "wind_speed_kt_corrected"] == rows.loc[~used, "wind_speed_kt"]).all()
+    # the correction applied is minus the hidden deviation at the report's heading (the
+    # generator's, a function of the magnetic heading): table fit noise, the 8-point
+    # interpolation (~4 % of the amplitude) and the ~1-deg declination shift
+    truth = {a.aircraft: a for a in TRUTHS}
+    for name, g in rows[used].groupby("aircraft"):
+        z_mag = g["table_heading_deg"].to_numpy() - g["declination_deg"].to_numpy()  # deviation.csv: true heading
+        err = g["correction_deg"].to_numpy() + truth[name].deviation(z_mag)
+        assert np.sqrt(np.mean(err**2)) < 0.4, (name, np.sqrt(np.mean(err**2)))
+
+
+def test_an_aircraft_without_a_table_is_left_as_reported(periods, tmp_path):
+    d = periods
+    dev = pd.read_csv(d / "fitted" / "deviation.csv")
+    dev[dev["aircraft"] == "N401XJ"].to_csv(tmp_path / "one.csv", index=False)
+    heading_apply_main(str(d / "later.csv"), str(tmp_path / "one.csv"), str(tmp_path / "out"))
+    scores = pd.read_csv(tmp_path / "out" / "apply.csv").set_index("aircraft")
+    assert scores.loc["N402XJ", "status"] == "no table"
+    assert scores.loc["N402XJ", "rms_after_kt"] == pytest.approx(scores.loc["N402XJ", "rms_before_kt"])
+    rows = pd.read_csv(tmp_path / "out" / "corrected.csv")
+    assert not rows.loc[rows["aircraft"] == "N402XJ", "corrected"].any()
+
+
+def test_magnetic_tables_need_a_magnetic_heading_and_bad_tables_are_one_line(periods, tmp_path, capsys):
+    d = periods
+    later = pd.read_csv(d / "later.csv").drop(columns=["declination_deg"])
+    later.to_csv(tmp_path / "no_dec.csv", index=False)
+    with pytest.raises(DataError, match="magnetic heading"):
+        heading_apply_main(str(tmp_path / "no_dec.csv"), str(d / "fitted" / "deviation_mag.csv"), str(tmp_path / "o1"))
+    pd.read_csv(d / "fitted" / "deviation.csv").drop(columns=["lut_090_deg"]).to_csv(tmp_path / "cut.csv", index=False)
+    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "cut.csv"),
+                 "--out", str(tmp_path / "o2")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "cut.csv" in err and "lut_090_deg" in err and len(err.splitlines()) == 1
