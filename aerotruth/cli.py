@@ -206,7 +206,7 @@ def _cmd_fits(args: argparse.Namespace) -> int:
 def _cmd_heading_fit(args: argparse.Namespace) -> int:
     from aerotruth.analysis.heading_fit import heading_fit_main
 
-    return heading_fit_main(args.obs, args.out)
+    return heading_fit_main(args.obs, args.out, n_boot=args.bootstrap, seed=args.seed)
 
 
 def _cmd_heading_apply(args: argparse.Namespace) -> int:
@@ -326,6 +326,10 @@ def build_parser() -> argparse.ArgumentParser:
     hfit = hsub.add_parser("fit", help="fit eq. 2 per aircraft from an observation table -> DIR/deviation.csv, figures, report")
     hfit.add_argument("obs", help="observation table (CSV or Parquet, docs/data-formats.md)")
     hfit.add_argument("--out", required=True, help="output folder")
+    hfit.add_argument("--bootstrap", type=int, default=200, metavar="N",
+                      help="flight resamples for the 95 %% intervals of A..E and the table entries (deviation_ci.csv; "
+                      "default 200, 0: none)")
+    hfit.add_argument("--seed", type=int, default=0, help="seed of the bootstrap's resampling (default 0)")
     hfit.set_defaults(func=_cmd_heading_fit)
     happ = hsub.add_parser("apply", help="apply the tables of `heading fit` to the reports of another period -> "
                            "DIR/corrected.*, apply.csv (before/after per aircraft), figure, report")

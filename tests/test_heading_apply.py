@@ -88,3 +88,9 @@ def test_magnetic_tables_need_a_magnetic_heading_and_bad_tables_are_one_line(per
                  "--out", str(tmp_path / "o2")]) == 2
     err = capsys.readouterr().err.strip()
     assert "cut.csv" in err and "lut_090_deg" in err and len(err.splitlines()) == 1
+
+
+def test_a_bootstrap_of_one_resample_is_refused_in_one_line(tmp_path, capsys):
+    assert main(["heading", "fit", str(tmp_path / "obs.csv"), "--out", str(tmp_path / "o"), "--bootstrap", "1"]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "--bootstrap" in err and len(err.splitlines()) == 1

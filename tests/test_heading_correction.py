@@ -61,6 +61,25 @@ def test_heading_fit_recovers_each_aircrafts_deviation_within_three_standard_err
     print(f"worst |z| {worst_z:.2f}, worst se {worst_se:.3f} deg")
 
 
+def test_bootstrap_intervals_of_the_table_entries_hold_the_true_table(fleet_run):
+    """deviation_mag_ci.csv (the generator's frame): the 95 % intervals of the 8 table
+    entries of the fitted aircraft hold the true table -d(z_k) about 95 % of the time."""
+    truths, _, out = fleet_run
+    ci = pd.read_csv(out / "deviation_mag_ci.csv", dtype={"aircraft": str})
+    assert list(ci.columns) == ["aircraft", "quantity", "estimate", "lo", "hi", "boot_se", "level", "n_boot"]
+    hits = []
+    for a in truths:
+        if a.one_heading:
+            continue
+        lut = ci[(ci["aircraft"] == a.aircraft) & ci["quantity"].str.startswith("lut_")]
+        z = lut["quantity"].str[4:7].astype(float).to_numpy()
+        true = -a.deviation(z)
+        hits += list((lut["lo"].to_numpy() <= true) & (true <= lut["hi"].to_numpy()))
+        assert (lut["lo"] < lut["estimate"]).all() and (lut["estimate"] < lut["hi"]).all()
+    print(f"table entries covered: {np.mean(hits):.3f} of {len(hits)}")
+    assert len(hits) == 88 and np.mean(hits) >= 0.85  # 95 % expected; binomial sd 0.023
+
+
 def test_an_aircraft_flying_one_heading_gets_the_offset_only_never_a_sinusoid(fleet_run):
     truths, _, out = fleet_run
     one = next(a for a in truths if a.one_heading)
@@ -154,6 +173,7 @@ def test_bootstrap_intervals_run_and_cover_in_a_loose_band():
     res = heading_coverage.coverage(reps=12, n_boot=60, flights=16, seed=3)
     for t in "ABC":
         assert 0.6 <= res[f"coverage_{t}"] <= 1.0, res
+    assert 0.6 <= res["coverage_lut_min"] <= res["coverage_lut_max"] <= 1.0, res
 
 
 def test_reference_model_with_a_wind_bias_is_flagged_by_the_consistency_check():

@@ -372,12 +372,14 @@ class HeadingDeviationFit:
     # -- uncertainty
     def bootstrap(self, n_boot: int = 1000, rng: np.random.Generator | None = None, level: float = 0.95,
                   method: str = "studentized") -> pd.DataFrame:
-        """Intervals for the fitted coefficients from resampling whole flights with replacement
-        (terms fixed to the fitted ones). `method` "studentized" (symmetric bootstrap-t: q the
-        `level` quantile of |b* - b| / se* with the flight-clustered se of each resample,
-        interval b -+ q se) or
-        "percentile" (quantiles of b*; measured to undercover with ~40 flights: 0.92-0.94 for
-        a 95 % interval). Rows: terms; columns estimate, lo, hi, boot_se."""
+        """Intervals for the fitted coefficients and the 8 table entries from resampling whole
+        flights with replacement (terms fixed to the fitted ones). Each quantity q = L b is
+        linear in the fitted parameters b (a coefficient: one parameter times a constant; a
+        table entry lut_k = -d(z_k)). `method` "studentized" (symmetric bootstrap-t: the
+        `level` quantile of |q* - q| / se*(q) with the flight-clustered covariance of each
+        resample, interval q -+ that quantile x se(q)) or "percentile" (quantiles of q*;
+        measured to undercover with ~40 flights: 0.92-0.94 for a 95 % interval). Rows: the
+        terms, then lut_000_deg ... lut_315_deg; columns estimate, lo, hi, boot_se."""
         if self.status_ == "refused":
             raise ValueError(f"bootstrap: aircraft {self.aircraft_} was refused ({self.reason_})")
         if not 0 < level < 1:
@@ -387,15 +389,15 @@ class HeadingDeviationFit:
         rng = rng or np.random.default_rng()
         k = self._k
         T = self._T  # fitted parameters -> A..E (an axis fit has 2 parameters for A, B, C)
+        L = np.vstack([T[:k], -design(LUT_HEADINGS_DEG, 5) @ T])  # (terms + 8 entries, p)
         XT = self._fit_design()
         starts = cluster_starts(self._g)
         ends = np.r_[starts[1:], len(self._g)]
         G = len(starts)
         p = T.shape[1]
         est = np.empty((n_boot, p))
-        tstat = np.empty((n_boot, p))
+        covs = np.empty((n_boot, p, p))
         beta = self._fit.beta
-        se = np.sqrt(np.diag(self._fit.cov))
         for b in range(n_boot):
             pick = rng.integers(0, G, G)
             lens = ends[pick] - starts[pick]
@@ -405,19 +407,21 @@ class HeadingDeviationFit:
                 continue
             f = robust_fit_t(XT[:, idx], self._y[idx], self._w[idx], np.repeat(np.arange(G), lens), self.robust,
                              self.huber_c, beta0=beta)
-            est[b] = f.beta
-            tstat[b] = (f.beta - beta) / np.sqrt(np.diag(f.cov))
+            est[b], covs[b] = f.beta, f.cov
         a = (1 - level) / 2
-        names = list(self.terms_)
-        Tk = T[:k]  # each term is one fitted parameter times a constant
-        full = est @ Tk.T
+        names = list(self.terms_) + list(LUT_COLUMNS)
+        q_hat = L @ beta
+        full = est @ L.T  # (n_boot, quantities)
         if method == "percentile":
             lo, hi = np.quantile(full, a, axis=0), np.quantile(full, 1 - a, axis=0)
         else:
-            q = np.quantile(np.abs(tstat), level, axis=0)  # symmetric bootstrap-t, per fitted parameter
-            half = np.abs(Tk) @ (q * se)
-            lo, hi = Tk @ beta - half, Tk @ beta + half
-        return pd.DataFrame({"estimate": Tk @ beta, "lo": lo, "hi": hi, "boot_se": full.std(axis=0, ddof=1)}, index=names)
+            se_hat = np.sqrt(np.einsum("ij,jk,ik->i", L, self._fit.cov, L))
+            se_star = np.sqrt(np.einsum("ij,bjk,ik->bi", L, covs, L))
+            with np.errstate(divide="ignore", invalid="ignore"):
+                t = np.abs(full - q_hat) / se_star
+            q = np.quantile(t, level, axis=0)  # symmetric bootstrap-t, per quantity
+            lo, hi = q_hat - q * se_hat, q_hat + q * se_hat
+        return pd.DataFrame({"estimate": q_hat, "lo": lo, "hi": hi, "boot_se": full.std(axis=0, ddof=1)}, index=names)
 
     # -- learned state
     def to_table(self) -> pd.DataFrame:

@@ -8,6 +8,9 @@ Writes
   DIR/deviation_mag.csv  the same columns fit on magnetic heading (the frame the onboard
                          table is indexed by), when the table has `heading_mag_deg` or
                          `declination_deg`;
+  DIR/deviation_ci.csv   (and deviation_mag_ci.csv) flight-resampling bootstrap-t intervals
+                         of each aircraft's A..E and 8 table entries: aircraft, quantity,
+                         estimate, lo, hi, boot_se, level, n_boot (`--bootstrap N`, 0: none);
   DIR/figures/<aircraft>.png  heading error vs measured heading with the fit and the
                          8-point table (wind paper Figs. 3 and 8);
   DIR/report.md          what was used and rejected, the fits, criteria, the in-sample
@@ -104,7 +107,8 @@ def _markdown_table(df: pd.DataFrame) -> str:
     return "\n".join(lines)
 
 
-def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: FleetHeadingFit | None, src: str) -> str:
+def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: FleetHeadingFit | None, src: str,
+            ci: pd.DataFrame | None = None) -> str:
     gates = rows.drop_duplicates("report")["gate"].value_counts().reindex(GATE_NAMES, fill_value=0)
     table = fleet.to_table()
     out = [f"# Heading deviation fit: {src}", "",
@@ -123,6 +127,15 @@ def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: 
         out += ["## Fit on magnetic heading (deviation_mag.csv; the onboard table's index)", "",
                 _markdown_table(mt[["aircraft", "status", "n_used", "A_deg", "B_deg", "C_deg", "D_deg", "E_deg",
                                     "B_se_deg", "C_se_deg"]]), ""]
+    if ci is not None and len(ci):
+        lut = ci[ci["quantity"].str.startswith("lut_")]
+        wide = lut.assign(cell=[f"{e:+.2f} [{lo:+.2f}, {hi:+.2f}]" for e, lo, hi in zip(lut["estimate"], lut["lo"], lut["hi"])])
+        wide = wide.pivot(index="aircraft", columns="quantity", values="cell").reset_index()
+        out += [f"## Lookup tables with {ci['level'].iloc[0]:.0%} bootstrap intervals (deviation_ci.csv; "
+                f"{int(ci['n_boot'].iloc[0])} flight resamples)", "",
+                "Correction to add (deg) at each measured true heading. For an aircraft fitted on one axis the "
+                "intervals hold the along-axis curve's uncertainty only: its perpendicular part is not measured "
+                "(taken as zero).", "", _markdown_table(wide), ""]
     used = rows["gate"].to_numpy() == "used"
     ru = rows.loc[used]
     before, after = wind_errors_before_after(ru, fleet.correction(ru["aircraft"].array, ru["heading_deg"].to_numpy()))
@@ -148,9 +161,30 @@ def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: 
     return "\n".join(out)
 
 
-def heading_fit_main(obs_path: str, out_dir: str) -> int:
-    """Run the method on an observation table and write DIR/deviation.csv, figures and report.md.
-    Returns 0; bad input raises DataError (a ValueError) with one line naming file and column."""
+CI_COLUMNS = ("aircraft", "quantity", "estimate", "lo", "hi", "boot_se", "level", "n_boot")
+
+
+def bootstrap_table(fleet: FleetHeadingFit, n_boot: int, seed: int, level: float = 0.95) -> pd.DataFrame:
+    """Flight-resampling bootstrap-t intervals (HeadingDeviationFit.bootstrap) of every
+    fitted aircraft's coefficients and 8 table entries, one row per (aircraft, quantity);
+    each aircraft its own stream of `seed`, so an aircraft's intervals do not depend on the
+    others in the file."""
+    parts = []
+    for i, (name, fit) in enumerate(fleet.fits_.items()):
+        if fit.status_ == "refused":
+            continue
+        ci = fit.bootstrap(n_boot=n_boot, rng=np.random.default_rng([seed, i]), level=level)
+        parts.append(ci.rename_axis("quantity").reset_index().assign(aircraft=name, level=level, n_boot=n_boot))
+    return pd.concat(parts, ignore_index=True)[list(CI_COLUMNS)] if parts else pd.DataFrame(columns=list(CI_COLUMNS))
+
+
+def heading_fit_main(obs_path: str, out_dir: str, n_boot: int = 200, seed: int = 0) -> int:
+    """Run the method on an observation table and write DIR/deviation.csv (and
+    deviation_mag.csv), with `n_boot` > 0 the bootstrap intervals DIR/deviation_ci.csv (and
+    deviation_mag_ci.csv), figures and report.md. Returns 0; bad input raises DataError (a
+    ValueError) with one line naming file and column."""
+    if n_boot < 0 or n_boot == 1:
+        raise DataError(f"--bootstrap: expected 0 (none) or at least 2 resamples, got {n_boot}")
     out = Path(out_dir)
     if out.exists() and not out.is_dir():  # before the work
         raise DataError(f"{out}: exists and is not a folder (--out expects a folder)")
@@ -173,8 +207,18 @@ def heading_fit_main(obs_path: str, out_dir: str) -> int:
         buf = io.StringIO()
         mag.to_table().to_csv(buf, index=False)
         atomic_write_text(out / "deviation_mag.csv", buf.getvalue())
+    ci = None
+    if n_boot:
+        for fl, name in ((fleet, "deviation_ci.csv"), (mag, "deviation_mag_ci.csv")):
+            if fl is None:
+                continue
+            t = bootstrap_table(fl, n_boot, seed)
+            ci = t if fl is fleet else ci
+            buf = io.StringIO()
+            t.to_csv(buf, index=False)
+            atomic_write_text(out / name, buf.getvalue())
     ac = rows["aircraft"].to_numpy()
     for name, fit in fleet.fits_.items():
         _figure(fit, rows.loc[ac == name], "heading_deg", out / "figures" / f"{_safe_name(name)}.png")
-    atomic_write_text(out / "report.md", _report(obs, rows, fleet, mag, str(obs_path)))
+    atomic_write_text(out / "report.md", _report(obs, rows, fleet, mag, str(obs_path), ci))
     return 0
