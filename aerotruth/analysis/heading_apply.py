@@ -2,6 +2,8 @@
 wind paper's method on a user's own data — the lookup tables that `aerotruth heading fit`
 learned on one period, applied to the reports of another, as the onboard table would have
 corrected them (fit on one period, correct another; the tables are read, not refitted).
+The reports must have been made without these tables (a period before the upload, or to
+see what an upload would do): reports already corrected onboard would be corrected twice.
 
 Per (report, reference) row: the measured heading z' in the table's frame (`heading_frame`
 of the deviation file: the true measured heading, or the magnetic one from
