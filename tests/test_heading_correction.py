@@ -511,3 +511,31 @@ def test_step_noise_matches_rounding_by_monte_carlo_and_lets_a_straight_climb_th
     turn = heading_errors(track([(200.0, 120.0, 250.0), (230.0, 120.0, 250.0), (260.0, 120.0, 250.0)], 83.0))
     at_turns = turn[turn["gate"] == "collinearity"]
     assert len(at_turns) >= 2  # the two corners, 30 deg each over 10-km segments
+
+
+def test_bootstrap_leaves_out_resamples_that_cannot_be_fitted(monkeypatch):
+    """A resample whose flights cannot identify the terms raises in the fit: it is left out
+    (a few: intervals from the rest; more than a tenth: NaN intervals, no crash)."""
+    import aerotruth.analysis.heading_correction as hc
+
+    a = gen.AircraftTruth("N480XJ", A=1.0, B=2.0, C=-1.0, cruise_tas_kt=280.0)
+    fit = HeadingDeviationFit(terms="sinusoid", heading="magnetic").fit(gen.generate([a], np.random.default_rng(2), flights=12))
+    clean = fit.bootstrap(100, np.random.default_rng(0))
+    real, calls = hc.robust_fit_t, [0]
+
+    def failing_every(n):
+        def fit_or_fail(*args, **kw):
+            calls[0] += 1
+            if calls[0] % n == 0:
+                raise np.linalg.LinAlgError("singular")
+            return real(*args, **kw)
+        return fit_or_fail
+
+    monkeypatch.setattr(hc, "robust_fit_t", failing_every(25))  # 4 of 100 left out
+    few = fit.bootstrap(100, np.random.default_rng(0))
+    assert np.isfinite(few[["lo", "hi"]].to_numpy()).all()
+    assert np.allclose(few["hi"] - few["lo"], clean["hi"] - clean["lo"], rtol=0.25)
+    calls[0] = 0
+    monkeypatch.setattr(hc, "robust_fit_t", failing_every(5))  # 20 of 100: no interval
+    many = fit.bootstrap(100, np.random.default_rng(0))
+    assert many[["lo", "hi"]].isna().all().all() and np.allclose(many["estimate"], clean["estimate"])

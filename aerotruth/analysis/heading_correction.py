@@ -378,8 +378,10 @@ class HeadingDeviationFit:
         table entry lut_k = -d(z_k)). `method` "studentized" (symmetric bootstrap-t: the
         `level` quantile of |q* - q| / se*(q) with the flight-clustered covariance of each
         resample, interval q -+ that quantile x se(q)) or "percentile" (quantiles of q*;
-        measured to undercover with ~40 flights: 0.92-0.94 for a 95 % interval). Rows: the
-        terms, then lut_000_deg ... lut_315_deg; columns estimate, lo, hi, boot_se."""
+        measured to undercover with ~40 flights: 0.92-0.94 for a 95 % interval). A resample
+        whose flights cannot identify the terms (a singular fit) is left out; with more than
+        a tenth of them left out the intervals are NaN. Rows: the terms, then lut_000_deg ...
+        lut_315_deg; columns estimate, lo, hi, boot_se."""
         if self.status_ == "refused":
             raise ValueError(f"bootstrap: aircraft {self.aircraft_} was refused ({self.reason_})")
         if not 0 < level < 1:
@@ -402,21 +404,29 @@ class HeadingDeviationFit:
             pick = rng.integers(0, G, G)
             lens = ends[pick] - starts[pick]
             idx = np.repeat(starts[pick] - np.r_[0, np.cumsum(lens)[:-1]], lens) + np.arange(lens.sum())
-            if method == "percentile":
-                est[b] = huber_t(XT[:, idx], self._y[idx], self._w[idx], self.robust, self.huber_c)[0]
-                continue
-            f = robust_fit_t(XT[:, idx], self._y[idx], self._w[idx], np.repeat(np.arange(G), lens), self.robust,
-                             self.huber_c, beta0=beta)
-            est[b], covs[b] = f.beta, f.cov
+            try:
+                if method == "percentile":
+                    est[b] = huber_t(XT[:, idx], self._y[idx], self._w[idx], self.robust, self.huber_c)[0]
+                    continue
+                f = robust_fit_t(XT[:, idx], self._y[idx], self._w[idx], np.repeat(np.arange(G), lens), self.robust,
+                                 self.huber_c, beta0=beta)
+                est[b], covs[b] = f.beta, f.cov
+            except np.linalg.LinAlgError:  # a resample whose flights cannot identify the terms: left out
+                est[b], covs[b] = np.nan, np.nan
         a = (1 - level) / 2
         names = list(self.terms_) + list(LUT_COLUMNS)
         q_hat = L @ beta
         full = est @ L.T  # (n_boot, quantities)
+        ok = np.isfinite(est).all(axis=1)
+        if ok.sum() < max(2, 0.9 * n_boot):  # too many degenerate resamples: no interval
+            nan = np.full(len(names), np.nan)
+            return pd.DataFrame({"estimate": q_hat, "lo": nan, "hi": nan, "boot_se": nan}, index=names)
+        full = full[ok]
         if method == "percentile":
             lo, hi = np.quantile(full, a, axis=0), np.quantile(full, 1 - a, axis=0)
         else:
             se_hat = np.sqrt(np.einsum("ij,jk,ik->i", L, self._fit.cov, L))
-            se_star = np.sqrt(np.einsum("ij,bjk,ik->bi", L, covs, L))
+            se_star = np.sqrt(np.einsum("ij,bjk,ik->bi", L, covs[ok], L))
             with np.errstate(divide="ignore", invalid="ignore"):
                 t = np.abs(full - q_hat) / se_star
             q = np.quantile(t, level, axis=0)  # symmetric bootstrap-t, per quantity
