@@ -94,3 +94,15 @@ def test_a_bootstrap_of_one_resample_is_refused_in_one_line(tmp_path, capsys):
     assert main(["heading", "fit", str(tmp_path / "obs.csv"), "--out", str(tmp_path / "o"), "--bootstrap", "1"]) == 2
     err = capsys.readouterr().err.strip()
     assert "--bootstrap" in err and len(err.splitlines()) == 1
+
+
+def test_magnetic_tables_are_read_at_the_magnetic_heading(periods, tmp_path):
+    # deviation_mag.csv is indexed by the magnetic heading, the generator's own frame: the
+    # applied correction is minus the hidden deviation at the heading the table was read at
+    d = periods
+    heading_apply_main(str(d / "later.csv"), str(d / "fitted" / "deviation_mag.csv"), str(tmp_path / "out"))
+    rows = pd.read_csv(tmp_path / "out" / "corrected.csv", dtype={"aircraft": str})
+    truth = {a.aircraft: a for a in TRUTHS}
+    for name, g in rows[rows["corrected"]].groupby("aircraft"):
+        err = g["correction_deg"].to_numpy() + truth[name].deviation(g["table_heading_deg"].to_numpy())
+        assert np.sqrt(np.mean(err**2)) < 0.4, (name, np.sqrt(np.mean(err**2)))
