@@ -106,3 +106,10 @@ def test_magnetic_tables_are_read_at_the_magnetic_heading(periods, tmp_path):
     for name, g in rows[rows["corrected"]].groupby("aircraft"):
         err = g["correction_deg"].to_numpy() + truth[name].deviation(g["table_heading_deg"].to_numpy())
         assert np.sqrt(np.mean(err**2)) < 0.4, (name, np.sqrt(np.mean(err**2)))
+    # and the magnetic heading is the true one less the declination (east positive), row by row
+    heading_apply_main(str(d / "later.csv"), str(d / "fitted" / "deviation.csv"), str(tmp_path / "true"))
+    true_rows = pd.read_csv(tmp_path / "true" / "corrected.csv", dtype={"aircraft": str})
+    both = rows["corrected"] & true_rows["corrected"]
+    diff = (true_rows.loc[both, "table_heading_deg"] - rows.loc[both, "table_heading_deg"]
+            - rows.loc[both, "declination_deg"] + 180) % 360 - 180
+    assert both.sum() > 1000 and np.abs(diff).max() < 1e-6
