@@ -113,3 +113,13 @@ def test_magnetic_tables_are_read_at_the_magnetic_heading(periods, tmp_path):
     diff = (true_rows.loc[both, "table_heading_deg"] - rows.loc[both, "table_heading_deg"]
             - rows.loc[both, "declination_deg"] + 180) % 360 - 180
     assert both.sum() > 1000 and np.abs(diff).max() < 1e-6
+
+
+def test_reports_that_pass_no_gate_are_one_line(periods, tmp_path, capsys):
+    # every report its own aircraft: no three-report track anywhere
+    later = pd.read_csv(periods / "later.csv")
+    later.assign(aircraft=[f"X{i}" for i in range(len(later))]).to_csv(tmp_path / "scattered.csv", index=False)
+    assert main(["heading", "apply", str(tmp_path / "scattered.csv"), "--tables", str(periods / "fitted" / "deviation.csv"),
+                 "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "no report passes the ground-track gates" in err and len(err.splitlines()) == 1

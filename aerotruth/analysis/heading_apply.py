@@ -44,7 +44,7 @@ import pandas as pd
 
 from aerotruth.analysis.heading_correction import FleetHeadingFit
 from aerotruth.analysis.heading_errors import heading_errors, towards_from_report
-from aerotruth.analysis.heading_fit import EXTENSIONS, read_observation_table
+from aerotruth.analysis.heading_fit import EXTENSIONS, read_observation_table, require_used_reports
 from aerotruth.analysis.wind_metrics import wind_error_components
 from aerotruth.errors import DataError
 from aerotruth.files import atomic_write, atomic_write_text
@@ -100,6 +100,7 @@ def heading_apply(obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "obse
     """(the rows of `obs`, validated and in its order, with the correction columns; the
     per-aircraft scores, APPLY_COLUMNS). `obs` as validate_observations returns it."""
     rows = heading_errors(obs, source=source)
+    require_used_reports(rows, source)
     frame = next(iter(fleet.fits_.values())).heading if fleet.fits_ else "true"
     col = "heading_deg" if frame == "true" else "heading_mag_deg"
     z = rows[col].to_numpy()

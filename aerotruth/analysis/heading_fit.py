@@ -161,6 +161,14 @@ def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: 
     return "\n".join(out)
 
 
+def require_used_reports(rows: pd.DataFrame, source: str) -> None:
+    """DataError when no report of `heading_errors` rows passes the gates (nothing to fit or score)."""
+    if not (rows["gate"] == "used").any():
+        raise DataError(f"{source}: no report passes the ground-track gates (three adjacent reports of one flight, "
+                        "collinear and at constant speed beyond what the 0.01-deg position step can fake, <= 10 min apart): "
+                        "columns 'time', 'lat', 'lon' may not be one aircraft's sequence")
+
+
 CI_COLUMNS = ("aircraft", "quantity", "estimate", "lo", "hi", "boot_se", "level", "n_boot")
 
 
@@ -190,10 +198,7 @@ def heading_fit_main(obs_path: str, out_dir: str, n_boot: int = 200, seed: int =
         raise DataError(f"{out}: exists and is not a folder (--out expects a folder)")
     obs = read_observation_table(obs_path)
     rows = heading_errors(obs)
-    if not (rows["gate"] == "used").any():
-        raise DataError(f"{obs_path}: no report passes the ground-track gates (three adjacent reports of one flight, "
-                        "collinear and at constant speed beyond what the 0.01-deg position step can fake, <= 10 min apart): "
-                        "columns 'time', 'lat', 'lon' may not be one aircraft's sequence")
+    require_used_reports(rows, obs_path)
     fleet = FleetHeadingFit(heading="true").fit(rows)
     mag = None
     if np.isfinite(rows["heading_mag_deg"].to_numpy()).any():
