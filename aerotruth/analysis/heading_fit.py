@@ -64,7 +64,10 @@ def _safe_name(aircraft: str) -> str:
     return re.sub(r"[^A-Za-z0-9_.-]", "_", aircraft) or "aircraft"
 
 
-def _figure(fit, rows: pd.DataFrame, col: str, path: Path) -> None:
+def _figure(fit, rows: pd.DataFrame, col: str, path: Path, ci: pd.DataFrame | None = None) -> None:
+    """Heading error vs measured heading with the fit and the 8-point table (wind paper Figs.
+    3/8); with `ci` (the aircraft's rows of deviation_ci.csv) the table points carry their
+    bootstrap intervals."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -82,6 +85,11 @@ def _figure(fit, rows: pd.DataFrame, col: str, path: Path) -> None:
         ax.plot(zz, fit.deviation(zz), color="C3", lw=2, label=f"fit ({fit.status_}, terms {''.join(fit.terms_)})")
         ax.plot(np.r_[LUT_HEADINGS_DEG, 360.0], -np.r_[fit.lut_, fit.lut_[0]], "o--", color="C0", ms=5,
                 label="8-point table (minus the correction)")
+        if ci is not None and len(ci):
+            lut = ci.set_index("quantity").reindex([f"lut_{int(h):03d}_deg" for h in LUT_HEADINGS_DEG])
+            est, lo_, hi_ = -lut["estimate"].to_numpy(), -lut["hi"].to_numpy(), -lut["lo"].to_numpy()
+            ax.errorbar(LUT_HEADINGS_DEG, est, yerr=[est - lo_, hi_ - est], fmt="none", ecolor="C0", capsize=4,
+                        label=f"{ci['level'].iloc[0]:.0%} bootstrap intervals")
     ax.axhline(0, color="k", lw=0.5)
     ax.set_xlim(0, 360)
     ax.set_xticks(np.arange(0, 361, 45))
@@ -224,6 +232,7 @@ def heading_fit_main(obs_path: str, out_dir: str, n_boot: int = 200, seed: int =
             atomic_write_text(out / name, buf.getvalue())
     ac = rows["aircraft"].to_numpy()
     for name, fit in fleet.fits_.items():
-        _figure(fit, rows.loc[ac == name], "heading_deg", out / "figures" / f"{_safe_name(name)}.png")
+        mine = ci[ci["aircraft"] == name] if ci is not None else None
+        _figure(fit, rows.loc[ac == name], "heading_deg", out / "figures" / f"{_safe_name(name)}.png", mine)
     atomic_write_text(out / "report.md", _report(obs, rows, fleet, mag, str(obs_path), ci))
     return 0
