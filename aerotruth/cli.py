@@ -10,7 +10,7 @@ import sys
 from pathlib import Path
 
 import aerotruth
-from aerotruth.errors import UserError
+from aerotruth.errors import UserError, output_folder
 
 
 def _non_negative_int(text: str) -> int:
@@ -50,14 +50,6 @@ def _output_file(value: str, option: str = "--out") -> Path:
     if out.suffix and out.suffix.lower() not in (".parquet", ".pq"):
         raise UserError(f"{option}: the TruthTrack is written as Parquet: expected a .parquet file name, "
                         f"got '{out.name}'")
-    return out
-
-
-def _output_folder(value: str, option: str = "--out") -> Path:
-    """Check an output folder path before any work is done (it is made if missing)."""
-    out = Path(value)
-    if out.exists() and not out.is_dir():
-        raise UserError(f"{option}: {out} exists and is not a folder (expected a folder for the outputs)")
     return out
 
 
@@ -131,7 +123,7 @@ def _cmd_diagnose(args: argparse.Namespace) -> int:
     from aerotruth.config import load_campaign
     from aerotruth.measured import load_measured
 
-    _output_folder(args.out)
+    output_folder(args.out)
     model = load_campaign(args.model)  # the simulation the data are compared with
     measured = load_measured(args.measured)
     if measured.kind == "approach_log":

@@ -23,7 +23,7 @@ RESULT_LIBRARIES = ("jsbsim", "numpy", "scipy", "pandas", "pyarrow", "ppigrf", "
 # numbers (the resolved configuration is digested separately), so these are not followed.
 ORCHESTRATION = frozenset({
     "aerotruth.cli", "aerotruth.config", "aerotruth.sim.campaign", "aerotruth.sim.commands", "aerotruth.sim.executors",
-    "aerotruth.sim.figures", "aerotruth.sim.markdown", "aerotruth.sim.regress", "aerotruth.sim.report",
+    "aerotruth.sim.figures", "aerotruth.markdown", "aerotruth.sim.regress", "aerotruth.sim.report",
     "aerotruth.sim.store", "aerotruth.sim.worker", "aerotruth.digests",
 })
 

@@ -4,6 +4,8 @@ with status 2; no traceback. Every layer raises these; only `aerotruth.cli` prin
 
 from __future__ import annotations
 
+from pathlib import Path
+
 
 class UserError(ValueError):
     """An error in the user's input, already worded as one line naming the field or file
@@ -21,3 +23,12 @@ class RunDirError(UserError):
 class DataError(UserError):
     """A measured-data file (observation table, approach log, ...) that cannot be read as
     what it should be; the message names the file and the column."""
+
+
+def output_folder(path: str | Path, option: str = "--out") -> Path:
+    """An output folder path checked before any work (made later if missing): a file in its
+    place is one UserError naming it."""
+    out = Path(path)
+    if out.exists() and not out.is_dir():
+        raise UserError(f"{option}: {out} exists and is not a folder (expected a folder for the outputs)")
+    return out

@@ -57,13 +57,12 @@ def _decimal_commas(df: pd.DataFrame) -> pd.DataFrame:
         col = df[name]
         if name in TEXT_COLUMNS or not (col.dtype == object or pd.api.types.is_string_dtype(col)):
             continue
-        values = col.dropna().astype(str).str.strip()
-        values = values[values != ""]
+        text = col.str.strip()  # missing cells stay missing
+        values = text[text.notna() & (text != "")]
         if values.empty or not values.str.contains(",", regex=False).any():
             continue
         if values.str.fullmatch(_DECIMAL_COMMA).all():
-            df[name] = pd.to_numeric(col.astype(str).str.strip().replace("", None)
-                                     .str.replace(",", ".", regex=False), errors="raise")
+            df[name] = pd.to_numeric(text.where(text != "").str.replace(",", ".", regex=False), errors="raise")
     return df
 
 

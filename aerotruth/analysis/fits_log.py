@@ -47,7 +47,7 @@ import pandas as pd
 
 from aerotruth.analysis.fits import FitsResult, FitsSpec, fits_approach
 from aerotruth.analysis.ils_metrics import FLOOR_HORIZONTAL_M, FLOOR_VERTICAL_M, REQUIREMENTS, approach_errors, required_error_m
-from aerotruth.errors import DataError
+from aerotruth.errors import DataError, output_folder
 from aerotruth.files import atomic_write_bytes, atomic_write_text
 from aerotruth.tables import read_csv_table
 from aerotruth.units import NM
@@ -321,9 +321,7 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
     the module docstring into `out_dir`. Bad input raises DataError (a ValueError) with one
     line naming the file, approach and column."""
     spec = spec or FitsSpec()
-    p, out = Path(log_path), Path(out_dir)
-    if out.exists() and not out.is_dir():  # before the work
-        raise DataError(f"{out}: exists and is not a folder (--out expects a folder)")
+    p, out = Path(log_path), output_folder(out_dir)  # the output checked before the work
     df = read_approach_log(p)
     has_dgps = all(c in df.columns for c in DGPS) and np.isfinite(df[list(DGPS)].to_numpy()).any()
     geoms, geom_src = runway_geometry(p)

@@ -35,8 +35,6 @@ Writes
 
 from __future__ import annotations
 
-import io
-import math
 from pathlib import Path
 
 import numpy as np
@@ -45,9 +43,10 @@ import pandas as pd
 from aerotruth.analysis.heading_correction import FleetHeadingFit
 from aerotruth.analysis.heading_errors import heading_errors, towards_from_report
 from aerotruth.analysis.heading_fit import EXTENSIONS, read_observation_table, require_used_reports
-from aerotruth.analysis.wind_metrics import wind_error_components
-from aerotruth.errors import DataError
+from aerotruth.analysis.wind_metrics import heading_turn, wind_errors_before_after
+from aerotruth.errors import DataError, output_folder
 from aerotruth.files import atomic_write, atomic_write_text
+from aerotruth.markdown import to_markdown
 from aerotruth.tables import read_csv_table
 from aerotruth.units import DEG, KT
 
@@ -68,8 +67,9 @@ def read_tables(path: str | Path) -> FleetHeadingFit:
         raise DataError(f"{path}: not a readable table ({str(e).splitlines()[0]})") from None
     if len(table) == 0:
         raise DataError(f"{path}: no rows")
-    if table["aircraft"].duplicated().any() if "aircraft" in table.columns else False:
-        raise DataError(f"{path}: aircraft {table.loc[table['aircraft'].duplicated(), 'aircraft'].iloc[0]!r} has two tables")
+    twice = table["aircraft"][table["aircraft"].duplicated()] if "aircraft" in table.columns else []
+    if len(twice):
+        raise DataError(f"{path}: aircraft {twice.iloc[0]!r} has two tables")
     try:
         fleet = FleetHeadingFit.from_table(table)
     except (ValueError, KeyError, TypeError) as e:
@@ -85,9 +85,8 @@ def corrected_wind(wt_e: np.ndarray, wt_n: np.ndarray, va_e: np.ndarray, va_n: n
     """The wind (towards east, north; the units of the inputs) recomputed with the heading
     turned clockwise by c: V_W' = V_W + V_A - R(c) V_A (wind paper eq. 1)."""
     c = np.asarray(correction_deg, dtype=float) * DEG
-    s, co = np.sin(c), np.cos(c)
-    # R(c) turns (E, N) clockwise: (E cos c + N sin c, N cos c - E sin c)
-    return wt_e + va_e - (va_e * co + va_n * s), wt_n + va_n - (va_n * co - va_e * s)
+    e, n = heading_turn(va_e, va_n, np.sin(c), np.cos(c))
+    return wt_e + e, wt_n + n
 
 
 def _speed_from(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -126,15 +125,14 @@ def heading_apply(obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "obse
                         "table_heading_deg": np.where(ok, z, np.nan), "correction_deg": corr,
                         "wind_speed_kt_corrected": np.where(ok, speed, obs["wind_speed_kt"].to_numpy()),
                         "wind_dir_deg_corrected": np.where(ok, direction, obs["wind_dir_deg"].to_numpy())})
-    # scores on the reports the method uses: wind error against the reference, before and after
-    wr_e, wr_n = towards_from_report(obs["ref_wind_speed_kt"].to_numpy(), obs["ref_wind_dir_deg"].to_numpy())
-    axis = rows["heading_deg"].to_numpy()
+    # scores on the reports the method uses: wind error against the reference, before and
+    # after (the method's rows with this V_A)
+    scored = rows[["heading_deg", "dw_e", "dw_n"]].assign(va_e=va_e, va_n=va_n)
     scores = []
     groups = [(str(a), used & (names == a)) for a in pd.unique(names)] + [("all", used)]
     for name, sel in groups:
         fit = fleet.fits_.get(name)
-        b = wind_error_components(wt_e[sel] - wr_e[sel], wt_n[sel] - wr_n[sel], axis[sel])
-        a = wind_error_components(we[sel] - wr_e[sel], wn[sel] - wr_n[sel], (axis[sel] + corr[sel]) % 360.0)
+        b, a = wind_errors_before_after(scored[sel], corr[sel])
         t = obs["time_s"].to_numpy()[sel]
         in_sample = ""
         if fit is not None and len(t):
@@ -173,14 +171,10 @@ def _figure(scores: pd.DataFrame, path: Path) -> None:
 
 
 def _report(src: str, tables: str, frame: str, scores: pd.DataFrame, out: pd.DataFrame) -> str:
-    fmt = lambda v: f"{v:.2f}" if isinstance(v, float) and math.isfinite(v) else ("" if isinstance(v, float) else str(v))  # noqa: E731
     lines = [f"# Heading tables applied: {src}", "",
              f"Tables: `{tables}` (indexed by {frame} heading). {int(out['corrected'].sum())} of {len(out)} (report, "
              f"reference) rows corrected; {int((out['gate'] != 'used').sum())} outside the method's gates and left as "
-             "reported.", "",
-             "| " + " | ".join(APPLY_COLUMNS) + " |", "|" + "---|" * len(APPLY_COLUMNS)]
-    lines += ["| " + " | ".join(fmt(v) for v in r) + " |" for r in scores.itertuples(index=False)]
-    lines += ["", "![before/after per aircraft](figures/apply.png)", ""]
+             "reported.", "", to_markdown(scores), "", "![before/after per aircraft](figures/apply.png)", ""]
     if (scores["in_sample"] == True).any():  # noqa: E712 - object column of bools and ""
         lines += ["In sample: these reports' dates overlap the dates the tables were fitted on; the after column "
                   "then flatters the tables. Judge them on a later period, with a control group of aircraft "
@@ -191,9 +185,7 @@ def _report(src: str, tables: str, frame: str, scores: pd.DataFrame, out: pd.Dat
 def heading_apply_main(obs_path: str, tables_path: str, out_dir: str) -> int:
     """Apply the tables to an observation table and write DIR/corrected.*, apply.csv, the
     figure and report.md. Returns 0; bad input raises DataError with one line."""
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():  # before the work
-        raise DataError(f"{out}: exists and is not a folder (--out expects a folder)")
+    out = output_folder(out_dir)  # before the work
     fleet = read_tables(tables_path)
     obs = read_observation_table(obs_path)
     corrected, scores = heading_apply(obs, fleet, str(obs_path))
@@ -201,14 +193,10 @@ def heading_apply_main(obs_path: str, tables_path: str, out_dir: str) -> int:
     raw = obs.drop(columns=["time_s"]).assign(time=obs["time_s"].to_numpy())
     table = pd.concat([raw.reset_index(drop=True), corrected], axis=1)
     if EXTENSIONS[Path(obs_path).suffix.lower()] == "csv":
-        buf = io.StringIO()
-        table.to_csv(buf, index=False)
-        atomic_write_text(out / "corrected.csv", buf.getvalue())
+        atomic_write_text(out / "corrected.csv", table.to_csv(index=False))
     else:
         atomic_write(out / "corrected.parquet", lambda tmp: table.to_parquet(tmp, index=False))
-    buf = io.StringIO()
-    scores.to_csv(buf, index=False)
-    atomic_write_text(out / "apply.csv", buf.getvalue())
+    atomic_write_text(out / "apply.csv", scores.to_csv(index=False))
     _figure(scores, out / "figures" / "apply.png")
     frame = next(iter(fleet.fits_.values())).heading if fleet.fits_ else "true"
     atomic_write_text(out / "report.md", _report(str(obs_path), str(tables_path), frame, scores, corrected))

@@ -19,19 +19,19 @@ Writes
 
 from __future__ import annotations
 
-import io
 import re
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
 
-from aerotruth.analysis.heading_correction import LUT_HEADINGS_DEG, FleetHeadingFit, TABLE_COLUMNS
+from aerotruth.analysis.heading_correction import LUT_HEADINGS_DEG, FleetHeadingFit
 from aerotruth.analysis.heading_errors import GATE_NAMES, heading_errors
 from aerotruth.analysis.observations import validate_observations
 from aerotruth.analysis.wind_metrics import wind_errors_before_after
-from aerotruth.errors import DataError
+from aerotruth.errors import DataError, output_folder
 from aerotruth.files import atomic_write, atomic_write_text
+from aerotruth.markdown import to_markdown
 from aerotruth.tables import read_csv_table
 
 EXTENSIONS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
@@ -107,14 +107,6 @@ def _figure(fit, rows: pd.DataFrame, col: str, path: Path, ci: pd.DataFrame | No
     plt.close(fig)
 
 
-def _markdown_table(df: pd.DataFrame) -> str:
-    cols = list(df.columns)
-    lines = ["| " + " | ".join(cols) + " |", "|" + "---|" * len(cols)]
-    for _, r in df.iterrows():
-        lines.append("| " + " | ".join(f"{v:.3f}" if isinstance(v, float) else str(v) for v in r.to_numpy()) + " |")
-    return "\n".join(lines)
-
-
 def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: FleetHeadingFit | None, src: str,
             ci: pd.DataFrame | None = None) -> str:
     gates = rows.drop_duplicates("report")["gate"].value_counts().reindex(GATE_NAMES, fill_value=0)
@@ -127,13 +119,13 @@ def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: 
            "## Reports through the three-report ground-track gates (wind paper 5.1)", "",
            "| gate | reports |", "|---|---|", *[f"| {g} | {int(n)} |" for g, n in gates.items()], "",
            "## Fit on true heading (deviation.csv)", "",
-           _markdown_table(table[["aircraft", "status", "n_used", "A_deg", "B_deg", "C_deg", "D_deg", "E_deg",
+           to_markdown(table[["aircraft", "status", "n_used", "A_deg", "B_deg", "C_deg", "D_deg", "E_deg",
                                   "A_se_deg", "B_se_deg", "C_se_deg"]]), "",
            "Reasons:", "", *[f"* {r.aircraft}: {r.reason}" for r in table.itertuples()], ""]
     if mag is not None:
         mt = mag.to_table()
         out += ["## Fit on magnetic heading (deviation_mag.csv; the onboard table's index)", "",
-                _markdown_table(mt[["aircraft", "status", "n_used", "A_deg", "B_deg", "C_deg", "D_deg", "E_deg",
+                to_markdown(mt[["aircraft", "status", "n_used", "A_deg", "B_deg", "C_deg", "D_deg", "E_deg",
                                     "B_se_deg", "C_se_deg"]]), ""]
     if ci is not None and len(ci):
         lut = ci[ci["quantity"].str.startswith("lut_")]
@@ -143,7 +135,7 @@ def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: 
                 f"{int(ci['n_boot'].iloc[0])} flight resamples)", "",
                 "Correction to add (deg) at each measured true heading. For an aircraft fitted on one axis the "
                 "intervals hold the along-axis curve's uncertainty only: its perpendicular part is not measured "
-                "(taken as zero).", "", _markdown_table(wide), ""]
+                "(taken as zero).", "", to_markdown(wide), ""]
     used = rows["gate"].to_numpy() == "used"
     ru = rows.loc[used]
     before, after = wind_errors_before_after(ru, fleet.correction(ru["aircraft"].array, ru["heading_deg"].to_numpy()))
@@ -201,9 +193,7 @@ def heading_fit_main(obs_path: str, out_dir: str, n_boot: int = 200, seed: int =
     ValueError) with one line naming file and column."""
     if n_boot < 0 or n_boot == 1:
         raise DataError(f"--bootstrap: expected 0 (none) or at least 2 resamples, got {n_boot}")
-    out = Path(out_dir)
-    if out.exists() and not out.is_dir():  # before the work
-        raise DataError(f"{out}: exists and is not a folder (--out expects a folder)")
+    out = output_folder(out_dir)  # before the work
     obs = read_observation_table(obs_path)
     rows = heading_errors(obs)
     require_used_reports(rows, obs_path)
@@ -212,24 +202,15 @@ def heading_fit_main(obs_path: str, out_dir: str, n_boot: int = 200, seed: int =
     if np.isfinite(rows["heading_mag_deg"].to_numpy()).any():
         mag = FleetHeadingFit(heading="magnetic").fit(rows)
     (out / "figures").mkdir(parents=True, exist_ok=True)
-    table = fleet.to_table()[list(TABLE_COLUMNS) + [c for c in fleet.to_table().columns if c not in TABLE_COLUMNS]]
-    buf = io.StringIO()
-    table.to_csv(buf, index=False)
-    atomic_write_text(out / "deviation.csv", buf.getvalue())
-    if mag is not None:
-        buf = io.StringIO()
-        mag.to_table().to_csv(buf, index=False)
-        atomic_write_text(out / "deviation_mag.csv", buf.getvalue())
     ci = None
-    if n_boot:
-        for fl, name in ((fleet, "deviation_ci.csv"), (mag, "deviation_mag_ci.csv")):
-            if fl is None:
-                continue
+    for fl, stem in ((fleet, "deviation"), (mag, "deviation_mag")):
+        if fl is None:
+            continue
+        atomic_write_text(out / f"{stem}.csv", fl.to_table().to_csv(index=False))  # TABLE_COLUMNS first
+        if n_boot:
             t = bootstrap_table(fl, n_boot, seed)
+            atomic_write_text(out / f"{stem}_ci.csv", t.to_csv(index=False))
             ci = t if fl is fleet else ci
-            buf = io.StringIO()
-            t.to_csv(buf, index=False)
-            atomic_write_text(out / name, buf.getvalue())
     ac = rows["aircraft"].to_numpy()
     for name, fit in fleet.fits_.items():
         mine = ci[ci["aircraft"] == name] if ci is not None else None

@@ -215,15 +215,22 @@ def corrected_wind_error(rows: pd.DataFrame, correction_deg: np.ndarray) -> tupl
     return _rotated_error(rows, *sin_cos(c))
 
 
-def _rotated_error(rows: pd.DataFrame, sc: np.ndarray, cc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    va_e, va_n = rows["va_e"].to_numpy(), rows["va_n"].to_numpy()
-    # rotating a heading clockwise by c: (E, N) -> (E cos c + N sin c, N cos c - E sin c);
-    # V_A - R(c) V_A = (E (1 - cos c) - N sin c, N (1 - cos c) + E sin c)
+def heading_turn(va_e: np.ndarray, va_n: np.ndarray, sc: np.ndarray, cc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """V_A - R(c) V_A: what the wind of eq. 1 gains when the heading is turned clockwise by
+    c (sine sc, cosine cc). Rotating clockwise by c: (E, N) -> (E cos c + N sin c,
+    N cos c - E sin c), so V_A - R(c) V_A = (E (1 - cos c) - N sin c, N (1 - cos c) + E sin c)."""
     one_c = 1.0 - cc
-    e = rows["dw_e"].to_numpy() + va_e * one_c
+    e = va_e * one_c
     e -= va_n * sc
-    n = rows["dw_n"].to_numpy() + va_n * one_c
+    n = va_n * one_c
     n += va_e * sc
+    return e, n
+
+
+def _rotated_error(rows: pd.DataFrame, sc: np.ndarray, cc: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    e, n = heading_turn(rows["va_e"].to_numpy(), rows["va_n"].to_numpy(), sc, cc)
+    e += rows["dw_e"].to_numpy()
+    n += rows["dw_n"].to_numpy()
     return e, n
 
 

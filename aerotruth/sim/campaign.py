@@ -28,10 +28,10 @@ import pandas as pd
 
 from aerotruth.config import Campaign, ConfigError
 from aerotruth.digests import code_digest
-from aerotruth.errors import RunDirError, UserError
+from aerotruth.errors import RunDirError, UserError, output_folder
 from aerotruth.seeds import generator, named_sequence
 from aerotruth.sim.executors import ExecutorChoice, open_executor
-from aerotruth.sim.markdown import to_markdown
+from aerotruth.markdown import to_markdown
 from aerotruth.sim.store import RunStore
 from aerotruth.sim.studies import Registry, Study, campaign_registry
 from aerotruth.sim.tasks import Task
@@ -285,9 +285,7 @@ def run_campaign(campaign: Campaign, choice: ExecutorChoice, *, out: str | Path 
 
     log = log or (lambda msg: print(msg, file=sys.stderr))
     t0 = time.monotonic()
-    store = RunStore(out if out is not None else default_run_dir(campaign))
-    if store.root.exists() and not store.root.is_dir():  # before any work
-        raise RunDirError(f"--out: {store.root} exists and is not a folder (expected the run directory)")
+    store = RunStore(output_folder(out if out is not None else default_run_dir(campaign)))
     reg = campaign_registry(campaign)
     tasks = expand(campaign, reg)
     truth = TruthStore(campaign.truth_store.path)

@@ -117,7 +117,7 @@ def compare(metrics: dict[str, Any], baseline: dict[str, tuple[float | None, flo
 
 def format_checks(checks: list[Check], only_failures: bool = True) -> str:
     """A plain-text table of the checks (the moved ones only, by default)."""
-    from aerotruth.sim.markdown import format_value
+    from aerotruth.markdown import format_value
 
     rows = [c for c in checks if not (only_failures and c.ok)]
     head = ("metric", "baseline", "got", "diff", "tolerance", "status")

@@ -9,7 +9,7 @@ import pandas as pd
 
 from aerotruth.files import atomic_write_text
 from aerotruth.sim.figures import make_figures
-from aerotruth.sim.markdown import to_markdown
+from aerotruth.markdown import to_markdown
 from aerotruth.sim.store import RunStore
 from aerotruth.sim.studies import campaign_registry
 
