@@ -137,7 +137,7 @@ def main() -> None:
         figure(t, a.figure, title=str(rows["source"].iloc[0]) if "source" in rows else "")
     if a.markdown:
         cols = ["group", "period", "component", "role", "paper_kt", "mean_kt", "sd_kt", "se_kt", "difference_kt", "verdict"]
-        from aerotruth.sim.markdown import to_markdown
+        from aerotruth.markdown import to_markdown
 
         print(to_markdown(t[cols].round(2)))
 
