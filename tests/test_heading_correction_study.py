@@ -69,6 +69,32 @@ def test_fit_selects_by_before_rms_and_learns_each_aircrafts_table():
         assert np.max(np.abs(lut + a.deviation(z))) < 0.6
 
 
+def test_selection_by_transverse_ranks_the_heading_not_the_airspeed():
+    # N2 reads TAS 6 % high (~17 kt along track at 280 kt) with a true heading system; N3 has a
+    # 3-deg sinusoid (~15 kt across track). By total RMS N2 is the worst; by the transverse
+    # component (the heading's share, wind paper section 6) N3 is, and N2 sits with N1 (clean).
+    rng = np.random.default_rng(11)
+    truths = [gen.AircraftTruth("N1", 0.0, 0.0, 0.0), gen.AircraftTruth("N2", 0.0, 0.0, 0.0, tas_scale=0.06),
+              gen.AircraftTruth("N3", 0.0, 3.0, 0.0)]
+    fit = gen.generate(truths, rng, flights=20)
+    before = gen.generate(truths, rng, flights=10, t_start=1_250_294_400.0)
+    common = {"fleet": "f", "heading_input": "magnetic", "heading_class": "x", "trigger": "pressure"}
+    rows = pd.concat([fit.assign(stage="fit", **common), before.assign(stage="before", **common)], ignore_index=True)
+    rows.insert(0, "task_id", "t")
+    by_total = STUDY.fit("corrections", rows, _section(poor=1, control=1), np.random.default_rng(0)).set_index("aircraft")
+    assert by_total["before_rms_kt"].idxmax() == "N2"
+    assert list(by_total.index[by_total["group"] == "poor"]) == ["N2"]
+    section = _section(poor=1, control=1)
+    section = section.model_copy(update={"selection": section.selection.model_copy(update={"by": "transverse"})})
+    by_transverse = STUDY.fit("corrections", rows, section, np.random.default_rng(0)).set_index("aircraft")
+    assert list(by_transverse.index[by_transverse["group"] == "poor"]) == ["N3"]
+    assert by_transverse.loc["N2", "before_transverse_rms_kt"] < 0.6 * by_transverse.loc["N3", "before_transverse_rms_kt"]
+    assert list(by_transverse.index[by_transverse["group"] == "control"]) != ["N3"]
+    with pytest.raises(Exception, match="total|transverse"):
+        HeadingCorrectionConfig(fleets=["f"], periods={"fit": "a", "before": "b", "after": "c"},
+                                selection={"poor": 1, "control": 1, "by": "longitudinal"})
+
+
 def test_what_is_uploaded():
     lut = {f"lut_{h:03d}_deg": float(h) / 100 for h in range(0, 360, 45)}
     table = pd.DataFrame([

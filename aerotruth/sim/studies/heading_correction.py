@@ -11,8 +11,9 @@ every period because its sensor streams are named by the aircraft, not the day):
 * learned `corrections` (fitted once both are done, stored in RUN_DIR/learned): per
   aircraft the deviation fit of `aerotruth.analysis.heading_correction` on the fit
   period (true heading, the paper's choice, or magnetic: `fit_heading`), its before-period
-  RMS vector difference against the combined references, and its group: the `poor`
-  aircraft with the largest before RMS, the `control` aircraft with the smallest
+  RMS vector difference against the combined references (total and transverse), and its
+  group: the `poor` aircraft with the largest before RMS, the `control` aircraft with the
+  smallest (`selection.by`: the total RMS, or its transverse component)
   (selection by the noisy before RMS itself, so regression to the mean is part of the
   result), `other` for the rest;
 * `after`  — reports of the after period; poor aircraft carry their uploaded table:
@@ -68,10 +69,16 @@ class PeriodRoles(Section):
 
 
 class Selection(Section):
-    """How many aircraft get tables (largest before RMS) and how many are controls (smallest)."""
+    """How many aircraft get tables (largest before RMS) and how many are controls (smallest),
+    ranked by which before-period RMS (`by`)."""
 
     poor: StrictInt = Field(ge=1, description="aircraft with the largest before-period RMS get tables")
     control: StrictInt = Field(ge=1, description="aircraft with the smallest before-period RMS are the control group")
+    by: Literal["total", "transverse"] = Field(
+        "total", description="rank by the total RMS vector difference (wind quality: 'chosen for their poorer wind "
+                             "quality', wind paper section 8.2) or by its transverse component, the heading's "
+                             "share ('poorly performing heading systems', Tables I-IV; section 6: transverse "
+                             "errors suggest inaccurate heading, longitudinal inaccurate TAS)")
 
 
 class PaperCell(Section):
@@ -145,8 +152,8 @@ def per_aircraft_rms(obs: pd.DataFrame) -> pd.DataFrame:
     from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
 
     if obs.empty:
-        return pd.DataFrame(columns=["aircraft", "n", "rms_kt"])
-    return wind_error_summary(wind_errors(obs), by=["aircraft"])[["aircraft", "n", "rms_kt"]]
+        return pd.DataFrame(columns=["aircraft", "n", "rms_kt", "transverse_rms_kt"])
+    return wind_error_summary(wind_errors(obs), by=["aircraft"])[["aircraft", "n", "rms_kt", "transverse_rms_kt"]]
 
 
 class HeadingCorrection(Study):
@@ -199,11 +206,13 @@ class HeadingCorrection(Study):
         before = unbanked(reported(rows[rows["stage"] == "before"]), section.max_roll_deg)
         table = FleetHeadingFit(heading=section.fit_heading, gates=section.gates()).fit(
             fit_obs, source="fit-period reports").to_table()
-        rms = per_aircraft_rms(before).rename(columns={"n": "before_n", "rms_kt": "before_rms_kt"})
+        rms = per_aircraft_rms(before).rename(columns={"n": "before_n", "rms_kt": "before_rms_kt",
+                                                       "transverse_rms_kt": "before_transverse_rms_kt"})
         info = fit_obs.drop_duplicates("aircraft")[["aircraft", "fleet", "heading_input", "heading_class"]]
         out = info.merge(rms, on="aircraft", how="left").merge(table, on="aircraft", how="left")
         out["aircraft"] = out["aircraft"].astype(str)
-        have = (out.dropna(subset=["before_rms_kt"]).sort_values(["before_rms_kt", "aircraft"], ascending=[False, True])
+        rank = {"total": "before_rms_kt", "transverse": "before_transverse_rms_kt"}[section.selection.by]
+        have = (out.dropna(subset=[rank]).sort_values([rank, "aircraft"], ascending=[False, True])
                 ["aircraft"].tolist())  # worst first; aircraft without before-period reports are never selected
         poor = set(have[:section.selection.poor])
         control = set(have[::-1][:section.selection.control]) - poor
