@@ -16,7 +16,9 @@ stopped and resumed. Sensor-only variants re-use the flown truth from the truth 
 
 `--set PATH=VALUE`: PATH dotted through the YAML's mappings (a list item by its index, or
 by the value of its `name:`), VALUE parsed as YAML (`620`, `2003-01-01`, `[a, b]`). The
-path must already exist, so a misspelt key is an error, not a silently added one.
+path must already exist, so a misspelt key is an error, not a silently added one; and a
+path that the chosen size's block sets itself is an error too (the size, merged over the
+campaign when it runs, would undo the change).
 `--baseline-tag T`: also print the paired differences against the runs OUT/T-<seed>
 (the same seeds; see paper_tables.py --baseline).
 `--truth-max-gb N`: the truth store's size cap for these runs (`truth_store.max_gb`,
@@ -81,6 +83,26 @@ def apply_set(doc: dict, assignment: str) -> None:
             sys.exit(f"--set {path}: {'.'.join(keys[:i])!r} is a value, not a mapping or list")
 
 
+def check_not_shadowed(doc: dict, assignment: str, size: str) -> None:
+    """Exit if the size block `sizes.<size>` itself sets what `PATH=VALUE` changes: the size
+    is merged over the campaign when it runs (mappings key by key, lists and values
+    replaced), so the change would be silently undone. Paths under `sizes.` are left alone."""
+    path = assignment.partition("=")[0]
+    keys = path.split(".")
+    if size == "full" or keys[0] == "sizes":
+        return
+    node = (doc.get("sizes") or {}).get(size)
+    for i, key in enumerate(keys):
+        if not isinstance(node, dict) or key not in node:
+            return
+        node = node[key]
+        if i == len(keys) - 1 or not isinstance(node, dict):
+            where = ".".join(["sizes", size, *keys[: i + 1]])
+            sys.exit(f"--set {path}: the size {size!r} sets {where} itself, which would undo this change when the "
+                     f"size is merged in; set {where}{'.' + '.'.join(keys[i + 1:]) if i < len(keys) - 1 else ''} "
+                     "instead (or as well)")
+
+
 def with_truth_cap(doc: dict, max_gb: float | None) -> None:
     """Set the campaign's truth-store cap (GB) in place; None leaves it as it is."""
     if max_gb is None:
@@ -113,6 +135,7 @@ def main() -> None:
     if not isinstance(doc, dict) or "seed" not in doc:
         sys.exit(f"{src}: expected a campaign mapping with a `seed:`")
     for s in a.set:
+        check_not_shadowed(doc, s, a.size)
         apply_set(doc, s)
     with_truth_cap(doc, a.truth_max_gb)
     seeds = parse_seeds(a.seeds)

@@ -58,3 +58,26 @@ def test_the_truth_cap_reaches_the_campaign_and_keeps_the_stores_path(tmp_path):
     assert doc["truth_store"]["max_gb"] == 60
     with pytest.raises(SystemExit, match="truth-max-gb"):
         seed_runs.with_truth_cap(doc, 0)
+
+
+def test_a_set_that_the_size_block_would_undo_is_an_error_naming_the_size_path():
+    doc = yaml.safe_load((ROOT / "campaigns/penair_2010.yaml").read_text())
+    # sizes.reduced restates the selection's counts and replaces the periods list
+    with pytest.raises(SystemExit, match=r"sizes\.reduced\.studies\.heading_correction\.selection\.poor"):
+        seed_runs.check_not_shadowed(doc, "studies.heading_correction.selection.poor=5", "reduced")
+    with pytest.raises(SystemExit, match=r"sizes\.reduced\.periods"):
+        seed_runs.check_not_shadowed(doc, "periods.fit.every_days=5", "reduced")
+    # keys the size does not restate pass, as does any set at the full size or inside sizes
+    seed_runs.check_not_shadowed(doc, "studies.heading_correction.selection.by=transverse", "reduced")
+    seed_runs.check_not_shadowed(doc, "studies.heading_correction.sensors.fleets.penair.heading.poor_count=4",
+                                 "reduced")
+    seed_runs.check_not_shadowed(doc, "periods.fit.every_days=5", "full")
+    seed_runs.check_not_shadowed(doc, "sizes.reduced.periods.0.every_days=20", "reduced")
+    # and what the check lets through does reach the reduced campaign
+    seed_runs.apply_set(doc, "studies.heading_correction.selection.by=total")
+    doc["seed"] = 1
+    path = ROOT / "campaigns" / "penair_2010.yaml"
+    text = yaml.safe_dump(doc, sort_keys=False)
+    from aerotruth.config import parse_campaign
+    c = parse_campaign(text, base_dir=path.parent, size="reduced")
+    assert c.section("heading_correction").selection.by == "total"
