@@ -16,6 +16,7 @@ from scipy import sparse, stats
 
 from aerotruth.analysis.diagnose_wind_data import WindData
 from aerotruth.analysis.heading_correction import heading_spread
+from aerotruth.analysis.least_squares import ols
 from aerotruth.config import Section
 from aerotruth.errors import ConfigError
 from aerotruth.units import DEG, KT
@@ -307,13 +308,13 @@ def solve(blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.nda
     Xr, yr = X[r], y[r]
     live = np.any(Xr != 0, axis=0)
     beta = np.zeros(X.shape[1])
-    sol, *_ = np.linalg.lstsq(Xr[:, live], yr, rcond=None)
+    Xl = Xr[:, live]
+    sol, xtx = ols(Xl, yr)
     beta[live] = sol
     resid = y - X @ beta
     cov = np.full((X.shape[1], X.shape[1]), np.nan)
     if with_cov:
-        Xl = Xr[:, live]
-        bread = np.linalg.pinv(Xl.T @ Xl)
+        bread = np.linalg.pinv(xtx)
         g = clusters[r]
         uniq, inv = np.unique(g, return_inverse=True)
         G = len(uniq)

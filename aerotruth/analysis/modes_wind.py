@@ -38,6 +38,7 @@ import numpy as np
 import pandas as pd
 from scipy.interpolate import BSpline
 
+from aerotruth.analysis.least_squares import ols
 from aerotruth.units import KT
 
 EFFECT_COLUMNS = {
@@ -216,11 +217,7 @@ def _fit_linear(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], ro
     if rows is not None:
         sel = np.r_[rows, rows]
         X, y = X[sel], y[sel]
-    xtx = X.T @ X  # the normal matrix serves the solution and the covariance
-    if np.linalg.cond(xtx) < 1e12:  # well posed: the normal equations (3x faster than an SVD solve here)
-        coef = np.linalg.solve(xtx, X.T @ y)
-    else:  # near rank deficiency: the minimum-norm least-squares solution
-        coef, *_ = np.linalg.lstsq(X, y, rcond=None)
+    coef, xtx = ols(X, y)
     res = y - X @ coef
     dof = max(len(y) - X.shape[1], 1)
     s2 = float(res @ res / dof)
