@@ -97,10 +97,8 @@ def check_not_shadowed(doc: dict, assignment: str, size: str) -> None:
             return
         node = node[key]
         if i == len(keys) - 1 or not isinstance(node, dict):
-            where = ".".join(["sizes", size, *keys[: i + 1]])
-            sys.exit(f"--set {path}: the size {size!r} sets {where} itself, which would undo this change when the "
-                     f"size is merged in; set {where}{'.' + '.'.join(keys[i + 1:]) if i < len(keys) - 1 else ''} "
-                     "instead (or as well)")
+            sys.exit(f"--set {path}: the size {size!r} sets {'.'.join(['sizes', size, *keys[:i + 1]])} itself, which "
+                     f"would undo this change when the size is merged in; set sizes.{size}.{path} instead (or as well)")
 
 
 def with_truth_cap(doc: dict, max_gb: float | None) -> None:

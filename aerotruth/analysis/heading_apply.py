@@ -80,6 +80,11 @@ def read_tables(path: str | Path) -> FleetHeadingFit:
     return fleet
 
 
+def table_frame(fleet: FleetHeadingFit) -> str:
+    """The heading the tables are indexed by ("true" or "magnetic"; one per file, read_tables)."""
+    return next(iter(fleet.fits_.values())).heading if fleet.fits_ else "true"
+
+
 def corrected_wind(wt_e: np.ndarray, wt_n: np.ndarray, va_e: np.ndarray, va_n: np.ndarray,
                    correction_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """The wind (towards east, north; the units of the inputs) recomputed with the heading
@@ -100,7 +105,7 @@ def heading_apply(obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "obse
     per-aircraft scores, APPLY_COLUMNS). `obs` as validate_observations returns it."""
     rows = heading_errors(obs, source=source)
     require_used_reports(rows, source)
-    frame = next(iter(fleet.fits_.values())).heading if fleet.fits_ else "true"
+    frame = table_frame(fleet)
     col = "heading_deg" if frame == "true" else "heading_mag_deg"
     z = rows[col].to_numpy()
     used = (rows["gate"] == "used").to_numpy()
@@ -198,6 +203,5 @@ def heading_apply_main(obs_path: str, tables_path: str, out_dir: str) -> int:
         atomic_write(out / "corrected.parquet", lambda tmp: table.to_parquet(tmp, index=False))
     atomic_write_text(out / "apply.csv", scores.to_csv(index=False))
     _figure(scores, out / "figures" / "apply.png")
-    frame = next(iter(fleet.fits_.values())).heading if fleet.fits_ else "true"
-    atomic_write_text(out / "report.md", _report(str(obs_path), str(tables_path), frame, scores, corrected))
+    atomic_write_text(out / "report.md", _report(str(obs_path), str(tables_path), table_frame(fleet), scores, corrected))
     return 0

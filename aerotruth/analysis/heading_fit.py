@@ -120,13 +120,13 @@ def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: 
            "| gate | reports |", "|---|---|", *[f"| {g} | {int(n)} |" for g, n in gates.items()], "",
            "## Fit on true heading (deviation.csv)", "",
            to_markdown(table[["aircraft", "status", "n_used", "A_deg", "B_deg", "C_deg", "D_deg", "E_deg",
-                                  "A_se_deg", "B_se_deg", "C_se_deg"]]), "",
+                              "A_se_deg", "B_se_deg", "C_se_deg"]]), "",
            "Reasons:", "", *[f"* {r.aircraft}: {r.reason}" for r in table.itertuples()], ""]
     if mag is not None:
         mt = mag.to_table()
         out += ["## Fit on magnetic heading (deviation_mag.csv; the onboard table's index)", "",
                 to_markdown(mt[["aircraft", "status", "n_used", "A_deg", "B_deg", "C_deg", "D_deg", "E_deg",
-                                    "B_se_deg", "C_se_deg"]]), ""]
+                                "B_se_deg", "C_se_deg"]]), ""]
     if ci is not None and len(ci):
         lut = ci[ci["quantity"].str.startswith("lut_")]
         wide = lut.assign(cell=[f"{e:+.2f} [{lo:+.2f}, {hi:+.2f}]" for e, lo, hi in zip(lut["estimate"], lut["lo"], lut["hi"])])

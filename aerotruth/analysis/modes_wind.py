@@ -241,7 +241,7 @@ def predict_rms(track: pd.DataFrame, fitted: dict, knot_s: float, effects: tuple
     eff = [i for i, n in enumerate(names) if not n.startswith("wind_")]
     y_adj = y - (X[:, eff] @ fitted["coef"][:X.shape[1]][eff] if eff else 0.0)
     wind = [i for i, n in enumerate(names) if n.startswith("wind_")]
-    coef, *_ = np.linalg.lstsq(X[:, wind], y_adj, rcond=None)
+    coef, _ = ols(X[:, wind], y_adj)
     res = y_adj - X[:, wind] @ coef
     return float(np.sqrt(np.mean(res**2)))
 
