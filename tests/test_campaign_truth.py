@@ -71,6 +71,29 @@ def test_two_workers_give_identical_truth_metrics(fixed_run, tmp_path):
     assert (tmp_path / "r2" / "metrics.json").read_bytes() == (fixed_run / "metrics.json").read_bytes()
 
 
+def test_the_run_counts_the_legs_it_flew_not_what_another_campaign_adds_to_the_store_log(monkeypatch, tmp_path):
+    """A campaign running beside this one appends its own flights to the shared store's
+    flown.log; the summary counts only this run's."""
+    import json
+
+    text = FIXED + f"truth_store: {{path: {tmp_path / 'truth'}}}\n"
+    log = tmp_path / "truth" / "flown.log"
+    prepare = RunStore.prepare
+
+    def prepare_while_another_campaign_flies(self, *args, **kwargs):  # between the run's start and its end
+        log.parent.mkdir(parents=True, exist_ok=True)
+        with open(log, "a", encoding="utf-8") as f:
+            for k in range(3):
+                f.write(json.dumps({"key": f"other{k}", "flight_id": "X", "what": "flown", "seconds": 1.0, "pid": 1}) + "\n")
+        return prepare(self, *args, **kwargs)
+
+    monkeypatch.setattr(RunStore, "prepare", prepare_while_another_campaign_flies)
+    first = run_campaign(parse_campaign(text), ExecutorChoice("local", workers=1), out=tmp_path / "a", **QUIET)
+    again = run_campaign(parse_campaign(text), ExecutorChoice("local", workers=1), out=tmp_path / "b", **QUIET)
+    assert (first.legs_flown, again.legs_flown) == (2, 0)
+    assert sum(1 for _ in open(log)) == 2 + 3 + 3
+
+
 def test_schedule_day_keeps_the_first_legs_chained_in_time():
     text = FIXED.replace("  - {name: f, aircraft: [N1, N2]}", "  - {name: f, network: mesaba, aircraft: [N1]}")
     text = text[: text.index("    legs:")] + "    max_legs_per_day: 3\n"

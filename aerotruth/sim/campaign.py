@@ -166,6 +166,7 @@ class _Runner:
         self.learned: dict[tuple[str, str], tuple[str, pd.DataFrame]] = {}
         self.keys: dict[str, str] = {}
         self.ran = 0
+        self.legs_flown = 0
         self._stack = contextlib.ExitStack()
         self._executor = None
 
@@ -236,13 +237,14 @@ class _Runner:
             for fut in sorted(done, key=lambda f: pending[f].id):
                 task = pending.pop(fut)
                 try:
-                    data = fut.result()
+                    data, flown = fut.result()
                 except Exception as e:  # noqa: BLE001 - any task error stops the run, with its traceback kept
                     if failure is None:
                         failure = (task, e)
                     continue
                 self.store.write_task(task.id, data)
                 self.ran += 1
+                self.legs_flown += flown
                 self.progress.advance()
             fill()
         if failure is not None:
@@ -289,7 +291,6 @@ def run_campaign(campaign: Campaign, choice: ExecutorChoice, *, out: str | Path 
     reg = campaign_registry(campaign)
     tasks = expand(campaign, reg)
     truth = TruthStore(campaign.truth_store.path)
-    flown_before = truth.flown_count()
     with _locked(store.root):
         store.prepare(campaign, tasks)
         log(f"{campaign.name}: {len(tasks)} tasks on {choice.describe()} -> {store.root}")
@@ -297,7 +298,7 @@ def run_campaign(campaign: Campaign, choice: ExecutorChoice, *, out: str | Path 
             runner = _Runner(campaign, reg, store, choice, str(truth.root), bar)
             runner.run(tasks)
         store.write_metrics(summarize(store, campaign, reg, tasks))
-    flown = truth.flown_count() - flown_before
+    flown = runner.legs_flown
     if flown:
         removed, freed = truth.evict(int(campaign.truth_store.max_gb * 1e9))
         log(f"truth store {truth.root}: {flown} legs flown, {truth.size_bytes() / 1e6:.1f} MB"

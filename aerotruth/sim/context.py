@@ -42,3 +42,8 @@ class TaskContext:
 
             self._truth = TruthStore(Path(self.truth_root) if self.truth_root else None)
         return self._truth
+
+    @property
+    def legs_flown(self) -> int:
+        """Legs and approaches this task flew into the truth store (not found there)."""
+        return self._truth.flown_here if self._truth is not None else 0

@@ -15,9 +15,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from aerotruth.geo import WGS84
 from aerotruth.units import EARTH_RADIUS_M
 
-WGS84_E2 = 6.69437999014e-3  # first eccentricity squared (NIMA TR8350.2)
+WGS84_E2 = WGS84.es  # first eccentricity squared, 6.694380e-3 (pyproj's WGS-84; NIMA TR8350.2)
 
 
 def geocentric_lat_rad(lat_geodetic_deg):

@@ -14,7 +14,8 @@ keys starting with "a": spec, seeds, region, aircraft and the same code digest.
 Layout: ROOT/<key[:2]>/<key>.parquet, ROOT/<key[:2]>/<key>.diverged.json for a leg that
 diverged (reason and seed: reported again, not re-flown silently), <key>.lock (held while
 the leg is looked up or flown, so concurrent workers fly it once), ROOT/flown.log (one
-line per leg flown: key, flight id, seconds). Storage is compact (TruthTrack.to_parquet:
+line per leg flown: key, flight id, seconds; the log of every process, so a run counts
+its own flights by `flown_here` of the instances it used). Storage is compact (TruthTrack.to_parquet:
 float64 only for time and position, float32 for the rest, zstd). A size cap is kept by
 `evict`, least recently used first (a read touches the file).
 """
@@ -105,6 +106,7 @@ class TruthStore:
 
     def __init__(self, root: str | Path | None = None):
         self.root = Path(root) if root is not None else default_root()
+        self.flown_here = 0  # legs and approaches this instance flew (diverged ones too)
 
     def _paths(self, key: str) -> tuple[Path, Path]:
         d = self.root / key[:2]
@@ -164,6 +166,7 @@ class TruthStore:
                 info = json.loads(failed.read_text())
                 return None, FlightDiverged(info["reason"], info["seed"], info.get("time_s")), False
             t0 = time.monotonic()
+            self.flown_here += 1
             try:
                 track = fly()
             except FlightDiverged as e:
