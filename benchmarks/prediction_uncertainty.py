@@ -148,8 +148,7 @@ def main() -> None:
         slope, slope_se = sensitivities(frozen, variants, at)
         for c in frozen.columns:
             for name in slope.columns:
-                print(f"sensitivity.{'.'.join(c)}.{name}: {slope.loc[[c], name].iloc[0]:+.4g} se "
-                      f"{slope_se.loc[[c], name].iloc[0]:.2g}")
+                print(f"sensitivity.{'.'.join(c)}.{name}: {slope.at[c, name]:+.4g} se {slope_se.at[c, name]:.2g}")
         J = slope.loc[calibrated].to_numpy()
         S = np.cov(frozen[calibrated].to_numpy(), rowvar=False)
         cov = calibration_covariance(J, frozen[calibrated].std().to_numpy(), S)
