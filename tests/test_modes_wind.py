@@ -69,3 +69,18 @@ def test_held_out_gain_is_positive_only_for_a_real_effect():
     base0 = predict_rms(null, fit(null, rows=half), 600.0, (), ~half)
     with0 = predict_rms(null, fit(null, effects=("heading_offset",), rows=half), 600.0, ("heading_offset",), ~half)
     assert with0 > 0.97 * base0  # nothing to gain on held-out data when nothing is there
+
+
+def test_declination_history_is_the_per_date_declination_in_one_call():
+    """One ppigrf call for many dates gives each date's declination (the per-date path);
+    around Minneapolis the agonic line has drifted west over the decades, so the
+    declination there fell from east to about zero between 1950 and 2010 (IGRF)."""
+    import datetime as dt
+
+    from aerotruth.analysis.modes_wind import declination_deg, declination_history_deg
+
+    dates = [dt.datetime(y, 1, 1) for y in (1950, 1980, 2010)]
+    got = declination_history_deg(44.88, -93.22, 3000.0, dates)
+    each = [declination_deg([44.88], [-93.22], [3000.0], d)[0] for d in dates]
+    assert got == pytest.approx(each, abs=1e-9)
+    assert got[0] > got[1] > got[2] and got[0] > 3.0 and abs(got[2]) < 2.0

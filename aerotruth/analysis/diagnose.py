@@ -318,12 +318,12 @@ def variation_table_epoch(offset_deg: float, track: pd.DataFrame, lat: float, lo
     """For a heading-offset finding on magnetic heading: the variation the aircraft's own
     table must hold (today's IGRF declination + the offset) and the IGRF epoch in which
     the declination there had that value (a stale table is a real, common error)."""
-    from aerotruth.analysis.modes_wind import declination_deg
+    from aerotruth.analysis.modes_wind import declination_history_deg
 
     now = float(np.mean(track["declination_deg"]))
     implied = now + offset_deg
     years = np.arange(1950, when.year + 1)
-    decs = np.array([declination_deg([lat], [lon], [alt_m], dt.datetime(int(y), 1, 1))[0] for y in years])
+    decs = declination_history_deg(lat, lon, alt_m, [dt.datetime(int(y), 1, 1) for y in years])
     out = {"declination_now_deg": now, "implied_table_variation_deg": implied}
     between = np.flatnonzero(np.diff(np.sign(decs - implied)) != 0)
     if len(between):

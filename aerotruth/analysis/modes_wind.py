@@ -62,6 +62,15 @@ def declination_deg(lat, lon, alt_m, when: dt.datetime) -> np.ndarray:
     return np.interp(np.arange(len(lat)), idx, dec) if len(idx) > 1 else np.full(len(lat), dec[0])
 
 
+def declination_history_deg(lat: float, lon: float, alt_m: float, dates: list[dt.datetime]) -> np.ndarray:
+    """IGRF declination (deg, east positive) at one point on each of `dates`: one ppigrf
+    call for them all (ppigrf re-reads and interpolates its coefficients per call)."""
+    import ppigrf
+
+    be, bn, _ = ppigrf.igrf(np.array([float(lon)]), np.array([float(lat)]), np.array([float(alt_m) / 1000.0]), list(dates))
+    return np.degrees(np.arctan2(np.ravel(be), np.ravel(bn)))
+
+
 # The air vector leaves the heading in banked flight: the body-axis air velocity
 # (V cos a, 0, V sin a), rolled by phi, puts V sin(a) sin(phi) sideways, so the horizontal
 # air track is psi - a sin(phi) (a right bank swings it left of the nose; small pitch).
