@@ -14,10 +14,10 @@ keys starting with "a": spec, seeds, region, aircraft and the same code digest.
 Layout: ROOT/<key[:2]>/<key>.parquet, ROOT/<key[:2]>/<key>.diverged.json for a leg that
 diverged (reason and seed: reported again, not re-flown silently), <key>.lock (held while
 the leg is looked up or flown, so concurrent workers fly it once), ROOT/flown.log (one
-line per leg flown: key, flight id, seconds; the log of every process, so a run counts
-its own flights by `flown_here` of the instances it used). Storage is compact (TruthTrack.to_parquet:
-float64 only for time and position, float32 for the rest, zstd). A size cap is kept by
-`evict`, least recently used first (a read touches the file).
+line per leg flown: key, flight id, seconds; every process's, so a run counts its own
+flights by `flown_here` of the instances it used). Storage is compact
+(TruthTrack.to_parquet: float64 only for time and position, float32 for the rest, zstd).
+A size cap is kept by `evict`, least recently used first (a read touches the file).
 """
 
 from __future__ import annotations
