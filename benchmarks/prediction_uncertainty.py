@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
-from paper_tables import collect  # noqa: E402
+from paper_tables import collect, summarize  # noqa: E402
 
 KEY = ["group", "period", "component"]
 CONDITION_ON = (("poor", "before", "total"), ("control", "before", "total"))
@@ -131,12 +131,11 @@ def main() -> None:
     a = ap.parse_args()
     rows = collect(a.runs)
     frozen = per_seed(rows)
-    first = rows.drop_duplicates(KEY).set_index(KEY)
-    paper, role = first["paper_kt"], first["role"]
-    calibrated = [c for c in frozen.columns if role[c] == "calibrated" and frozen[c].std() > 0]
-    predicted = [c for c in frozen.columns if role[c] == "predicted"]
-    n = len(frozen)
-    print(f"seeds: {n}")
+    cells = summarize(rows).set_index(KEY)  # per cell: the paper's value, role, mean, sd, se over the seeds
+    paper = cells["paper_kt"]
+    calibrated = [c for c in frozen.columns if cells.at[c, "role"] == "calibrated" and cells.at[c, "sd_kt"] > 0]
+    predicted = [c for c in frozen.columns if cells.at[c, "role"] == "predicted"]
+    print(f"seeds: {len(frozen)}")
 
     sd_cal = pd.Series(0.0, index=frozen.columns)
     if a.variant:
@@ -151,13 +150,13 @@ def main() -> None:
                 print(f"sensitivity.{'.'.join(c)}.{name}: {slope.at[c, name]:+.4g} se {slope_se.at[c, name]:.2g}")
         J = slope.loc[calibrated].to_numpy()
         S = np.cov(frozen[calibrated].to_numpy(), rowvar=False)
-        cov = calibration_covariance(J, frozen[calibrated].std().to_numpy(), S)
+        cov = calibration_covariance(J, cells.loc[calibrated, "sd_kt"].to_numpy(), S)
         for i, name in enumerate(slope.columns):
             print(f"calibration.{name}: {at[name]:g} se {np.sqrt(cov[i, i]):.3g}")
         g = slope.to_numpy()
         sd_cal = pd.Series(np.sqrt(np.einsum("ci,ij,cj->c", g, cov, g)), index=frozen.columns)
     for c in predicted:
-        mean, se = frozen[c].mean(), frozen[c].std() / np.sqrt(n)
+        mean, se = cells.at[c, "mean_kt"], cells.at[c, "se_kt"]
         print(f"prediction.{'.'.join(c)}: mean {mean:.2f} se {se:.2f} sd_cal {sd_cal[c]:.2f} "
               f"total_se {np.hypot(se, sd_cal[c]):.2f} paper {paper[c]:.1f}")
     totals = [c for c in predicted if c[2] == "total"]
