@@ -43,30 +43,31 @@ def _scenario(dt=1.0):
     return t, np.column_stack([x, np.zeros_like(x), z])
 
 
-def _simulate_errors(t, spec, rng, sub=5):
-    """INS and baro errors by Euler integration at dt/sub (independent of the filter's
-    exact discretisation): horizontal [dp, dv, psi] x 2 axes, vertical dh, baro error."""
+def _simulate_errors(t, spec, rng, runs, sub=5):
+    """INS and baro errors of `runs` independent runs by Euler integration at dt/sub
+    (independent of the filter's exact discretisation): horizontal [dp, dv, psi] x 2 axes,
+    vertical dh, baro error; (runs, len(t), 3) and (runs, len(t))."""
     dt = (t[1] - t[0]) / sub
-    out = np.zeros((len(t), 3))
-    baro = np.zeros(len(t))
+    out = np.zeros((runs, len(t), 3))
+    baro = np.zeros((runs, len(t)))
     qa = spec.accel_white_ug2_hz * MICRO_G**2 / 2
     qg = spec.gyro_white_deg2_s2_hz * math.radians(1) ** 2 / 2
     for axis in (0, 1):
-        p, v, psi = (rng.normal(0, s) for s in (spec.initial_position_m, spec.initial_velocity_mps, spec.initial_tilt_urad * 1e-6))
-        ba, bg = rng.normal(0, spec.accel_bias_ug * MICRO_G), rng.normal(0, spec.gyro_bias_deg_h * DEG_PER_H)
+        p, v, psi = (rng.normal(0, s, runs) for s in (spec.initial_position_m, spec.initial_velocity_mps, spec.initial_tilt_urad * 1e-6))
+        ba, bg = rng.normal(0, spec.accel_bias_ug * MICRO_G, runs), rng.normal(0, spec.gyro_bias_deg_h * DEG_PER_H, runs)
         for k in range(len(t)):
-            out[k, axis] = p
+            out[:, k, axis] = p
             for _ in range(sub):
-                a = -G0 * psi + ba + math.sqrt(qa / dt) * rng.standard_normal()
-                p, v, psi = p + v * dt, v + a * dt, psi + (v / EARTH_RADIUS_M + bg + math.sqrt(qg / dt) * rng.standard_normal()) * dt
-    h, vz = rng.normal(0, spec.initial_position_m), rng.normal(0, spec.initial_velocity_mps)
-    baz, eb = rng.normal(0, spec.accel_bias_ug * MICRO_G), rng.normal(0, spec.baro_sigma_m)
+                a = -G0 * psi + ba + math.sqrt(qa / dt) * rng.standard_normal(runs)
+                p, v, psi = p + v * dt, v + a * dt, psi + (v / EARTH_RADIUS_M + bg + math.sqrt(qg / dt) * rng.standard_normal(runs)) * dt
+    h, vz = rng.normal(0, spec.initial_position_m, runs), rng.normal(0, spec.initial_velocity_mps, runs)
+    baz, eb = rng.normal(0, spec.accel_bias_ug * MICRO_G, runs), rng.normal(0, spec.baro_sigma_m, runs)
     qb = 2 * spec.baro_sigma_m**2 / spec.baro_tau_s
     for k in range(len(t)):
-        out[k, 2], baro[k] = h, eb
+        out[:, k, 2], baro[:, k] = h, eb
         for _ in range(sub):
-            h, vz = h + vz * dt, vz + (2 * G0 / EARTH_RADIUS_M * h + baz + math.sqrt(qa / dt) * rng.standard_normal()) * dt
-            eb = eb - eb / spec.baro_tau_s * dt + math.sqrt(qb / dt) * rng.standard_normal() * dt
+            h, vz = h + vz * dt, vz + (2 * G0 / EARTH_RADIUS_M * h + baz + math.sqrt(qa / dt) * rng.standard_normal(runs)) * dt
+            eb = eb - eb / spec.baro_tau_s * dt + math.sqrt(qb / dt) * rng.standard_normal(runs) * dt
     return out, baro
 
 
@@ -80,8 +81,7 @@ def test_smoothed_error_along_the_approach_matches_the_smoother_covariance():
     over = (truth[:, 0] >= 0) & (truth[:, 0] <= RUNWAY)
     ev = np.isin(truth[:, 0], (0.0, RUNWAY)).astype(int)
     errs, sigs = [], []
-    for _ in range(runs):
-        ins_err, baro_err = _simulate_errors(t, spec, rng)
+    for ins_err, baro_err in zip(*_simulate_errors(t, spec, rng, runs)):
         baro = truth[:, 2] + baro_err + spec.baro_white_m * rng.standard_normal(len(t))
         ra = np.where(over, truth[:, 2] + spec.ra_sigma_m * rng.standard_normal(len(t)), np.nan)
         tv = np.where(over, truth[:, 1] + spec.tvps_sigma_m * rng.standard_normal(len(t)), np.nan)

@@ -1,5 +1,5 @@
 """analysis.least_squares.ols against numpy's SVD least squares: the same coefficients on a
-well-posed tall design, and the minimum-norm solution when two columns coincide."""
+well-posed tall design, and the minimum-norm solution when two columns coincide or one is zero throughout."""
 
 import numpy as np
 import pytest
@@ -27,3 +27,17 @@ def test_a_repeated_column_gets_the_minimum_norm_solution():
     coef, _ = ols(X, y)
     # minimum norm splits the identified sum equally (by hand: argmin c1^2 + c2^2 with c1 + c2 = 2)
     assert coef == pytest.approx([1.0, 1.0, -1.0], abs=1e-9)
+
+
+def test_a_column_zero_on_every_row_gets_coefficient_zero_and_the_rest_their_fit():
+    """A wind spline with no sample under it (a fold left out): the minimum-norm solution
+    puts 0 on that column; the others are the fit without it (y built exactly from them)."""
+    rng = np.random.default_rng(5)
+    a, b = rng.normal(size=(2, 300))
+    X = np.column_stack([a, np.zeros(300), b])
+    coef, xtx = ols(X, 3.0 * a + 0.5 * b)
+    assert coef == pytest.approx([3.0, 0.0, 0.5], abs=1e-12)
+    assert xtx[1] == pytest.approx(np.zeros(3))
+    # with a repeated column beside it the rest is still rank-deficient: minimum norm again
+    coef, _ = ols(np.column_stack([a, np.zeros(300), a]), 2.0 * a)
+    assert coef == pytest.approx([1.0, 0.0, 1.0], abs=1e-9)

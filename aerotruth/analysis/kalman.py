@@ -41,11 +41,16 @@ class Measurement:
 
 def kalman_rts(t: np.ndarray, F: np.ndarray, G: np.ndarray, Qc: np.ndarray, x0: np.ndarray, P0: np.ndarray,
                measurements: dict[int, Measurement], smooth: bool = True) -> tuple[np.ndarray, np.ndarray]:
-    """Filtered (smooth=False) or smoothed state means (K, n) and covariances (K, n, n) at the epochs t."""
+    """Filtered (smooth=False) or smoothed state means (K, n) and covariances (K, n, n) at the epochs t.
+
+    The smoother's gains C_k need only the filter's covariances, so they are solved for all
+    epochs at once after the forward pass (one batched LAPACK call, the same routine per
+    matrix); the backward pass then runs on products alone."""
     K, n = len(t), len(x0)
     xf, Pf = np.zeros((K, n)), np.zeros((K, n, n))
     xp, Pp = np.zeros((K, n)), np.zeros((K, n, n))
     phis = np.zeros((K, n, n))
+    eye = np.eye(n)
     cache: dict[float, tuple[np.ndarray, np.ndarray]] = {}
     x, P = np.asarray(x0, float), np.asarray(P0, float)
     for k in range(K):
@@ -62,14 +67,16 @@ def kalman_rts(t: np.ndarray, F: np.ndarray, G: np.ndarray, Qc: np.ndarray, x0: 
             S = m.H @ P @ m.H.T + m.R
             Kg = np.linalg.solve(S.T, (P @ m.H.T).T).T
             x = x + Kg @ (m.z - m.H @ x)
-            I_KH = np.eye(n) - Kg @ m.H
+            I_KH = eye - Kg @ m.H
             P = I_KH @ P @ I_KH.T + Kg @ m.R @ Kg.T  # Joseph form
         xf[k], Pf[k] = x, P
     if not smooth:
         return xf, Pf
+    # C_k = P_f[k] Phi_{k+1}' P_p[k+1]^-1 for every k at once: C_k' = solve(P_p[k+1]', Phi_{k+1} P_f[k]')
+    C = np.linalg.solve(Pp[1:].transpose(0, 2, 1), phis[1:] @ Pf[:-1].transpose(0, 2, 1)).transpose(0, 2, 1)
     xs, Ps = xf.copy(), Pf.copy()
     for k in range(K - 2, -1, -1):
-        C = np.linalg.solve(Pp[k + 1].T, (Pf[k] @ phis[k + 1].T).T).T
-        xs[k] = xf[k] + C @ (xs[k + 1] - xp[k + 1])
-        Ps[k] = Pf[k] + C @ (Ps[k + 1] - Pp[k + 1]) @ C.T
+        c = C[k]
+        xs[k] += c @ (xs[k + 1] - xp[k + 1])
+        Ps[k] += c @ (Ps[k + 1] - Pp[k + 1]) @ c.T
     return xs, Ps

@@ -1,7 +1,9 @@
 """Ordinary least squares through the normal matrix, which the callers also need for the
 coefficients' covariance: formed once, solved directly when well posed (several times
 faster than an SVD solve on the tall, narrow designs of the diagnose fits), and left to
-the minimum-norm SVD solution near rank deficiency."""
+the minimum-norm SVD solution near rank deficiency. Columns that are zero on every row (a
+wind spline with no sample under it once a fold or jackknife group is left out) get
+coefficient 0, as in the minimum-norm solution, and the rest are solved on their own."""
 
 from __future__ import annotations
 
@@ -13,7 +15,11 @@ WELL_POSED_COND = 1e12  # condition number of X'X (= cond(X)^2) up to which the 
 def ols(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(coefficients, X'X) of the least-squares fit of y on the columns of X."""
     xtx = X.T @ X
-    if X.shape[1] and np.linalg.cond(xtx) < WELL_POSED_COND:
-        return np.linalg.solve(xtx, X.T @ y), xtx
+    live = np.diag(xtx) > 0  # a column's sum of squares: 0 only when it is zero throughout
+    sub = xtx if live.all() else xtx[np.ix_(live, live)]
+    if sub.shape[1] and np.linalg.cond(sub) < WELL_POSED_COND:
+        coef = np.zeros(X.shape[1])
+        coef[live] = np.linalg.solve(sub, (X.T @ y)[live])
+        return coef, xtx
     coef, *_ = np.linalg.lstsq(X, y, rcond=None)
     return coef, xtx

@@ -113,17 +113,29 @@ def _one_spline(t: np.ndarray, knot_s: float) -> np.ndarray:
 def _spline_basis(t: np.ndarray, knot_s: float) -> np.ndarray:
     """Cubic B-splines in time, one independent set per segment: the wind is smooth along
     a stretch of flight at one level, not across a gap where the aircraft changed level or
-    leg (the wind at another height is another wind)."""
-    order = np.argsort(t, kind="stable")
-    ts = t[order]
-    cuts = np.flatnonzero(np.diff(ts) > SEGMENT_GAP_S) + 1
-    blocks = [_one_spline(seg, knot_s) for seg in np.split(ts, cuts)]
-    basis = np.zeros((len(t), sum(b.shape[1] for b in blocks)))
-    r = c = 0
-    for b in blocks:
-        basis[order[r:r + len(b)], c:c + b.shape[1]] = b
-        r, c = r + len(b), c + b.shape[1]
+    leg (the wind at another height is another wind). Read-only: the last few bases are
+    kept (keyed by the times themselves), as the diagnose's profiles, folds and jackknife
+    ask for the same one dozens of times."""
+    key = (float(knot_s), np.ascontiguousarray(t, dtype=float).tobytes())
+    basis = _BASES.get(key)
+    if basis is None:
+        order = np.argsort(t, kind="stable")
+        ts = t[order]
+        cuts = np.flatnonzero(np.diff(ts) > SEGMENT_GAP_S) + 1
+        blocks = [_one_spline(seg, knot_s) for seg in np.split(ts, cuts)]
+        basis = np.zeros((len(t), sum(b.shape[1] for b in blocks)))
+        r = c = 0
+        for b in blocks:
+            basis[order[r:r + len(b)], c:c + b.shape[1]] = b
+            r, c = r + len(b), c + b.shape[1]
+        basis.flags.writeable = False
+        if len(_BASES) >= 4:
+            _BASES.pop(next(iter(_BASES)))
+        _BASES[key] = basis
     return basis
+
+
+_BASES: dict[tuple[float, bytes], np.ndarray] = {}
 
 
 def slaving_lag(t: np.ndarray, x: np.ndarray, tau_s: float) -> np.ndarray:
@@ -160,31 +172,38 @@ def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...],
     van, vae = tas * np.cos(psi), tas * np.sin(psi)
     y = np.r_[track["vn_mps"].to_numpy(float) - van, track["ve_mps"].to_numpy(float) - vae]
     basis = _spline_basis(t, knot_s)
-    nb = basis.shape[1]
-    zeros = np.zeros_like(basis)
-    cols = [np.vstack([basis, zeros]), np.vstack([zeros, basis])]
+    n, nb = basis.shape
     names = [f"wind_n_{j}" for j in range(nb)] + [f"wind_e_{j}" for j in range(nb)]
     dn, de = -tas * np.sin(psi), tas * np.cos(psi)  # dV_A/dpsi per radian
     rad = np.pi / 180.0
+    extra = []  # the effects' columns, each (2n, q)
     for eff in effects:
         if eff == "heading_offset":
-            cols.append(np.r_[dn, de][:, None] * rad)
+            extra.append(np.r_[dn, de][:, None] * rad)
         elif eff == "heading_deviation_1psi":
             sp, cp = np.sin(psi), np.cos(psi)
             if tau_s > 0:
                 sp, cp = slaving_lag(t, sp, tau_s), slaving_lag(t, cp, tau_s)
-            cols.append(np.column_stack([np.r_[dn * sp, de * sp], np.r_[dn * cp, de * cp]]) * rad)
+            extra.append(np.column_stack([np.r_[dn * sp, de * sp], np.r_[dn * cp, de * cp]]) * rad)
         elif eff == "heading_slaving_lag":
             continue  # tau_s: the deviation's columns above
         elif eff == "tas_scale":
-            cols.append(np.r_[van, vae][:, None])
+            extra.append(np.r_[van, vae][:, None])
         elif eff == "heading_time_offset":
             r = track["heading_rate_rad_s"].to_numpy(float)
-            cols.append(np.r_[dn * r, de * r][:, None])  # correction + r D
+            extra.append(np.r_[dn * r, de * r][:, None])  # correction + r D
         else:
             raise ValueError(f"effects: unknown effect {eff!r}; expected one of {', '.join(EFFECT_COLUMNS)}")
         names += list(EFFECT_COLUMNS[eff])
-    return np.column_stack(cols), y, names
+    # [[basis, 0], [0, basis]] for the north and east wind, then the effects: filled in place
+    X = np.zeros((2 * n, 2 * nb + sum(e.shape[1] for e in extra)))
+    X[:n, :nb] = basis
+    X[n:, nb:2 * nb] = basis
+    c = 2 * nb
+    for e in extra:
+        X[:, c:c + e.shape[1]] = e
+        c += e.shape[1]
+    return X, y, names
 
 
 def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (), rows: np.ndarray | None = None) -> dict:
