@@ -251,7 +251,7 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
         stale = FieldGrid.over([hub, *spokes], t_start - stale_declination_years * 365.25 * 86400.0)
     grid = t_start + np.arange(0.0, 120 * 86400.0, 600.0)
     shared = {m: _ou(grid, shared_ref_sigma_kt * KT_MS, shared_ref_tau_s, rng) if shared_ref_sigma_kt else None for m in models}
-    rows = []
+    cols: dict[str, list[np.ndarray]] = {}  # the table's columns, piece by piece (one DataFrame at the end)
     for a in truths:
         t0 = t_start + rng.uniform(0, 3600)
         fixed = spokes[3]
@@ -300,9 +300,10 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
                     err = err + np.interp(fl["time"][k], grid, shared[m][:, 0])[:, None] * along_unit(fl["wind"][k])
                 wk = fl["wind"][k]
                 rs, rd = _from_dir(wk + err + ref_bias_kt.get(m, 0.0) * KT_MS * along_unit(wk))
-                rows.append(pd.DataFrame({**base, "ref_wind_speed_kt": np.round(rs, 2), "ref_wind_dir_deg": np.round(rd, 2),
-                                          "ref_source": m}))
-    return pd.concat(rows, ignore_index=True)
+                piece = {**base, "ref_wind_speed_kt": np.round(rs, 2), "ref_wind_dir_deg": np.round(rd, 2), "ref_source": m}
+                for c, v in piece.items():
+                    cols.setdefault(c, []).append(np.full(len(k), v, dtype=object) if np.isscalar(v) else v)
+    return pd.DataFrame({c: np.concatenate(v) for c, v in cols.items()})
 
 
 def truth_table(truths: list[AircraftTruth]) -> pd.DataFrame:

@@ -304,26 +304,22 @@ def solve(blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.nda
     for b in blocks:
         slices.append(slice(k, k + b.cols.shape[1]))
         k += b.cols.shape[1]
-    r = np.ones(len(y), dtype=bool) if rows is None else rows
-    Xr, yr = X[r], y[r]
-    live = np.any(Xr != 0, axis=0)
-    beta = np.zeros(X.shape[1])
-    Xl = Xr[:, live]
-    sol, xtx = ols(Xl, yr)
-    beta[live] = sol
+    Xr, yr = (X, y) if rows is None else (X[rows], y[rows])
+    beta, xtx = ols(Xr, yr)  # columns zero on every used row (an aircraft left out): coefficient 0
+    live = np.diag(xtx) > 0
     resid = y - X @ beta
     cov = np.full((X.shape[1], X.shape[1]), np.nan)
     if with_cov:
-        bread = np.linalg.pinv(xtx)
-        g = clusters[r]
+        idx = np.flatnonzero(live)
+        bread = np.linalg.pinv(xtx[np.ix_(idx, idx)])
+        g = clusters if rows is None else clusters[rows]
         uniq, inv = np.unique(g, return_inverse=True)
         G = len(uniq)
         members = sparse.csr_matrix((np.ones(len(inv)), (inv, np.arange(len(inv)))), shape=(G, len(inv)))
-        scores = members @ (Xl * resid[r][:, None])  # per-cluster score sums
+        rr = resid if rows is None else resid[rows]
+        scores = (members @ (Xr * rr[:, None]))[:, idx]  # per-cluster score sums
         meat = scores.T @ scores * (G / max(G - 1, 1))
-        cl = bread @ meat @ bread
-        idx = np.flatnonzero(live)
-        cov[np.ix_(idx, idx)] = cl
+        cov[np.ix_(idx, idx)] = bread @ meat @ bread
     return Fit(blocks, beta, cov, resid, slices, clusters)
 
 
