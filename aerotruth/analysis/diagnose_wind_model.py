@@ -16,7 +16,7 @@ from scipy import sparse, stats
 
 from aerotruth.analysis.diagnose_wind_data import WindData
 from aerotruth.analysis.heading_correction import heading_spread
-from aerotruth.analysis.least_squares import ols
+from aerotruth.analysis.least_squares import live_columns, ols
 from aerotruth.config import Section
 from aerotruth.errors import ConfigError
 from aerotruth.units import DEG, KT
@@ -306,7 +306,7 @@ def solve(blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.nda
         k += b.cols.shape[1]
     Xr, yr = (X, y) if rows is None else (X[rows], y[rows])
     beta, xtx = ols(Xr, yr)  # columns zero on every used row (an aircraft left out): coefficient 0
-    live = np.diag(xtx) > 0
+    live = live_columns(xtx)
     resid = y - X @ beta
     cov = np.full((X.shape[1], X.shape[1]), np.nan)
     if with_cov:

@@ -12,10 +12,16 @@ import numpy as np
 WELL_POSED_COND = 1e12  # condition number of X'X (= cond(X)^2) up to which the normal equations are solved
 
 
+def live_columns(xtx: np.ndarray) -> np.ndarray:
+    """Mask of the columns of X that are not zero throughout, from X'X (a column's sum of
+    squares is its diagonal entry)."""
+    return np.diag(xtx) > 0
+
+
 def ols(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(coefficients, X'X) of the least-squares fit of y on the columns of X."""
     xtx = X.T @ X
-    live = np.diag(xtx) > 0  # a column's sum of squares: 0 only when it is zero throughout
+    live = live_columns(xtx)
     sub = xtx if live.all() else xtx[np.ix_(live, live)]
     if sub.shape[1] and np.linalg.cond(sub) < WELL_POSED_COND:
         coef = np.zeros(X.shape[1])

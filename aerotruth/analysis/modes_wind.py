@@ -50,25 +50,28 @@ EFFECT_COLUMNS = {
 }
 
 
-def declination_deg(lat, lon, alt_m, when: dt.datetime) -> np.ndarray:
-    """IGRF declination (deg, east positive) at the points for the date (ppigrf)."""
+def _igrf_declination_deg(lon, lat, alt_m, when) -> np.ndarray:
+    """IGRF declination (deg, east positive) from one ppigrf call: points (arrays) on a date,
+    or one point on several dates (`when` a list), flattened."""
     import ppigrf
 
+    be, bn, _ = ppigrf.igrf(lon, lat, np.asarray(alt_m, float) / 1000.0, when)
+    return np.degrees(np.arctan2(np.ravel(be), np.ravel(bn)))
+
+
+def declination_deg(lat, lon, alt_m, when: dt.datetime) -> np.ndarray:
+    """IGRF declination (deg, east positive) at the points for the date (ppigrf)."""
     lat, lon, alt = (np.atleast_1d(np.asarray(a, float)) for a in (lat, lon, alt_m))
     # the field changes little over a flight: evaluate on a coarse set and interpolate
     idx = np.linspace(0, len(lat) - 1, min(len(lat), 50)).astype(int)
-    be, bn, _ = ppigrf.igrf(lon[idx], lat[idx], alt[idx] / 1000.0, when)
-    dec = np.degrees(np.arctan2(np.ravel(be), np.ravel(bn)))
+    dec = _igrf_declination_deg(lon[idx], lat[idx], alt[idx], when)
     return np.interp(np.arange(len(lat)), idx, dec) if len(idx) > 1 else np.full(len(lat), dec[0])
 
 
 def declination_history_deg(lat: float, lon: float, alt_m: float, dates: list[dt.datetime]) -> np.ndarray:
     """IGRF declination (deg, east positive) at one point on each of `dates`: one ppigrf
     call for them all (ppigrf re-reads and interpolates its coefficients per call)."""
-    import ppigrf
-
-    be, bn, _ = ppigrf.igrf(np.array([float(lon)]), np.array([float(lat)]), np.array([float(alt_m) / 1000.0]), list(dates))
-    return np.degrees(np.arctan2(np.ravel(be), np.ravel(bn)))
+    return _igrf_declination_deg(np.array([float(lon)]), np.array([float(lat)]), np.array([float(alt_m)]), list(dates))
 
 
 # The air vector leaves the heading in banked flight: the body-axis air velocity
