@@ -179,8 +179,14 @@ def _diagnose_observations(args: argparse.Namespace, model, measured) -> int:
         extended = model.model_copy(update={"diagnose": {**model.diagnose, "wind": ext.model_dump(mode="json")}})
         atomic_write_text(out / "extended_model.yaml", extended.to_yaml())
     names = ", ".join(f.effect for f in findings) or "none"
-    print(f"{args.measured}: observation table, {baseline['reports']} reports of {baseline['aircraft']} aircraft; "
-          f"findings: {names} -> {out / 'diagnosis.json'}")
+    if "not_tested" in baseline:
+        names += f" (not tested: {baseline['weather_blocks']} six-hour weather blocks, too few; see report.md)"
+    table = baseline["data"]
+    skipped = table["rows_dropped_empty"] + table["rows_dropped_duplicate"]
+    left = (f" ({table['rows_dropped_empty']} rows with an empty required cell, {table['rows_dropped_duplicate']} "
+            f"repeated rows left out)" if skipped else "")
+    print(f"{args.measured}: observation table, {baseline['reports']} gated reports of {baseline['aircraft']} aircraft"
+          f"{left}; findings: {names} -> {out / 'diagnosis.json'}")
     return 0
 
 

@@ -14,6 +14,7 @@ per-aircraft offset absorbs).
 
 from __future__ import annotations
 
+import json
 from dataclasses import replace
 
 import numpy as np
@@ -155,6 +156,42 @@ def test_row_order_does_not_matter_and_bad_tables_say_why():
         prepare(obs.assign(wind_dir_deg=np.radians(obs["wind_dir_deg"]), ref_wind_dir_deg=np.radians(obs["ref_wind_dir_deg"])))
     with pytest.raises(DataError, match="pass the ground-track gates"):
         prepare(obs.iloc[:10])
+
+
+def test_units_are_guessed_from_the_physics_and_refused_with_the_unit_named():
+    """A TAS column in m/s or km/h is 0.514x or 1.852x the airspeed of the wind triangle
+    (ground track minus the reported wind); a pressure altitude in hPa stays within
+    100-1100 over flights that climb from the ground."""
+    fleet, rng = _fleet(14, n=4)
+    obs = gen.generate(fleet, rng, flights=16, include_heading=True)
+    prepare(obs)  # knots: accepted
+    prepare(obs.assign(tas_kt=obs["tas_kt"] * 1.03))  # a 3 % scale error is an effect to find, not a unit
+    with pytest.raises(DataError, match=r"'tas_kt' is 0\.51\dx the airspeed of the wind triangle .*in m/s\? expected knots"):
+        prepare(obs.assign(tas_kt=obs["tas_kt"] / 1.943844))
+    with pytest.raises(DataError, match=r"'tas_kt' is 1\.8\d\dx .*in km/h\? expected knots"):
+        prepare(obs.assign(tas_kt=obs["tas_kt"] * 1.852))
+    hpa = 1013.25 * (1 - obs["pressure_altitude_ft"] / 145366.45) ** 5.2559  # ISA
+    with pytest.raises(DataError, match=r"'pressure_altitude_ft' lies within \[\d+, 101\d\]: pressure in hPa\?"):
+        prepare(obs.assign(pressure_altitude_ft=hpa))
+
+
+def test_rows_left_out_are_counted_in_the_report_and_on_the_command_line(tmp_path, capsys):
+    from aerotruth.cli import main
+
+    fleet, rng = _fleet(15, n=4)
+    obs = gen.generate(fleet, rng, flights=16)
+    n = len(obs)
+    empty = np.arange(n) % 40 == 0
+    obs.loc[empty, "wind_speed_kt"] = np.nan
+    obs = pd.concat([obs, obs.iloc[5:12]], ignore_index=True)  # 7 repeated rows (none of them empty)
+    obs.to_csv(tmp_path / "obs.csv", index=False)
+    assert main(["diagnose", str(tmp_path / "obs.csv"), "--model", "campaigns/quick.yaml", "--out", str(tmp_path / "d")]) == 0
+    line = capsys.readouterr().out
+    assert f"({int(empty.sum())} rows with an empty required cell, 7 repeated rows left out)" in line
+    data = json.loads((tmp_path / "d" / "diagnosis.json").read_text())["baseline"]["data"]
+    assert (data["rows_read"], data["rows_dropped_empty"], data["rows_dropped_duplicate"]) == (n + 7, int(empty.sum()), 7)
+    assert sum(data["row_gates"].values()) == n - int(empty.sum())
+    assert f"Read {n + 7} rows: {int(empty.sum())} with an empty required cell and 7 repeating" in (tmp_path / "d" / "report.md").read_text()
 
 
 def test_weather_blocks_keep_flights_whole_and_alternate_folds():

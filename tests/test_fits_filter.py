@@ -225,6 +225,12 @@ def test_legacy_numeric_marks_and_a_runway_sidecar_are_read(tmp_path, capsys):
     ("text", r"column 'ra_m' data row 6: expected a number"),
     ("empty", r"log\.csv: no rows"),
     ("bad_event", r"column 'event': expected empty, 'thr' or 'end'"),
+    # units guessed from the aircraft's speed: the generator flies 65 m/s
+    ("km", r"approach 1: columns waas_x_m/waas_y_m: the aircraft moves at 0\.06\d+ m/s .*metres\?"),
+    ("feet", r"approach 1: columns waas_x_m/waas_y_m: the aircraft moves at 21\d m/s .*metres\?"),
+    ("negative_ra", r"approach 1: column 'ra_m' data row \d+: -1\d\.\d+ m; .*cannot be below -3 m"),
+    ("ins_hole", r"approach 2: columns ins_\*: data row \d+ \(t = \d+(\.\d+)? s\): the INS position must be finite"),
+    ("text_lever", r"column 'ra_lever_arm_m' data row 1: expected a number, got 'about 2 m'"),
 ])
 def test_fits_main_refuses_a_broken_log_with_one_line_naming_the_column(tmp_path, breakage, message):
     log, _ = gen.make_log(2, seed=23)
@@ -252,6 +258,15 @@ def test_fits_main_refuses_a_broken_log_with_one_line_naming_the_column(tmp_path
         log.loc[log.index[5], "ra_m"] = "n/a ft"
     elif breakage == "empty":
         log = log.iloc[:0]
+    elif breakage in ("km", "feet"):
+        metres = [c for c in log.columns if c.endswith("_m")]
+        log[metres] = log[metres] * (1e-3 if breakage == "km" else 1 / 0.3048)
+    elif breakage == "negative_ra":
+        log["ra_m"] = -log["ra_m"]
+    elif breakage == "ins_hole":
+        log.loc[log.index[two & (log["event"] == "")][300], "ins_y_m"] = np.nan
+    elif breakage == "text_lever":
+        log["ra_lever_arm_m"] = "about 2 m"
     path = write(log, tmp_path / "log.csv")
     with pytest.raises(ValueError, match=message) as err:
         fits_main(path, str(tmp_path / "out"))

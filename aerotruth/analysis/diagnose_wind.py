@@ -254,7 +254,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
                                       f"this network is {100 * declination_identifiable(d):.1f} % outside per-aircraft constants)"]),
                 "reports": int(len(np.unique(np.c_[d.aircraft, d.time_s], axis=0))), "rows": int(d.n),
                 "aircraft": len(d.names), "flights": int(len(np.unique(d.flight))),
-                "weather_blocks": n_blocks}
+                "weather_blocks": n_blocks, "data": d.table}
     if not testable:
         baseline["not_tested"] = (f"the data span {n_blocks} independent 6-h weather blocks, fewer than {MIN_BLOCKS}: "
                                   "cluster-robust tests on so few clusters reject too often (aerotruth's own null "
@@ -480,10 +480,21 @@ def _figure(plot: dict, title: str, path) -> None:
         ax.set_xlabel(f"the effect's fitted term ({plot['unit']})")
         ax.grid(alpha=0.3)
     axes[0].set_ylabel(f"{plot['channel']} residual ({plot['unit']})")
-    axes[0].legend(loc="upper left")
+    if axes[0].get_legend_handles_labels()[0]:
+        axes[0].legend(loc="upper left")
     fig.suptitle(title)
     fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)
+
+
+def _data_lines(table: dict) -> list[str]:
+    """What was read and what was left out, for report.md."""
+    if not table:
+        return []
+    gates = ", ".join(f"{k} {v}" for k, v in table["row_gates"].items())
+    return [f"Read {table['rows_read']} rows: {table['rows_dropped_empty']} with an empty required cell and "
+            f"{table['rows_dropped_duplicate']} repeating an (aircraft, time, reference) row left out; "
+            f"{table['reports']} reports; rows by ground-track gate: {gates}.", ""]
 
 
 def _fmt_params(p: dict) -> str:
@@ -513,6 +524,7 @@ def write_wind_diagnosis(measured: str, findings: list, baseline: dict, spec: Wi
     lines = [f"# Diagnosis of `{measured}` (observation table)", "",
              f"{baseline['reports']} reports of {baseline['aircraft']} aircraft in {baseline['flights']} flights; "
              f"{baseline['rows']} (report, reference) rows pass the wind paper's ground-track gates.", "",
+             *_data_lines(baseline.get("data") or {}),
              "Model: each aircraft's heading deviation A + B sin z + C cos z" + (" + D sin 2z + E cos 2z" if spec.deviation_terms == 5 else "")
              + f" (wind paper eq. 2), field scaling gamma = {spec.field_scaling:g}, lat/lon grid {spec.lat_lon_step_deg:g} deg"
              + ("; a TAS bias per aircraft" if spec.tas_bias else "") + ("; TAS along the air path" if spec.tas_along_path else "")

@@ -7,7 +7,7 @@ See aerotruth.analysis.diagnose_wind for the method."""
 from __future__ import annotations
 
 import datetime as dt
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
@@ -53,6 +53,7 @@ class WindData:
     report_lat: np.ndarray  # every report (not only gated), for the quantization
     report_lon: np.ndarray
     jitter: dict  # ground-track jitter of the reports (segment velocity differences)
+    table: dict = field(default_factory=dict)  # what was read and what was left out, counted (rows, reports, gates)
 
     @property
     def n(self) -> int:
@@ -132,6 +133,12 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
             v = v[np.isfinite(v)]
             if len(v) >= 20 and v.max() <= 2 * np.pi + 1e-6:
                 raise DataError(f"{source}: column '{col}' lies within [0, {v.max():.2f}]: radians? expected degrees 0-360")
+    alt = df["pressure_altitude_ft"].to_numpy()
+    alt = alt[np.isfinite(alt)]
+    if len(alt) >= 20 and 100.0 <= alt.min() and alt.max() <= 1100.0 and alt.max() - alt.min() >= 300.0:
+        # reports from near the ground to cruise span thousands of feet; 100-1100 is a pressure
+        raise DataError(f"{source}: column 'pressure_altitude_ft' lies within [{alt.min():.0f}, {alt.max():.0f}]: "
+                        f"pressure in hPa? expected feet")
     rows = heading_errors(df, TRACK_GATES if gates is None else gates, source)
     used = (rows["gate"] == "used").to_numpy()
     if used.sum() < 20:
@@ -139,6 +146,10 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         raise DataError(f"{source}: only {int(used.sum())} report rows pass the ground-track gates (need 20); "
                         f"gates: {counts}")
     r = rows[used]
+    table = {"rows_read": int(len(obs)), "rows_dropped_empty": int(df.attrs.get("dropped_empty", 0)),
+             "rows_dropped_duplicate": int(df.attrs.get("dropped_duplicates", 0)),
+             "reports": int(rows["report"].nunique()),
+             "row_gates": {str(k): int(v) for k, v in rows["gate"].value_counts().items() if v}}
     z = r["heading_deg"].to_numpy() * DEG
     dv_e, dv_n = -r["dw_e"].to_numpy(), -r["dw_n"].to_numpy()
     trans = dv_e * np.cos(z) - dv_n * np.sin(z)
@@ -193,6 +204,6 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
                     flight=flight, time_s=t, z=z, tas=r["tas_ms"].to_numpy(), trans=trans, along=along, wref_e=ue, wref_n=un,
                     lat=lat, lon=lon, alt_ft=alt, h_ratio=h_ratio, sv_deg_yr=sv, roll=roll, phase=phase, turn_deg_s=turn, climb_fpm=climb,
                     cluster=cluster, fold=fold, report_lat=df["lat"].to_numpy()[first], report_lon=df["lon"].to_numpy()[first],
-                    jitter=_jitter(df, first))
+                    jitter=_jitter(df, first), table=table)
 
 

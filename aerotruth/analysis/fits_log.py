@@ -18,7 +18,9 @@ re-sorted); a gap (a row step or a WAAS-epoch step over 1.5 times the typical on
 error; WAAS columns are finite on WAAS epochs and NaN elsewhere (all three together); the
 INS on every row except event rows; a receiver flag on a row between WAAS epochs belongs
 to the next epoch; missing RA or TVPS near the threshold is an error (the bias cannot be
-fixed).
+fixed). Units are checked from the physics: an approach whose WAAS ground speed (median over
+its epochs) is outside 10-130 m/s is refused as not in metres (a log in km or feet), and a
+radar-altimeter reading below -3 m as no height (a sign or a unit).
 
 Events (the contract): `event` is empty on ordinary rows; a pilot mark is a row of its
 own at its exact time with the code `thr` (threshold) or `end` (stop end), its other
@@ -67,6 +69,13 @@ DEFAULT_RUNWAY = {"length_m": 3000.0, "loc_x_m": 3300.0, "gp_x_m": 300.0, "gp_y_
 # angles and threshold crossing heights with margin
 RUNWAY_RANGES = {"length_m": (500.0, 6000.0), "loc_x_m": (0.0, 8000.0), "gp_x_m": (0.0, 2000.0),
                  "gp_y_m": (-500.0, 500.0), "glide_path_deg": (1.0, 10.0), "tch_m": (0.0, 50.0)}
+# An approach's median ground speed (m/s) from its WAAS epochs: flight-inspection aircraft fly
+# approaches at 90-200 kt (46-103 m/s); a log in km, or in feet, moves 1000x or 3.3x off
+APPROACH_SPEED_MS = (10.0, 130.0)
+# A radar-altimeter reading below this (m) is no height above the runway (noise 0.15 m, a
+# bias of a metre or two at most): a sign or a unit
+RA_MIN_M = -3.0
+OPTIONAL_NUMERIC = ("ra_lever_arm_m", "tvps_lever_arm_m")
 
 
 def event_codes(values: pd.Series, where: str) -> pd.Series:
@@ -163,10 +172,8 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
     if len(df) == 0:
         raise DataError(f"{p}: no rows")
     df["event"] = event_codes(df["event"], str(p))
-    for c in NUMERIC:
-        if c == "event":
-            continue
-        if c in df.columns:
+    for c in NUMERIC + OPTIONAL_NUMERIC:
+        if c != "event" and c in df.columns:
             num = pd.to_numeric(df[c], errors="coerce")
             bad = num.isna() & df[c].notna()
             if bad.any():
@@ -221,8 +228,25 @@ def _check_approach(p: Path, a, g: pd.DataFrame) -> None:
         raise DataError(f"{where}: columns waas_*: a gap of {dtw[i]:g} s between WAAS epochs after t = {tw[i]:g} s")
     if np.median(dtw) > 1.0 + 1e-6:
         raise DataError(f"{where}: columns waas_*: WAAS epochs every {np.median(dtw):g} s; expected 1 Hz or faster")
-    if not np.isfinite(g[["ins_x_m", "ins_y_m", "ins_z_m"]].to_numpy()).all():
-        raise DataError(f"{where}: columns ins_*: the INS position must be finite on every row (event rows of their own excepted)")
+    ins = g[["ins_x_m", "ins_y_m", "ins_z_m"]].to_numpy()
+    fin_i = np.isfinite(ins).all(axis=1)
+    if not fin_i.all():
+        i = int(np.flatnonzero(~fin_i)[0])
+        raise DataError(f"{where}: columns ins_*: data row {g.index[i] + 1} (t = {t[i]:g} s): the INS position must be "
+                        f"finite on every row (event rows of their own excepted)")
+    ww = w[fin[:, 0]]  # WAAS, not the INS: a poor INS may drift by kilometres in an approach
+    speed = float(np.median(np.hypot(np.diff(ww[:, 0]), np.diff(ww[:, 1])) / dtw))
+    lo, hi = APPROACH_SPEED_MS
+    if not lo <= speed <= hi:
+        raise DataError(f"{where}: columns waas_x_m/waas_y_m: the aircraft moves at {speed:.3g} m/s (median over the "
+                        f"WAAS epochs); expected an approach at {lo:g}-{hi:g} m/s: are the positions in metres?")
+    ra = g["ra_m"].to_numpy()
+    with np.errstate(invalid="ignore"):
+        low = ra < RA_MIN_M
+    if low.any():
+        i = int(np.flatnonzero(low)[0])
+        raise DataError(f"{where}: column 'ra_m' data row {g.index[i] + 1}: {ra[i]:g} m; a radar-altimeter height "
+                        f"above the runway cannot be below {RA_MIN_M:g} m (sign? units?)")
     if not marks:
         raise DataError(f"{where}: column 'event': no threshold mark ('thr')")
 

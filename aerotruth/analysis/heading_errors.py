@@ -44,6 +44,7 @@ from pydantic import Field
 from aerotruth.analysis.fast_trig import sin_cos
 from aerotruth.analysis.observations import validate_observations
 from aerotruth.config import Section
+from aerotruth.errors import DataError
 from aerotruth.ellipsoid import A_M, E2, radii_from_sin
 from aerotruth.units import DEG, KT
 
@@ -237,6 +238,30 @@ def ground_track(t: np.ndarray, lat_rad: np.ndarray, lon_rad: np.ndarray, flight
     return GroundTrack(vg_e, vg_n, gate)
 
 
+# The reported TAS over the wind triangle's |V_G - V_W| (eq. 3), median over the gated
+# reports: a TAS scale error of a few per cent is an effect to find (diagnose), a column in
+# m/s (0.51x) or km/h (1.85x) is a unit
+TAS_RATIO_RANGE = (0.75, 1.33)
+_TAS_UNITS = (("m/s", 1.0 / 1.943844), ("km/h", 1.852), ("mph", 1.150779))
+
+
+def _check_tas_units(tas_col_ms: np.ndarray, tas_triangle_ms: np.ndarray, ok: np.ndarray, source: str) -> None:
+    """DataError when the `tas_kt` column is not in knots, judged against the wind triangle."""
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = tas_col_ms[ok] / tas_triangle_ms[ok]
+    r = r[np.isfinite(r)]
+    if len(r) < 20:
+        return
+    med = float(np.median(r))
+    lo, hi = TAS_RATIO_RANGE
+    if lo <= med <= hi:
+        return
+    unit = next((u for u, f in _TAS_UNITS if abs(med / f - 1) < 0.05), None)
+    raise DataError(f"{source}: column 'tas_kt' is {med:.3f}x the airspeed of the wind triangle (ground track minus "
+                    f"reported wind, wind paper eq. 3; median over {len(r)} reports): "
+                    f"{'in ' + unit + '? ' if unit else ''}expected knots")
+
+
 def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str = "observation table") -> pd.DataFrame:
     """One row per (report, reference model): ground track (three adjacent reports, gated),
     V_A (eq. 3), V_A' (eq. 4), heading error d = psi - psi' (deg), measured heading (true and,
@@ -271,6 +296,7 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     tas = np.hypot(va_e_r, va_n_r)
     if "tas_kt" in df.columns:
         tk = df["tas_kt"].to_numpy()[first] * KT
+        _check_tas_units(tk, tas, gate == 0, df.attrs.get("source") or source)
         tas = np.where(np.isfinite(tk), tk, tas)
     heading_mag = np.full(m, np.nan)
     if "declination_deg" in df.columns:
