@@ -16,7 +16,10 @@ Kinds (DESIGN.md data contracts and ../shared/real-data/README.md):
   with attitude (`pitch`, `roll`).
 
 Gzip is recognised by its magic bytes. Times become UTC epoch seconds (`time_s`). A file
-that is none of these gets one DataError naming the file and what was expected.
+that is none of these gets one DataError naming the file and what was expected. In the
+JSON kinds, text in a numeric field (NUMERIC_FIELDS) or a record without a timestamp is an
+error naming the record (or line) and field, and so is a file holding more than one
+aircraft (several `icao24`): diagnose takes one aircraft's flight.
 """
 
 from __future__ import annotations
@@ -125,6 +128,34 @@ def _epoch_seconds(ts: pd.Series) -> pd.Series:
     return t / 1000.0 if t.abs().median() > 1e11 else t
 
 
+# fields the Mode-S / ADS-B / QAR kinds read as numbers (README of ../shared/real-data)
+NUMERIC_FIELDS = ("timestamp", "latitude", "longitude", "altitude", "groundspeed", "track", "vertical_rate", "heading",
+                  "TAS", "IAS", "Mach", "roll", "pitch", "track_rate", "CAS", "drift")
+
+
+def _checked_records(path: Path, df: pd.DataFrame, what: str) -> pd.DataFrame:
+    """Numbers as numbers (text in a numeric field is an error naming record and field),
+    every record timed, one aircraft."""
+    for c in NUMERIC_FIELDS:
+        if c in df.columns and df[c].dtype.kind not in "biuf":
+            num = pd.to_numeric(df[c], errors="coerce")
+            bad = num.isna() & df[c].notna()
+            if bad.any():
+                i = int(bad.to_numpy().nonzero()[0][0])
+                raise DataError(f"{path}: {what} {i + 1}, field {c!r}: {df[c].iloc[i]!r} is not a number")
+            df[c] = num.astype(float)
+    if df["timestamp"].isna().any():
+        i = int(df["timestamp"].isna().to_numpy().nonzero()[0][0])
+        raise DataError(f"{path}: {what} {i + 1}: no timestamp")
+    if "icao24" in df.columns:
+        ids = pd.unique(df["icao24"].dropna().astype(str).str.lower())
+        if len(ids) > 1:
+            raise DataError(f"{path}: data of {len(ids)} aircraft (icao24 {', '.join(sorted(ids)[:5])}"
+                            f"{', ...' if len(ids) > 5 else ''}); diagnose takes one aircraft's flight: keep the "
+                            f"records of one icao24")
+    return df
+
+
 def load_measured(path: str | Path) -> Measured:
     """Recognise and load a measured-data file (see the module docstring)."""
     path = Path(path)
@@ -141,7 +172,7 @@ def load_measured(path: str | Path) -> Measured:
     if isinstance(obj, dict) and {"timestamp", "pitch", "roll"} <= set(obj) and all(isinstance(v, dict) for v in obj.values()):
         df = pd.DataFrame({k: pd.Series(v) for k, v in obj.items()})
         df.index = df.index.astype(int)
-        df = df.sort_index().reset_index(drop=True)
+        df = _checked_records(path, df.sort_index().reset_index(drop=True), "row")
         df.insert(0, "time_s", _epoch_seconds(df["timestamp"]))
         return Measured("qar", df, path)
     if isinstance(obj, list) and obj and all(isinstance(r, dict) for r in obj):
@@ -155,6 +186,7 @@ def load_measured(path: str | Path) -> Measured:
             kind = "adsb_track"
         else:
             raise DataError(f"{path}: JSON records with keys {', '.join(sorted(cols)[:12])}; expected {_EXPECTED}")
+        df = _checked_records(path, df, "line" if kind == "modes_raw" else "record")
         df.insert(0, "time_s", _epoch_seconds(df["timestamp"]))
         return Measured(kind, df.sort_values("time_s", kind="stable").reset_index(drop=True), path)
     raise DataError(f"{path}: not measured data aerotruth knows; expected {_EXPECTED}")

@@ -88,3 +88,42 @@ def test_a_mode_s_track_without_headings_is_one_line_in_diagnose(tmp_path):
     (tmp_path / "t.json").write_text(json.dumps(rec))
     with pytest.raises(DataError, match=r"t\.json: only 0 samples carry heading"):
         track_from_measured(load_measured(tmp_path / "t.json"))
+
+
+def _track(n: int = 300, **over) -> list[dict]:
+    return [{"timestamp": 1593069386000 + 1000 * i, "icao24": "38cf9b", "latitude": 44.8, "longitude": -0.7,
+             "altitude": 20000.0, "groundspeed": 300.0, "track": 90.0, "heading": 91.0, "TAS": 280.0, **over} for i in range(n)]
+
+
+@pytest.mark.parametrize("records, expected", [
+    # text in a numeric field: the record and field named, not a traceback or a NaN
+    (_track()[:10] + [{**_track()[0], "TAS": "fast"}], r"record 11, field 'TAS': 'fast' is not a number"),
+    (_track()[:3] + [{**_track()[0], "timestamp": None}], r"record 4: no timestamp"),
+    # two aircraft in one file: their samples would interleave into one nonsense flight
+    (_track() + [{**r, "icao24": "4CA123"} for r in _track(5)], r"data of 2 aircraft \(icao24 38cf9b, 4ca123\); diagnose takes one"),
+])
+def test_bad_mode_s_records_are_one_line_naming_record_and_field(tmp_path, records, expected):
+    (tmp_path / "t.json").write_text(json.dumps(records))
+    with pytest.raises(DataError, match=expected) as e:
+        load_measured(tmp_path / "t.json")
+    assert "\n" not in str(e.value)
+
+
+def test_a_raw_log_without_a_register_diagnose_needs_names_it(tmp_path):
+    from aerotruth.analysis.diagnose import track_from_measured
+
+    t0 = 1720248189.0
+    msgs = [{"timestamp": t0 + i, "df": "17", "frame": "8f", "icao24": "393322", "bds": "05", "latitude": 49.0,
+             "longitude": 2.5, "altitude": 30000} for i in range(50)]
+    msgs += [{"timestamp": t0 + i + 0.5, "df": "17", "frame": "8f", "icao24": "393322", "bds": "09", "groundspeed": 400,
+              "track": 90, "vertical_rate": 0} for i in range(50)]
+    msgs += [{"timestamp": t0 + i + 0.2, "df": "20", "frame": "a0", "icao24": "393322", "bds": "50", "TAS": 420, "roll": 0}
+             for i in range(50)]
+    (tmp_path / "m.jsonl").write_text("\n".join(json.dumps(m) for m in msgs))
+    with pytest.raises(DataError, match=r"m\.jsonl: no usable Comm-B BDS 6,0 replies \(magnetic heading\): none"):
+        track_from_measured(load_measured(tmp_path / "m.jsonl"))
+    msgs += [{"timestamp": t0 + i + 0.7, "df": "21", "frame": "a8", "icao24": "393322", "bds": "60", "heading": None}
+             for i in range(50)]
+    (tmp_path / "m.jsonl").write_text("\n".join(json.dumps(m) for m in msgs))
+    with pytest.raises(DataError, match=r"BDS 6,0 replies \(magnetic heading\): 50 of them, none with 'heading' decoded"):
+        track_from_measured(load_measured(tmp_path / "m.jsonl"))

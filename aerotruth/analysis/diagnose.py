@@ -126,6 +126,7 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
         d = m.df.dropna(subset=["heading", "TAS", "track", "groundspeed", "latitude", "longitude", "altitude"])
         excluded = {"missing fields": int(len(m.df) - len(d))}
     elif m.kind == "modes_raw":
+        _require_registers(m)
         d = _track_from_raw(m.df)
         excluded = {"BDS 6,0 replies without BDS 5,0 / ADS-B neighbours": int((m.df["bds"] == "60").sum() - len(d))}
     else:
@@ -167,6 +168,27 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
         raise DataError(f"{m.path}: only {len(d)} usable samples after exclusions ({excluded}); need at least 200")
     when = dt.datetime.fromtimestamp(float(d["time_s"].iloc[0]), tz=dt.timezone.utc).replace(tzinfo=None)
     return modes_track_to_wind_frame(d, when), excluded
+
+
+# what _track_from_raw reads from a raw message log: (downlink formats, BDS, fields, what it is)
+RAW_REGISTERS = ((("20", "21"), "60", ("heading",), "Comm-B BDS 6,0 replies (magnetic heading)"),
+                 (("20", "21"), "50", ("TAS",), "Comm-B BDS 5,0 replies (true airspeed)"),
+                 (("17",), "09", ("groundspeed", "track", "vertical_rate"), "ADS-B airborne velocity messages (DF 17, BDS 0,9)"),
+                 (("17",), "05", ("latitude", "longitude", "altitude"), "ADS-B airborne position messages (DF 17, BDS 0,5)"))
+
+
+def _require_registers(m: Measured) -> None:
+    """A raw message log must hold every register the wind frame is built from, decoded."""
+    raw = m.df
+    if "bds" not in raw.columns:
+        raise DataError(f"{m.path}: messages without a 'bds' field; expected decoded Mode-S (BDS 0,5, 0,9, 5,0, 6,0)")
+    for dfs, bds, fields, what in RAW_REGISTERS:
+        sel = raw[raw["df"].astype(str).isin(dfs) & (raw["bds"] == bds)]
+        missing = [f for f in fields if f not in sel.columns or sel[f].isna().all()]
+        if len(sel) == 0 or missing:
+            got = f"{len(sel)} of them, none with {missing[0]!r} decoded" if len(sel) else "none"
+            raise DataError(f"{m.path}: no usable {what}: {got}; diagnose needs them with "
+                            f"{', '.join(fields)}")
 
 
 def _track_from_raw(raw: pd.DataFrame) -> pd.DataFrame:
