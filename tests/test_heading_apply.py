@@ -88,6 +88,34 @@ def test_magnetic_tables_need_a_magnetic_heading_and_bad_tables_are_one_line(per
                  "--out", str(tmp_path / "o2")]) == 2
     err = capsys.readouterr().err.strip()
     assert "cut.csv" in err and "lut_090_deg" in err and len(err.splitlines()) == 1
+    dev = pd.read_csv(d / "fitted" / "deviation.csv").astype({"lut_135_deg": object})
+    dev.loc[1, "lut_135_deg"] = "unknown"
+    dev.to_csv(tmp_path / "text.csv", index=False)
+    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "text.csv"),
+                 "--out", str(tmp_path / "o3")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("text.csv: table: aircraft 'N402XJ', column 'lut_135_deg': expected a number, got 'unknown'"), err
+    dev.loc[1, "lut_135_deg"] = "n/a"  # read as empty: a fitted table without one of its corrections
+    dev.to_csv(tmp_path / "empty.csv", index=False)
+    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "empty.csv"),
+                 "--out", str(tmp_path / "o4")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.endswith("empty.csv: table: aircraft 'N402XJ' (fitted), column 'lut_135_deg': empty; a table that "
+                        "is not refused needs all eight corrections"), err
+
+
+def test_fit_and_apply_say_what_they_wrote_in_one_line(periods, tmp_path, capsys):
+    d = periods
+    assert main(["heading", "fit", str(d / "fit.csv"), "--out", str(tmp_path / "f"), "--bootstrap", "0"]) == 0
+    assert capsys.readouterr().out.strip() == f"{d / 'fit.csv'}: 2 aircraft: 2 fitted, 0 offset_only, 0 refused -> {tmp_path / 'f' / 'deviation.csv'}"
+    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "f" / "deviation.csv"),
+                 "--out", str(tmp_path / "a")]) == 0
+    every = pd.read_csv(tmp_path / "a" / "apply.csv").set_index("aircraft").loc["all"]
+    assert capsys.readouterr().out.strip() == (
+        f"{d / 'later.csv'}: 2 aircraft, {int(every['n_scored'])} scored (report, reference) rows; wind RMS "
+        f"{every['rms_before_kt']:.2f} -> {every['rms_after_kt']:.2f} kt with the tables of {tmp_path / 'f' / 'deviation.csv'} "
+        f"-> {tmp_path / 'a' / 'apply.csv'}")
+    assert every["rms_after_kt"] < every["rms_before_kt"]
 
 
 def test_a_bootstrap_of_one_resample_is_refused_in_one_line(tmp_path, capsys):

@@ -204,4 +204,7 @@ def heading_apply_main(obs_path: str, tables_path: str, out_dir: str) -> int:
     atomic_write_text(out / "apply.csv", scores.to_csv(index=False))
     _figure(scores, out / "figures" / "apply.png")
     atomic_write_text(out / "report.md", _report(str(obs_path), str(tables_path), table_frame(fleet), scores, corrected))
+    every = scores[scores["aircraft"] == "all"].iloc[-1]
+    print(f"{obs_path}: {len(scores) - 1} aircraft, {int(every['n_scored'])} scored (report, reference) rows; wind RMS "
+          f"{every['rms_before_kt']:.2f} -> {every['rms_after_kt']:.2f} kt with the tables of {tables_path} -> {out / 'apply.csv'}")
     return 0

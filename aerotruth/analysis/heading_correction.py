@@ -457,13 +457,24 @@ class HeadingDeviationFit:
             raise ValueError(f"table: missing column '{missing[0]}' (expected the deviation.csv columns)")
         if row["status"] not in STATUSES:
             raise ValueError(f"table: column 'status' is {row['status']!r}, expected one of {', '.join(STATUSES)}")
+        def num(c: str) -> float:
+            try:
+                return float(row[c])
+            except (TypeError, ValueError):
+                raise ValueError(f"table: aircraft {row['aircraft']!r}, column '{c}': expected a number, "
+                                 f"got {row[c]!r}") from None
+
         self = cls(heading=str(row.get("heading_frame", "true")) if isinstance(row.get("heading_frame", "true"), str) else "true")
         self.aircraft_ = str(row["aircraft"])
         self.status_, self.reason_ = str(row["status"]), ("" if pd.isna(row["reason"]) else str(row["reason"]))
-        self.n_used_ = int(row["n_used"])
-        self.coef_ = {t: float(row[f"{t}_deg"]) for t in TERM_NAMES}
-        self.se_ = {t: float(row[f"{t}_se_deg"]) for t in TERM_NAMES}
-        self.lut_ = np.array([float(row[c]) for c in LUT_COLUMNS])
+        self.n_used_ = int(num("n_used")) if np.isfinite(num("n_used")) else 0
+        self.coef_ = {t: num(f"{t}_deg") for t in TERM_NAMES}
+        self.se_ = {t: num(f"{t}_se_deg") for t in TERM_NAMES}
+        self.lut_ = np.array([num(c) for c in LUT_COLUMNS])
+        if self.status_ != "refused" and not np.isfinite(self.lut_).all():
+            c = LUT_COLUMNS[int(np.flatnonzero(~np.isfinite(self.lut_))[0])]
+            raise ValueError(f"table: aircraft {self.aircraft_!r} ({self.status_}), column '{c}': empty; a table "
+                             f"that is not refused needs all eight corrections")
         self.valid_from_, self.valid_to_ = str(row["valid_from"]), str(row["valid_to"])
         self.heading_frame_ = self.heading
         self.terms_ = tuple(t for t in TERM_NAMES if np.isfinite(self.se_[t]))

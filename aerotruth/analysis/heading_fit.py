@@ -25,7 +25,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from aerotruth.analysis.heading_correction import LUT_HEADINGS_DEG, FleetHeadingFit
+from aerotruth.analysis.heading_correction import LUT_HEADINGS_DEG, STATUSES, FleetHeadingFit
 from aerotruth.analysis.heading_errors import GATE_NAMES, heading_errors
 from aerotruth.analysis.observations import validate_observations
 from aerotruth.analysis.wind_metrics import wind_errors_before_after
@@ -216,4 +216,7 @@ def heading_fit_main(obs_path: str, out_dir: str, n_boot: int = 200, seed: int =
         mine = ci[ci["aircraft"] == name] if ci is not None else None
         _figure(fit, rows.loc[ac == name], "heading_deg", out / "figures" / f"{_safe_name(name)}.png", mine)
     atomic_write_text(out / "report.md", _report(obs, rows, fleet, mag, str(obs_path), ci))
+    status = pd.Series([f.status_ for f in fleet.fits_.values()]).value_counts()
+    print(f"{obs_path}: {len(fleet.fits_)} aircraft: " + ", ".join(f"{int(status.get(k, 0))} {k}" for k in STATUSES)
+          + f" -> {out / 'deviation.csv'}")
     return 0
