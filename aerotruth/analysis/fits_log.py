@@ -19,8 +19,10 @@ error; WAAS columns are finite on WAAS epochs and NaN elsewhere (all three toget
 INS on every row except event rows; a receiver flag on a row between WAAS epochs belongs
 to the next epoch; missing RA or TVPS near the threshold is an error (the bias cannot be
 fixed). Units are checked from the physics: an approach whose WAAS ground speed (median over
-its epochs) is outside 10-130 m/s is refused as not in metres (a log in km or feet), and a
-radar-altimeter reading below -3 m as no height (a sign or a unit).
+its epochs) is outside 10-130 m/s is refused as not in metres (a log in km or feet), a
+radar-altimeter reading below -3 m as no height (a sign or a unit), and an approach whose
+WAAS height over the runway differs from the radar altimeter's (plus its lever arm) by more
+than 10 m in the median (RA in feet, or z not from the threshold).
 
 Events (the contract): `event` is empty on ordinary rows; a pilot mark is a row of its
 own at its exact time with the code `thr` (threshold) or `end` (stop end), its other
@@ -75,6 +77,9 @@ APPROACH_SPEED_MS = (10.0, 130.0)
 # A radar-altimeter reading below this (m) is no height above the runway (noise 0.15 m, a
 # bias of a metre or two at most): a sign or a unit
 RA_MIN_M = -3.0
+# |median(WAAS z - RA - lever arm)| over the runway above this (m) is no WAAS bias (1-2 m
+# 95 %, a jump of a metre or two): RA in feet, or z not from the threshold elevation
+RA_WAAS_MAX_M = 10.0
 OPTIONAL_NUMERIC = ("ra_lever_arm_m", "tvps_lever_arm_m")
 
 
@@ -247,6 +252,14 @@ def _check_approach(p: Path, a, g: pd.DataFrame) -> None:
         i = int(np.flatnonzero(low)[0])
         raise DataError(f"{where}: column 'ra_m' data row {g.index[i] + 1}: {ra[i]:g} m; a radar-altimeter height "
                         f"above the runway cannot be below {RA_MIN_M:g} m (sign? units?)")
+    lever = g["ra_lever_arm_m"].to_numpy(dtype=float) if "ra_lever_arm_m" in g.columns else np.zeros(len(g))
+    both = fin[:, 2] & np.isfinite(ra) & np.isfinite(lever)
+    if both.sum() >= 3:  # the WAAS height over the runway against the RA's: WAAS is good to metres
+        gap = float(np.median(w[both, 2] - ra[both] - lever[both]))
+        if abs(gap) > RA_WAAS_MAX_M:
+            raise DataError(f"{where}: column 'ra_m': the WAAS height is {gap:+.1f} m off the radar altimeter's over the "
+                            f"runway (median of {int(both.sum())} epochs); WAAS is good to a few metres: is ra_m in feet, "
+                            f"or the log's z not from the threshold?")
     if not marks:
         raise DataError(f"{where}: column 'event': no threshold mark ('thr')")
 
