@@ -40,12 +40,19 @@ def synthetic_track(hours: float, rng: np.random.Generator) -> pd.DataFrame:
     h_p = np.clip(np.minimum(t * 1800 * FPM, (t[-1] - t) * 1500 * FPM), 0.0, top)
     phase = np.where(t < climb_s, "climb", np.where(t < descent_start, "cruise", "descent"))
     vd = np.where(phase == "climb", -1800 * FPM, np.where(phase == "descent", 1500 * FPM, 0.0))
-    tas = np.interp(h_p, [0.0, top], [150 * KT, 260 * KT])
+    tas0 = np.interp(h_p, [0.0, top], [150 * KT, 260 * KT])
     heading = np.mod(40 * DEG + 0.6 * np.sin(2 * np.pi * t / 2400.0), 2 * np.pi)
-    roll = np.clip(np.gradient(heading, t) * tas / 9.80665, -0.5, 0.5)
-    wind_u = 15.0 + 3.0 * np.sin(2 * np.pi * t / 900.0) + 0.5 * rng.standard_normal(t.size)
-    wind_v = -5.0 + 0.5 * rng.standard_normal(t.size)
-    ve, vn = tas * np.sin(heading) + wind_u, tas * np.cos(heading) + wind_v
+    roll = np.clip(np.gradient(heading, t) * tas0 / 9.80665, -0.5, 0.5)
+    # the aircraft's heading and ground velocity are smooth (inertia: JSBSim legs show
+    # 0.3-0.5 m/s^2 sd of horizontal acceleration at 10 Hz); 10-Hz gusts of 0.5 m/s go
+    # into the wind and so into the air-relative velocity (TAS and sideslip)
+    u0, v0 = 15.0 + 3.0 * np.sin(2 * np.pi * t / 900.0), np.full(t.size, -5.0)
+    ve, vn = tas0 * np.sin(heading) + u0, tas0 * np.cos(heading) + v0
+    wind_u = u0 + 0.5 * rng.standard_normal(t.size)
+    wind_v = v0 + 0.5 * rng.standard_normal(t.size)
+    air_e, air_n = ve - wind_u, vn - wind_v
+    tas = np.hypot(air_e, air_n)
+    beta = np.mod(np.arctan2(air_e, air_n) - heading + np.pi, 2 * np.pi) - np.pi
     m, n = radii(45.0 * DEG)
     lat = 45.0 + np.degrees(np.cumsum(vn) * 0.1 / m)
     lon = -93.0 + np.degrees(np.cumsum(ve) * 0.1 / (n * np.cos(45.0 * DEG)))
@@ -55,7 +62,7 @@ def synthetic_track(hours: float, rng: np.random.Generator) -> pd.DataFrame:
         "time_s": t, "lat_deg": lat, "lon_deg": lon, "h_ellipsoid_m": h_p + 30.0,
         "pressure_altitude_m": pressure_altitude_m(p), "vn_mps": vn, "ve_mps": ve, "vd_mps": vd,
         "roll_rad": roll, "pitch_rad": zeros, "heading_rad": heading, "tas_mps": tas, "cas_mps": tas,
-        "alpha_rad": zeros, "beta_rad": zeros, "p_radps": zeros, "q_radps": zeros, "r_radps": zeros,
+        "alpha_rad": zeros, "beta_rad": beta, "p_radps": zeros, "q_radps": zeros, "r_radps": zeros,
         "wind_u_mps": wind_u, "wind_v_mps": wind_v, "wind_w_mps": zeros, "static_pressure_pa": p,
         "temperature_k": np.full(t.size, 250.0), "leg_index": np.zeros(t.size, dtype=np.int32),
         "phase": pd.Categorical(phase, categories=["climb", "cruise", "descent", "approach"]),

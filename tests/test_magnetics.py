@@ -482,3 +482,34 @@ def test_poor_count_fixes_the_fleet_composition_and_keeps_each_valve_draw():
         assert v_p.soft_iron == v_h.soft_iron and v_p.mounting_deg == v_h.mounting_deg
         by_fraction = FluxValveFleetSpec(poor_fraction=1.0, poor_hard_iron_sigma_nT=800.0).draw(np.random.default_rng(seed))
         assert v_p.hard_iron_nT == by_fraction.hard_iron_nT
+
+
+def _slaving_exact(x: np.ndarray, alpha: float, e0: float) -> np.ndarray:
+    """The slaving recursion sample by sample (the definition the filter approximates)."""
+    y, e = np.empty(x.size), e0
+    for i, v in enumerate(x):
+        e += alpha * ((v - e + math.pi) % (2 * math.pi) - math.pi)
+        y[i] = e
+    return y
+
+
+def test_slaving_filter_is_exact_across_a_branch_change_and_after_a_swing():
+    """The unwrapped valve-minus-gyro error can come back from a bank cutout 2 pi off the
+    gyro's branch (JSBSim legs: a 40-s stretch of such inputs after a turn); the filter must
+    follow the wrapped recursion there, and be exactly linear again once the input is calm
+    (it used to stay in block mode for the rest of the leg)."""
+    from aerotruth.sensors.magnetics import _slaving_filter
+
+    rng = np.random.default_rng(3)
+    alpha = -math.expm1(-0.1 / 60.0)
+    x = 0.05 + 0.01 * rng.standard_normal(20000)
+    x[5000:] += 2 * np.pi  # the branch change
+    got = _slaving_filter(x, alpha, 0.0)
+    assert np.max(np.abs(got - _slaving_exact(x, alpha, 0.0))) < 1e-12
+    # a 3-s swing through the null (the valve spinning in a violent transient), then calm
+    x = 0.05 + 0.01 * rng.standard_normal(20000)
+    x[8000:8030] += np.linspace(0.0, 2 * np.pi, 30)
+    x[8030:] += 2 * np.pi
+    got, ref = _slaving_filter(x, alpha, 0.0), _slaving_exact(x, alpha, 0.0)
+    assert np.max(np.abs(got - ref)) < 1e-3  # block wrapping only near the null
+    assert np.max(np.abs(got[9000:] - ref[9000:] - (got[8999] - ref[8999]) * (1 - alpha) ** np.arange(1, 11001))) < 1e-12

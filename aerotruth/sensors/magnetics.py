@@ -525,27 +525,42 @@ _SLAVING_BLOCK = 50  # samples per block where the error must be re-wrapped (5 s
 def _slaving_filter(x: np.ndarray, alpha: float, e0: float) -> np.ndarray:
     """e_k = e_{k-1} + alpha wrap(x_{k-1} - e_{k-1}), outputs after each input (lfilter).
 
-    One lfilter pass when the unwrapped input never gets more than pi from e (the normal
-    case). Otherwise, from the first such input on, blocks of _SLAVING_BLOCK inputs are
-    wrapped to within pi of e at the block's start: e moves at most alpha x pi per
-    sample (0.26 rad per block at tau = 60 s, 10 Hz), so this differs from the exact
-    per-sample wrap only for inputs within that of the synchro's unstable null, 180 deg
-    off. Cost O(n) whatever the input (a valve swinging wildly in noise included)."""
+    Linear stretches, where the unwrapped input stays within pi of e, are one lfilter pass
+    each (the normal case: the whole leg). From an input that gets further (the valve
+    swinging past the synchro's null, or a 2 pi branch left behind by a bank cutout),
+    blocks of _SLAVING_BLOCK inputs are wrapped to within pi of e at the block's start: e
+    moves at most alpha x pi per sample (0.26 rad per block at tau = 60 s, 10 Hz), so this
+    differs from the exact per-sample wrap only for inputs within that of the unstable
+    null, 180 deg off. After the first block that needs no wrap the input is shifted by
+    2 pi m onto e's branch and filtered linearly again, in chunks doubling from one block
+    (a chunk that fails is re-done from its first far input). Cost O(n) whatever the
+    input (a valve swinging wildly in noise included)."""
     b, a = [alpha], [1.0, alpha - 1.0]
-    if x.size == 0:
-        return x.copy()
-    y = lfilter(b, a, x, zi=[(1.0 - alpha) * e0])[0]
-    before = np.concatenate(([e0], y[:-1]))
-    far = np.flatnonzero(np.abs(x - before) > np.pi)
-    if far.size == 0:
-        return y
-    k0 = int(far[0])
-    e = before[k0]
-    for s in range(k0, x.size, _SLAVING_BLOCK):
+    n = x.size
+    y = np.empty(n)
+    e, s, chunk, wrapped = float(e0), 0, n, False
+    while s < n:
+        if not wrapped:  # linear: the input shifted onto e's branch
+            seg = x[s:s + chunk] + TWO_PI * np.round((e - x[s]) / TWO_PI)
+            ys = lfilter(b, a, seg, zi=[(1.0 - alpha) * e])[0]
+            prev = np.concatenate(([e], ys[:-1]))
+            far = np.flatnonzero(np.abs(seg - prev) > np.pi)
+            k = int(far[0]) if far.size else seg.size
+            y[s:s + k] = ys[:k]
+            e = float(prev[k]) if far.size else float(ys[-1])
+            s += k
+            chunk = min(2 * chunk, n)
+            wrapped = bool(far.size)
+            continue
         xb = x[s:s + _SLAVING_BLOCK]
-        xb = e + (np.mod(xb - e + np.pi, TWO_PI) - np.pi)
-        y[s:s + _SLAVING_BLOCK] = lfilter(b, a, xb, zi=[(1.0 - alpha) * e])[0]
-        e = y[s + xb.size - 1]
+        d = xb - e
+        d += TWO_PI * np.round(-d[0] / TWO_PI)  # onto e's branch (the wrap below is branch-blind)
+        wrapped = bool(np.any(np.abs(d) > np.pi))  # this block needed the wrap: so may the next
+        xb = e + (np.mod(d + np.pi, TWO_PI) - np.pi)
+        y[s:s + xb.size] = lfilter(b, a, xb, zi=[(1.0 - alpha) * e])[0]
+        e = float(y[s + xb.size - 1])
+        s += xb.size
+        chunk = _SLAVING_BLOCK
     return y
 
 
