@@ -42,32 +42,34 @@ def epoch_rows(result: FitsResult, truth: pd.DataFrame, geometry: dict, waas_xyz
         raise ValueError("truth: expected a row at every WAAS epoch")
     p_true = truth[["x_m", "y_m", "z_m"]].to_numpy()[i]
     n_true = truth[["cyclic_x_m", "cyclic_y_m", "cyclic_z_m"]].to_numpy()[i]
-    out = approach_errors(p_true[:, 0], result.xyz_m, p_true, loc_x_m=geometry["loc_x_m"], gp_x_m=geometry["gp_x_m"],
-                          gp_y_m=geometry["gp_y_m"])
-    out.insert(0, "time_s", nl.t_s)
+    errors = approach_errors(p_true[:, 0], result.xyz_m, p_true, loc_x_m=geometry["loc_x_m"], gp_x_m=geometry["gp_x_m"],
+                             gp_y_m=geometry["gp_y_m"])
     k = np.arange(len(nl.t_s))
-    out["edge"] = (k < 2 * T) | (k >= len(k) - 2 * T)
+    more = {"edge": (k < 2 * T) | (k >= len(k) - 2 * T)}
     for i, a in enumerate(AXES):
-        out[f"waas_err_{a}_m"] = waas_xyz[:, i] - p_true[:, i]
-        out[f"n_true_{a}_m"] = n_true[:, i]
-        out[f"n_hat_{a}_m"] = nl.n_hat[:, i]
-        out[f"resid_{a}_m"] = nl.n_hat[:, i] - n_true[:, i]
-    out["y_true_m"] = p_true[:, 1]
-    out["z_true_m"] = p_true[:, 2]
-    return out
+        more[f"waas_err_{a}_m"] = waas_xyz[:, i] - p_true[:, i]
+        more[f"n_true_{a}_m"] = n_true[:, i]
+        more[f"n_hat_{a}_m"] = nl.n_hat[:, i]
+        more[f"resid_{a}_m"] = nl.n_hat[:, i] - n_true[:, i]
+    more["y_true_m"] = p_true[:, 1]
+    more["z_true_m"] = p_true[:, 2]
+    # one frame from the columns at once (inserting them one by one cost more than the arithmetic)
+    return pd.DataFrame({"time_s": nl.t_s, **{c: errors[c].to_numpy() for c in errors.columns}, **more})
 
 
 def approach_summary(ep: pd.DataFrame, bias_hat: np.ndarray, bias_true: np.ndarray, from_nm: float) -> dict:
     """Per approach: residual RMS and share < 0.1 m (interior and edges), the removed share
     1 - RMS(r)/RMS(N), bias error at the threshold and the requirement verdicts."""
-    inner, edge = ep[~ep["edge"]], ep[ep["edge"]]
+    is_edge = ep["edge"].to_numpy(bool)
+    inner, edge = np.flatnonzero(~is_edge), np.flatnonzero(is_edge)
     out: dict = {"epochs": len(ep)}
-    r_in = inner[[f"resid_{a}_m" for a in AXES]].to_numpy()
+    r = ep[[f"resid_{a}_m" for a in AXES]].to_numpy()
+    r_in = r[inner]
     for i, a in enumerate(AXES):
         out[f"resid_rms_{a}_m"] = float(np.sqrt(np.mean(r_in[:, i] ** 2)))
         out[f"resid_share_lt_0p1_{a}"] = float(np.mean(np.abs(r_in[:, i]) < 0.1))
-        out[f"edge_resid_share_lt_0p1_{a}"] = float(np.mean(np.abs(edge[f"resid_{a}_m"]) < 0.1)) if len(edge) else float("nan")
-        n_rms = float(np.sqrt(np.mean(inner[f"n_true_{a}_m"] ** 2)))
+        out[f"edge_resid_share_lt_0p1_{a}"] = float(np.mean(np.abs(r[edge, i]) < 0.1)) if len(edge) else float("nan")
+        n_rms = float(np.sqrt(np.mean(ep[f"n_true_{a}_m"].to_numpy()[inner] ** 2)))
         out[f"removed_share_{a}"] = 1.0 - out[f"resid_rms_{a}_m"] / n_rms if n_rms > 0 else float("nan")
         out[f"bias_hat_{a}_m"] = float(bias_hat[i])
         out[f"bias_err_{a}_m"] = float(bias_hat[i] - bias_true[i])

@@ -47,17 +47,15 @@ def approach_errors(x, est, truth, *, loc_x_m: float, gp_x_m: float, gp_y_m: flo
     err = est - truth
     r_loc = loc_x_m - x
     r_gp = np.hypot(x - gp_x_m, truth[:, 1] - gp_y_m)
-    out = pd.DataFrame({
-        "x_m": x, "distance_to_threshold_m": -x,
-        "along_m": err[:, 0], "cross_m": err[:, 1], "vertical_m": err[:, 2],
-        "range_loc_m": r_loc, "range_gp_m": r_gp,
-        "cross_deg": np.degrees(np.arctan2(err[:, 1], r_loc)),
-        "vertical_deg": np.degrees(np.arctan2(err[:, 2], r_gp)),
-    })
+    out = {"x_m": x, "distance_to_threshold_m": -x,
+           "along_m": err[:, 0], "cross_m": err[:, 1], "vertical_m": err[:, 2],
+           "range_loc_m": r_loc, "range_gp_m": r_gp,
+           "cross_deg": np.degrees(np.arctan2(err[:, 1], r_loc)),
+           "vertical_deg": np.degrees(np.arctan2(err[:, 2], r_gp))}
     for name, alpha in REQUIREMENTS.items():
         out[f"cross_meets_{name}"] = np.abs(err[:, 1]) <= required_error_m(r_loc, alpha, FLOOR_HORIZONTAL_M)
         out[f"vertical_meets_{name}"] = np.abs(err[:, 2]) <= required_error_m(r_gp, alpha, FLOOR_VERTICAL_M)
-    return out
+    return pd.DataFrame(out)  # built at once: column-by-column insertion costs more than the arithmetic
 
 
 def approach_verdict(errors: pd.DataFrame, from_nm: float = 10.0) -> dict[str, float | bool | int]:
@@ -65,12 +63,13 @@ def approach_verdict(errors: pd.DataFrame, from_nm: float = 10.0) -> dict[str, f
     meets each requirement (cross-track and vertical), and the distance from the
     threshold (nm) beyond which every epoch meets it (0 when all do, `from_nm` when even
     the farthest fails) — where along the approach the truth system stops being good enough."""
-    seg = errors[(errors["distance_to_threshold_m"] >= 0) & (errors["distance_to_threshold_m"] <= from_nm * NM)]
-    d = seg["distance_to_threshold_m"].to_numpy()
+    dist = errors["distance_to_threshold_m"].to_numpy()
+    seg = np.flatnonzero((dist >= 0) & (dist <= from_nm * NM))
+    d = dist[seg]
     out: dict[str, float | bool | int] = {"epochs": int(len(seg))}
     for axis in ("cross", "vertical"):
         for name in REQUIREMENTS:
-            ok = seg[f"{axis}_meets_{name}"].to_numpy(bool)
+            ok = errors[f"{axis}_meets_{name}"].to_numpy(bool)[seg]
             out[f"{axis}_meets_{name}"] = bool(len(ok) and ok.all())
             out[f"{axis}_{name}_met_beyond_nm"] = float(d[~ok].max() / NM) if (~ok).any() else (0.0 if len(ok) else from_nm)
     return out

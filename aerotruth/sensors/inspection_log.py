@@ -188,12 +188,8 @@ def approach_logs(track, sensors: InspectionSensors, rng: Callable[..., np.rando
             p = ins_positions(sub, spec, rng("ins", spec.label), REFERENCE_POINT, true_point_m=ref)[0]
         ins = {f"ins_{a}_m": col(p[:, i]) for i, a in enumerate("xyz")}
         logs[spec.label] = pd.DataFrame({**common, **ins, **later})  # LOG_COLUMNS order, then the lever arms
-    truth = pd.DataFrame({"time_s": t[w_rows]})
-    for i, a in enumerate("xyz"):
-        truth[f"{a}_m"] = ref[w_rows, i]
-    for i, a in enumerate("xyz"):
-        truth[f"cyclic_{a}_m"] = werr.cyclic_m[:, i]
-    for i, a in enumerate("xyz"):
-        truth[f"bias_{a}_m"] = werr.bias_m[i] + werr.jump_m[:, i]
+    truth = pd.DataFrame({"time_s": t[w_rows], **{f"{a}_m": ref[w_rows, i] for i, a in enumerate("xyz")},
+                          **{f"cyclic_{a}_m": werr.cyclic_m[:, i] for i, a in enumerate("xyz")},
+                          **{f"bias_{a}_m": werr.bias_m[i] + werr.jump_m[:, i] for i, a in enumerate("xyz")}})
     gs_rows = np.hypot(sub.df["vn_mps"].to_numpy(float), sub.df["ve_mps"].to_numpy(float))
     return ApproachLogs(logs, truth, geometry(track), t, pts, marks, gs_rows)
