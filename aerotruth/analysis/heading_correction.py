@@ -457,6 +457,7 @@ class HeadingDeviationFit:
             raise ValueError(f"table: missing column '{missing[0]}' (expected the deviation.csv columns)")
         if row["status"] not in STATUSES:
             raise ValueError(f"table: column 'status' is {row['status']!r}, expected one of {', '.join(STATUSES)}")
+
         def num(c: str) -> float:
             try:
                 return float(row[c])
@@ -467,7 +468,8 @@ class HeadingDeviationFit:
         self = cls(heading=str(row.get("heading_frame", "true")) if isinstance(row.get("heading_frame", "true"), str) else "true")
         self.aircraft_ = str(row["aircraft"])
         self.status_, self.reason_ = str(row["status"]), ("" if pd.isna(row["reason"]) else str(row["reason"]))
-        self.n_used_ = int(num("n_used")) if np.isfinite(num("n_used")) else 0
+        n_used = num("n_used")
+        self.n_used_ = int(n_used) if np.isfinite(n_used) else 0
         self.coef_ = {t: num(f"{t}_deg") for t in TERM_NAMES}
         self.se_ = {t: num(f"{t}_se_deg") for t in TERM_NAMES}
         self.lut_ = np.array([num(c) for c in LUT_COLUMNS])

@@ -242,7 +242,7 @@ def ground_track(t: np.ndarray, lat_rad: np.ndarray, lon_rad: np.ndarray, flight
 # reports: a TAS scale error of a few per cent is an effect to find (diagnose), a column in
 # m/s (0.51x) or km/h (1.85x) is a unit
 TAS_RATIO_RANGE = (0.75, 1.33)
-_TAS_UNITS = (("m/s", 1.0 / 1.943844), ("km/h", 1.852), ("mph", 1.150779))
+_TAS_UNITS = (("m/s", 1.0 / 1.943844), ("km/h", 1.852))  # (mph, 1.15x, is inside the range: a scale error)
 
 
 def _check_tas_units(tas_col_ms: np.ndarray, tas_triangle_ms: np.ndarray, ok: np.ndarray, source: str) -> None:
