@@ -33,6 +33,22 @@ def _non_negative_float(text: str) -> float:
     return value
 
 
+# certified ceilings of the flown types: SAAB 340B 25,000 ft (aerotruth.truth.routes,
+# CRUISE_CEILING_FT), Boeing 737 classic/NG 41,000 ft
+MAX_CRUISE_FL = {"saab340": 250, "737": 410}
+
+
+def _pass_height_ft(text: str) -> float:
+    """An AFIS level-pass height: above the runway, below a pattern altitude."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a height in ft, got {text!r}") from None
+    if not 20.0 <= value <= 1000.0:
+        raise argparse.ArgumentTypeError(f"expected 20-1000 ft above the runway (AFIS passes fly 50-100 ft), got {value:g}")
+    return value
+
+
 def _positive_int(text: str) -> int:
     value = _non_negative_int(text)
     if value < 1:
@@ -54,13 +70,16 @@ def _output_file(value: str, option: str = "--out") -> Path:
 
 
 def _cmd_fly(args: argparse.Namespace) -> int:
-    from aerotruth.truth.airframes import airframe
+    from aerotruth.truth.airframes import DEFAULT_AIRCRAFT, airframe
     from aerotruth.truth.days import day_atmosphere, on_airway, parse_departure, plan_in_weather
     from aerotruth.truth.flight import FlightDiverged, fly_leg
     from aerotruth.truth.weather import region_for_airport
     from aerotruth.units import NM
 
     out = _output_file(args.out)
+    ac = args.aircraft or DEFAULT_AIRCRAFT
+    if args.cruise_fl is not None and ac in MAX_CRUISE_FL and args.cruise_fl > MAX_CRUISE_FL[ac]:
+        raise UserError(f"--cruise-fl: FL{args.cruise_fl} is above the {ac}'s ceiling, FL{MAX_CRUISE_FL[ac]}")
     origin, destination = args.origin.strip().upper(), args.destination.strip().upper()
     weather_seed = args.seed if args.weather_seed is None else args.weather_seed
     try:
@@ -76,6 +95,9 @@ def _cmd_fly(args: argparse.Namespace) -> int:
     except (ValueError, FlightDiverged) as e:
         raise UserError(str(e)) from None
     track.to_parquet(out)
+    if args.cruise_fl is not None and plan.cruise_flight_level != args.cruise_fl:
+        print(f"--cruise-fl: FL{args.cruise_fl} does not fit this leg (climb, cruise and a 3 deg descent); flown at "
+              f"FL{plan.cruise_flight_level}, the highest level of the direction's parity that does")
     s = track.summary()
     print(f"{plan.origin.icao} rwy {plan.departure_runway.ident} -> {plan.destination.icao} rwy "
           f"{plan.arrival_runway.ident}, FL{plan.cruise_flight_level}, {plan.total_distance_m / NM:.0f} nm: "
@@ -292,7 +314,7 @@ def build_parser() -> argparse.ArgumentParser:
     fa.add_argument("--region", default=None, help="truth-atmosphere region (default: that of the airport)")
     fa.add_argument("--profile", choices=["afis", "go-around"], default="afis",
                     help="after the glide path: the AFIS level pass over the runway, or a go-around at 200 ft")
-    fa.add_argument("--pass-height-ft", type=float, default=100.0, help="AFIS level-pass height above the runway (ft)")
+    fa.add_argument("--pass-height-ft", type=_pass_height_ft, default=100.0, help="AFIS level-pass height above the runway (ft)")
     fa.add_argument("--mass-kg", type=float, default=12000.0, help="landing mass (kg); Vref = 1.3 Vs scales with it")
     fa.add_argument("--turbulence", action="store_true", help="MIL-F-8785C turbulence in patches, near the ground 0.1 x the wind at 20 ft")
     fa.add_argument("--calm", action="store_true", help="ISA, no wind (instead of the day's truth atmosphere)")

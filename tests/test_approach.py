@@ -4,6 +4,8 @@ independent strapdown mechanization, and lever-arm positions against hand-worked
 
 from __future__ import annotations
 
+import argparse
+
 import math
 import subprocess
 import sys
@@ -159,6 +161,18 @@ def test_bad_runway_and_profile_are_one_clear_error():
         find_runway("KDLH", "28")
     with pytest.raises(ValueError, match="profile"):
         approach_spec("KDLH", "27", DAY, profile="touch-and-go")
+
+
+@pytest.mark.parametrize("height, ok", [("-50", False), ("5", False), ("1500", False), ("abc", False), ("50", True)])
+def test_pass_height_is_checked_by_the_argument_parser(height, ok, capsys):
+    """A level pass below the runway (or at 5 ft) used to fly into the divergence guard."""
+    from aerotruth.cli import _pass_height_ft
+
+    if ok:
+        assert _pass_height_ft(height) == float(height)
+    else:
+        with pytest.raises(argparse.ArgumentTypeError, match=r"expected (20-1000 ft above the runway|a height in ft)"):
+            _pass_height_ft(height)
 
 
 def test_fly_approach_command_line(tmp_path):

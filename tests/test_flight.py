@@ -142,6 +142,9 @@ def test_flight_starts_at_the_scheduled_airspeed_without_sideslip_in_a_crosswind
     (["--from", "KMSP", "--to", "KDLH", "--date", "2009-13-01"], "--date"),
     (["--from", "KMSP", "--to", "KDLH", "--aircraft", "a380"], "unknown aircraft 'a380'"),
     (["--from", "KMSP", "--to", "KDLH", "--out", "/no/such/folder/f.parquet"], "--out"),
+    # above the type's ceiling: refused before planning (a 600-nm leg would otherwise try FL900)
+    (["--from", "KMSP", "--to", "KMEM", "--cruise-fl", "300"], "--cruise-fl: FL300 is above the saab340's ceiling, FL250"),
+    (["--from", "KMSP", "--to", "KMEM", "--cruise-fl", "450", "--aircraft", "737"], "above the 737's ceiling, FL410"),
 ])
 def test_fly_command_reports_bad_input_in_one_line(argv, expect, capsys, tmp_path):
     from aerotruth.cli import main
