@@ -101,13 +101,23 @@ def open_executor(choice: ExecutorChoice) -> Iterator[tuple[Executor, int]]:
         except OSError as e:
             raise ExecutorError(f"--scheduler {choice.scheduler}: cannot connect ({e})") from None
     else:
-        cluster = LocalCluster(
-            n_workers=choice.workers or DEFAULT_DASK_LOCAL_WORKERS,
-            threads_per_worker=1,
-            processes=True,
-            dashboard_address=None,
-            host="127.0.0.1",
-        )
+        import dask
+
+        # Dask's nanny sets MALLOC_TRIM_THRESHOLD_ in its workers by default; setting it fixes
+        # glibc's mmap threshold, so every temporary array over 128 kB is mapped and unmapped
+        # afresh (page faults): numpy-heavy tasks ran 15-20 % slower than in the local pool
+        # (measured: 1.6-1.9 s against 1.3-1.6 s per task). Workers here keep glibc's default,
+        # and no statistical profiler (it samples the task thread every 10 ms for a dashboard
+        # this cluster does not serve).
+        with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                              "distributed.worker.profile.enabled": False}):
+            cluster = LocalCluster(
+                n_workers=choice.workers or DEFAULT_DASK_LOCAL_WORKERS,
+                threads_per_worker=1,
+                processes=True,
+                dashboard_address=None,
+                host="127.0.0.1",
+            )
         client = Client(cluster)
     try:
         slots = sum(w.get("nthreads", 1) for w in client.scheduler_info().get("workers", {}).values()) or 1
