@@ -201,6 +201,21 @@ def test_fits_main_on_a_1_hz_csv_log_without_dgps(tmp_path):
     assert len(pd.read_csv(out / "trajectory.csv")) == log["waas_x_m"].notna().sum() and not (out / "errors.csv").exists()
 
 
+def test_fits_main_says_what_it_wrote_and_how_the_approaches_scored(tmp_path, capsys):
+    log, _ = gen.make_log(2, seed=25)
+    out = tmp_path / "o"
+    assert fits_main(write(log, tmp_path / "log.csv"), str(out)) == 0
+    lines = capsys.readouterr().out.strip().splitlines()
+    traj, errors = pd.read_csv(out / "trajectory.csv"), pd.read_csv(out / "errors.csv")
+    jumps = int(pd.read_csv(out / "bias.csv")["jumps"].sum())
+    assert lines[0] == f"{tmp_path / 'log.csv'}: 2 approaches, {len(traj)} WAAS epochs, {jumps} flagged bias jumps compensated -> {out / 'trajectory.csv'}"
+    inside = errors[errors["distance_to_threshold_m"].between(0.0, 10 * 1852.0)]
+    assert lines[2].startswith(f"FITS - DGPS, threshold to 10 nm: cross-track RMS {np.sqrt(np.mean(inside['cross_m'] ** 2)):.2f} m, "
+                               f"vertical RMS {np.sqrt(np.mean(inside['vertical_m'] ** 2)):.2f} m; approaches meeting desired")
+    # the generator's FITS errors are a few cm: every epoch within 10 nm meets both requirements
+    assert "cross 2/2 vertical 2/2, minimum (0.05 deg) cross 2/2 vertical 2/2" in lines[2]
+
+
 def test_legacy_numeric_marks_and_a_runway_sidecar_are_read(tmp_path, capsys):
     log, truth = gen.make_log(2, seed=24, numeric_event=True)
     path = write(log, tmp_path / "log.csv")

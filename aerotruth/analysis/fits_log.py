@@ -50,7 +50,8 @@ import numpy as np
 import pandas as pd
 
 from aerotruth.analysis.fits import FitsResult, FitsSpec, fits_approach
-from aerotruth.analysis.ils_metrics import FLOOR_HORIZONTAL_M, FLOOR_VERTICAL_M, REQUIREMENTS, approach_errors, required_error_m
+from aerotruth.analysis.ils_metrics import (FLOOR_HORIZONTAL_M, FLOOR_VERTICAL_M, REQUIREMENTS, approach_errors,
+                                            approach_verdict, required_error_m)
 from aerotruth.errors import DataError, output_folder
 from aerotruth.files import atomic_write_bytes, atomic_write_text
 from aerotruth.tables import read_csv_table
@@ -396,10 +397,24 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
     atomic_write_text(out / "trajectory_8hz.csv", pd.concat(grid, ignore_index=True).to_csv(index=False))
     atomic_write_text(out / "cyclic_noise.csv", pd.concat(noise, ignore_index=True).to_csv(index=False))
     atomic_write_text(out / "bias.csv", pd.DataFrame(bias).to_csv(index=False))
+    epochs = sum(len(t) for t in traj)
+    jumps = sum(b["jumps"] for b in bias)
+    print(f"{p}: {len(traj)} approaches, {epochs} WAAS epochs, {jumps} flagged bias jumps compensated -> "
+          f"{out / 'trajectory.csv'}")
     if errs:
         errors = pd.concat(errs, ignore_index=True)
         atomic_write_text(out / "errors.csv", errors.to_csv(index=False))
         print(f"runway geometry for the angular errors: {geom_src}")
+        verdicts = [approach_verdict(e, 10.0) for _, e in errors.groupby("approach", sort=False)]
+        met = {f"{axis}_{name}": sum(v[f"{axis}_meets_{name}"] for v in verdicts)
+               for axis in ("cross", "vertical") for name in REQUIREMENTS}
+        d = errors["distance_to_threshold_m"].to_numpy()
+        inside = errors[(d >= 0.0) & (d <= 10.0 * NM)]
+        print(f"FITS - DGPS, threshold to 10 nm: cross-track RMS {np.sqrt(np.mean(inside['cross_m'] ** 2)):.2f} m, "
+              f"vertical RMS {np.sqrt(np.mean(inside['vertical_m'] ** 2)):.2f} m; approaches meeting "
+              + ", ".join(f"{name} ({REQUIREMENTS[name]:g} deg) cross {met['cross_' + name]}/{len(verdicts)} vertical "
+                          f"{met['vertical_' + name]}/{len(verdicts)}" for name in REQUIREMENTS)
+              + f" -> {out / 'errors.csv'}")
         tmp = out / "requirement.png.part.png"
         _requirement_figure(errors, tmp)
         atomic_write_bytes(out / "requirement.png", tmp.read_bytes())
