@@ -33,11 +33,6 @@ def _non_negative_float(text: str) -> float:
     return value
 
 
-# certified ceilings of the flown types: SAAB 340B 25,000 ft (aerotruth.truth.routes,
-# CRUISE_CEILING_FT), Boeing 737 classic/NG 41,000 ft
-MAX_CRUISE_FL = {"saab340": 250, "737": 410}
-
-
 def _pass_height_ft(text: str) -> float:
     """An AFIS level-pass height: above the runway, below a pattern altitude."""
     try:
@@ -73,13 +68,17 @@ def _cmd_fly(args: argparse.Namespace) -> int:
     from aerotruth.truth.airframes import DEFAULT_AIRCRAFT, airframe
     from aerotruth.truth.days import day_atmosphere, on_airway, parse_departure, plan_in_weather
     from aerotruth.truth.flight import FlightDiverged, fly_leg
+    from aerotruth.truth.routes import CRUISE_CEILING_FT
     from aerotruth.truth.weather import region_for_airport
     from aerotruth.units import NM
 
     out = _output_file(args.out)
-    ac = args.aircraft or DEFAULT_AIRCRAFT
-    if args.cruise_fl is not None and ac in MAX_CRUISE_FL and args.cruise_fl > MAX_CRUISE_FL[ac]:
-        raise UserError(f"--cruise-fl: FL{args.cruise_fl} is above the {ac}'s ceiling, FL{MAX_CRUISE_FL[ac]}")
+    # certified ceilings of the flown types: the SAAB 340B's is the route planner's
+    # (CRUISE_CEILING_FT, 25,000 ft); Boeing 737 classic/NG 41,000 ft
+    ceiling_fl = {"saab340": int(CRUISE_CEILING_FT // 100), "737": 410}.get(args.aircraft or DEFAULT_AIRCRAFT)
+    if args.cruise_fl is not None and ceiling_fl is not None and args.cruise_fl > ceiling_fl:
+        raise UserError(f"--cruise-fl: FL{args.cruise_fl} is above the {args.aircraft or DEFAULT_AIRCRAFT}'s ceiling, "
+                        f"FL{ceiling_fl}")
     origin, destination = args.origin.strip().upper(), args.destination.strip().upper()
     weather_seed = args.seed if args.weather_seed is None else args.weather_seed
     try:

@@ -126,8 +126,7 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
         d = m.df.dropna(subset=["heading", "TAS", "track", "groundspeed", "latitude", "longitude", "altitude"])
         excluded = {"missing fields": int(len(m.df) - len(d))}
     elif m.kind == "modes_raw":
-        _require_registers(m)
-        d = _track_from_raw(m.df)
+        d = _track_from_raw(*_raw_registers(m))
         excluded = {"BDS 6,0 replies without BDS 5,0 / ADS-B neighbours": int((m.df["bds"] == "60").sum() - len(d))}
     else:
         what = {"adsb_track": "an ADS-B track", "qar": "a flight-data-recorder extract"}.get(m.kind, f"a {m.kind.replace('_', ' ')}")
@@ -170,34 +169,34 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
     return modes_track_to_wind_frame(d, when), excluded
 
 
-# what _track_from_raw reads from a raw message log: (downlink formats, BDS, fields, what it is)
+# what the wind frame is built from in a raw message log: (downlink formats, BDS, fields, what it is)
 RAW_REGISTERS = ((("20", "21"), "60", ("heading",), "Comm-B BDS 6,0 replies (magnetic heading)"),
                  (("20", "21"), "50", ("TAS",), "Comm-B BDS 5,0 replies (true airspeed)"),
                  (("17",), "09", ("groundspeed", "track", "vertical_rate"), "ADS-B airborne velocity messages (DF 17, BDS 0,9)"),
                  (("17",), "05", ("latitude", "longitude", "altitude"), "ADS-B airborne position messages (DF 17, BDS 0,5)"))
 
 
-def _require_registers(m: Measured) -> None:
-    """A raw message log must hold every register the wind frame is built from, decoded."""
+def _raw_registers(m: Measured) -> list[pd.DataFrame]:
+    """The messages of each RAW_REGISTERS entry, in time order; a log without one of them
+    decoded is one DataError naming it."""
     raw = m.df
     if "bds" not in raw.columns:
         raise DataError(f"{m.path}: messages without a 'bds' field; expected decoded Mode-S (BDS 0,5, 0,9, 5,0, 6,0)")
+    out = []
     for dfs, bds, fields, what in RAW_REGISTERS:
-        sel = raw[raw["df"].astype(str).isin(dfs) & (raw["bds"] == bds)]
+        sel = raw[raw["df"].astype(str).isin(dfs) & (raw["bds"] == bds)].sort_values("time_s")
         missing = [f for f in fields if f not in sel.columns or sel[f].isna().all()]
         if len(sel) == 0 or missing:
             got = f"{len(sel)} of them, none with {missing[0]!r} decoded" if len(sel) else "none"
             raise DataError(f"{m.path}: no usable {what}: {got}; diagnose needs them with "
                             f"{', '.join(fields)}")
+        out.append(sel)
+    return out
 
 
-def _track_from_raw(raw: pd.DataFrame) -> pd.DataFrame:
+def _track_from_raw(b60: pd.DataFrame, b50: pd.DataFrame, vel: pd.DataFrame, pos: pd.DataFrame) -> pd.DataFrame:
     """One row per BDS 6,0 reply: its heading, the latest BDS 5,0 TAS, the ADS-B velocity
-    and position interpolated to the reply time."""
-    def sel(dfs, bds):
-        return raw[raw["df"].astype(str).isin(dfs) & (raw["bds"] == bds)].sort_values("time_s")
-
-    b60, b50, vel, pos = sel(("20", "21"), "60"), sel(("20", "21"), "50"), sel(("17",), "09"), sel(("17",), "05")
+    and position interpolated to the reply time (the registers of `_raw_registers`)."""
     b60 = b60.dropna(subset=["heading"])
     t = b60["time_s"].to_numpy(float)
     out = pd.DataFrame({"time_s": t, "heading": b60["heading"].to_numpy(float)})

@@ -461,9 +461,9 @@ def _figure(plot: dict, title: str, path) -> None:
     import matplotlib.pyplot as plt
 
     x = plot["x"]
+    lim = np.quantile(np.abs(plot["before"]), 0.98)
     if np.ptp(x) <= 1e-9 * max(1.0, float(np.max(np.abs(x)))):  # a constant term: x says nothing, the distribution does
         fig, ax = plt.subplots(figsize=(7, 4))
-        lim = np.quantile(np.abs(plot["before"]), 0.98)
         bins = np.linspace(-lim, lim, 61)
         for key, lab, color in (("before", "model without the effect", "0.5"), ("after", "with the effect", "C3")):
             r = plot[key]
@@ -473,35 +473,32 @@ def _figure(plot: dict, title: str, path) -> None:
         ax.set_ylabel("rows")
         ax.grid(alpha=0.3)
         ax.legend(loc="upper left", fontsize=8)
-        fig.suptitle(title.replace("against the effect's term", "distribution (a constant term)"))
-        fig.savefig(path, dpi=120, bbox_inches="tight")
-        plt.close(fig)
-        return
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
-    values = np.unique(x)
-    if len(values) <= 10:  # a term of a few levels (flight phases): one bin per level
-        idx, nb = np.searchsorted(values, x), len(values)
-    else:  # 15 bins of equal counts
-        edges = np.unique(np.quantile(x, np.linspace(0, 1, 16)))
-        idx, nb = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2), len(edges) - 1
-    for ax, key, lab in ((axes[0], "before", "model without the effect"), (axes[1], "after", "with the effect")):
-        r = plot[key]
-        ax.scatter(x, r, s=2, alpha=0.15, color="0.5")
-        if nb > 1:
-            full = [k for k in range(nb) if np.any(idx == k)]
-            mids = np.array([np.mean(x[idx == k]) for k in full])
-            means = np.array([np.mean(r[idx == k]) for k in full])
-            ses = np.array([np.std(r[idx == k]) / math.sqrt(np.sum(idx == k)) for k in full])
-            ax.errorbar(mids, means, ses, fmt="o-", color="C3", label="bin mean ± se")
-        lim = np.quantile(np.abs(plot["before"]), 0.98)
-        ax.set_ylim(-lim, lim)
-        ax.axhline(0, color="k", lw=0.5)
-        ax.set_title(lab)
-        ax.set_xlabel(f"the effect's fitted term ({plot['unit']})")
-        ax.grid(alpha=0.3)
-    axes[0].set_ylabel(f"{plot['channel']} residual ({plot['unit']})")
-    if axes[0].get_legend_handles_labels()[0]:
-        axes[0].legend(loc="upper left")
+        title = title.replace("against the effect's term", "distribution (a constant term)")
+    else:
+        fig, axes = plt.subplots(1, 2, figsize=(10, 4), sharey=True)
+        values = np.unique(x)
+        if len(values) <= 10:  # a term of a few levels (flight phases): one bin per level
+            idx, nb = np.searchsorted(values, x), len(values)
+        else:  # 15 bins of equal counts
+            edges = np.unique(np.quantile(x, np.linspace(0, 1, 16)))
+            idx, nb = np.clip(np.searchsorted(edges, x, side="right") - 1, 0, len(edges) - 2), len(edges) - 1
+        full = [k for k in range(nb) if np.any(idx == k)]
+        for ax, key, lab in ((axes[0], "before", "model without the effect"), (axes[1], "after", "with the effect")):
+            r = plot[key]
+            ax.scatter(x, r, s=2, alpha=0.15, color="0.5")
+            if nb > 1:
+                mids = np.array([np.mean(x[idx == k]) for k in full])
+                means = np.array([np.mean(r[idx == k]) for k in full])
+                ses = np.array([np.std(r[idx == k]) / math.sqrt(np.sum(idx == k)) for k in full])
+                ax.errorbar(mids, means, ses, fmt="o-", color="C3", label="bin mean ± se")
+            ax.set_ylim(-lim, lim)
+            ax.axhline(0, color="k", lw=0.5)
+            ax.set_title(lab)
+            ax.set_xlabel(f"the effect's fitted term ({plot['unit']})")
+            ax.grid(alpha=0.3)
+        axes[0].set_ylabel(f"{plot['channel']} residual ({plot['unit']})")
+        if axes[0].get_legend_handles_labels()[0]:
+            axes[0].legend(loc="upper left")
     fig.suptitle(title)
     fig.savefig(path, dpi=120, bbox_inches="tight")
     plt.close(fig)

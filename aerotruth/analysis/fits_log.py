@@ -82,6 +82,7 @@ RA_MIN_M = -3.0
 # 95 %, a jump of a metre or two): RA in feet, or z not from the threshold elevation
 RA_WAAS_MAX_M = 10.0
 OPTIONAL_NUMERIC = ("ra_lever_arm_m", "tvps_lever_arm_m")
+SUMMARY_FROM_NM = 10.0  # the command line's summary: from the threshold out to this distance
 
 
 def event_codes(values: pd.Series, where: str) -> pd.Series:
@@ -405,12 +406,12 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
         errors = pd.concat(errs, ignore_index=True)
         atomic_write_text(out / "errors.csv", errors.to_csv(index=False))
         print(f"runway geometry for the angular errors: {geom_src}")
-        verdicts = [approach_verdict(e, 10.0) for _, e in errors.groupby("approach", sort=False)]
+        verdicts = [approach_verdict(e, SUMMARY_FROM_NM) for e in errs]  # errs: one frame per approach
         met = {f"{axis}_{name}": sum(v[f"{axis}_meets_{name}"] for v in verdicts)
                for axis in ("cross", "vertical") for name in REQUIREMENTS}
         d = errors["distance_to_threshold_m"].to_numpy()
-        inside = errors[(d >= 0.0) & (d <= 10.0 * NM)]
-        print(f"FITS - DGPS, threshold to 10 nm: cross-track RMS {np.sqrt(np.mean(inside['cross_m'] ** 2)):.2f} m, "
+        inside = errors[(d >= 0.0) & (d <= SUMMARY_FROM_NM * NM)]
+        print(f"FITS - DGPS, threshold to {SUMMARY_FROM_NM:g} nm: cross-track RMS {np.sqrt(np.mean(inside['cross_m'] ** 2)):.2f} m, "
               f"vertical RMS {np.sqrt(np.mean(inside['vertical_m'] ** 2)):.2f} m; approaches meeting "
               + ", ".join(f"{name} ({REQUIREMENTS[name]:g} deg) cross {met['cross_' + name]}/{len(verdicts)} vertical "
                           f"{met['vertical_' + name]}/{len(verdicts)}" for name in REQUIREMENTS)
