@@ -151,3 +151,38 @@ def test_reports_that_pass_no_gate_are_one_line(periods, tmp_path, capsys):
                  "--out", str(tmp_path / "o")]) == 2
     err = capsys.readouterr().err.strip()
     assert "no report passes the ground-track gates" in err and len(err.splitlines()) == 1
+
+
+def test_an_aircraft_named_all_keeps_its_own_row_before_the_fleets(periods, tmp_path):
+    # the fleet's row is "all", always last: an aircraft of that name gets its own row and
+    # the same scores and status as under another name
+    d = periods
+    for f in ("fit.csv", "later.csv"):
+        t = pd.read_csv(d / f)
+        t.loc[t["aircraft"] == "N401XJ", "aircraft"] = "all"
+        t.to_csv(tmp_path / f, index=False)
+    assert heading_fit_main(str(tmp_path / "fit.csv"), str(tmp_path / "fitted")) == 0
+    assert heading_apply_main(str(tmp_path / "later.csv"), str(tmp_path / "fitted" / "deviation.csv"),
+                              str(tmp_path / "out")) == 0
+    assert heading_apply_main(str(d / "later.csv"), str(d / "fitted" / "deviation.csv"), str(tmp_path / "ref")) == 0
+    renamed, ref = pd.read_csv(tmp_path / "out" / "apply.csv"), pd.read_csv(tmp_path / "ref" / "apply.csv")
+    assert list(renamed["aircraft"]) == ["all", "N402XJ", "all"] and list(ref["aircraft"]) == ["N401XJ", "N402XJ", "all"]
+    cols = ["status", "n_scored", "rms_before_kt", "rms_after_kt", "valid_from", "valid_to"]
+    pd.testing.assert_frame_equal(renamed[cols], ref[cols])
+    assert renamed["n_scored"].iloc[-1] == renamed["n_scored"].iloc[:-1].sum()
+
+
+def test_a_table_correction_beyond_any_accepted_heading_error_is_refused(periods, tmp_path, capsys):
+    d = periods
+    dev = pd.read_csv(d / "fitted" / "deviation.csv")
+    dev.loc[0, "lut_045_deg"] = 45.0  # the method drops |psi - psi'| > 30 deg as a gross error
+    dev.to_csv(tmp_path / "big.csv", index=False)
+    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "big.csv"),
+                 "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert "big.csv" in err and "'N401XJ'" in err and "lut_045_deg" in err and "45 deg" in err, err
+    assert len(err.splitlines()) == 1
+    dev.loc[0, "lut_045_deg"] = -29.5  # large but possible: applied
+    dev.to_csv(tmp_path / "large.csv", index=False)
+    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "large.csv"),
+                 "--out", str(tmp_path / "o2")]) == 0

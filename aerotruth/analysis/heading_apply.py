@@ -134,9 +134,10 @@ def heading_apply(obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "obse
     # after (the method's rows with this V_A)
     scored = rows[["heading_deg", "dw_e", "dw_n"]].assign(va_e=va_e, va_n=va_n)
     scores = []
-    groups = [(str(a), used & (names == a)) for a in pd.unique(names)] + [("all", used)]
-    for name, sel in groups:
-        fit = fleet.fits_.get(name)
+    # per aircraft, then the fleet's row "all" (always the last: an aircraft may be named "all")
+    groups = [(str(a), used & (names == a), False) for a in pd.unique(names)] + [("all", used, True)]
+    for name, sel, whole_fleet in groups:
+        fit = None if whole_fleet else fleet.fits_.get(name)
         b, a = wind_errors_before_after(scored[sel], corr[sel])
         t = obs["time_s"].to_numpy()[sel]
         in_sample = ""
@@ -144,7 +145,7 @@ def heading_apply(obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "obse
             lo, hi = pd.Timestamp(fit.valid_from_, tz="UTC"), pd.Timestamp(fit.valid_to_, tz="UTC") + pd.Timedelta(days=1)
             first, last = pd.Timestamp(t.min(), unit="s", tz="UTC"), pd.Timestamp(t.max(), unit="s", tz="UTC")
             in_sample = bool(first < hi and last >= lo)
-        status = (fit.status_ if fit is not None else ("" if name == "all" else "no table"))
+        status = (fit.status_ if fit is not None else ("" if whole_fleet else "no table"))
         scores.append({"aircraft": name, "status": status, "n_scored": int(sel.sum()),
                        "rms_before_kt": b["rms_kt"], "rms_after_kt": a["rms_kt"],
                        "longitudinal_before_kt": b["longitudinal_kt"], "longitudinal_after_kt": a["longitudinal_kt"],
@@ -160,7 +161,7 @@ def _figure(scores: pd.DataFrame, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    s = scores[scores["aircraft"] != "all"].reset_index(drop=True)
+    s = scores.iloc[:-1].reset_index(drop=True)  # the aircraft, not the fleet's last row
     fig, ax = plt.subplots(figsize=(max(5.0, 0.45 * len(s) + 2), 3.8))
     x = np.arange(len(s))
     ax.bar(x - 0.2, s["rms_before_kt"], 0.4, color="#7b1f2b", label="without the tables")
@@ -204,7 +205,7 @@ def heading_apply_main(obs_path: str, tables_path: str, out_dir: str) -> int:
     atomic_write_text(out / "apply.csv", scores.to_csv(index=False))
     _figure(scores, out / "figures" / "apply.png")
     atomic_write_text(out / "report.md", _report(str(obs_path), str(tables_path), table_frame(fleet), scores, corrected))
-    every = scores[scores["aircraft"] == "all"].iloc[-1]
+    every = scores.iloc[-1]  # the fleet's row
     print(f"{obs_path}: {len(scores) - 1} aircraft, {int(every['n_scored'])} scored (report, reference) rows; wind RMS "
           f"{every['rms_before_kt']:.2f} -> {every['rms_after_kt']:.2f} kt with the tables of {tables_path} -> {out / 'apply.csv'}")
     return 0

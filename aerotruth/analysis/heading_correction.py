@@ -156,6 +156,11 @@ def _used_arrays(rows: pd.DataFrame, heading: str) -> dict:
             "src_names": list(src.categories)}
 
 
+# a lookup-table entry read from a file may not exceed the largest heading error the method
+# takes as a measurement (GateSpec.max_heading_error_deg: beyond it a report is a gross error)
+_MAX_TABLE_CORRECTION_DEG = GateSpec().max_heading_error_deg
+
+
 class HeadingDeviationFit:
     """One aircraft's heading deviation (wind paper eq. 2) learned from its reports.
 
@@ -477,6 +482,12 @@ class HeadingDeviationFit:
             c = LUT_COLUMNS[int(np.flatnonzero(~np.isfinite(self.lut_))[0])]
             raise ValueError(f"table: aircraft {self.aircraft_!r} ({self.status_}), column '{c}': empty; a table "
                              f"that is not refused needs all eight corrections")
+        big = np.flatnonzero(np.abs(self.lut_) > _MAX_TABLE_CORRECTION_DEG)
+        if len(big):  # no heading error the method takes as a measurement is this large
+            c = LUT_COLUMNS[int(big[0])]
+            raise ValueError(f"table: aircraft {self.aircraft_!r}, column '{c}': {self.lut_[big[0]]:g} deg; a "
+                             f"correction beyond +-{_MAX_TABLE_CORRECTION_DEG:g} deg exceeds any heading error the "
+                             f"method accepts (larger ones are gross errors): expected degrees")
         self.valid_from_, self.valid_to_ = str(row["valid_from"]), str(row["valid_to"])
         self.heading_frame_ = self.heading
         self.terms_ = tuple(t for t in TERM_NAMES if np.isfinite(self.se_[t]))
