@@ -52,6 +52,7 @@ class AircraftTruth:
     h0_nT: float | None = None  # when set, B and C are hard iron: scaled by h0 / H at each position (IGRF)
     tas_scale: float = 0.0  # TAS reads (1 + tas_scale) x true
     a_step_deg: float = 0.0  # the offset A changes by this from the middle flight on (a recalibration)
+    a_drift_deg_per_day: float = 0.0  # the offset A changes linearly in time at this rate (from the dataset's start)
     spoke: int | None = None  # fly out and back on this one spoke only (two headings)
 
     def deviation(self, z_deg: np.ndarray, h_nT: np.ndarray | float | None = None) -> np.ndarray:
@@ -236,7 +237,7 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
     dataset's start; FieldGrid) to the measured true heading; `ref_bias_kt` {model: b} adds
     b kt along the true wind to that
     model's analysis; `alt_error_deg_per_kft` adds a heading error growing with pressure
-    altitude (an effect outside diagnose's library); AircraftTruth.tas_scale and a_step_deg.
+    altitude (an effect outside diagnose's library); AircraftTruth.tas_scale, a_step_deg and a_drift_deg_per_day.
 
     `shared_ref_sigma_kt`: each model's analysis also errs in wind speed by an amount common
     to every aircraft at the same time (an OU process in time, e-folding `shared_ref_tau_s`,
@@ -270,7 +271,7 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
             decl = declination(fl["lat"], fl["lon"])
             psi_m = psi_t.copy()
             h_nt = None if a.h0_nT is None else field.horizontal_nT(fl["lat"], fl["lon"], fl["alt_ft"])
-            step = a.a_step_deg if f >= flights // 2 else 0.0
+            step = (a.a_step_deg if f >= flights // 2 else 0.0) + a.a_drift_deg_per_day * (fl["time"] - t_start) / 86400.0
             for _ in range(8):  # fixed point of psi_m = psi_true + d(psi_m - decl)
                 psi_m = psi_t + a.deviation(psi_m - decl, h_nt) + step
             if stale_declination_years:

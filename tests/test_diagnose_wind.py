@@ -22,7 +22,7 @@ import pandas as pd
 import pytest
 
 import obs_generator as gen
-from aerotruth.analysis.diagnose_wind import WindModelSpec, diagnose_wind, prepare
+from aerotruth.analysis.diagnose_wind import WindModelSpec, diagnose_wind, extended_spec, prepare, write_wind_diagnosis
 from aerotruth.errors import DataError
 
 ANCHORAGE = (61.17, -150.0)
@@ -109,6 +109,31 @@ def test_recalibration_step_mid_period():
     assert set(steps) == {a.aircraft for a in fleet[:3]}
     for s in steps.values():
         assert s["step_deg"] == pytest.approx(2.0, rel=0.25)
+
+
+def test_offset_drifting_in_time_is_a_drift_not_a_step(tmp_path):
+    # 0.3 deg/day over the ~8 days of 40 flights: ~2.4 deg from first to last; a step at the
+    # middle would explain half of it (the recalibration's CUSUM also fires)
+    fleet, rng = _fleet(12)
+    fleet = [replace(a, a_drift_deg_per_day=0.3) if i in (2, 7) else a for i, a in enumerate(fleet)]
+    d = prepare(gen.generate(fleet, rng, flights=40))
+    findings, baseline, st, plots = diagnose_wind(d, WindModelSpec())
+    f = _first(findings, "offset_drift", 0.3)
+    per = f.parameters["aircraft"]
+    assert set(per) == {fleet[2].aircraft, fleet[7].aircraft}
+    for x in per.values():
+        assert x["rate_deg_per_day"] == pytest.approx(0.3, rel=0.25)
+        assert x["rate_deg_per_day"] > 4 * x["se_deg_per_day"]
+    assert "recalibration" not in [x.effect for x in findings]
+    assert "A_drift_deg_per_day" in baseline["model_fit"][fleet[2].aircraft]
+    # the extended model carries the drifting aircraft; with it, nothing is left to find
+    ext = extended_spec(WindModelSpec(), findings, d, st)
+    assert sorted(ext.offset_drifts) == sorted(per)
+    assert diagnose_wind(d, ext)[0] == []
+    write_wind_diagnosis("obs", findings, baseline, WindModelSpec(), ext, plots, tmp_path)
+    text = (tmp_path / "report.md").read_text()
+    x = per[fleet[2].aircraft]
+    assert f"{fleet[2].aircraft}: {x['rate_deg_per_day']:+.3f} ± {x['se_deg_per_day']:.3f} deg/day" in text
 
 
 def test_coarser_quantization():

@@ -17,7 +17,8 @@ The model (`WindModel`): each aircraft's heading deviation d(z) = A + s(H) (B si
 the hard-iron scaling with the horizontal field (gamma = 0 in the wind paper's model), plus
 what the model states as known: a TAS scale (along: k TAS), a receiver declination epoch
 (transverse: the table's error), reference-model biases along the wind, recalibration
-times (a new offset A after each), the lat/lon quantization of the reports. The
+times (a new offset A after each), aircraft whose offset drifts (a free rate of A in time),
+the lat/lon quantization of the reports. The
 harmonics are fitted for an aircraft only where its headings identify them (the
 heading-correction method's coverage criterion); otherwise its offset A alone, said in
 `model_fit`.
@@ -31,6 +32,7 @@ rest; `field_scaling` by Gauss-Newton on gamma):
     stale_declination  age a (years): transverse = a (-dD/dt)(lat, lon), D the IGRF declination
     reference_bias     per reference model b (kt along its wind): t = b w.n, a = b w.u
     recalibration      per aircraft a step of A at an unknown time (CUSUM of flight means)
+    offset_drift       per aircraft A changing linearly in time (trend of flight means)
     quantization       the reports' lat/lon grid is coarser (or finer) than the model's
 
 Evidence. Reference-model errors are one field over the region, correlated for hours, so
@@ -82,6 +84,10 @@ MIN_BLOCKS = 20  # fewest weather blocks (independent clusters) for any test: CR
 # screening found "turn rate" terms worth 0.02 %: the three-report heading's lag in a
 # turn, real but of no use; every hidden library effect gains >= 1 %)
 MIN_REL_GAIN = 0.002
+# candidates tested by a scan of each aircraft's flight means (p-values Bonferroni over aircraft),
+# not by the Wald test of their fitted columns (chosen by the scan, those would over-reject)
+SCANNED = {"recalibration": "sup-CUSUM of flight means, Kolmogorov, Bonferroni over aircraft",
+           "offset_drift": "trend of flight means (slope, Bartlett-weighted variance), Bonferroni over aircraft"}
 
 CAUSES = {
     "soft_iron": "the heading error goes twice round with the heading (2z): soft iron magnetised by the horizontal field",
@@ -91,6 +97,8 @@ CAUSES = {
                          "the field's secular change across the network",
     "reference_bias": "a reference model's wind is biased along the wind (too strong or too weak): the reference, not the aircraft",
     "recalibration": "an aircraft's heading offset changed at one time: a recalibration, a swung compass or a replaced valve",
+    "offset_drift": "an aircraft's heading offset changes steadily with time: a deviation that is not stationary (wind "
+                    "paper section 8), e.g. slowly changing airframe magnetism or a degrading compass system",
     "quantization": "the reports' latitude and longitude are rounded to a coarser grid than the model's: noisier ground tracks",
 }
 
@@ -134,6 +142,15 @@ def _parameters(eff: str, d: WindData, fit: Fit, dgamma: float, st: State) -> di
     if eff == "reference_bias":
         return {"bias_kt": {b.label: {"value": float(be[0]), "se": float(_se(v)[0])} for b, be, v in parts},
                 "meaning": "reference wind = truth + b along the wind"}
+    if eff == "offset_drift":
+        per = {}
+        for b, be, v in parts:
+            t = d.time_s[d.aircraft == b.aircraft]
+            days = float((t.max() - t.min()) / 86400.0)
+            rate, se = float(be[0] * r2d), float(_se(v)[0] * r2d)
+            per[d.names[b.aircraft]] = {"rate_deg_per_day": rate, "se_deg_per_day": se, "days": days,
+                                        "change_deg": rate * days, "from_utc": _iso(float(t.min())), "to_utc": _iso(float(t.max()))}
+        return {"aircraft": per, "meaning": "offset A = A_mid + rate x (t - middle of the aircraft's data)"}
     if eff == "recalibration":
         return {"steps": {d.names[b.aircraft]: {"time_utc": _iso(float(b.label.split("@")[1])), "time_s": float(b.label.split("@")[1]),
                                                 "step_deg": float(be[0] * r2d), "se_deg": float(_se(v)[0] * r2d)}
@@ -147,6 +164,7 @@ def _size(eff: str, params: dict) -> float:
             "tas_scale": lambda p: p["k_median"]["value"], "stale_declination": lambda p: p["age_yr"]["value"],
             "reference_bias": lambda p: max((x["value"] for x in p["bias_kt"].values()), key=abs),
             "recalibration": lambda p: max((x["step_deg"] for x in p["steps"].values()), key=abs),
+            "offset_drift": lambda p: max((x["rate_deg_per_day"] for x in p["aircraft"].values()), key=abs),
             "quantization": lambda p: p["lat_lon_step_deg"]["value"]}[eff](params)
 
 
@@ -173,7 +191,8 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     y = _stack(d.trans, d.along, d.n) - known_offsets(d, spec)
     clusters = np.r_[d.cluster, d.cluster]
     steps = {d.names.index(a): list(ts) for a, ts in spec.recalibrations.items() if a in d.names}
-    st = State(spec, [], spec.field_scaling, steps, [])
+    drifts = {d.names.index(a) for a in spec.offset_drifts if a in d.names}
+    st = State(spec, [], spec.field_scaling, steps, drifts, [])
     fit_start = None  # the model before any effect: the first round's fit
     findings, plots, rounds = [], {}, []
     n_lib = len(CANDIDATES) + 1
@@ -191,7 +210,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
             if not blocks:
                 continue
             fit1, dg = _fit_with(d, st, y, clusters, eff, blocks)
-            p = min(b.p for b in blocks) if eff == "recalibration" else block_p(fit1, eff, d)
+            p = min(b.p for b in blocks) if eff in SCANNED else block_p(fit1, eff, d)
             b_ho, a_ho = held_out(d, st, y, clusters, eff, base=base)
             cands.append({"effect": eff, "p": p, "held_out": (b_ho, a_ho), "fit": fit1, "dgamma": dg,
                           "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0})
@@ -219,8 +238,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
             fit1 = best["fit"]
             params = _parameters(eff, d, fit1, best["dgamma"], st)
             ch = CHANNEL[eff]
-            evidence = {"test": ("sup-CUSUM of flight means, Kolmogorov, Bonferroni over aircraft" if eff == "recalibration"
-                                 else "cluster-robust Wald on 6-h weather blocks"), "p_value": best["p"], "alpha": level,
+            evidence = {"test": SCANNED.get(eff, "cluster-robust Wald on 6-h weather blocks"), "p_value": best["p"], "alpha": level,
                         "flights": int(len(np.unique(d.flight))), "rows": int(d.n)}
             if eff == "stale_declination":
                 evidence["aliased_with_A"] = f"{100 * (1 - declination_identifiable(d)):.0f} % of the regressor is a per-aircraft constant"
@@ -237,6 +255,8 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         if eff == "recalibration":
             for a, s in params["steps"].items():
                 st.steps.setdefault(d.names.index(a), []).append(s["time_s"])
+        if eff == "offset_drift":
+            st.drifts.update(d.names.index(a) for a in params["aircraft"])
     if testable:
         findings.extend(screen(d, st, y, clusters, plots))
     fit_end = solve(current_blocks(d, st), y, clusters)
@@ -278,6 +298,8 @@ def model_fit(d: WindData, st: State, fit: Fit) -> dict:
                 row["A_se_deg"] = float(se[-1] * r2d)
             elif b.label == "T":
                 row["tas_bias_kt"], row["tas_bias_se_kt"] = float(be[0] / KT), float(se[0] / KT)
+            elif b.label == "drift":
+                row["A_drift_deg_per_day"], row["A_drift_se_deg_per_day"] = float(be[0] * r2d), float(se[0] * r2d)
             else:
                 for j, t in enumerate(b.label):
                     row[f"{t}_deg"], row[f"{t}_se_deg"] = float(be[j] * r2d), float(se[j] * r2d)
@@ -446,6 +468,8 @@ def extended_spec(spec: WindModelSpec, findings: list, d: WindData, st: State) -
             for a, s in p["steps"].items():
                 rec.setdefault(a, []).append(s["time_s"])
             up["recalibrations"] = rec
+        elif f.effect == "offset_drift":
+            up["offset_drifts"] = sorted(set(spec.offset_drifts) | set(p["aircraft"]))
         elif f.effect == "quantization":
             up["lat_lon_step_deg"] = float(p["lat_lon_step_deg"]["value"])
         elif f.effect.startswith("unexplained:"):
@@ -514,12 +538,24 @@ def _data_lines(table: dict) -> list[str]:
             f"{table['reports']} reports; rows by ground-track gate: {gates}.", ""]
 
 
-def _fmt_params(p: dict) -> str:
-    parts = []
-    for k, v in p.items():
-        if isinstance(v, dict) and "value" in v:
-            parts.append(f"{k} = {v['value']:.4g} ± {v['se']:.2g}")
-    return ", ".join(parts) or (p.get("signature") or "")
+# per-item parameters of the library's effects, one phrase per aircraft (reference model)
+_ITEMS = {
+    "soft_iron": ("aircraft", lambda x: f"D {x['D_deg']:+.2f} ± {x['D_se_deg']:.2f}, E {x['E_deg']:+.2f} ± {x['E_se_deg']:.2f} deg"),
+    "tas_scale": ("aircraft", lambda x: f"k {x['k']:+.4f} ± {x['se']:.4f}"),
+    "reference_bias": ("bias_kt", lambda x: f"{x['value']:+.2f} ± {x['se']:.2f} kt along the wind"),
+    "recalibration": ("steps", lambda x: f"{x['step_deg']:+.2f} ± {x['se_deg']:.2f} deg at {x['time_utc']}"),
+    "offset_drift": ("aircraft", lambda x: f"{x['rate_deg_per_day']:+.3f} ± {x['se_deg_per_day']:.3f} deg/day "
+                                           f"({x['change_deg']:+.2f} deg over {x['days']:.1f} days)"),
+}
+
+
+def _fmt_params(effect: str, p: dict) -> str:
+    """The finding's parameters in words: its summary values, then each aircraft's (or model's)."""
+    parts = [f"{k} = {v['value']:.4g} ± {v['se']:.2g}" for k, v in p.items() if isinstance(v, dict) and "value" in v]
+    if effect in _ITEMS:
+        key, phrase = _ITEMS[effect]
+        parts += [f"{name}: {phrase(x)}" for name, x in p[key].items()]
+    return "; ".join(parts) or (p.get("signature") or "")
 
 
 def write_wind_diagnosis(measured: str, findings: list, baseline: dict, spec: WindModelSpec, extended: WindModelSpec,
@@ -556,12 +592,13 @@ def write_wind_diagnosis(measured: str, findings: list, baseline: dict, spec: Wi
     free = baseline.get("free_terms") or {}
     if free:
         lines += ["Terms the model has, fitted: " + "; ".join(f"{k} {v['slope']:+.3g} ± {v['se']:.2g} {v['unit']}"
+                                                          if np.isfinite(v["se"]) else f"{k} (no reports to fit it)"
                                                           for k, v in free.items()), ""]
     for i, f in enumerate(findings, 1):
         ev = f.evidence
         pv = f"p = {ev['p_value']:.2g}" if "p_value" in ev else f"log10 p = {ev['log10_p']:.0f}"
         g = f.gain
-        lines += [f"## {i}. {f.effect}", "", f.cause, "", f"* parameters: {_fmt_params(f.parameters)}",
+        lines += [f"## {i}. {f.effect}", "", f.cause, "", f"* parameters: {_fmt_params(f.effect, f.parameters)}",
                   f"* evidence: {ev['test']}, {pv} (level {ev['alpha']:.2g})",
                   f"* gain: {g['metric']}: {g['before']:.3g} → {g['after']:.3g}; held out {g['held_out_before']:.3g} → "
                   f"{g['held_out_after']:.3g}", ""]
@@ -575,7 +612,10 @@ def write_wind_diagnosis(measured: str, findings: list, baseline: dict, spec: Wi
     lines += ["", "## The model's fit per aircraft", "", "| aircraft | status | A (deg) | B (deg) | C (deg) | flights | reason |",
               "|---|---|---|---|---|---|---|"]
     for a, r in fits.items():
-        lines.append(f"| {a} | {r['status']} | {r.get('A_deg', float('nan')):+.2f} ± {r.get('A_se_deg', float('nan')):.2f} | "
-                     f"{r.get('B_deg', float('nan')):+.2f} | {r.get('C_deg', float('nan')):+.2f} | {r['flights']} | {r['reason']} |")
+        drift = (f" drifting {r['A_drift_deg_per_day']:+.3f} ± {r['A_drift_se_deg_per_day']:.3f} deg/day"
+                 if "A_drift_deg_per_day" in r else "")
+        lines.append(f"| {a} | {r['status']} | {r.get('A_deg', float('nan')):+.2f} ± {r.get('A_se_deg', float('nan')):.2f}"
+                     f"{drift} | {r.get('B_deg', float('nan')):+.2f} | {r.get('C_deg', float('nan')):+.2f} | {r['flights']} | "
+                     f"{r['reason']} |")
     atomic_write_text(out / "report.md", "\n".join(lines) + "\n")
 

@@ -182,7 +182,7 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     ac_cat = r["aircraft"].astype("category")
     names = [str(c) for c in ac_cat.cat.categories]
     ac = ac_cat.cat.codes.to_numpy()
-    src_cat = r["ref_source"].astype("category")
+    src_cat = r["ref_source"].astype("category").cat.remove_unused_categories()  # not the empty cells' fill "ref" when none is
     flight = r["flight"].to_numpy()
     cluster, fold = weather_blocks(flight, t)
     # turn rate and flight phase: heading and altitude change between a flight's adjacent

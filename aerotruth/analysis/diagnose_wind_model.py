@@ -44,6 +44,8 @@ class WindModelSpec(Section):
     reference_bias_kt: dict[str, float] = Field(default_factory=dict, description="per reference model, bias along its wind (kt)")
     recalibrations: dict[str, list[float]] = Field(default_factory=dict, description="per aircraft, UTC epoch seconds after "
                                                    "which its offset A is new")
+    offset_drifts: list[str] = Field(default_factory=list, description="aircraft whose offset A changes linearly with "
+                                     "time (rate fitted)")
     lat_lon_step_deg: float = Field(default=0.01, gt=0, description="quantization of reported lat/lon")
     signatures: list[dict[str, Any]] = Field(default_factory=list, description="linear terms found by screening: "
                                              "{channel, covariate, slope} (an effect outside the library)")
@@ -142,6 +144,7 @@ class State:
     entered: list[str] = field(default_factory=list)
     gamma: float = 0.0  # field scaling exponent in the design (spec value, then fitted)
     steps: dict[int, list[float]] = field(default_factory=dict)  # aircraft -> step times (free new A after each)
+    drifts: set[int] = field(default_factory=set)  # aircraft whose A drifts linearly in time (free rate)
     signatures: list[dict] = field(default_factory=list)  # screening terms entered (free)
 
 
@@ -157,6 +160,15 @@ def _stack(trans: np.ndarray | None, along: np.ndarray | None, n: int) -> np.nda
 def tas_column(d: WindData, i: int) -> np.ndarray:
     """Along channel of aircraft i: TAS (coefficient: its TAS scale factor)."""
     return _stack(None, (d.aircraft == i) * d.tas, d.n)
+
+
+def drift_column(d: WindData, i: int) -> np.ndarray:
+    """Transverse of aircraft i: TAS x (t - t_mid) in days, t_mid the middle of its data
+    (coefficient: the drift of its offset A, rad per day)."""
+    sel = d.aircraft == i
+    t = d.time_s[sel]
+    mid = 0.5 * (t.min() + t.max()) if len(t) else 0.0
+    return _stack(sel * d.tas * (d.time_s - mid) / 86400.0, None, d.n)
 
 
 def flight_path_column(d: WindData) -> np.ndarray:
@@ -216,6 +228,8 @@ def base_blocks(d: WindData, st: State) -> list[Block]:
         edges = [-np.inf, *times, np.inf]
         cols = [_stack(one * ((d.time_s >= lo) & (d.time_s < hi)), None, n) for lo, hi in zip(edges[:-1], edges[1:])]
         out.append(Block("base", "A", np.column_stack(cols), i))
+        if i in st.drifts:
+            out.append(Block("base", "drift", drift_column(d, i)[:, None], i))
         if st.spec.tas_bias:
             out.append(Block("base", "T", _stack(None, sel.astype(float), n)[:, None], i))
         zi = d.z[sel]
@@ -265,7 +279,7 @@ def fixed_effect_blocks(d: WindData, st: State, fit: Fit | None) -> list[Block]:
     """Blocks of the entered library effects other than soft iron (in base_blocks)."""
     out = []
     for eff in st.entered:
-        if eff in ("soft_iron", "recalibration", "field_scaling", "quantization"):
+        if eff in ("soft_iron", "recalibration", "offset_drift", "field_scaling", "quantization"):
             continue
         out.extend(CANDIDATES[eff](d, st, fit))
     out.extend(signature_block(d, s) for s in st.signatures)
@@ -487,6 +501,53 @@ def cand_recalibration(d: WindData, st: State, fit: Fit | None, rows: np.ndarray
     return out
 
 
+def _slope_p(x: np.ndarray, y: np.ndarray) -> float:
+    """Two-sided p-value of the OLS slope of y on x, its variance with Bartlett weights to
+    lag 2 (the series in time order: neighbouring flights share weather)."""
+    if len(x) < 6:
+        return 1.0
+    xc = x - x.mean()
+    sxx = float(np.sum(xc**2))
+    if sxx <= 0:
+        return 1.0
+    b = float(np.sum(xc * (y - y.mean())) / sxx)
+    u = xc * (y - y.mean() - b * xc)
+    lrv = np.sum(u**2) + 2 * sum((1 - j / 3) * np.sum(u[j:] * u[:-j]) for j in (1, 2))
+    if lrv <= 0:
+        return 1.0
+    return float(2 * stats.norm.sf(abs(b) / math.sqrt(lrv / sxx**2)))
+
+
+def drift_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, float]:
+    """Per aircraft: p-value of a linear trend in its flight-mean offset (time of each
+    flight: its middle)."""
+    out = {}
+    r = np.ones(d.n, dtype=bool) if rows is None else rows[: d.n]
+    for i in range(len(d.names)):
+        sel = (d.aircraft == i) & r
+        if len(np.unique(d.flight[sel])) < 2 * MIN_FLIGHTS:
+            continue
+        m, t0, t1 = group_means(d, fit.resid[: d.n], d.flight, sel)
+        out[i] = _slope_p(0.5 * (t0 + t1) / 86400.0, m)
+    return out
+
+
+def cand_offset_drift(d: WindData, st: State, fit: Fit | None, rows: np.ndarray | None = None) -> list[Block]:
+    """Per aircraft whose flight-mean offset trends in time (Bonferroni over aircraft): a
+    free rate of its offset A (the recalibration's ramp counterpart)."""
+    if fit is None:
+        return []
+    scan = drift_scan(d, fit, rows)
+    n_ac = max(len(scan), 1)
+    out = []
+    for i, p in scan.items():
+        if i not in st.drifts and p * n_ac < 0.05:
+            b = Block("offset_drift", "rate", drift_column(d, i)[:, None], i)
+            b.p = p * n_ac  # type: ignore[attr-defined]
+            out.append(b)
+    return out
+
+
 CANDIDATES = {
     "soft_iron": cand_soft_iron,
     "field_scaling": cand_field_scaling,
@@ -494,9 +555,11 @@ CANDIDATES = {
     "stale_declination": cand_stale_declination,
     "reference_bias": cand_reference_bias,
     "recalibration": cand_recalibration,
+    "offset_drift": cand_offset_drift,
 }
 CHANNEL = {"soft_iron": "transverse", "field_scaling": "transverse", "tas_scale": "along", "stale_declination": "transverse",
-           "reference_bias": "both", "recalibration": "transverse"}
+           "reference_bias": "both", "recalibration": "transverse",
+           "offset_drift": "transverse"}
 
 
 # ----------------------------------------------------------------------------- quantization
@@ -569,6 +632,8 @@ def current_blocks(d: WindData, st: State) -> list[Block]:
 def _build(eff: str, d: WindData, st: State, fit: Fit, rows: np.ndarray | None) -> list[Block]:
     if eff == "recalibration":
         return cand_recalibration(d, st, fit, rows)
+    if eff == "offset_drift":
+        return cand_offset_drift(d, st, fit, rows)
     return CANDIDATES[eff](d, st, fit)
 
 
@@ -582,7 +647,7 @@ def _fit_with(d: WindData, st: State, y, clusters, eff: str, blocks: list[Block]
     first = fit
     total = float(fit.coef("field_scaling")[0][1][0])
     for _ in range(3):
-        st2 = State(st.spec, list(st.entered), st.gamma + total, st.steps, st.signatures)
+        st2 = State(st.spec, list(st.entered), st.gamma + total, st.steps, st.drifts, st.signatures)
         f0 = solve(current_blocks(d, st2), y, clusters, rows, False)
         b2 = cand_field_scaling(d, st2, f0)
         if not b2:
