@@ -247,6 +247,8 @@ def test_legacy_numeric_marks_and_a_runway_sidecar_are_read(tmp_path, capsys):
     ("ins_hole", r"approach 2: columns ins_\*: data row \d+ \(t = \d+(\.\d+)? s\): the INS position must be finite"),
     ("text_lever", r"column 'ra_lever_arm_m' data row 1: expected a number, got 'about 2 m'"),
     ("ra_feet", r"approach 1: column 'ra_m': the WAAS height is -\d\d\.\d m off the radar altimeter's .*in feet"),
+    # the last fix repeated on the rows between epochs (5 Hz rows: 4 in 5 repeat)
+    ("held_waas", r"approach 1: columns waas_\*: the WAAS position repeats unchanged on 80 % of its rows .*NaN between"),
 ])
 def test_fits_main_refuses_a_broken_log_with_one_line_naming_the_column(tmp_path, breakage, message):
     log, _ = gen.make_log(2, seed=23)
@@ -283,6 +285,10 @@ def test_fits_main_refuses_a_broken_log_with_one_line_naming_the_column(tmp_path
         log.loc[log.index[two & (log["event"] == "")][300], "ins_y_m"] = np.nan
     elif breakage == "ra_feet":
         log["ra_m"] = log["ra_m"] / 0.3048
+    elif breakage == "held_waas":
+        rows = log["event"] == ""
+        for c in ("waas_x_m", "waas_y_m", "waas_z_m"):
+            log.loc[rows, c] = log.loc[rows].groupby("approach")[c].ffill()
     elif breakage == "text_lever":
         log["ra_lever_arm_m"] = "about 2 m"
     path = write(log, tmp_path / "log.csv")

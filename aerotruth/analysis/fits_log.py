@@ -242,6 +242,11 @@ def _check_approach(p: Path, a, g: pd.DataFrame) -> None:
         raise DataError(f"{where}: columns ins_*: data row {g.index[i] + 1} (t = {t[i]:g} s): the INS position must be "
                         f"finite on every row (event rows of their own excepted)")
     ww = w[fin[:, 0]]  # WAAS, not the INS: a poor INS may drift by kilometres in an approach
+    held = (np.diff(ww, axis=0) == 0).all(axis=1)  # a moving aircraft's fixes never repeat exactly
+    if held.mean() > 0.5:
+        raise DataError(f"{where}: columns waas_*: the WAAS position repeats unchanged on {100 * held.mean():.0f} % of "
+                        f"its rows (held between the receiver's epochs?); expected values at the WAAS epochs only "
+                        f"and NaN between them")
     speed = float(np.median(np.hypot(np.diff(ww[:, 0]), np.diff(ww[:, 1])) / dtw))
     lo, hi = APPROACH_SPEED_MS
     if not lo <= speed <= hi:
