@@ -472,15 +472,20 @@ def group_means(d: WindData, resid_trans: np.ndarray, groups: np.ndarray,
     return agg["r"].to_numpy(), agg["t0"].to_numpy(), agg["t1"].to_numpy()
 
 
-def recalibration_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, tuple[float, float]]:
-    """Per aircraft: (p-value, time of the change) of a change in its flight-mean offset."""
-    out = {}
+def _flight_means_by_aircraft(d: WindData, fit: Fit, rows: np.ndarray | None):
+    """(aircraft, flight-mean offsets, flights' first and last times) of each aircraft with
+    at least 2 MIN_FLIGHTS flights among `rows`, in time order (the scans' series)."""
     r = np.ones(d.n, dtype=bool) if rows is None else rows[: d.n]
     for i in range(len(d.names)):
         sel = (d.aircraft == i) & r
-        if len(np.unique(d.flight[sel])) < 2 * MIN_FLIGHTS:
-            continue
-        m, t0, t1 = group_means(d, fit.resid[: d.n], d.flight, sel)
+        if len(np.unique(d.flight[sel])) >= 2 * MIN_FLIGHTS:
+            yield (i, *group_means(d, fit.resid[: d.n], d.flight, sel))
+
+
+def recalibration_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, tuple[float, float]]:
+    """Per aircraft: (p-value, time of the change) of a change in its flight-mean offset."""
+    out = {}
+    for i, m, t0, t1 in _flight_means_by_aircraft(d, fit, rows):
         p, k = _kolmogorov_cusum(m)
         out[i] = (p, 0.5 * (t1[k] + t0[k + 1]))
     return out
@@ -521,15 +526,7 @@ def _slope_p(x: np.ndarray, y: np.ndarray) -> float:
 def drift_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, float]:
     """Per aircraft: p-value of a linear trend in its flight-mean offset (time of each
     flight: its middle)."""
-    out = {}
-    r = np.ones(d.n, dtype=bool) if rows is None else rows[: d.n]
-    for i in range(len(d.names)):
-        sel = (d.aircraft == i) & r
-        if len(np.unique(d.flight[sel])) < 2 * MIN_FLIGHTS:
-            continue
-        m, t0, t1 = group_means(d, fit.resid[: d.n], d.flight, sel)
-        out[i] = _slope_p(0.5 * (t0 + t1) / 86400.0, m)
-    return out
+    return {i: _slope_p(0.5 * (t0 + t1) / 86400.0, m) for i, m, t0, t1 in _flight_means_by_aircraft(d, fit, rows)}
 
 
 def cand_offset_drift(d: WindData, st: State, fit: Fit | None, rows: np.ndarray | None = None) -> list[Block]:
@@ -630,10 +627,8 @@ def current_blocks(d: WindData, st: State) -> list[Block]:
 
 
 def _build(eff: str, d: WindData, st: State, fit: Fit, rows: np.ndarray | None) -> list[Block]:
-    if eff == "recalibration":
-        return cand_recalibration(d, st, fit, rows)
-    if eff == "offset_drift":
-        return cand_offset_drift(d, st, fit, rows)
+    if eff in ("recalibration", "offset_drift"):  # scans of flight means: on the training rows only
+        return CANDIDATES[eff](d, st, fit, rows)
     return CANDIDATES[eff](d, st, fit)
 
 
