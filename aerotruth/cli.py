@@ -33,6 +33,18 @@ def _non_negative_float(text: str) -> float:
     return value
 
 
+def _waas_latency_s(text: str) -> float:
+    """A WAAS time-tag latency: seconds, within the FitsSpec's +-2 s."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+    if not -2.0 <= value <= 2.0:
+        raise argparse.ArgumentTypeError(f"expected -2 to 2 s (receiver output latencies are tens to hundreds of ms), "
+                                         f"got {value:g}")
+    return value
+
+
 def _pass_height_ft(text: str) -> float:
     """An AFIS level-pass height: above the runway, below a pattern altitude."""
     try:
@@ -215,7 +227,7 @@ def _cmd_fits(args: argparse.Namespace) -> int:
     from aerotruth.analysis.fits import FitsSpec
     from aerotruth.analysis.fits_log import fits_main
 
-    spec = FitsSpec(ra_lever_arm_m=args.ra_lever_arm)
+    spec = FitsSpec(ra_lever_arm_m=args.ra_lever_arm, waas_latency_s=args.waas_latency)
     try:
         return fits_main(args.log, args.out, spec)
     except ValueError as e:  # DataError and other bad-input errors: one line
@@ -338,6 +350,9 @@ def build_parser() -> argparse.ArgumentParser:
     fits.add_argument("log", help="approach log (CSV or Parquet, docs/data-formats.md)")
     fits.add_argument("--out", required=True, help="output folder")
     fits.add_argument("--ra-lever-arm", type=float, default=0.0, help="height of the log's reference point above the radar-altimeter antenna (m)")
+    fits.add_argument("--waas-latency", type=_waas_latency_s, default=0.0,
+                      help="seconds by which the log's WAAS positions are stamped late (what `aerotruth diagnose` finds as "
+                           "waas_latency); each epoch is put at its time minus this")
     fits.set_defaults(func=_cmd_fits)
 
     heading = sub.add_parser("heading", help="the wind paper's heading-deviation method on your own reports")

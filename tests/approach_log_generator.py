@@ -10,7 +10,8 @@ recursion written out here) + white. INS: a polynomial drift (accel bias beta t^
 gyro bias g eps t^3/6) plus white accelerometer/gyro noise integrated by cumulative sums
 (one-sided PSDs; two-sided = half). RA: height of its antenna (lever_arm_m below the
 reference point) over the runway; TVPS: cross-track from 600 m before the threshold to
-the runway end; DGPS: 2 cm white. Event: first row after crossing + 0.2 +- 0.05 s.
+the runway end; DGPS: 2 cm white. Event: first row after crossing + 0.2 +- 0.05 s. `waas_latency_s`: the WAAS
+fix logged at t is the truth of t - latency (a receiver's output latency left in its tags).
 """
 
 from __future__ import annotations
@@ -25,10 +26,11 @@ G = 9.80665
 UG = 1e-6 * G
 
 
-def truth_xyz(t: np.ndarray, t_cross: float, rng: np.random.Generator) -> np.ndarray:
+def truth_xyz(t: np.ndarray, t_cross: float, rng: np.random.Generator | None, ph: np.ndarray | None = None) -> np.ndarray:
+    """The trajectory at times t; its wander phases `ph` drawn from rng when not given."""
     x = SPEED * (t - t_cross)
     far = np.clip(-x / 5000.0, 0.0, 1.0)
-    ph = rng.uniform(0, 2 * math.pi, 2)
+    ph = rng.uniform(0, 2 * math.pi, 2) if ph is None else ph
     y = 15.0 * far * np.sin(2 * math.pi * t / 90.0 + ph[0])
     z_app = TCH - x * math.tan(math.radians(GLIDE_DEG)) + 3.0 * far * np.sin(2 * math.pi * t / 70.0 + ph[1])
     z_pass = 8.0 + 7.0 * np.exp(-np.maximum(x, 0.0) / 400.0)
@@ -119,7 +121,7 @@ def baro_coupled_error(t: np.ndarray, rng: np.random.Generator, tau_s: float, gm
 def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before_s: float = 300.0, after_s: float = 60.0,
                   waveform: str = "sine", lever_arm_m: float = 0.0, t0_s: float = 1000.0, numeric_event: bool = False,
                   dgps_offset=(0.0, 0.0, 0.0), ins_bias_scale: float = 1.0, baro_loop_tau_s: float | None = None,
-                  **waas_kw):
+                  waas_latency_s: float = 0.0, **waas_kw):
     """One approach: (log rows, truth rows). WAAS on the whole seconds, other sensors every
     row. Pilot marks as the contract has them: rows of their own at the press time, code
     'thr' at the threshold and 'end' at the stop end (numeric_event: the old 0/1 flag on
@@ -127,11 +129,13 @@ def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before
     n = int(round((before_s + after_s) * rate_hz)) + 1
     t = t0_s + np.arange(n) / rate_hz
     t_cross = t0_s + before_s + rng.uniform(0.0, 1.0)
-    p = truth_xyz(t, t_cross, rng)
+    ph = rng.uniform(0, 2 * math.pi, 2)
+    p = truth_xyz(t, t_cross, None, ph)
     w_rows = np.arange(0, n, rate_hz)
     w = waas_errors(t[w_rows], rng, waveform=waveform, **waas_kw)
     waas = np.full((n, 3), np.nan)
-    waas[w_rows] = p[w_rows] + w["total"]
+    # a receiver stamping its positions waas_latency_s late: the fix logged at t is the truth of t - latency
+    waas[w_rows] = truth_xyz(t[w_rows] - waas_latency_s, t_cross, None, ph) + w["total"]
     ins = p + ins_errors(t, rng, accel_bias_ug=500.0 * ins_bias_scale, gyro_bias_deg_h=1.0 * ins_bias_scale)
     if baro_loop_tau_s is not None:
         ins[:, 2] = p[:, 2] + baro_coupled_error(t, rng, baro_loop_tau_s)

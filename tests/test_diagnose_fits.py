@@ -5,6 +5,7 @@ first, sized within 25 % and give a positive held-out gain; nothing hidden, noth
 import json
 
 import numpy as np
+import pandas as pd
 import pytest
 
 import approach_log_generator as gen
@@ -19,6 +20,8 @@ CASES = [
     ({"ins_bias_scale": 3.0}, "ins_bias", {"bias_scale": 3.0}),
     # a barometer-coupled INS whose loop is twice as wide as the model's (tau 15 s, not 30)
     ({"baro_loop_tau_s": 15.0}, "baro_coupling", {"loop_tau_s": 15.0}),
+    # the WAAS fixes stamped 150 ms late
+    ({"waas_latency_s": 0.15}, "waas_latency", {"latency_s": 0.15}),
 ]
 BARO_MODEL = FitsModel(vertical="baro", baro_loop_tau_s=30.0)
 
@@ -88,3 +91,23 @@ def test_an_approach_too_short_for_the_filter_is_one_line_naming_it(tmp_path, ca
     assert main(["diagnose", str(tmp_path / "log.csv"), "--model", "campaigns/quick.yaml", "--out", str(tmp_path / "d")]) == 2
     err = capsys.readouterr().err
     assert "log.csv: approach" in err and "expected at least 4T = 48" in err and err.count("\n") == 1
+
+
+def test_a_waas_latency_is_named_alone_and_the_fits_compensates_it(tmp_path):
+    # uncompensated, a 0.2-s latency reads as a step of the WAAS bias in every approach's
+    # level-off and a vertical DGPS offset; named, the other effects run on re-tagged epochs
+    log, _ = gen.make_log(8, seed=34, jumps_per_s=0.0, waas_latency_s=0.2)
+    findings, _ = diagnose_log("log", log, FitsModel())
+    assert [f.effect for f in findings] == ["waas_latency"], [f.effect for f in findings]
+    tau = findings[0].parameters["latency_s"]
+    assert abs(tau["value"] - 0.2) < 4 * tau["se"] + 0.02
+    ref, _ = gen.make_log(8, seed=34, jumps_per_s=0.0)  # the same flights and errors, no latency
+    log.to_csv(tmp_path / "late.csv", index=False)
+    ref.to_csv(tmp_path / "ref.csv", index=False)
+
+    def vertical_rms(name, *opts):
+        assert main(["fits", str(tmp_path / f"{name}.csv"), "--out", str(tmp_path / f"{name}{len(opts)}"), *opts]) == 0
+        e = pd.read_csv(tmp_path / f"{name}{len(opts)}" / "errors.csv")
+        return float(np.sqrt(np.mean(e["vertical_m"] ** 2)))
+    late, fixed, truth = vertical_rms("late"), vertical_rms("late", "--waas-latency", f"{tau['value']:.3f}"), vertical_rms("ref")
+    assert late > 2.5 * truth and fixed < 1.15 * truth, (late, fixed, truth)

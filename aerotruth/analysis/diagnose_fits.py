@@ -36,6 +36,14 @@ Effects (each with the size the hidden-effect tests use):
   over tau from 3 to 300 s; finding when the fitted tau is outside 0.7-1.4x
   the model's and its log-power misfit is less than half the model's. Extension: the loop's
   time constant (bandwidth ~ 1/tau). Held out: tau fitted on one half, misfit on the other.
+* `waas_latency` — the WAAS fixes are stamped tau late against the log's time base (the RA,
+  TVPS and DGPS times): the FITS's position is the WAAS's, so FITS - DGPS = -tau (v - v_thr)
+  cross-track and vertically (v the DGPS velocity, v_thr its value at the threshold fix,
+  which the bias takes up); least squares over approaches and both axes, standard error
+  clustered by approach; finding when |tau| > 4 se and >= 20 ms. Uncompensated, the
+  level-off's change of vertical speed reads as an unflagged jump in every approach and the
+  glide path's as a DGPS offset, so the effects after it run on re-tagged epochs.
+  Extension: FitsSpec.waas_latency_s (`aerotruth fits --waas-latency`).
 * `ins_bias` — the INS drift against DGPS (quadratic per axis over the approach; the
   accelerometer bias is twice its t^2 coefficient) is larger than the grade says:
   sum of (b_hat / sigma)^2 is chi-square with one degree per approach and axis under the
@@ -55,7 +63,7 @@ from scipy import signal, stats
 
 from aerotruth.analysis.diagnose import Finding
 from aerotruth.analysis.fits import FitsSpec
-from aerotruth.analysis.fits_log import ApproachInputs, _check_approach, approach_inputs, fits_of
+from aerotruth.analysis.fits_log import ApproachInputs, _at, _check_approach, approach_inputs, fits_of, retagged
 from aerotruth.errors import DataError
 from aerotruth.sensors.inertial_errors import INS_GRADES, MICRO_G
 
@@ -274,6 +282,62 @@ def _offset_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
                    {"before": before, "after": after, "held_out_before": before, "held_out_after": held, "unit": "m"})
 
 
+LATENCY_MIN_S = 0.02  # smaller latencies move the FITS by < 7 cm on a 3-deg glide path: not worth a finding
+
+
+def _latency_fit(aps: list[_Approach], model: FitsModel) -> tuple[float, float, int]:
+    """(tau, its standard error, approaches) of a WAAS time tag late by tau: FITS - DGPS
+    = -tau (v - v_thr) cross-track and vertical (v the DGPS velocity; the threshold's part
+    is a constant of each approach, removed with the approach's mean), least squares
+    pooled over approaches and both axes, the standard error from the approaches'
+    scores (clustered by approach)."""
+    num = den = 0.0
+    parts = []
+    for ap in aps:
+        if ap.dgps_rows is None:
+            continue
+        r = _fits(ap, model.period_s)
+        e = (r.xyz_m - (ap.dgps_w - np.asarray(model.dgps_offset_m)))[:, 1:]
+        v = ((_at(ap.t_rows, ap.dgps_rows, ap.t_w + 0.5) - _at(ap.t_rows, ap.dgps_rows, ap.t_w - 0.5)))[:, 1:]
+        ok = np.isfinite(e).all(axis=1) & np.isfinite(v).all(axis=1)
+        if ok.sum() < 30:
+            continue
+        e, v = e[ok] - e[ok].mean(axis=0), v[ok] - v[ok].mean(axis=0)
+        parts.append((e, v))
+        num += float(np.sum(v * e))
+        den += float(np.sum(v * v))
+    if len(parts) < 3 or den <= 0:
+        return 0.0, math.inf, len(parts)
+    slope = num / den
+    g = len(parts)
+    scores = np.array([np.sum(v * (e - slope * v)) for e, v in parts])
+    se = math.sqrt(float(np.sum(scores**2)) * g / (g - 1)) / den
+    return -slope, se, g
+
+
+def _latency_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
+    tau, se, n = _latency_fit(aps, model)
+    if not (abs(tau) > 4.0 * se and abs(tau) >= LATENCY_MIN_S):
+        return None
+    a, b = _halves(aps)
+    held = []
+    for fit, test in ((a, b), (b, a)):
+        t_fit = _latency_fit(fit, model)[0]
+        held.append((_err_rms(test, model.period_s, model.dgps_offset_m),
+                     _err_rms([retagged(ap, t_fit) for ap in test], model.period_s, model.dgps_offset_m)))
+    before = _err_rms(aps, model.period_s, model.dgps_offset_m)
+    after = _err_rms([retagged(ap, tau) for ap in aps], model.period_s, model.dgps_offset_m)
+    return Finding("waas_latency",
+                   f"The WAAS positions are stamped {1000 * tau:.0f} ms late against the log's time base (RA, TVPS, DGPS): "
+                   "FITS minus DGPS follows the aircraft's velocity (minus its value at the threshold fix), cross-track and "
+                   "vertically, which the FITS paper's eq. 3 assumes away. Re-tagging the WAAS epochs (`aerotruth fits "
+                   f"--waas-latency {tau:.2f}`) removes it. A DGPS stamped that early would look the same.",
+                   {"latency_s": {"value": tau, "se": se}},
+                   {"z": abs(tau) / se, "approaches": n, "score": float(np.log10(max(abs(tau) / se, 1.0)) + 1.0)},
+                   {"before": before, "after": after, "held_out_before": float(np.mean([h[0] for h in held])),
+                    "held_out_after": float(np.mean([h[1] for h in held])), "unit": "m"})
+
+
 def _jump_effects(aps: list[_Approach], model: FitsModel) -> list[Finding]:
     out = []
     for ap in aps:
@@ -458,6 +522,10 @@ def diagnose_log(path, df: pd.DataFrame, model: FitsModel) -> tuple[list[Finding
     if dgps:
         baseline["fits_minus_dgps_rms_m"] = _err_rms(aps, model.period_s, model.dgps_offset_m)
         m2 = dataclasses.replace(model, period_s=period)
+        lat = _latency_effect(aps, m2)
+        if lat is not None:  # the other effects on the re-tagged epochs (else the latency reads as jumps and an offset)
+            findings.append(lat)
+            aps = [retagged(ap, lat.parameters["latency_s"]["value"]) for ap in aps]
         for g in (_offset_effect(aps, m2), _ins_bias_effect(aps, m2), _baro_effect(aps, m2)):
             if g is not None:
                 findings.append(g)

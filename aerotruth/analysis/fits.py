@@ -81,6 +81,9 @@ class FitsSpec(Section):
     event_delay_s: float = Field(default=0.2, ge=0, description="mean delay of the pilot's event mark after the crossing")
     ra_lever_arm_m: float = Field(default=0.0, description="height of the position reference point above the RA antenna")
     grid_rate_hz: float = Field(default=8.0, gt=0, description="output grid (FITS paper section V: 8 Hz)")
+    waas_latency_s: float = Field(default=0.0, ge=-2.0, le=2.0, description="WAAS positions stamped this late (s): the "
+                                  "receiver's output latency left in its time tags; the FITS puts each epoch at its time "
+                                  "minus this (FITS paper eq. 3 assumes the WAAS - INS delay insignificant)")
 
 
 def triangular_lowpass(T: int) -> np.ndarray:

@@ -43,7 +43,7 @@ from __future__ import annotations
 
 import difflib
 import json
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 
 import numpy as np
@@ -290,6 +290,7 @@ class ApproachInputs:
     ra_lever: np.ndarray | None
     tvps_lever: np.ndarray | None
     dgps_w: np.ndarray  # DGPS at the WAAS epochs
+    dgps_rows: np.ndarray | None = None  # DGPS at every row (NaN where the log has none)
 
 
 def approach_inputs(g: pd.DataFrame) -> ApproachInputs:
@@ -314,10 +315,29 @@ def approach_inputs(g: pd.DataFrame) -> ApproachInputs:
     t_mark = float(col["time_s"][first]) - (0.5 * row_dt if ev[first] == "1" else 0.0)
     ra_lever = g["ra_lever_arm_m"].to_numpy(dtype=float)[keep] if "ra_lever_arm_m" in g.columns else None
     tvps_lever = g["tvps_lever_arm_m"].to_numpy(dtype=float)[keep] if "tvps_lever_arm_m" in g.columns else None
-    dgps = (g[list(DGPS)].to_numpy(dtype=float)[keep][is_w] if all(c in g.columns for c in DGPS)
-            else np.full((len(tw), 3), np.nan))
+    dgps = (g[list(DGPS)].to_numpy(dtype=float)[keep] if all(c in g.columns for c in DGPS)
+            else np.full((len(t), 3), np.nan))
     return ApproachInputs(tw, waas[is_w], ins[is_w], flags, t, ins, col["ra_m"][keep], col["tvps_y_m"][keep], t_mark,
-                          ra_lever, tvps_lever, dgps)
+                          ra_lever, tvps_lever, dgps[is_w], dgps)
+
+
+def _at(t_rows: np.ndarray, rows: np.ndarray, t: np.ndarray) -> np.ndarray:
+    """Columns of `rows` (n, 3) linearly interpolated at times t (held at the ends); NaN
+    where a neighbouring row is NaN."""
+    i = np.clip(np.searchsorted(t_rows, t), 1, len(t_rows) - 1)
+    w = np.clip((t - t_rows[i - 1]) / (t_rows[i] - t_rows[i - 1]), 0.0, 1.0)[:, None]
+    return (1.0 - w) * rows[i - 1] + w * rows[i]
+
+
+def retagged(a: ApproachInputs, latency_s: float) -> ApproachInputs:
+    """The inputs with each WAAS epoch put at its time tag minus `latency_s` (a receiver
+    that stamps its positions that late): the INS and the DGPS taken at the new times from
+    their rows. The same inputs when the latency is 0."""
+    if latency_s == 0.0:
+        return a
+    t_w = a.t_w - latency_s
+    dgps_rows = a.dgps_rows if a.dgps_rows is not None else np.full((len(a.t_rows), 3), np.nan)
+    return replace(a, t_w=t_w, ins_w=_at(a.t_rows, a.ins_rows, t_w), dgps_w=_at(a.t_rows, dgps_rows, t_w))
 
 
 def fits_of(a: ApproachInputs, spec: FitsSpec, extra_flags: np.ndarray | None = None) -> FitsResult:
@@ -329,8 +349,9 @@ def fits_of(a: ApproachInputs, spec: FitsSpec, extra_flags: np.ndarray | None = 
 
 
 def run_approach(g: pd.DataFrame, spec: FitsSpec) -> FitsResult:
-    """The FITS on one approach's rows (already checked; event rows of their own allowed)."""
-    return fits_of(approach_inputs(g), spec)
+    """The FITS on one approach's rows (already checked; event rows of their own allowed),
+    its WAAS epochs re-tagged by spec.waas_latency_s."""
+    return fits_of(retagged(approach_inputs(g), spec.waas_latency_s), spec)
 
 
 def _requirement_figure(errors: pd.DataFrame, path: Path) -> None:
@@ -377,8 +398,9 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
     traj, grid, noise, bias, errs = [], [], [], [], []
     for a, g in df.groupby("approach", sort=False):
         _check_approach(p, a, g)
+        inputs = retagged(approach_inputs(g), spec.waas_latency_s)
         try:
-            r = run_approach(g, spec)
+            r = fits_of(inputs, spec)
         except ValueError as exc:
             raise DataError(f"{p}: approach {a!r}: {exc}") from None
         nl = r.noiseless
@@ -389,7 +411,7 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
         noise.append(pd.DataFrame({"approach": a, "time_s": nl.t_s, "n_x_m": nl.n_hat[:, 0], "n_y_m": nl.n_hat[:, 1], "n_z_m": nl.n_hat[:, 2]}))
         bias.append({"approach": a, "bias_x_m": r.bias_m[0], "bias_y_m": r.bias_m[1], "bias_z_m": r.bias_m[2], "jumps": len(nl.jump_idx)})
         if has_dgps:
-            d = g.set_index("time_s").loc[nl.t_s, list(DGPS)].to_numpy()
+            d = inputs.dgps_w  # at the (re-tagged) WAAS epochs
             ok = np.isfinite(d).all(axis=1)
             if ok.any():
                 geom = geometry_of(geoms, a)
