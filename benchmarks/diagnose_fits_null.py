@@ -4,8 +4,8 @@ against effect size, on logs from the independent test generator
 white noise; tactical INS; RA, TVPS, DGPS; 12 approaches per dataset).
 
 Prints `label: value` lines: `null_datasets`, `null_findings` (by effect), and the share of
-datasets whose first finding is the hidden effect, per size, for the DGPS reference offset
-and the INS bias scale; writes the power figure to --out.
+datasets whose first finding is the hidden effect, per size, for the DGPS reference offset,
+the INS bias scale and the WAAS time-tag latency; writes the power figure to --out.
 
     python benchmarks/diagnose_fits_null.py [--datasets 100] [--out runs/diagnose_fits_power.png]
 """
@@ -26,6 +26,7 @@ from aerotruth.analysis.diagnose_fits import FitsModel, diagnose_log  # noqa: E4
 POWER = {
     "dgps_offset": ("DGPS offset per axis (m)", [0.02, 0.05, 0.1, 0.2, 0.3], lambda v: {"dgps_offset": (0.0, v, v)}),
     "ins_bias": ("INS bias scale (x grade)", [1.0, 1.5, 2.0, 2.5, 3.0], lambda v: {"ins_bias_scale": v}),
+    "waas_latency": ("WAAS time-tag latency (s)", [0.01, 0.02, 0.05, 0.1, 0.2], lambda v: {"waas_latency_s": v}),
 }
 
 
@@ -61,7 +62,7 @@ def main() -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, axes = plt.subplots(1, 2, figsize=(9, 3.5))
+    fig, axes = plt.subplots(1, len(curves), figsize=(4.5 * len(curves), 3.5))
     for ax, (effect, (label, sizes, shares)) in zip(axes, curves.items()):
         ax.plot(sizes, shares, "o-")
         ax.set(xlabel=label, ylabel="share found first", ylim=(-0.02, 1.02), title=effect)
