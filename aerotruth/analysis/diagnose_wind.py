@@ -32,7 +32,7 @@ rest; `field_scaling` by Gauss-Newton on gamma):
     stale_declination  age a (years): transverse = a (-dD/dt)(lat, lon), D the IGRF declination
     reference_bias     per reference model b (kt along its wind): t = b w.n, a = b w.u
     recalibration      per aircraft a step of A at an unknown time (CUSUM of flight means)
-    offset_drift       per aircraft A changing linearly in time (trend of flight means)
+    offset_drift       per aircraft A changing linearly in time (trend of its weather-block means)
     quantization       the reports' lat/lon grid is coarser (or finer) than the model's
 
 Evidence. Reference-model errors are one field over the region, correlated for hours, so
@@ -84,10 +84,11 @@ MIN_BLOCKS = 20  # fewest weather blocks (independent clusters) for any test: CR
 # screening found "turn rate" terms worth 0.02 %: the three-report heading's lag in a
 # turn, real but of no use; every hidden library effect gains >= 1 %)
 MIN_REL_GAIN = 0.002
-# candidates tested by a scan of each aircraft's flight means (p-values Bonferroni over aircraft),
+# candidates tested by a scan of each aircraft's series of mean offsets (p-values Bonferroni over aircraft),
 # not by the Wald test of their fitted columns (chosen by the scan, those would over-reject)
 SCANNED = {"recalibration": "sup-CUSUM of flight means, Kolmogorov, Bonferroni over aircraft",
-           "offset_drift": "trend of flight means (slope, Bartlett-weighted variance), Bonferroni over aircraft"}
+           "offset_drift": "trend of the aircraft's 6-h weather-block means (slope, Bartlett-weighted variance), "
+                           "Bonferroni over aircraft"}
 
 CAUSES = {
     "soft_iron": "the heading error goes twice round with the heading (2z): soft iron magnetised by the horizontal field",

@@ -472,20 +472,21 @@ def group_means(d: WindData, resid_trans: np.ndarray, groups: np.ndarray,
     return agg["r"].to_numpy(), agg["t0"].to_numpy(), agg["t1"].to_numpy()
 
 
-def _flight_means_by_aircraft(d: WindData, fit: Fit, rows: np.ndarray | None):
-    """(aircraft, flight-mean offsets, flights' first and last times) of each aircraft with
-    at least 2 MIN_FLIGHTS flights among `rows`, in time order (the scans' series)."""
+def _means_by_aircraft(d: WindData, fit: Fit, rows: np.ndarray | None, groups: np.ndarray):
+    """(aircraft, mean offsets of its rows in each group, the groups' first and last times)
+    of each aircraft with at least 2 MIN_FLIGHTS flights among `rows`, in time order (the
+    scans' series; groups: d.flight or d.cluster)."""
     r = np.ones(d.n, dtype=bool) if rows is None else rows[: d.n]
     for i in range(len(d.names)):
         sel = (d.aircraft == i) & r
         if len(np.unique(d.flight[sel])) >= 2 * MIN_FLIGHTS:
-            yield (i, *group_means(d, fit.resid[: d.n], d.flight, sel))
+            yield (i, *group_means(d, fit.resid[: d.n], groups, sel))
 
 
 def recalibration_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, tuple[float, float]]:
     """Per aircraft: (p-value, time of the change) of a change in its flight-mean offset."""
     out = {}
-    for i, m, t0, t1 in _flight_means_by_aircraft(d, fit, rows):
+    for i, m, t0, t1 in _means_by_aircraft(d, fit, rows, d.flight):
         p, k = _kolmogorov_cusum(m)
         out[i] = (p, 0.5 * (t1[k] + t0[k + 1]))
     return out
@@ -508,7 +509,7 @@ def cand_recalibration(d: WindData, st: State, fit: Fit | None, rows: np.ndarray
 
 def _slope_p(x: np.ndarray, y: np.ndarray) -> float:
     """Two-sided p-value of the OLS slope of y on x, its variance with Bartlett weights to
-    lag 2 (the series in time order: neighbouring flights share weather)."""
+    lag 2 (the series in time order: neighbours may share weather)."""
     if len(x) < 6:
         return 1.0
     xc = x - x.mean()
@@ -524,9 +525,11 @@ def _slope_p(x: np.ndarray, y: np.ndarray) -> float:
 
 
 def drift_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, float]:
-    """Per aircraft: p-value of a linear trend in its flight-mean offset (time of each
-    flight: its middle)."""
-    return {i: _slope_p(0.5 * (t0 + t1) / 86400.0, m) for i, m, t0, t1 in _flight_means_by_aircraft(d, fit, rows)}
+    """Per aircraft: p-value of a linear trend of its mean offset over the 6-h weather
+    blocks it flew in (each block's middle as its time): a block's flights share the
+    reference models' error, so flights are not independent, blocks are (as in every
+    other test here)."""
+    return {i: _slope_p(0.5 * (t0 + t1) / 86400.0, m) for i, m, t0, t1 in _means_by_aircraft(d, fit, rows, d.cluster)}
 
 
 def cand_offset_drift(d: WindData, st: State, fit: Fit | None, rows: np.ndarray | None = None) -> list[Block]:
@@ -627,7 +630,7 @@ def current_blocks(d: WindData, st: State) -> list[Block]:
 
 
 def _build(eff: str, d: WindData, st: State, fit: Fit, rows: np.ndarray | None) -> list[Block]:
-    if eff in ("recalibration", "offset_drift"):  # scans of flight means: on the training rows only
+    if eff in ("recalibration", "offset_drift"):  # scans of mean offsets: on the training rows only
         return CANDIDATES[eff](d, st, fit, rows)
     return CANDIDATES[eff](d, st, fit)
 
