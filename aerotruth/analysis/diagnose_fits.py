@@ -294,11 +294,9 @@ def _latency_fit(aps: list[_Approach], model: FitsModel) -> tuple[float, float, 
     num = den = 0.0
     parts = []
     for ap in aps:
-        if ap.dgps_rows is None:
-            continue
         r = _fits(ap, model.period_s)
         e = (r.xyz_m - (ap.dgps_w - np.asarray(model.dgps_offset_m)))[:, 1:]
-        v = ((_at(ap.t_rows, ap.dgps_rows, ap.t_w + 0.5) - _at(ap.t_rows, ap.dgps_rows, ap.t_w - 0.5)))[:, 1:]
+        v = (_at(ap.t_rows, ap.dgps_rows, ap.t_w + 0.5) - _at(ap.t_rows, ap.dgps_rows, ap.t_w - 0.5))[:, 1:]  # m/s
         ok = np.isfinite(e).all(axis=1) & np.isfinite(v).all(axis=1)
         if ok.sum() < 30:
             continue

@@ -290,7 +290,7 @@ class ApproachInputs:
     ra_lever: np.ndarray | None
     tvps_lever: np.ndarray | None
     dgps_w: np.ndarray  # DGPS at the WAAS epochs
-    dgps_rows: np.ndarray | None = None  # DGPS at every row (NaN where the log has none)
+    dgps_rows: np.ndarray  # DGPS at every row (NaN where the log has none)
 
 
 def approach_inputs(g: pd.DataFrame) -> ApproachInputs:
@@ -336,8 +336,7 @@ def retagged(a: ApproachInputs, latency_s: float) -> ApproachInputs:
     if latency_s == 0.0:
         return a
     t_w = a.t_w - latency_s
-    dgps_rows = a.dgps_rows if a.dgps_rows is not None else np.full((len(a.t_rows), 3), np.nan)
-    return replace(a, t_w=t_w, ins_w=_at(a.t_rows, a.ins_rows, t_w), dgps_w=_at(a.t_rows, dgps_rows, t_w))
+    return replace(a, t_w=t_w, ins_w=_at(a.t_rows, a.ins_rows, t_w), dgps_w=_at(a.t_rows, a.dgps_rows, t_w))
 
 
 def fits_of(a: ApproachInputs, spec: FitsSpec, extra_flags: np.ndarray | None = None) -> FitsResult:
