@@ -171,12 +171,17 @@ def _size(eff: str, params: dict) -> float:
 
 def _plot_data(d: WindData, fit0: Fit, fit1: Fit, eff: str, channel: str) -> dict:
     """Added-variable view: the residual without the effect and with it, against the
-    effect's fitted term (deg transverse, kt along)."""
+    effect's fitted term (deg transverse, kt along); a per-aircraft effect on some of the
+    fleet shows those aircraft's rows (the others' term is 0 and would fill the view)."""
     term = np.zeros(2 * d.n)
+    concerned = set()
     for b, s in zip(fit1.blocks, fit1.slices):
         if b.effect in (eff, "screen"):
             term += b.cols @ fit1.beta[s]
+            concerned.add(b.aircraft)
     m = _channel_rows(d.n, "transverse" if channel == "both" else channel)
+    if -1 not in concerned and len(concerned) < len(d.names):
+        m &= np.tile(np.isin(d.aircraft, list(concerned)), 2)
     scale = np.r_[d.tas, np.full(d.n, KT)][m]
     unit = "deg" if channel != "along" else "kt"
     conv = (1 / DEG) if unit == "deg" else 1.0
