@@ -509,7 +509,9 @@ def cand_recalibration(d: WindData, st: State, fit: Fit | None, rows: np.ndarray
 
 def _slope_p(x: np.ndarray, y: np.ndarray) -> float:
     """Two-sided p-value of the OLS slope of y on x, its variance with Bartlett weights to
-    lag 2 (the series in time order: neighbours may share weather)."""
+    lag 2 (the series in time order: neighbours may share weather), against Student's t
+    with n - 2 degrees of freedom (a series of a few dozen weather blocks: the normal
+    limit would reject too often)."""
     if len(x) < 6:
         return 1.0
     xc = x - x.mean()
@@ -521,7 +523,7 @@ def _slope_p(x: np.ndarray, y: np.ndarray) -> float:
     lrv = np.sum(u**2) + 2 * sum((1 - j / 3) * np.sum(u[j:] * u[:-j]) for j in (1, 2))
     if lrv <= 0:
         return 1.0
-    return float(2 * stats.norm.sf(abs(b) / math.sqrt(lrv / sxx**2)))
+    return float(2 * stats.t.sf(abs(b) / math.sqrt(lrv / sxx**2), len(x) - 2))
 
 
 def drift_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, float]:
