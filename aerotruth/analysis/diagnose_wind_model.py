@@ -134,6 +134,7 @@ class Block:
     label: str
     cols: np.ndarray  # (2n, q)
     aircraft: int = -1
+    p: float | None = None  # a scanned candidate's p-value (Bonferroni over aircraft), else None
 
 
 @dataclass
@@ -492,18 +493,22 @@ def recalibration_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) ->
     return out
 
 
+def _selected(p_values: dict[int, float]) -> dict[int, float]:
+    """The scanned aircraft whose p-value, Bonferroni over the aircraft scanned, is below
+    0.05: their adjusted p-values."""
+    n_ac = max(len(p_values), 1)
+    return {i: p * n_ac for i, p in p_values.items() if p * n_ac < 0.05}
+
+
 def cand_recalibration(d: WindData, st: State, fit: Fit | None, rows: np.ndarray | None = None) -> list[Block]:
     if fit is None:
         return []
     scan = recalibration_scan(d, fit, rows)
-    n_ac = max(len(scan), 1)
     out = []
-    for i, (p, t) in scan.items():
-        if p * n_ac < 0.05:
-            col = (d.aircraft == i) * d.tas * (d.time_s >= t)
-            b = Block("recalibration", f"step@{t:.0f}", _stack(col, None, d.n)[:, None], i)
-            b.p = p * n_ac  # type: ignore[attr-defined]
-            out.append(b)
+    for i, q in _selected({i: p for i, (p, _) in scan.items()}).items():
+        t = scan[i][1]
+        col = (d.aircraft == i) * d.tas * (d.time_s >= t)
+        out.append(Block("recalibration", f"step@{t:.0f}", _stack(col, None, d.n)[:, None], i, p=q))
     return out
 
 
@@ -535,19 +540,12 @@ def drift_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[in
 
 
 def cand_offset_drift(d: WindData, st: State, fit: Fit | None, rows: np.ndarray | None = None) -> list[Block]:
-    """Per aircraft whose flight-mean offset trends in time (Bonferroni over aircraft): a
-    free rate of its offset A (the recalibration's ramp counterpart)."""
+    """Per aircraft whose mean offset trends over its weather blocks (Bonferroni over
+    aircraft): a free rate of its offset A (the recalibration's ramp counterpart)."""
     if fit is None:
         return []
-    scan = drift_scan(d, fit, rows)
-    n_ac = max(len(scan), 1)
-    out = []
-    for i, p in scan.items():
-        if i not in st.drifts and p * n_ac < 0.05:
-            b = Block("offset_drift", "rate", drift_column(d, i)[:, None], i)
-            b.p = p * n_ac  # type: ignore[attr-defined]
-            out.append(b)
-    return out
+    return [Block("offset_drift", "rate", drift_column(d, i)[:, None], i, p=q)
+            for i, q in _selected(drift_scan(d, fit, rows)).items() if i not in st.drifts]
 
 
 CANDIDATES = {
