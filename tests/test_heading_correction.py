@@ -269,6 +269,20 @@ def test_lookup_table_correction_is_piecewise_linear_round_the_circle():
     assert fit.correct(0.5) == pytest.approx((0.5 - (3 * (44.5 / 45) + (1 + s2) * (0.5 / 45))) % 360.0)
     assert fit.correct(90.0) == pytest.approx(89.0)  # d(90) = 1
     assert fit.correct(1.0) == pytest.approx(fit.correct(361.0))
+    assert fit.correct(-22.5) == pytest.approx((-22.5 - (3 + 1 + s2) / 2) % 360.0)  # below 0: round the circle
+    assert np.isnan(fit.correct(np.array([np.nan, np.inf]))).all()  # no heading, no correction
+
+
+def test_lookup_tables_chosen_per_heading_interpolate_their_own_table():
+    """Several tables (one per aircraft) and a table index per heading: each heading takes
+    its own table's two neighbouring points (hand-worked)."""
+    from aerotruth.analysis.heading_correction import lut_correction
+
+    luts = np.vstack([np.arange(8.0), 10.0 * np.arange(8.0)])
+    got = lut_correction(luts, np.array([22.5, 22.5, 337.5, 315.0]), table=np.array([0, 1, 1, 0]))
+    assert got == pytest.approx([0.5, 5.0, 35.0, 7.0])  # 337.5: halfway from 70 back to 0
+    with pytest.raises(ValueError, match="lut"):
+        lut_correction(np.zeros(7), np.array([1.0]))
 
 
 def test_learned_state_survives_to_table_and_from_table():
@@ -288,6 +302,28 @@ def test_shuffled_table_with_repeated_rows_gives_the_same_fit():
     a = HeadingDeviationFit(heading="magnetic").fit(obs)
     b = HeadingDeviationFit(heading="magnetic").fit(shuffled)
     assert a.coef_ == pytest.approx(b.coef_)
+
+
+def test_rows_are_ordered_as_a_full_sort_by_aircraft_time_and_model():
+    """validate_observations orders rows by aircraft, time, reference model: a time-ordered
+    table takes a shortcut (a stable sort of the aircraft alone, checked). Against numpy's
+    lexsort on random small tables, time-ordered or not, with missing aircraft and times
+    (rows that are then dropped may sit anywhere)."""
+    from aerotruth.analysis.observations import _sort_order
+
+    rng = np.random.default_rng(0)
+    for trial in range(2000):
+        n = int(rng.integers(1, 40))
+        ac = rng.integers(-1, 4, n).astype(np.int8)
+        t = rng.integers(0, 5, n).astype(float)
+        if trial % 3 == 0:
+            t[rng.random(n) < 0.1] = np.nan
+        if trial % 2 == 0:
+            t = np.sort(t)
+        ref = rng.integers(0, 2, n).astype(np.int8)
+        got, want = _sort_order(ac, t, ref), np.lexsort((ref, t, ac))
+        keep = (ac >= 0) & np.isfinite(t)
+        assert np.array_equal(got[keep[got]], want[keep[want]])
 
 
 @pytest.mark.parametrize("mutate, words", [
@@ -363,6 +399,61 @@ def test_newton_huber_falls_back_to_irls_when_its_matrix_is_singular(monkeypatch
     (bn, sn), (bi, si) = _huber_by_irls_and_newton(np.ascontiguousarray(X.T), y, w, monkeypatch)
     assert np.all(np.isfinite(bn))
     assert np.max(np.abs(bn - bi)) < 5e-5
+
+
+@pytest.mark.parametrize("k", [1, 2, 3, 5])
+@pytest.mark.parametrize("cc", [1.345, np.inf])
+def test_compiled_flight_sums_equal_the_sums_written_out(k, cc):
+    """The fit's per-flight B_g = sum x x^T w psi'(u) / s and h_g = sum x sqrt(w) psi(u)
+    (compiled, the columns beyond k zero) and a Newton step's B and h, against the same
+    sums written as plain numpy per flight; Huber clipping (1.345) and least squares (inf)."""
+    import aerotruth.analysis.robust_fit as rf
+
+    rng = np.random.default_rng(31)
+    lens = rng.integers(1, 60, 25)
+    g = np.repeat(np.arange(len(lens)), lens)
+    n = len(g)
+    XT = rf.design_t(rng.uniform(0, 360, n), 5)[:k].copy()
+    r, w, s = 2.0 * rng.standard_t(3, n), rng.uniform(0.5, 1.5, n), 1.7
+    bread_g, scores = rf._cluster_parts(XT, r, w, rf.cluster_starts(g), s, cc)
+    u = r / s
+    psi, inside = np.clip(u, -cc, cc), np.abs(u) <= cc
+    for j in range(len(lens)):
+        m = g == j
+        X = XT[:, m]
+        want_b = (X * (w[m] * inside[m] / s)) @ X.T
+        want_h = X @ (np.sqrt(w[m]) * psi[m])
+        assert np.allclose(bread_g[j], want_b, rtol=1e-12, atol=1e-12)
+        assert np.allclose(scores[j], want_h, rtol=1e-12, atol=1e-12)
+    cs = 1.345 * s
+    B, h = rf._newton_system(XT, r, w, np.sqrt(w), cs)
+    keep = np.abs(r) <= cs
+    assert np.allclose(B, (XT[:, keep] * w[keep]) @ XT[:, keep].T, rtol=1e-12)
+    assert np.allclose(h, XT @ (np.clip(r, -cs, cs) * np.sqrt(w)), rtol=1e-12)
+
+
+def test_leave_one_flight_out_influences_solve_each_system_or_fall_back():
+    """CR3's q_g = (B - B_g)^-1 h_g (compiled Cholesky) against numpy's general solver; and
+    with a term carried by one flight alone (B - B_0 singular) the plain sandwich term
+    pinv(B - B_g) h_g for every flight, as before the compiled path."""
+    import aerotruth.analysis.robust_fit as rf
+
+    rng = np.random.default_rng(2)
+    G, k = 30, 5
+    X = [rng.standard_normal((k, 25)) for _ in range(G)]
+    bread_g = np.array([x @ x.T for x in X])
+    scores = rng.standard_normal((G, k))
+    loo = bread_g.sum(axis=0)[None] - bread_g
+    infl, cov = rf._cr3(bread_g, scores)
+    want = np.linalg.solve(loo, scores[:, :, None])[:, :, 0]
+    assert np.allclose(infl, want, rtol=1e-10, atol=1e-14)
+    assert np.allclose(cov, want.T @ want * (G - 1) / G, rtol=1e-10)
+    for x in X[1:]:
+        x[4] = 0.0  # term 4 in flight 0 only
+    bread_g = np.array([x @ x.T for x in X])
+    loo = bread_g.sum(axis=0)[None] - bread_g
+    infl, _ = rf._cr3(bread_g, scores)
+    assert np.allclose(infl, np.einsum("gij,gj->gi", np.linalg.pinv(loo), scores), rtol=1e-8, atol=1e-12)
 
 
 @pytest.mark.parametrize("start_se", [1.0, 5.0, 20.0])

@@ -68,12 +68,14 @@ from __future__ import annotations
 import datetime as dt
 import math
 
+from numba import njit
 import numpy as np
 import pandas as pd
 from scipy import stats
 
 from aerotruth.analysis.heading_errors import GateSpec, heading_errors
-from aerotruth.analysis.robust_fit import cluster_starts, design, design_t, fit_from_t, huber_t, robust_fit_t
+from aerotruth.analysis.robust_fit import (cluster_starts, design, design_t, fit_from_t, huber_t, median,
+                                            robust_fit_t, weighted_gram_t)
 from aerotruth.units import DEG
 
 
@@ -93,10 +95,20 @@ def heading_axes(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1,
     if sin_cos is None:
         z = harmonic * np.asarray(heading_deg) * DEG
         sin_cos = np.vstack([np.sin(z), np.cos(z)])
-    ww = w / w.sum()
-    mu = sin_cos @ ww
-    cov = (sin_cos * ww) @ sin_cos.T - np.outer(mu, mu)
-    return np.linalg.eigh(cov)
+    return _axes(float(w.sum()), sin_cos @ w, (sin_cos * w) @ sin_cos.T)
+
+
+def _axes(w_sum: float, m: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """heading_axes from the weighted sums: of the weights, m of (sin nz, cos nz), S of their
+    products (2 x 2)."""
+    mu = m / w_sum
+    return np.linalg.eigh(S / w_sum - np.outer(mu, mu))
+
+
+def _gram_axes(gram: np.ndarray, harmonic: int) -> tuple[np.ndarray, np.ndarray]:
+    """heading_axes from X^T W X of the design of eq. 2 (1, sin z, cos z, sin 2z, cos 2z)."""
+    j = [1, 2] if harmonic == 1 else [3, 4]
+    return _axes(float(gram[0, 0]), gram[0, j], gram[np.ix_(j, j)])
 
 
 def heading_spread(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1,
@@ -116,24 +128,31 @@ def lut_correction(lut: np.ndarray, heading_deg: np.ndarray, table: np.ndarray |
     """Correction (deg) at the measured heading from an 8-point table at 0, 45, ..., 315 deg,
     linear between points and round the circle (wind paper 8.1). `lut` (8,), or several
     tables (T, 8) with `table` the row (0..T-1) to use at each heading."""
-    x = np.asarray(heading_deg, dtype=float) / 45.0  # in table steps (float % and // cost 5x a division)
-    q = np.floor(x)
-    frac = x - q
-    i = q.astype(np.int64)
-    i &= 7  # i mod 8, negative i too (two's complement)
+    h = np.asarray(heading_deg, dtype=float)
     lut = np.asarray(lut, dtype=float)
     if lut.shape == (8,):
-        lut = lut[None, :]
+        rows = np.zeros(0, dtype=np.int64)
     elif table is not None and lut.ndim == 2 and lut.shape[1] == 8:
-        i += np.asarray(table, dtype=np.int64) * 8  # flat index: no (n, 8) table per heading
+        rows = np.ascontiguousarray(np.broadcast_to(np.asarray(table, dtype=np.int64), h.shape)).reshape(-1)
     else:
         raise ValueError(f"lut: expected (8,), or (T, 8) with `table`, got shape {lut.shape}")
-    # value at the point below plus the step to the next one (round the circle) times frac
-    step = np.roll(lut, -1, axis=1) - lut
-    out = step.ravel().take(i)
-    out *= frac
-    out += lut.ravel().take(i)
+    out = np.empty(h.shape)
+    _lut_interp(np.ascontiguousarray(lut).reshape(-1), rows, np.ascontiguousarray(h).reshape(-1), out.reshape(-1))
     return out
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _lut_interp(lut: np.ndarray, rows: np.ndarray, h: np.ndarray, out: np.ndarray) -> None:
+    """lut_correction's loop: `lut` the tables flattened (8 a row), `rows` each heading's
+    table (empty: table 0 throughout)."""
+    for k in range(len(h)):
+        x = h[k] / 45.0  # in table steps (no float remainder: 5x slower)
+        q = np.floor(x)  # (math.floor gives an integer)
+        frac = x - q
+        i = (int(q) if math.isfinite(q) else 0) & 7  # i mod 8, negative i too (two's complement); NaN, inf -> NaN below
+        base = rows[k] * 8 if len(rows) else 0
+        lo = lut[base + i]
+        out[k] = (lut[base + ((i + 1) & 7)] - lo) * frac + lo  # the point below plus the step to the next times frac
 
 
 def _iso_date(t: float) -> str:
@@ -220,7 +239,7 @@ class HeadingDeviationFit:
         self._z, self._y, self._g, self._src = (a[c].take(sel) for c in ("z", "y", "g", "src"))
         tas = a["tas"].take(sel)
         times = a["t"].take(sel)
-        self._w = (tas / np.median(tas)) ** 2 if len(tas) else tas
+        self._w = (tas / median(tas)) ** 2 if len(tas) else tas
         self.n_used_ = int(len(sel))
         self.n_flights_ = int(len(cluster_starts(self._g))) if len(sel) else 0
         self._src_names = [str(x) for x in a["src_names"]]
@@ -230,7 +249,8 @@ class HeadingDeviationFit:
         self.heading_frame_ = self.heading
         self.consistency_ = {}
         self._XT = design_t(self._z, 5)
-        self.coverage_ = heading_spread(self._z, self._w, 1, self._XT[1:3]) if self.n_used_ >= 3 else 0.0
+        gram = weighted_gram_t(self._XT, self._w)  # the headings' spreads from its sums
+        self.coverage_ = float(_gram_axes(gram, 1)[0][0]) if self.n_used_ >= 3 else 0.0
         self.octants_ = octants_occupied(self._z)
         self.de_p_ = math.nan
         if self.n_used_ < self.min_reports or self.n_flights_ < self.min_flights:
@@ -246,7 +266,7 @@ class HeadingDeviationFit:
                           else "offset only, as asked")
         elif self.coverage_ < self.min_coverage:
             k = 1
-            lam, vec = heading_axes(self._z, self._w, 1, self._XT[1:3])
+            lam, vec = _gram_axes(gram, 1)
             if lam[1] >= self.min_coverage:  # one axis flown both ways: its component of the sinusoid
                 k = 3
                 u = vec[:, 1]
@@ -262,7 +282,7 @@ class HeadingDeviationFit:
         else:
             k = 5 if self.terms == "full" else 3
             if self.terms in ("auto", "full"):
-                spread2 = heading_spread(self._z, self._w, 2, self._XT[3:5])
+                spread2 = float(_gram_axes(gram, 2)[0][0])
                 if spread2 < self.min_coverage:
                     k = 3
                     reason.append(f"D, E not identifiable (2z spread {spread2:.2f})")

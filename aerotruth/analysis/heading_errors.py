@@ -37,11 +37,12 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from numba import njit
 import numpy as np
 import pandas as pd
 from pydantic import Field
 
-from aerotruth.analysis.fast_trig import sin_cos
+from aerotruth.analysis.fast_trig import arctan2, atan2_scalar, hypot, sin_cos
 from aerotruth.analysis.observations import validate_observations
 from aerotruth.config import Section
 from aerotruth.errors import DataError
@@ -204,14 +205,14 @@ def ground_track(t: np.ndarray, lat_rad: np.ndarray, lon_rad: np.ndarray, flight
             np.divide(span_e, span_dt, out=vg_e[1:-1])
             np.divide(span_n, span_dt, out=vg_n[1:-1])
             vg_e[0], vg_n[0], vg_e[-1], vg_n[-1] = de[0] / dts[0], dn[0] / dts[0], de[-1] / dts[-1], dn[-1] / dts[-1]
-            seg_gs = np.hypot(de, dn) / dts
+            seg_gs = hypot(de, dn) / dts
             # course change between the segments: the angle between them (atan2 of their cross
             # and dot products), in [0, 180]
             e1, n1, e2, n2 = de[:-1], dn[:-1], de[1:], dn[1:]
-            dcourse = np.degrees(np.abs(np.arctan2(e1 * n2 - n1 * e2, e1 * e2 + n1 * n2)))
+            dcourse = np.degrees(np.abs(arctan2(e1 * n2 - n1 * e2, e1 * e2 + n1 * n2)))
             dspeed = np.abs(np.diff(seg_gs)) / (0.5 * (seg_gs[:-1] + seg_gs[1:]))
             dt1, dt2 = dts[:-1], dts[1:]
-            span = np.hypot(span_e, span_n)
+            span = hypot(span_e, span_n)
             # the rounding's own noise (step_noise) only where the plain limits fail: elsewhere
             # the widened gates pass whatever it is (V_G's rounding error is at most
             # _MAX_STEP_NOISE_M * step in metres per degree: the span gate passes above that)
@@ -278,59 +279,67 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     rep_of_row -= 1
     first = np.flatnonzero(new_rep)
     m = len(first)
-    rt, rac = t[first], ac[first]
-    lat = df["lat"].to_numpy()[first] * DEG
-    lon = df["lon"].to_numpy()[first] * DEG
-    flight = report_flights(rac, rt, g.flight_gap_s, df["flight"].cat.codes.to_numpy()[first] if "flight" in df.columns else None)
+    rt, rac = t.take(first), ac.take(first)  # gathers (take: faster than fancy indexing)
+    lat = df["lat"].to_numpy().take(first) * DEG
+    lon = df["lon"].to_numpy().take(first) * DEG
+    flight = report_flights(rac, rt, g.flight_gap_s, df["flight"].cat.codes.to_numpy().take(first) if "flight" in df.columns else None)
     track = ground_track(rt, lat, lon, flight, g)
     vg_e, vg_n, gate = track.vg_e, track.vg_n, track.gate.copy()
     # the aircraft's side, once per report (validate_observations checked its rows agree)
-    wt_e, wt_n = towards_from_report(df["wind_speed_kt"].to_numpy()[first], df["wind_dir_deg"].to_numpy()[first])
+    wt_e, wt_n = towards_from_report(df["wind_speed_kt"].to_numpy().take(first), df["wind_dir_deg"].to_numpy().take(first))
     va_e_r, va_n_r = vg_e - wt_e, vg_n - wt_n  # wind paper eq. 3
-    psi = np.degrees(np.arctan2(va_e_r, va_n_r))
+    psi = np.degrees(arctan2(va_e_r, va_n_r))
     psi += 360.0 * (psi < 0)
     heading = psi
     if "heading_deg" in df.columns:
-        h = df["heading_deg"].to_numpy()[first]
+        h = df["heading_deg"].to_numpy().take(first)
         heading = np.where(np.isfinite(h), wrap(h, 360.0), psi)
-    tas = np.hypot(va_e_r, va_n_r)
+    tas = hypot(va_e_r, va_n_r)
     if "tas_kt" in df.columns:
-        tk = df["tas_kt"].to_numpy()[first] * KT
+        tk = df["tas_kt"].to_numpy().take(first) * KT
         _check_tas_units(tk, tas, gate == 0, df.attrs.get("source") or source)
         tas = np.where(np.isfinite(tk), tk, tas)
     heading_mag = np.full(m, np.nan)
     if "declination_deg" in df.columns:
-        heading_mag = wrap(heading - df["declination_deg"].to_numpy()[first], 360.0)
+        heading_mag = wrap(heading - df["declination_deg"].to_numpy().take(first), 360.0)
     if "heading_mag_deg" in df.columns:
-        hm = df["heading_mag_deg"].to_numpy()[first]
+        hm = df["heading_mag_deg"].to_numpy().take(first)
         heading_mag = np.where(np.isfinite(hm), wrap(hm, 360.0), heading_mag)
     # per (report, model) row: V_A' = V_G - V_W,REF = V_A + dw with dw = V_W,TAM - V_W,REF
-    # (eqs. 3, 4), so d = angle(V_A) - angle(V_A') from V_A and dw alone
+    # (eqs. 3, 4), so d = angle(V_A) - angle(V_A') from V_A and dw alone (_row_errors)
     wr_e, wr_n = towards_from_report(df["ref_wind_speed_kt"].to_numpy(), df["ref_wind_dir_deg"].to_numpy())
-    dw_e, dw_n = wt_e[rep_of_row], wt_n[rep_of_row]
-    dw_e -= wr_e
-    dw_n -= wr_n
-    va_e, va_n = va_e_r[rep_of_row], va_n_r[rep_of_row]
-    # d = psi - psi' wrapped to (-180, 180]: the angle from V_A' to V_A, clockwise;
-    # cross(V_A', V_A) = va_e dw_n - va_n dw_e, dot = |V_A|^2 + V_A . dw
-    cross = va_e * dw_n
-    cross -= np.multiply(va_n, dw_e, out=wr_e)
-    dot = (va_e_r * va_e_r + va_n_r * va_n_r)[rep_of_row]
-    dot += np.multiply(va_e, dw_e, out=wr_e)
-    dot += np.multiply(va_n, dw_n, out=wr_e)
-    d = np.degrees(np.arctan2(cross, dot, out=cross), out=cross)
+    va_e, va_n, dw_e, dw_n, d = _row_errors(rep_of_row, va_e_r, va_n_r, wt_e, wt_n, wr_e, wr_n)
     implausible = GATE_NAMES.index("implausible")
     with np.errstate(invalid="ignore"):  # TAS per report, |d| per row
         gate[(gate == 0) & ~((tas >= g.min_tas_kt * KT) & (tas <= g.max_tas_kt * KT))] = implausible
-        row_gate = gate[rep_of_row]
+        row_gate = gate.take(rep_of_row)
         row_gate[(row_gate == 0) & ~(np.abs(d) <= g.max_heading_error_deg)] = implausible
-    tas = tas[rep_of_row]
+    tas = tas.take(rep_of_row)
     true_input = (df["heading_input"] == "true").to_numpy() if "heading_input" in df.columns else np.zeros(n, dtype=bool)
     out = pd.DataFrame(copy=False, data={  # copy=False: not consolidated into one block (a full copy)
-        "aircraft": df["aircraft"].array, "ref_source": df["ref_source"].array, "flight": flight[rep_of_row], "report": rep_of_row,
-        "time_s": t, "heading_deg": heading[rep_of_row], "heading_mag_deg": heading_mag[rep_of_row], "error_deg": d,
+        "aircraft": df["aircraft"].array, "ref_source": df["ref_source"].array, "flight": flight.take(rep_of_row),
+        "report": rep_of_row, "time_s": t, "heading_deg": heading.take(rep_of_row),
+        "heading_mag_deg": heading_mag.take(rep_of_row), "error_deg": d,
         "tas_ms": tas, "va_e": va_e, "va_n": va_n, "dw_e": dw_e, "dw_n": dw_n,
         "gate": pd.Categorical.from_codes(row_gate, GATE_NAMES), "true_heading_input": true_input,
     })
     out.attrs.update(df.attrs)
     return out
+
+
+@njit(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
+def _row_errors(rep: np.ndarray, va_e_r: np.ndarray, va_n_r: np.ndarray, wt_e: np.ndarray, wt_n: np.ndarray,
+                wr_e: np.ndarray, wr_n: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Per (report, model) row i of report rep[i]: V_A (eq. 3, the report's), dw = V_W,TAM -
+    V_W,REF and d = psi - psi' (deg, (-180, 180]): the angle from V_A' = V_A + dw (eq. 4) to
+    V_A, clockwise, atan2 of cross(V_A', V_A) = va_e dw_n - va_n dw_e and
+    dot(V_A', V_A) = |V_A|^2 + V_A . dw."""
+    n = len(rep)
+    va_e, va_n, dw_e, dw_n, d = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        j = rep[i]
+        ae, an = va_e_r[j], va_n_r[j]
+        we, wn = wt_e[j] - wr_e[i], wt_n[j] - wr_n[i]
+        va_e[i], va_n[i], dw_e[i], dw_n[i] = ae, an, we, wn
+        d[i] = math.degrees(atan2_scalar(ae * wn - an * we, ae * ae + an * an + ae * we + an * wn))
+    return va_e, va_n, dw_e, dw_n, d

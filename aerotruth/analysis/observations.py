@@ -5,6 +5,7 @@ naming the table, the column and the data row."""
 
 from __future__ import annotations
 
+from numba import njit
 import numpy as np
 import pandas as pd
 
@@ -126,7 +127,7 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
     for c in ("time_s", *REQUIRED_COLUMNS[2:]):
         keep &= np.isfinite(out[c])
     ref_code = out["ref_source"].codes
-    order = np.lexsort((ref_code, out["time_s"], ac_code))
+    order = _sort_order(ac_code, out["time_s"], ref_code)
     order = order[keep[order]]
     a, t, r = ac_code[order], out["time_s"][order], ref_code[order]
     dup = np.zeros(len(order), dtype=bool)
@@ -142,6 +143,40 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
     _check_report_rows(df, source)
     df.attrs.update(source=source, dropped_empty=int((~keep).sum()), dropped_duplicates=int(dup.sum()))
     return df
+
+
+def _sort_order(ac: np.ndarray, t: np.ndarray, ref: np.ndarray) -> np.ndarray:
+    """np.lexsort((ref, t, ac)): rows by aircraft, time, reference model. Tables often come
+    so already, or in time order overall: then the identity, or a stable sort of the
+    aircraft codes alone (a radix sort of small integers), is that order (each checked,
+    stopping at the first row out of order); else the full sort."""
+    n = len(ac)
+    ident = np.arange(n)
+    if _ordered(ac, t, ref, ident):
+        return ident
+    if 1 < n and 0 <= ac.min() and ac.max() < 2**16 and _ordered(np.zeros(1, dtype=np.int8), t, ref, ident):
+        o = np.argsort(ac.astype(np.uint16), kind="stable")
+        if _ordered(ac, t, ref, o):
+            return o
+    return np.lexsort((ref, t, ac))
+
+
+@njit(cache=True, nogil=True)
+def _ordered(ac: np.ndarray, t: np.ndarray, ref: np.ndarray, o: np.ndarray) -> bool:
+    """Whether rows o[0], o[1], ... are in (aircraft, time, reference) order (NaN times:
+    not); an `ac` of length 1: time (and reference) order alone."""
+    for k in range(1, len(o)):
+        i, j = o[k - 1], o[k]
+        if len(ac) > 1:
+            if ac[j] > ac[i]:
+                continue
+            if ac[j] < ac[i]:
+                return False
+        if t[j] > t[i]:
+            continue
+        if not (t[j] == t[i] and ref[j] >= ref[i]):
+            return False
+    return True
 
 
 REPORT_OWN_COLUMNS = ("wind_speed_kt", "wind_dir_deg", "heading_deg", "tas_kt", "heading_mag_deg", "declination_deg",

@@ -19,6 +19,12 @@ Standard errors: cluster-robust sandwich with whole flights as clusters
 cov = (G-1)/G sum_g q_g q_g^T, q_g = (B - B_g)^-1 h_g, B = sum_i x_i x_i^T w_i psi'(u_i)/s,
 B_g the same over flight g, h_g = sum_{i in g} x_i sqrt(w_i) psi(u_i) (the plain sandwich
 B^-1 h_g undercovers by 5-10 % in se with ~40 flights of unequal size, measured).
+
+The per-report sums (residuals, the median's window, a Newton step's B and h, the flight
+clusters' B_g and h_g) are compiled loops (numba), one pass over the reports each: as numpy
+expressions they took ~40 passes per Newton step and cluster sum, two thirds of the method's
+time (`benchmarks/method_speed.py`). Same formulas, same fixed point; only the order of the
+floating-point sums differs.
 """
 
 from __future__ import annotations
@@ -27,6 +33,7 @@ import math
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from aerotruth.analysis.fast_trig import sin_cos
 from aerotruth.units import DEG
@@ -61,7 +68,11 @@ class _Fit:
 
 
 def cluster_starts(groups: np.ndarray) -> np.ndarray:
-    return np.flatnonzero(np.r_[True, groups[1:] != groups[:-1]])
+    """Indices where a new cluster label starts (rows contiguous by cluster)."""
+    new = np.empty(len(groups), dtype=bool)
+    new[:1] = True
+    np.not_equal(groups[1:], groups[:-1], out=new[1:])
+    return np.flatnonzero(new)
 
 
 def robust_fit(X: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray, robust: bool = True,
@@ -93,8 +104,8 @@ def fit_from_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray,
     The CR3 covariance of a kept step carries each flight's scores linearly to the new
     coefficients. `scale_guess` (a nearby scale) only speeds up the medians."""
     sw = np.sqrt(w)
-    r = _weighted_residuals(beta, XT, y, sw, np.empty(len(y)))
-    ar, scratch = np.abs(r), np.empty(len(r))
+    ar, scratch = np.empty(len(y)), np.empty(len(y))
+    r = _weighted_residuals(beta, XT, y, sw, np.empty(len(y)), ar)
     scale = max(1.4826 * _median(ar, scratch, scale_guess / 1.4826), 1e-9)
     starts = cluster_starts(groups)
     bread_g, scores = _cluster_parts(XT, r, w, starts, scale, c if robust else np.inf)
@@ -107,8 +118,7 @@ def fit_from_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray,
     scores -= bread_g @ step  # h_g(b + step) = h_g(b) - B_g step: the scores sum to 0 again
     infl, cov = _cr3(bread_g, scores)
     if robust:  # the next step, at the new coefficients and scale: B over the same reports
-        _weighted_residuals(new, XT, y, sw, r)
-        np.abs(r, out=ar)
+        _weighted_residuals(new, XT, y, sw, r, ar)
         s2 = max(1.4826 * _median(ar, scratch, scale / 1.4826), 1e-9)
         np.clip(r, -c * s2, c * s2, out=r)
         r *= sw
@@ -118,51 +128,193 @@ def fit_from_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray,
     return _Fit(new, cov, scale, infl, groups[starts])
 
 
-def _weighted_residuals(beta: np.ndarray, XT: np.ndarray, y: np.ndarray, sw: np.ndarray, out: np.ndarray) -> np.ndarray:
-    """r = sqrt(w) (y - X b) into `out` (no fresh array), `sw` = sqrt(w)."""
-    np.matmul(beta, XT, out=out)
-    np.subtract(y, out, out=out)
-    np.multiply(out, sw, out=out)
+# The per-report sums are compiled for the five columns of eq. 2 (a fit of k < 5 terms
+# passes zero rows for the others: its sums there are 0), each in local scalars; reassociation
+# lets the compiler run them in SIMD lanes (4x: the order of the additions is the compiler's,
+# fixed for a build and CPU; results never depend on the data's split into workers).
+MAX_TERMS = 5
+_FAST = {"reassoc", "contract"}  # not "nnan"/"ninf": cc is inf for least squares
+
+
+def _rows(XT: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The k rows of a (k, n) design and 5 - k zero rows: the kernels' five columns."""
+    k, n = XT.shape
+    if k > MAX_TERMS:
+        raise ValueError(f"design: at most {MAX_TERMS} terms, got {k}")
+    zero = np.zeros(n) if k < MAX_TERMS else None
+    return tuple(XT[a] if a < k else zero for a in range(MAX_TERMS))
+
+
+@njit(cache=True, nogil=True, fastmath=_FAST, error_model="numpy")
+def _residuals5(b0: float, b1: float, b2: float, b3: float, b4: float, x0: np.ndarray, x1: np.ndarray, x2: np.ndarray,
+                x3: np.ndarray, x4: np.ndarray, y: np.ndarray, sw: np.ndarray, r: np.ndarray, ar: np.ndarray) -> None:
+    for i in range(len(y)):
+        v = (y[i] - (b0 * x0[i] + b1 * x1[i] + b2 * x2[i] + b3 * x3[i] + b4 * x4[i])) * sw[i]
+        r[i] = v
+        ar[i] = abs(v)
+
+
+def _residuals(beta: np.ndarray, XT: np.ndarray, y: np.ndarray, sw: np.ndarray, r: np.ndarray, ar: np.ndarray) -> None:
+    """r = sqrt(w) (y - X b) and ar = |r| into the given arrays, `sw` = sqrt(w)."""
+    b = np.zeros(MAX_TERMS)
+    b[:len(beta)] = beta
+    _residuals5(*b, *_rows(XT), y, sw, r, ar)
+
+
+def _weighted_residuals(beta: np.ndarray, XT: np.ndarray, y: np.ndarray, sw: np.ndarray, out: np.ndarray,
+                        scratch: np.ndarray | None = None) -> np.ndarray:
+    """r = sqrt(w) (y - X b) into `out` (no fresh array), `sw` = sqrt(w); |r| into `scratch`
+    when given."""
+    _residuals(beta, XT, y, sw, out, np.empty(len(out)) if scratch is None else scratch)
     return out
+
+
+@njit(cache=True, nogil=True, fastmath=_FAST, error_model="numpy")
+def _sums5(x0: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray, x4: np.ndarray, r: np.ndarray, w: np.ndarray,
+           sw: np.ndarray, cut: float, scale: float, out: np.ndarray) -> None:
+    """Over the reports, with u = r / scale: the 15 sums of x_a x_b w / scale over
+    |u| <= cut (a <= b, row-major) and the 5 sums of x_a sqrt(w) clip(u, -cut, cut), into
+    out[:15] and out[15:20]."""
+    b00 = b01 = b02 = b03 = b04 = b11 = b12 = b13 = b14 = b22 = b23 = b24 = b33 = b34 = b44 = 0.0
+    h0 = h1 = h2 = h3 = h4 = 0.0
+    inv = 1.0 / scale
+    for i in range(len(r)):  # (over range(lo, hi) the compiler leaves the loop scalar: 8x slower)
+        u = r[i] * inv
+        q = w[i] * inv if abs(u) <= cut else 0.0
+        p = min(max(u, -cut), cut) * sw[i]
+        z0, z1, z2, z3, z4 = x0[i], x1[i], x2[i], x3[i], x4[i]
+        h0 += z0 * p
+        h1 += z1 * p
+        h2 += z2 * p
+        h3 += z3 * p
+        h4 += z4 * p
+        y0, y1, y2, y3, y4 = z0 * q, z1 * q, z2 * q, z3 * q, z4 * q
+        b00 += y0 * z0
+        b01 += y0 * z1
+        b02 += y0 * z2
+        b03 += y0 * z3
+        b04 += y0 * z4
+        b11 += y1 * z1
+        b12 += y1 * z2
+        b13 += y1 * z3
+        b14 += y1 * z4
+        b22 += y2 * z2
+        b23 += y2 * z3
+        b24 += y2 * z4
+        b33 += y3 * z3
+        b34 += y3 * z4
+        b44 += y4 * z4
+    out[0], out[1], out[2], out[3], out[4] = b00, b01, b02, b03, b04
+    out[5], out[6], out[7], out[8], out[9] = b11, b12, b13, b14, b22
+    out[10], out[11], out[12], out[13], out[14] = b23, b24, b33, b34, b44
+    out[15], out[16], out[17], out[18], out[19] = h0, h1, h2, h3, h4
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _cluster_sums5(x0: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray, x4: np.ndarray, r: np.ndarray,
+                   w: np.ndarray, sw: np.ndarray, cut: float, scale: float, starts: np.ndarray) -> np.ndarray:
+    G, n = len(starts), len(r)
+    out = np.empty((G, 20))
+    for g in range(G):
+        a, b = starts[g], starts[g + 1] if g + 1 < G else n
+        _sums5(x0[a:b], x1[a:b], x2[a:b], x3[a:b], x4[a:b], r[a:b], w[a:b], sw[a:b], cut, scale, out[g])
+    return out
+
+
+# position of B[a, b] in _sums5's 15 upper-triangle sums (row-major), for every a, b
+_SYM = np.array([[a * MAX_TERMS - a * (a - 1) // 2 + b - a if a <= b else b * MAX_TERMS - b * (b - 1) // 2 + a - b
+                  for b in range(MAX_TERMS)] for a in range(MAX_TERMS)])
+
+
+def _unpack(sums: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
+    """(..., 20) sums of _sums5 -> the symmetric (..., k, k) matrices and (..., k) vectors."""
+    return sums[..., _SYM[:k, :k]], sums[..., 15:15 + k].copy()
+
+
+def _newton_system(XT: np.ndarray, r: np.ndarray, w: np.ndarray, sw: np.ndarray, cs: float,
+                   scale: float | None = None) -> tuple[np.ndarray, np.ndarray]:
+    """A Newton step's B = sum over the unclipped reports (|r_i| <= c s) of x x^T w and
+    h = sum x sqrt(w) clip(r, -c s, c s) (module docstring), r = sqrt(w) (y - X b); with
+    `scale` the sums of _sums5 themselves (u = r / scale clipped at cs)."""
+    out = np.empty(20)
+    if scale is not None:
+        _sums5(*_rows(XT), r, w, sw, cs, scale, out)
+        return _unpack(out, XT.shape[0])
+    _sums5(*_rows(XT), r, w, sw, 1.0, cs, out)  # u = r / (c s) clipped at 1: times c s below
+    B, h = _unpack(out, XT.shape[0])
+    return B * cs, h * cs
+
+
+def weighted_gram_t(XT: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """X^T W X of the transposed (k, n) design, weights w: one compiled pass."""
+    zero = np.zeros(len(w))
+    out = np.empty(20)
+    _sums5(*_rows(XT), zero, w, zero, np.inf, 1.0, out)
+    return _unpack(out, XT.shape[0])[0]
 
 
 def _cluster_parts(XT: np.ndarray, r: np.ndarray, w: np.ndarray, starts: np.ndarray, scale: float,
                    cc: float) -> tuple[np.ndarray, np.ndarray]:
     """Per flight cluster g: B_g = sum x x^T w psi'(u) / s and h_g = sum x sqrt(w) psi(u),
     u = r / s, r = sqrt(w) (y - X b) (psi the Huber function clipped at cc)."""
-    k, n = XT.shape
-    u = r / scale
-    psi = np.clip(u, -cc, cc)
-    wb = w * (np.abs(u) <= cc) / scale  # B's weights: psi'(u) w / s
-    swpsi = np.sqrt(w)
-    swpsi *= psi
-    G = len(starts)
-    # B_g (upper triangle) and h_g, one product at a time in reused buffers (no fresh
-    # (k(k+1)/2, n) arrays: 5x faster here)
-    bread_g = np.empty((G, k, k))
-    scores = np.empty((G, k))
-    buf, xw = np.empty(n), np.empty(n)
-    for i in range(k):
-        np.multiply(XT[i], wb, out=xw)
-        for j in range(i, k):
-            bread_g[:, i, j] = bread_g[:, j, i] = np.add.reduceat(np.multiply(xw, XT[j], out=buf), starts)
-        scores[:, i] = np.add.reduceat(np.multiply(XT[i], swpsi, out=buf), starts)
-    return bread_g, scores
+    sums = _cluster_sums5(*_rows(XT), r, w, np.sqrt(w), float(cc), float(scale), starts.astype(np.int64))
+    return _unpack(sums, XT.shape[0])
 
 
 def _cr3(bread_g: np.ndarray, scores: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Leave-one-flight-out influences q_g = (B - B_g)^-1 h_g (CR3, the linearised cluster
     jackknife: the plain sandwich undercovers with ~40 flights of unequal size) and the
-    covariance (G-1)/G sum q_g q_g^T."""
+    covariance (G-1)/G sum q_g q_g^T. B - B_g is symmetric positive definite unless flight g
+    carries a term alone: solved by Cholesky (compiled), else as a general system."""
     G = len(bread_g)
     bread = bread_g.sum(axis=0)
-    loo = bread[None, :, :] - bread_g
-    try:
-        infl = np.linalg.solve(loo, scores[:, :, None])[:, :, 0] if G > 1 else scores @ np.linalg.pinv(bread).T
-    except np.linalg.LinAlgError:  # a flight the rest cannot do without: its plain sandwich term
-        infl = np.einsum("gij,gj->gi", np.linalg.pinv(loo), scores)
+    infl = np.empty(scores.shape)
+    if G < 2 or not _loo_cholesky(bread, bread_g, scores, infl):
+        loo = bread[None, :, :] - bread_g
+        try:
+            infl = np.linalg.solve(loo, scores[:, :, None])[:, :, 0] if G > 1 else scores @ np.linalg.pinv(bread).T
+        except np.linalg.LinAlgError:  # a flight the rest cannot do without: its plain sandwich term
+            infl = np.einsum("gij,gj->gi", np.linalg.pinv(loo), scores)
     cov = infl.T @ infl * ((G - 1) / G if G > 1 else 1.0)
     return infl, cov
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _loo_cholesky(bread: np.ndarray, bread_g: np.ndarray, scores: np.ndarray, out: np.ndarray) -> bool:
+    """out[g] = (B - B_g)^-1 h_g by Cholesky factorisation, each g; False (out unfinished)
+    as soon as one B - B_g is not numerically positive definite (a pivot below 1e-12 of
+    its diagonal)."""
+    G, k = scores.shape
+    L = np.empty((k, k))
+    z = np.empty(k)
+    for g in range(G):
+        for i in range(k):
+            for j in range(i + 1):
+                v = bread[i, j] - bread_g[g, i, j]
+                for m in range(j):
+                    v -= L[i, m] * L[j, m]
+                if i == j:
+                    if not v > 1e-12 * (bread[i, i] - bread_g[g, i, i]):
+                        return False
+                    L[i, i] = np.sqrt(v)
+                else:
+                    L[i, j] = v / L[j, j]
+        for i in range(k):  # L z = h
+            v = scores[g, i]
+            for m in range(i):
+                v -= L[i, m] * z[m]
+            z[i] = v / L[i, i]
+        for i in range(k - 1, -1, -1):  # L^T q = z
+            v = z[i]
+            for m in range(i + 1, k):
+                v -= L[m, i] * out[g, m]
+            out[g, i] = v / L[i, i]
+    return True
+
+
+def median(x: np.ndarray) -> float:
+    """np.median of a finite 1-D array (_median: a partition, without np.median's machinery)."""
+    return _median(np.asarray(x, dtype=float), np.empty(len(x)))
 
 
 def _median(x: np.ndarray, scratch: np.ndarray, guess: float = math.nan, width: float = 0.05) -> float:
@@ -175,12 +327,9 @@ def _median(x: np.ndarray, scratch: np.ndarray, guess: float = math.nan, width: 
     h = n // 2
     mid = h if n % 2 else (h - 1, h)
     if guess > 0:
-        lo, hi = guess * (1 - width), guess * (1 + width)
-        inside = np.greater_equal(x, lo, out=scratch.view(np.uint8)[:n].view(bool))
-        inside &= x <= hi
-        n_lo = np.count_nonzero(x < lo)
-        sub = x[inside]
-        if n_lo <= h - (n % 2 == 0) and h - n_lo < len(sub):
+        n_lo, m = _window(x, guess * (1 - width), guess * (1 + width), scratch)
+        if n_lo <= h - (n % 2 == 0) and h - n_lo < m:
+            sub = scratch[:m]
             if n % 2:
                 sub.partition(h - n_lo)
                 return float(sub[h - n_lo])
@@ -189,6 +338,20 @@ def _median(x: np.ndarray, scratch: np.ndarray, guess: float = math.nan, width: 
     np.copyto(scratch, x)
     scratch.partition(mid)
     return float(scratch[h]) if n % 2 else float(0.5 * (scratch[h - 1] + scratch[h]))
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _window(x: np.ndarray, lo: float, hi: float, out: np.ndarray) -> tuple[int, int]:
+    """The count of x below lo, and the m values of x within [lo, hi] into out[:m]: (count, m).
+    Without branches (a data-dependent branch mispredicts on every few values): each value
+    is written at out[m] and kept by advancing m."""
+    n_lo = 0
+    m = 0
+    for v in x:
+        n_lo += v < lo
+        out[m] = v
+        m += (v >= lo) & (v <= hi)
+    return n_lo, m
 
 
 _NEWTON_STEPS = 20  # then IRLS (module docstring)
@@ -205,22 +368,22 @@ def huber_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float
     k, n = XT.shape
     XW = np.empty((k, n))
     r, ar, wt, tmp = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    gram_w = None  # X^T W X over every report
 
-    def solve(weights):  # weighted least squares: b and X^T W X
+    def solve(weights):  # weighted least squares
         np.multiply(XT, weights, out=XW)
-        A = XW @ XT.T
-        return np.linalg.solve(A, XW @ y), A
+        return np.linalg.solve(XW @ XT.T, XW @ y)
 
-    def residuals(b):  # r = sqrt(w) (y - X b), ar = |r|
-        _weighted_residuals(b, XT, y, sw, r)
-        np.abs(r, out=ar)
-
-    if beta0 is None:
-        beta, gram_w = solve(w)
+    sw = np.sqrt(w)
+    if beta0 is None:  # the least-squares start: X^T W X and X^T W y in one pass (r = sqrt(w) y, no clipping)
+        np.multiply(y, sw, out=r)
+        A, h = _newton_system(XT, r, w, sw, np.inf, 1.0)
+        beta = np.linalg.solve(A, h)
     else:
         beta = beta0
-    sw = np.sqrt(w)
+
+    def residuals(b):  # r = sqrt(w) (y - X b), ar = |r|
+        _residuals(b, XT, y, sw, r, ar)
+
     newton = robust
     mad = scale_guess / 1.4826  # the previous median: NaN (none) at first unless a scale is guessed
     for i in range(max_iter if robust else 0):
@@ -229,18 +392,11 @@ def huber_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float
         cs = c * max(1.4826 * mad, 1e-9)  # c s
         new = None
         if newton and i < _NEWTON_STEPS:
-            # B^-1 h: B over the unclipped reports (all of them less the clipped fifth: a
-            # third of the work of summing the unclipped), h = s sum x sqrt(w) psi(u)
-            if gram_w is None:
-                np.multiply(XT, w, out=XW)
-                gram_w = XW @ XT.T
-            out = np.flatnonzero(ar > cs)
-            Xc = XT[:, out]
-            B = gram_w - (Xc * w[out]) @ Xc.T
-            if np.linalg.cond(B) < _NEWTON_MAX_COND:  # by difference: singular shows as a huge condition
-                np.clip(r, -cs, cs, out=tmp)
-                np.multiply(tmp, sw, out=tmp)
-                new = beta + np.linalg.solve(B, XT @ tmp)
+            # B^-1 h: B = sum over the unclipped reports of x x^T w, h = s sum x sqrt(w) psi(u)
+            B, hs = _newton_system(XT, r, w, sw, cs)
+            lam = np.linalg.eigvalsh(B)  # B is symmetric: its condition number from the eigenvalues
+            if lam[0] > 0 and lam[-1] < _NEWTON_MAX_COND * lam[0]:  # singular shows as a huge condition
+                new = beta + np.linalg.solve(B, hs)
             else:
                 newton = False
         if new is None:  # IRLS step
@@ -248,7 +404,7 @@ def huber_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float
             np.divide(cs, wt, out=wt)
             np.minimum(wt, 1.0, out=wt)
             np.multiply(wt, w, out=wt)
-            new = solve(wt)[0]
+            new = solve(wt)
         done = np.max(np.abs(new - beta)) < 1e-5  # deg: far below any standard error
         beta = new
         if done:
