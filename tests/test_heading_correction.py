@@ -432,6 +432,21 @@ def test_compiled_flight_sums_equal_the_sums_written_out(k, cc):
     assert np.allclose(h, XT @ (np.clip(r, -cs, cs) * np.sqrt(w)), rtol=1e-12)
 
 
+def test_the_fits_median_is_numpys_with_any_guess():
+    """The scale's median (a window round a guess, a subsample's median as the guess of a
+    large array, else a full partition) is np.median exactly: odd and even sizes, heavy
+    tails, half zeros, sorted values, guesses that miss."""
+    import aerotruth.analysis.robust_fit as rf
+
+    rng = np.random.default_rng(3)
+    for n in (1, 2, 12799, 12800, 12801, 90000):
+        for x in (np.abs(rng.standard_t(2, n)), np.abs(rng.standard_normal(n)) * (rng.random(n) < 0.5),
+                  np.sort(rng.random(n))):
+            want = np.median(x)
+            for guess in (np.nan, want, 1.04 * want, 3.0 * want + 1.0, 0.0):
+                assert rf._median(x, np.empty(n), guess) == want
+
+
 def test_leave_one_flight_out_influences_solve_each_system_or_fall_back():
     """CR3's q_g = (B - B_g)^-1 h_g (compiled Cholesky) against numpy's general solver; and
     with a term carried by one flight alone (B - B_0 singular) the plain sandwich term

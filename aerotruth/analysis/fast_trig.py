@@ -34,7 +34,7 @@ def sin_cos(angle_rad) -> tuple[np.ndarray, np.ndarray]:
     """(sin, cos) of `angle_rad` (array-like, radians) as float64 arrays, to ~2.6e-7 (module
     docstring); the shape of the input."""
     x = np.asarray(angle_rad, dtype=float)
-    if x.size and not (np.fmax.reduce(np.abs(x), axis=None) <= _LIMIT):  # (NaNs are skipped by fmax and stay NaN)
+    if x.size and not (-_LIMIT <= np.fmin.reduce(x, axis=None) and np.fmax.reduce(x, axis=None) <= _LIMIT):  # NaNs skipped
         x = x - 2.0 * math.pi * np.floor((x + math.pi) / (2.0 * math.pi))
     a = x.astype(np.float32)
     s = np.sin(a).astype(float)

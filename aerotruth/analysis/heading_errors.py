@@ -137,18 +137,43 @@ def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, span
     and s_a, over the mean ground speed; V_G's error is its two end points' over the span,
     sqrt(2 (s_e^2 + s_n^2)) / |span|."""
     sin_lat, cos_lat = sin_cos(lat_rad)
-    rm, rn = radii_from_sin(sin_lat)
-    s = math.radians(step_deg) / math.sqrt(12.0)
-    s_n, s_e = rm * s, rn * cos_lat * s
-    with np.errstate(divide="ignore", invalid="ignore"):
-        sc, cc = span_e / span, span_n / span
-        s_x = np.sqrt((s_e * cc) ** 2 + (s_n * sc) ** 2)
-        s_a = np.sqrt((s_e * sc) ** 2 + (s_n * cc) ** 2)
-        l1, l2 = gs1 * t1, gs2 * t2
-        sd_course = np.degrees(s_x * np.sqrt(1 / l1**2 + (1 / l1 + 1 / l2) ** 2 + 1 / l2**2))
-        sd_speed = s_a * np.sqrt(1 / t1**2 + (1 / t1 + 1 / t2) ** 2 + 1 / t2**2) / (0.5 * (gs1 + gs2))
-        rel_vg = np.sqrt(2.0 * (s_e**2 + s_n**2)) / span
-    return sd_course, sd_speed, rel_vg
+    args = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (sin_lat, cos_lat, span_e, span_n, span, gs1, gs2,
+                                                                        t1, t2)))
+    shape = args[0].shape
+    out = np.empty((3, args[0].size))
+    _step_noise_all(*(np.ascontiguousarray(a).reshape(-1) for a in args), math.radians(step_deg) / math.sqrt(12.0), out)
+    return tuple(o.reshape(shape) for o in out)
+
+
+@njit(cache=True, nogil=True, error_model="numpy", inline="always")
+def _step_noise1(sin_lat: float, cos_lat: float, span_e: float, span_n: float, span: float, gs1: float, gs2: float,
+                 t1: float, t2: float, s: float) -> tuple[float, float, float]:
+    """step_noise of one report, `s` = step (rad) / sqrt(12)."""
+    q = 1.0 - E2 * sin_lat * sin_lat  # radii of curvature (aerotruth.ellipsoid.radii_from_sin)
+    sq = math.sqrt(q)
+    s_n, s_e = A_M * (1.0 - E2) / (q * sq) * s, A_M / sq * cos_lat * s
+    sc, cc = span_e / span, span_n / span
+    s_x = math.sqrt((s_e * cc) ** 2 + (s_n * sc) ** 2)
+    s_a = math.sqrt((s_e * sc) ** 2 + (s_n * cc) ** 2)
+    l1, l2 = gs1 * t1, gs2 * t2
+    sd_course = math.degrees(s_x * math.sqrt(1 / l1**2 + (1 / l1 + 1 / l2) ** 2 + 1 / l2**2))
+    sd_speed = s_a * math.sqrt(1 / t1**2 + (1 / t1 + 1 / t2) ** 2 + 1 / t2**2) / (0.5 * (gs1 + gs2))
+    return sd_course, sd_speed, math.sqrt(2.0 * (s_e**2 + s_n**2)) / span
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _step_noise_all(sin_lat, cos_lat, span_e, span_n, span, gs1, gs2, t1, t2, s, out):
+    for i in range(len(sin_lat)):
+        out[0, i], out[1, i], out[2, i] = _step_noise1(sin_lat[i], cos_lat[i], span_e[i], span_n[i], span[i], gs1[i],
+                                                        gs2[i], t1[i], t2[i], s)
+
+
+def running_count(flags: np.ndarray) -> np.ndarray:
+    """np.cumsum of a boolean array as int64 (summed in int32 below 2**31 rows: numpy's
+    int64 running sum of booleans is 7x slower here)."""
+    if len(flags) < 2**31 - 1:
+        return np.cumsum(flags, dtype=np.int32).astype(np.int64)
+    return np.cumsum(flags, dtype=np.int64)
 
 
 def report_flights(aircraft: np.ndarray, t: np.ndarray, flight_gap_s: float, flight: np.ndarray | None = None) -> np.ndarray:
@@ -160,7 +185,7 @@ def report_flights(aircraft: np.ndarray, t: np.ndarray, flight_gap_s: float, fli
     new_fl[1:] = (aircraft[1:] != aircraft[:-1]) | (np.diff(t) > flight_gap_s)
     if flight is not None:
         new_fl[1:] |= flight[1:] != flight[:-1]
-    return np.cumsum(new_fl) - 1
+    return running_count(new_fl) - 1
 
 
 @dataclass(frozen=True)
@@ -183,60 +208,48 @@ def ground_track(t: np.ndarray, lat_rad: np.ndarray, lon_rad: np.ndarray, flight
     `no_neighbours` (their V_G is one segment's, or across flights)."""
     g = gates
     m = len(t)
-    de, dn = segment_displacements(lat_rad, lon_rad)
-    dts = np.diff(t)
-    same = flight[1:] == flight[:-1]
-    # for report k: segment 1 = seg[k-1], segment 2 = seg[k]; the gates on the interior
-    # reports (the first and last have one segment and fail `has` first)
-    has = np.zeros(m, dtype=bool)
-    has[1:-1] = same[:-1] & same[1:]
-
-    def interior(v):  # per report, 0 at the ends
-        out = np.zeros(m, dtype=v.dtype)
-        out[1:-1] = v
-        return out
-
-    # V_G = (p[k+1] - p[k-1]) / (t[k+1] - t[k-1]); one segment's velocity at the ends
-    vg_e, vg_n = np.empty(m), np.empty(m)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        if m >= 2:
-            span_dt = dts[:-1] + dts[1:]
-            span_e, span_n = de[:-1] + de[1:], dn[:-1] + dn[1:]
-            np.divide(span_e, span_dt, out=vg_e[1:-1])
-            np.divide(span_n, span_dt, out=vg_n[1:-1])
-            vg_e[0], vg_n[0], vg_e[-1], vg_n[-1] = de[0] / dts[0], dn[0] / dts[0], de[-1] / dts[-1], dn[-1] / dts[-1]
-            seg_gs = hypot(de, dn) / dts
-            # course change between the segments: the angle between them (atan2 of their cross
-            # and dot products), in [0, 180]
-            e1, n1, e2, n2 = de[:-1], dn[:-1], de[1:], dn[1:]
-            dcourse = np.degrees(np.abs(arctan2(e1 * n2 - n1 * e2, e1 * e2 + n1 * n2)))
-            dspeed = np.abs(np.diff(seg_gs)) / (0.5 * (seg_gs[:-1] + seg_gs[1:]))
-            dt1, dt2 = dts[:-1], dts[1:]
-            span = hypot(span_e, span_n)
-            # the rounding's own noise (step_noise) only where the plain limits fail: elsewhere
-            # the widened gates pass whatever it is (V_G's rounding error is at most
-            # _MAX_STEP_NOISE_M * step in metres per degree: the span gate passes above that)
-            sd_course, sd_speed, rel_vg = np.zeros(m - 2), np.zeros(m - 2), np.zeros(m - 2)
-            safe_span = _MAX_STEP_NOISE_M * g.position_step_deg / max(g.max_track_noise, 1e-300)
-            with np.errstate(invalid="ignore"):
-                plain = (dcourse <= g.max_course_change_deg) & (dspeed <= g.max_speed_change) & (span >= safe_span)
-            i = np.flatnonzero(~plain)
-            sd_course[i], sd_speed[i], rel_vg[i] = step_noise(lat_rad[1:-1][i], span_e[i], span_n[i], span[i], seg_gs[i],
-                                                              seg_gs[i + 1], dt1[i], dt2[i], g.position_step_deg)
-            checks = [
-                ~has,
-                ~interior((dt1 > 0) & (dt2 > 0) & (dt1 <= g.max_gap_s) & (dt2 <= g.max_gap_s)),
-                ~interior((span >= g.min_baseline_km * 1000.0) & (rel_vg <= g.max_track_noise)),
-                ~interior(dcourse <= g.max_course_change_deg + g.noise_sigmas * sd_course),
-                ~interior(dspeed <= g.max_speed_change + g.noise_sigmas * sd_speed),
-            ]
-        else:  # one report
-            vg_e[:], vg_n[:] = np.nan, np.nan
-            checks = [~has] + [np.zeros(m, dtype=bool)] * 4
-    gate = np.zeros(m, dtype=np.int8)
-    for code in range(len(checks), 0, -1):  # first failing gate wins
-        gate[checks[code - 1]] = code
+    vg_e, vg_n, gate = np.full(m, np.nan), np.full(m, np.nan), np.ones(m, dtype=np.int8)
+    if m >= 2:
+        de, dn = segment_displacements(lat_rad, lon_rad)
+        sin_lat, cos_lat = sin_cos(lat_rad)  # (step_noise's, at single precision)
+        # the rounding's own noise (step_noise) only where the plain limits fail: elsewhere
+        # the widened gates pass whatever it is (V_G's rounding error is at most
+        # _MAX_STEP_NOISE_M * step in metres per degree: the span gate passes above that)
+        safe_span = _MAX_STEP_NOISE_M * g.position_step_deg / max(g.max_track_noise, 1e-300)
+        _track_gates(np.asarray(t, dtype=float), de, dn, np.asarray(flight), sin_lat, cos_lat, g.max_gap_s,
+                     g.min_baseline_km * 1000.0, g.max_course_change_deg, g.max_speed_change, g.max_track_noise,
+                     g.noise_sigmas, math.radians(g.position_step_deg) / math.sqrt(12.0), safe_span, vg_e, vg_n, gate)
     return GroundTrack(vg_e, vg_n, gate)
+
+
+@njit(cache=True, nogil=True, error_model="numpy")
+def _track_gates(t, de, dn, flight, sin_lat, cos_lat, max_gap_s, min_baseline_m, max_course, max_speed, max_noise,
+                 sigmas, s, safe_span, vg_e, vg_n, gate) -> None:
+    """ground_track's loop over m >= 2 reports (segments de, dn from report k to k + 1):
+    V_G into vg_e, vg_n; the first failed gate's code into `gate` (given as 1, no_neighbours;
+    the ends keep it)."""
+    m = len(t)
+    vg_e[0], vg_n[0] = de[0] / (t[1] - t[0]), dn[0] / (t[1] - t[0])  # one segment's velocity at the ends
+    vg_e[m - 1], vg_n[m - 1] = de[m - 2] / (t[m - 1] - t[m - 2]), dn[m - 2] / (t[m - 1] - t[m - 2])
+    for k in range(1, m - 1):  # every quantity computed, then selected: no branch (SIMD lanes)
+        e1, n1, e2, n2 = de[k - 1], dn[k - 1], de[k], dn[k]
+        dt1, dt2 = t[k] - t[k - 1], t[k + 1] - t[k]
+        span_e, span_n = e1 + e2, n1 + n2
+        vg_e[k], vg_n[k] = span_e / (dt1 + dt2), span_n / (dt1 + dt2)  # V_G = (p[k+1] - p[k-1]) / (t[k+1] - t[k-1])
+        gs1, gs2 = math.sqrt(e1 * e1 + n1 * n1) / dt1, math.sqrt(e2 * e2 + n2 * n2) / dt2
+        # course change between the segments: the angle between them, in [0, 180]
+        dcourse = math.degrees(abs(atan2_scalar(e1 * n2 - n1 * e2, e1 * e2 + n1 * n2)))
+        dspeed = abs(gs2 - gs1) / (0.5 * (gs1 + gs2))
+        span = math.sqrt(span_e * span_e + span_n * span_n)
+        plain = dcourse <= max_course and dspeed <= max_speed and span >= safe_span
+        sdc, sds, rvg = _step_noise1(sin_lat[k], cos_lat[k], span_e, span_n, span, gs1, gs2, dt1, dt2, s)
+        sd_course, sd_speed, rel_vg = (0.0 if plain else sdc), (0.0 if plain else sds), (0.0 if plain else rvg)
+        code = 0 if dspeed <= max_speed + sigmas * sd_speed else 5  # speed_change
+        code = code if dcourse <= max_course + sigmas * sd_course else 4  # collinearity
+        code = code if span >= min_baseline_m and rel_vg <= max_noise else 3  # baseline
+        code = code if dt1 > 0 and dt2 > 0 and dt1 <= max_gap_s and dt2 <= max_gap_s else 2  # gap
+        code = code if flight[k - 1] == flight[k] and flight[k] == flight[k + 1] else 1  # no_neighbours
+        gate[k] = code
 
 
 # The reported TAS over the wind triangle's |V_G - V_W| (eq. 3), median over the gated
@@ -275,7 +288,7 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     n = len(df)
     new_rep = np.ones(n, dtype=bool)
     new_rep[1:] = (ac[1:] != ac[:-1]) | (t[1:] != t[:-1])
-    rep_of_row = np.cumsum(new_rep)
+    rep_of_row = running_count(new_rep)
     rep_of_row -= 1
     first = np.flatnonzero(new_rep)
     m = len(first)

@@ -48,7 +48,7 @@ from numpy.typing import ArrayLike
 import pandas as pd
 
 from aerotruth.analysis.fast_trig import sin_cos
-from aerotruth.analysis.heading_errors import GateSpec, ground_track, report_flights
+from aerotruth.analysis.heading_errors import GateSpec, ground_track, report_flights, running_count
 from aerotruth.sensors.tamdar import wind_components
 from aerotruth.units import DEG, KT
 
@@ -250,7 +250,7 @@ def wind_errors_before_after(rows: pd.DataFrame, correction_deg: np.ndarray) -> 
     head = np.ones(len(z), dtype=bool)
     head[1:] = (z[1:] != z[:-1]) | (c[1:] != c[:-1])
     first = np.flatnonzero(head)
-    run = np.cumsum(head)
+    run = running_count(head)
     run -= 1  # each row's run
     sz, cz = sin_cos(z.take(first) * DEG)
     sc, cc = sin_cos(c.take(first) * DEG)
