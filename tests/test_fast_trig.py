@@ -10,20 +10,26 @@ from aerotruth.analysis.fast_trig import arctan2, hypot, sin_cos
 
 def test_within_the_stated_bound_of_double_precision_for_any_angle():
     rng = np.random.default_rng(5)
-    for lo, hi in ((-2 * np.pi, 2 * np.pi), (-1e4, 1e4)):  # the second: wrapped first
-        x = rng.uniform(lo, hi, 200_000)
+    for lo, hi, bound in ((-2 * np.pi, 2 * np.pi, 3e-16), (-1e5, 1e5, 3e-16), (-1e7, 1e7, 2e-16 * 1e7)):
+        x = rng.uniform(lo, hi, 200_000)  # the last: wrapped first
         s, c = sin_cos(x)
         assert s.dtype == np.float64 and c.dtype == np.float64
-        assert np.max(np.abs(s - np.sin(x))) < 3e-7 and np.max(np.abs(c - np.cos(x))) < 3e-7
+        assert np.max(np.abs(s - np.sin(x))) < bound and np.max(np.abs(c - np.cos(x))) < bound
+    # the quadrants' seams, exactly where numpy is exact
+    x = np.array([0.0, np.pi / 2, np.pi, 3 * np.pi / 2, -np.pi / 2, np.pi / 4])
+    s, c = sin_cos(x)
+    assert np.max(np.abs(s - np.sin(x))) < 3e-16 and np.max(np.abs(c - np.cos(x))) < 3e-16
 
 
 def test_keeps_shape_and_missing_values():
     x = np.array([[0.0, np.nan], [np.pi / 2, 1e5]])
     s, c = sin_cos(x)
     assert s.shape == (2, 2) and np.isnan(s[0, 1]) and np.isnan(c[0, 1])
-    assert abs(s[1, 0] - 1.0) < 3e-7 and abs(c[0, 0] - 1.0) < 3e-7
-    assert abs(s[1, 1] - np.sin(1e5)) < 3e-7
+    assert abs(s[1, 0] - 1.0) < 3e-16 and abs(c[0, 0] - 1.0) < 3e-16
+    assert abs(s[1, 1] - np.sin(1e5)) < 3e-16
     assert sin_cos(np.array([]))[0].shape == (0,)
+    assert sin_cos(0.5)[0].shape == () and abs(sin_cos(0.5)[1] - np.cos(0.5)) < 3e-16
+    assert np.isnan(sin_cos(np.array([np.inf, -np.inf]))[0]).all()
 
 
 def test_arctan2_within_its_bound_in_every_quadrant_and_magnitude():

@@ -1,23 +1,27 @@
 """Sine, cosine and arctangent of reported quantities at vector speed.
 
-numpy's float64 sin/cos run a scalar loop here (~15 ms per million values, numpy 2.4 on
-x86-64), its float32 ones a SIMD loop (~0.5 ms). The wind method takes the sines and
-cosines of reported angles (wind directions to 1 deg, headings to 0.1 deg, positions to
-0.01 deg): evaluated in float32 and returned as float64, each value is off by at most
-~2.6e-7 (measured over 2 million uniform angles in [-2 pi, 2 pi]: 2.5e-7 for sin, 2.6e-7
-for cos; the float32 rounding of the argument dominates), i.e. an angle error of 1.5e-5 deg,
-three orders below the coarsest of those resolutions. Angles beyond 2 pi in magnitude are
-first wrapped to [-pi, pi) in float64, so the bound holds for any argument.
+numpy's float64 sin, cos and arctan2 call the C library once per value here (~15, ~15 and
+~35 ms per million, numpy 2.4 on x86-64); its float32 sin and cos run in SIMD lanes but
+lose 2.6e-7 and cost two conversions. The wind method takes them of every report. These
+are compiled (numba) loops without branches, so the compiler runs them in SIMD lanes
+(2-3 ns a value), to double precision:
 
-numpy's arctan2 calls the C library once per value in either precision (~35 ms per
-million here, the largest single cost of the heading errors). `arctan2` below is compiled
-(numba) and runs in SIMD lanes: the usual reduction to t = min(|y|, |x|) / max(|y|, |x|) in
-[0, 1], then to |t| <= tan(pi/8) by atan(t) = pi/4 + atan((t - 1) / (t + 1)), and there
-atan(t) = t P(t^2) with P of degree 8, least squares on 400 Chebyshev nodes of
-t^2 in [0, tan^2(pi/8)] against numpy's arctan (coefficients below, computed once so):
-at most 1.1e-14 rad from numpy's, for finite or NaN arguments (NaN gives NaN; signed zeros
-as numpy's). ~2 ns a value. `hypot` likewise: sqrt(x^2 + y^2) in one pass (numpy's hypot
-guards against overflow at ~25 ns a value; these are speeds and distances, far from it).
+* `sin_cos`: x = n pi/2 + r with n = round(2x/pi) and r by the two-part pi/2 of Cody and
+  Waite (fdlibm's split: n pi/2 exact below |x| ~ 1.6e6; larger arguments are first
+  wrapped to [-pi, pi) in float64, to ~2e-16 |x|), sin r and cos r by their Taylor series to r^15 and r^16
+  on |r| <= pi/4 (truncation below 5e-17), then the quadrant n mod 4. Within 3e-16 of
+  numpy's float64 sin and cos (measured, 2 million angles in [-7, 7] and in +-1e5).
+* `arctan2`: the usual reduction to t = min(|y|, |x|) / max(|y|, |x|) in [0, 1], then to
+  |t| <= tan(pi/8) by atan(t) = pi/4 + atan((t - 1) / (t + 1)), and there atan(t) = t
+  P(t^2) with P of degree 8, least squares on 400 Chebyshev nodes of t^2 in
+  [0, tan^2(pi/8)] against numpy's arctan (coefficients below, computed once so): at most
+  1.1e-14 rad from numpy's, for finite or NaN arguments (NaN gives NaN; signed zeros as
+  numpy's).
+* `hypot`: sqrt(x^2 + y^2) in one pass (numpy's hypot guards against overflow at ~25 ns a
+  value; these are speeds and distances, far from it).
+
+The scalar forms (`sincos_scalar`, `atan2_scalar`) serve compiled loops that need them
+inside. NaN and infinite arguments give NaN, as numpy's.
 """
 
 from __future__ import annotations
@@ -27,18 +31,48 @@ import math
 import numpy as np
 from numba import njit
 
-_LIMIT = 2.0 * math.pi
+_WRAP_ABOVE = 1e5  # |x| beyond this is wrapped to [-pi, pi) first (the split of pi/2 is exact to ~1.6e6)
+_TWO_OVER_PI = 2.0 / math.pi
+_PIO2_HI = 1.57079632673412561417e00  # pi/2 in 33 bits, and the rest (fdlibm's pio2_1, pio2_1t)
+_PIO2_LO = 6.07710050650619224932e-11
+_SIN = tuple((-1) ** k / math.factorial(2 * k + 1) for k in range(8))  # r, r^3, ..., r^15
+_COS = tuple((-1) ** k / math.factorial(2 * k) for k in range(9))  # 1, r^2, ..., r^16
+
+
+@njit(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy", inline="always")
+def sincos_scalar(x: float) -> tuple[float, float]:
+    """(sin x, cos x) of one value, |x| <= 1e5 (module docstring)."""
+    s0, s1, s2, s3, s4, s5, s6, s7 = _SIN
+    c0, c1, c2, c3, c4, c5, c6, c7, c8 = _COS
+    n = np.round(x * _TWO_OVER_PI)
+    r = (x - n * _PIO2_HI) - n * _PIO2_LO
+    z = r * r
+    s = r * (s0 + z * (s1 + z * (s2 + z * (s3 + z * (s4 + z * (s5 + z * (s6 + z * s7)))))))
+    c = c0 + z * (c1 + z * (c2 + z * (c3 + z * (c4 + z * (c5 + z * (c6 + z * (c7 + z * c8)))))))
+    q = (int(n) if math.isfinite(n) else 0) & 3  # the quadrant (NaN, inf: r is NaN already)
+    sv = c if q & 1 else s
+    cv = s if q & 1 else c
+    sv = -sv if q & 2 else sv
+    cv = -cv if (q == 1 or q == 2) else cv
+    return sv, cv
+
+
+@njit(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
+def _sin_cos(x: np.ndarray, s: np.ndarray, c: np.ndarray) -> None:
+    for i in range(len(x)):
+        s[i], c[i] = sincos_scalar(x[i])
 
 
 def sin_cos(angle_rad) -> tuple[np.ndarray, np.ndarray]:
-    """(sin, cos) of `angle_rad` (array-like, radians) as float64 arrays, to ~2.6e-7 (module
-    docstring); the shape of the input."""
+    """(sin, cos) of `angle_rad` (array-like, radians) as float64 arrays, to 3e-16 for
+    |x| <= 1e5, to the float64 wrap's ~2e-16 |x| beyond (module docstring); the shape of the
+    input."""
     x = np.asarray(angle_rad, dtype=float)
-    if x.size and not (-_LIMIT <= np.fmin.reduce(x, axis=None) and np.fmax.reduce(x, axis=None) <= _LIMIT):  # NaNs skipped
-        x = x - 2.0 * math.pi * np.floor((x + math.pi) / (2.0 * math.pi))
-    a = x.astype(np.float32)
-    s = np.sin(a).astype(float)
-    c = np.cos(a, out=a).astype(float)
+    if x.size and not (-_WRAP_ABOVE <= np.fmin.reduce(x, axis=None) and np.fmax.reduce(x, axis=None) <= _WRAP_ABOVE):
+        with np.errstate(invalid="ignore"):  # (NaNs are skipped by fmin/fmax; inf gives NaN, as numpy's sin)
+            x = x - 2.0 * math.pi * np.floor((x + math.pi) / (2.0 * math.pi))
+    s, c = np.empty(x.shape), np.empty(x.shape)
+    _sin_cos(np.ascontiguousarray(x).reshape(-1), s.reshape(-1), c.reshape(-1))
     return s, c
 
 

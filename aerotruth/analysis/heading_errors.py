@@ -42,7 +42,7 @@ import numpy as np
 import pandas as pd
 from pydantic import Field
 
-from aerotruth.analysis.fast_trig import arctan2, atan2_scalar, hypot, sin_cos
+from aerotruth.analysis.fast_trig import arctan2, atan2_scalar, hypot, sin_cos, sincos_scalar
 from aerotruth.analysis.observations import validate_observations
 from aerotruth.config import Section
 from aerotruth.errors import DataError
@@ -84,12 +84,20 @@ TRACK_GATES = GateSpec(min_baseline_km=10.0, noise_sigmas=0.0, max_track_noise=m
 
 def towards_from_report(speed_kt, dir_from_deg) -> tuple[np.ndarray, np.ndarray]:
     """(u east, v north) in m/s of a reported wind (speed kt, meteorological "from" deg)."""
-    s = np.asarray(speed_kt, dtype=float)
-    u, v = sin_cos(np.asarray(dir_from_deg, dtype=float) * DEG)
-    for x in (u, v):  # in place: no third array (fresh memory costs more than a pass)
-        x *= s
-        x *= -KT
+    sp = np.asarray(speed_kt, dtype=float)
+    d = np.asarray(dir_from_deg, dtype=float)
+    sp, d = np.broadcast_arrays(sp, d)
+    u, v = np.empty(sp.shape), np.empty(sp.shape)
+    _towards(np.ascontiguousarray(sp).reshape(-1), np.ascontiguousarray(d).reshape(-1), u.reshape(-1), v.reshape(-1))
     return u, v
+
+
+@njit(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
+def _towards(speed_kt: np.ndarray, dir_from_deg: np.ndarray, u: np.ndarray, v: np.ndarray) -> None:
+    for i in range(len(speed_kt)):
+        s, c = sincos_scalar(dir_from_deg[i] * DEG)  # (|x| <= 1e5 rad: any plausible direction)
+        k = -speed_kt[i] * KT  # towards = -from
+        u[i], v[i] = s * k, c * k
 
 
 def wrap(x: np.ndarray, period: float, lo: float = 0.0) -> np.ndarray:

@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from aerotruth.analysis.fast_trig import sin_cos
+from aerotruth.analysis.fast_trig import sincos_scalar
 from aerotruth.units import DEG
 
 
@@ -46,16 +46,25 @@ def design(heading_deg: np.ndarray, k: int) -> np.ndarray:
 
 def design_t(heading_deg: np.ndarray, k: int) -> np.ndarray:
     """The design of eq. 2 transposed, (k, n) with contiguous rows: the fits' per-report
-    products and reductions run along rows."""
-    z = np.asarray(heading_deg, dtype=float) * DEG
+    products and reductions run along rows. k is 1, 3 or 5."""
+    if k not in (1, 3, 5):
+        raise ValueError(f"design: k is 1, 3 or 5 terms, got {k}")
+    z = np.ascontiguousarray(heading_deg, dtype=float).reshape(-1)
     XT = np.empty((k, len(z)))
-    XT[0] = 1.0
-    if k > 1:
-        XT[1], XT[2] = sin_cos(z)
-        if k > 3:  # double-angle identities: two fewer trig evaluations
-            sz, cz = XT[1], XT[2]
-            XT[3], XT[4] = 2 * sz * cz, (cz - sz) * (cz + sz)
+    _design(z, XT)
     return XT
+
+
+@njit(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
+def _design(z_deg: np.ndarray, XT: np.ndarray) -> None:
+    k = XT.shape[0]
+    for i in range(len(z_deg)):
+        XT[0, i] = 1.0
+        if k > 1:
+            sz, cz = sincos_scalar(z_deg[i] * DEG)
+            XT[1, i], XT[2, i] = sz, cz
+            if k > 3:  # double-angle identities: no second evaluation
+                XT[3, i], XT[4, i] = 2 * sz * cz, (cz - sz) * (cz + sz)
 
 
 @dataclass
