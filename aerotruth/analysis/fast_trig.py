@@ -117,13 +117,7 @@ def _arctan2(y: np.ndarray, x: np.ndarray, out: np.ndarray) -> None:
 def arctan2(y, x, out: np.ndarray | None = None) -> np.ndarray:
     """np.arctan2(y, x) (radians, (-pi, pi]) to 1.1e-14 rad (module docstring), 1-D or any
     shape of equal y, x; into `out` when given."""
-    y = np.ascontiguousarray(y, dtype=float)
-    x = np.ascontiguousarray(x, dtype=float)
-    if y.shape != x.shape:
-        raise ValueError(f"arctan2: y and x differ in shape ({y.shape} vs {x.shape})")
-    res = _result(out, y.shape, x, y)
-    _arctan2(y.reshape(-1), x.reshape(-1), res.reshape(-1))
-    return _deliver(res, out)
+    return _binary(_arctan2, "arctan2", y, x, out)
 
 
 @njit(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
@@ -134,12 +128,17 @@ def _hypot(x: np.ndarray, y: np.ndarray, out: np.ndarray) -> None:
 
 def hypot(x, y, out: np.ndarray | None = None) -> np.ndarray:
     """sqrt(x^2 + y^2) of equal-shaped x, y (module docstring: no overflow guard); into `out` when given."""
-    x = np.ascontiguousarray(x, dtype=float)
-    y = np.ascontiguousarray(y, dtype=float)
-    if y.shape != x.shape:
-        raise ValueError(f"hypot: x and y differ in shape ({x.shape} vs {y.shape})")
-    res = _result(out, x.shape, x, y)
-    _hypot(x.reshape(-1), y.reshape(-1), res.reshape(-1))
+    return _binary(_hypot, "hypot", x, y, out)
+
+
+def _binary(kernel, name: str, a, b, out: np.ndarray | None) -> np.ndarray:
+    """kernel(a, b, result) over equal-shaped a, b of any shape (flattened), into `out` when given."""
+    a = np.ascontiguousarray(a, dtype=float)
+    b = np.ascontiguousarray(b, dtype=float)
+    if a.shape != b.shape:
+        raise ValueError(f"{name}: the two arguments differ in shape ({a.shape} vs {b.shape})")
+    res = _result(out, a.shape, a, b)
+    kernel(a.reshape(-1), b.reshape(-1), res.reshape(-1))
     return _deliver(res, out)
 
 
