@@ -5,6 +5,8 @@ naming the table, the column and the data row."""
 
 from __future__ import annotations
 
+import math
+
 from numba import njit
 import numpy as np
 import pandas as pd
@@ -76,6 +78,19 @@ _RANGES = {"lat": (-90.0, 90.0), "lon": (-180.0, 360.0), "wind_speed_kt": (0.0, 
            "declination_deg": (-180.0, 180.0), "roll_deg": (-180.0, 180.0)}
 
 
+@njit(cache=True, nogil=True)
+def _outside(v: np.ndarray, lo: float, hi: float, keep: np.ndarray, required: bool) -> int:
+    """The first row of v outside [lo, hi] (NaN is not: an empty cell), -1 if none; with
+    `required`, rows whose v is not finite are cleared in `keep`."""
+    for i in range(len(v)):
+        x = v[i]
+        if x < lo or x > hi:
+            return i
+        if required and not math.isfinite(x):
+            keep[i] = False
+    return -1
+
+
 def _labels(values: pd.Series, fill: str | None = None, lower: bool = False) -> pd.Categorical:
     """Text labels as a Categorical: stripped (and lower-cased if `lower`); empty or missing
     -> `fill` (None: missing)."""
@@ -103,16 +118,14 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
     out = {"aircraft": _labels(obs["aircraft"]), "time_s": _times(obs, source)}
     for c in REQUIRED_COLUMNS[2:] + tuple(c for c in OPTIONAL_NUMERIC if c in obs.columns):
         out[c] = _numeric(obs, c, source)
-    for c, (lo, hi) in _RANGES.items():
-        if c in out:
-            v = out[c]
-            if len(v) and lo <= np.fmin.reduce(v) and np.fmax.reduce(v) <= hi:  # NaN-blind extremes: no mask
-                continue
-            with np.errstate(invalid="ignore"):
-                bad = (v < lo) | (v > hi)
-            if bad.any():
-                i = int(np.flatnonzero(bad)[0])
-                raise DataError(f"{source}: column '{c}', data row {i + 1}: {v[i]:g} outside [{lo:g}, {hi:g}]")
+    keep = np.ones(len(obs), dtype=bool)  # rows with every required number (NaN: an empty cell, dropped)
+    for c in out:
+        if c == "aircraft":
+            continue
+        lo, hi = _RANGES.get(c, (-np.inf, np.inf))
+        i = _outside(out[c], lo, hi, keep, c == "time_s" or c in REQUIRED_COLUMNS)
+        if i >= 0:
+            raise DataError(f"{source}: column '{c}', data row {i + 1}: {out[c][i]:g} outside [{lo:g}, {hi:g}]")
     out["ref_source"] = _labels(obs["ref_source"], "ref") if "ref_source" in obs.columns else pd.Categorical(np.full(len(obs), "ref"))
     if "flight" in obs.columns:  # `phase` is not used by the method
         out["flight"] = _labels(obs["flight"], "")
@@ -123,9 +136,7 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
         if vals:
             raise DataError(f"{source}: column 'heading_input': {sorted(vals)[0]!r}, expected 'magnetic' or 'true'")
     ac_code = out["aircraft"].codes
-    keep = ac_code >= 0
-    for c in ("time_s", *REQUIRED_COLUMNS[2:]):
-        keep &= np.isfinite(out[c])
+    keep &= ac_code >= 0
     ref_code = out["ref_source"].codes
     order = _sort_order(ac_code, out["time_s"], ref_code)
     order = order[keep[order]]
@@ -195,12 +206,18 @@ def _check_report_rows(df: pd.DataFrame, source: str) -> None:
         if c not in df.columns:
             continue
         v = df[c].to_numpy()
-        bad = (v[1:] != v[:-1]) & same_rep
-        if bad.any():
-            j = np.flatnonzero(bad)
-            j = j[~(np.isnan(v[j]) & np.isnan(v[j + 1]))]  # both empty: the same
-            if len(j):
-                i = int(j[0]) + 1
-                raise DataError(f"{source}: column '{c}': the rows of one report (aircraft {df['aircraft'].iloc[i]}, "
-                                f"time {t[i]:.3f}) differ ({v[i - 1]:g} vs {v[i]:g}); a report's own values must be "
-                                f"the same on each reference model's row")
+        i = _first_disagreement(v, same_rep)
+        if i >= 0:
+            raise DataError(f"{source}: column '{c}': the rows of one report (aircraft {df['aircraft'].iloc[i]}, "
+                            f"time {t[i]:.3f}) differ ({v[i - 1]:g} vs {v[i]:g}); a report's own values must be "
+                            f"the same on each reference model's row")
+
+
+@njit(cache=True, nogil=True)
+def _first_disagreement(v: np.ndarray, same_rep: np.ndarray) -> int:
+    """The first row i whose value differs from row i - 1 of the same report (same_rep[i - 1];
+    both empty is the same), -1 if none."""
+    for k in range(len(same_rep)):
+        if same_rep[k] and v[k + 1] != v[k] and not (math.isnan(v[k + 1]) and math.isnan(v[k])):
+            return k + 1
+    return -1
