@@ -76,7 +76,6 @@ from scipy import stats
 from aerotruth.analysis.heading_errors import GateSpec, heading_errors
 from aerotruth.analysis.robust_fit import (cluster_starts, design, design_t, fit_from_t, huber_t, median,
                                             robust_fit_t, weighted_gram_t)
-from aerotruth.units import DEG
 
 
 TERM_NAMES = ("A", "B", "C", "D", "E")
@@ -87,35 +86,25 @@ TABLE_COLUMNS = ("aircraft", "status", "reason", "n_used", *(f"{t}_deg" for t in
 STATUSES = ("fitted", "offset_only", "refused")
 
 
-def heading_axes(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1,
-                 sin_cos: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+def heading_axes(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (ascending) and unit eigenvectors (columns, in (sin nz, cos nz)) of the
-    weighted covariance of (sin nz, cos nz) of the headings (`sin_cos`: those two as rows,
-    (2, n), when already at hand)."""
-    if sin_cos is None:
-        z = harmonic * np.asarray(heading_deg) * DEG
-        sin_cos = np.vstack([np.sin(z), np.cos(z)])
-    return _axes(float(w.sum()), sin_cos @ w, (sin_cos * w) @ sin_cos.T)
-
-
-def _axes(w_sum: float, m: np.ndarray, S: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """heading_axes from the weighted sums: of the weights, m of (sin nz, cos nz), S of their
-    products (2 x 2)."""
-    mu = m / w_sum
-    return np.linalg.eigh(S / w_sum - np.outer(mu, mu))
+    weighted covariance of (sin nz, cos nz) of the headings, n = `harmonic` (1 or 2)."""
+    return _gram_axes(weighted_gram_t(design_t(np.asarray(heading_deg, dtype=float), 5), np.asarray(w, dtype=float)),
+                      harmonic)
 
 
 def _gram_axes(gram: np.ndarray, harmonic: int) -> tuple[np.ndarray, np.ndarray]:
-    """heading_axes from X^T W X of the design of eq. 2 (1, sin z, cos z, sin 2z, cos 2z)."""
+    """heading_axes from X^T W X of the design of eq. 2 (1, sin z, cos z, sin 2z, cos 2z): the
+    weights' sum, the weighted sums of (sin nz, cos nz) and of their products."""
     j = [1, 2] if harmonic == 1 else [3, 4]
-    return _axes(float(gram[0, 0]), gram[0, j], gram[np.ix_(j, j)])
+    mu = gram[0, j] / gram[0, 0]
+    return np.linalg.eigh(gram[np.ix_(j, j)] / gram[0, 0] - np.outer(mu, mu))
 
 
-def heading_spread(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1,
-                   sin_cos: np.ndarray | None = None) -> float:
+def heading_spread(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1) -> float:
     """Smaller eigenvalue of the weighted covariance of (sin nz, cos nz): 0.5 for headings
     uniform round the compass, 0 for one heading (or, n = 1, one route both ways)."""
-    return float(heading_axes(heading_deg, w, harmonic, sin_cos)[0][0])
+    return float(heading_axes(heading_deg, w, harmonic)[0][0])
 
 
 def octants_occupied(heading_deg: np.ndarray, min_share: float = 0.03) -> int:

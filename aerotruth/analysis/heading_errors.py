@@ -153,13 +153,15 @@ def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, span
     return tuple(o.reshape(shape) for o in out)
 
 
+_radii = njit(cache=True, nogil=True, inline="always")(radii_from_sin)  # aerotruth.ellipsoid's, compiled
+
+
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
 def _step_noise1(sin_lat: float, cos_lat: float, span_e: float, span_n: float, span: float, gs1: float, gs2: float,
                  t1: float, t2: float, s: float) -> tuple[float, float, float]:
     """step_noise of one report, `s` = step (rad) / sqrt(12)."""
-    q = 1.0 - E2 * sin_lat * sin_lat  # radii of curvature (aerotruth.ellipsoid.radii_from_sin)
-    sq = math.sqrt(q)
-    s_n, s_e = A_M * (1.0 - E2) / (q * sq) * s, A_M / sq * cos_lat * s
+    rm, rn = _radii(sin_lat)
+    s_n, s_e = rm * s, rn * cos_lat * s
     sc, cc = span_e / span, span_n / span
     s_x = math.sqrt((s_e * cc) ** 2 + (s_n * sc) ** 2)
     s_a = math.sqrt((s_e * sc) ** 2 + (s_n * cc) ** 2)

@@ -159,13 +159,13 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
 def _sort_order(ac: np.ndarray, t: np.ndarray, ref: np.ndarray) -> np.ndarray:
     """np.lexsort((ref, t, ac)): rows by aircraft, time, reference model. Tables often come
     so already, or in time order overall: then the identity, or a stable sort of the
-    aircraft codes alone (a radix sort of small integers), is that order (each checked,
-    stopping at the first row out of order); else the full sort."""
+    aircraft codes alone (a radix sort of small integers), is that order (checked, stopping
+    at the first row out of order); else the full sort."""
     n = len(ac)
     ident = np.arange(n)
     if _ordered(ac, t, ref, ident):
         return ident
-    if 1 < n and 0 <= ac.min() and ac.max() < 2**16 and _ordered(np.zeros(1, dtype=np.int8), t, ref, ident):
+    if 1 < n and 0 <= ac.min() and ac.max() < 2**16 and (t[1:] >= t[:-1]).all():  # (NaN times: no)
         o = np.argsort(ac.astype(np.uint16), kind="stable")
         if _ordered(ac, t, ref, o):
             return o
@@ -174,15 +174,13 @@ def _sort_order(ac: np.ndarray, t: np.ndarray, ref: np.ndarray) -> np.ndarray:
 
 @njit(cache=True, nogil=True)
 def _ordered(ac: np.ndarray, t: np.ndarray, ref: np.ndarray, o: np.ndarray) -> bool:
-    """Whether rows o[0], o[1], ... are in (aircraft, time, reference) order (NaN times:
-    not); an `ac` of length 1: time (and reference) order alone."""
+    """Whether rows o[0], o[1], ... are in (aircraft, time, reference) order (NaN times: not)."""
     for k in range(1, len(o)):
         i, j = o[k - 1], o[k]
-        if len(ac) > 1:
-            if ac[j] > ac[i]:
-                continue
+        if ac[j] != ac[i]:
             if ac[j] < ac[i]:
                 return False
+            continue
         if t[j] > t[i]:
             continue
         if not (t[j] == t[i] and ref[j] >= ref[i]):

@@ -113,8 +113,8 @@ def fit_from_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray,
     The CR3 covariance of a kept step carries each flight's scores linearly to the new
     coefficients. `scale_guess` (a nearby scale) only speeds up the medians."""
     sw = np.sqrt(w)
-    ar, scratch = np.empty(len(y)), np.empty(len(y))
-    r = _weighted_residuals(beta, XT, y, sw, np.empty(len(y)), ar)
+    r, ar, scratch = np.empty(len(y)), np.empty(len(y)), np.empty(len(y))
+    _residuals(beta, XT, y, sw, r, ar)
     scale = max(1.4826 * _median(ar, scratch, scale_guess / 1.4826), 1e-9)
     starts = cluster_starts(groups)
     bread_g, scores = _cluster_parts(XT, r, w, starts, scale, c if robust else np.inf)
@@ -127,7 +127,7 @@ def fit_from_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray,
     scores -= bread_g @ step  # h_g(b + step) = h_g(b) - B_g step: the scores sum to 0 again
     infl, cov = _cr3(bread_g, scores)
     if robust:  # the next step, at the new coefficients and scale: B over the same reports
-        _weighted_residuals(new, XT, y, sw, r, ar)
+        _residuals(new, XT, y, sw, r, ar)
         s2 = max(1.4826 * _median(ar, scratch, scale / 1.4826), 1e-9)
         np.clip(r, -c * s2, c * s2, out=r)
         r *= sw
@@ -168,14 +168,6 @@ def _residuals(beta: np.ndarray, XT: np.ndarray, y: np.ndarray, sw: np.ndarray, 
     b = np.zeros(MAX_TERMS)
     b[:len(beta)] = beta
     _residuals5(*b, *_rows(XT), y, sw, r, ar)
-
-
-def _weighted_residuals(beta: np.ndarray, XT: np.ndarray, y: np.ndarray, sw: np.ndarray, out: np.ndarray,
-                        scratch: np.ndarray | None = None) -> np.ndarray:
-    """r = sqrt(w) (y - X b) into `out` (no fresh array), `sw` = sqrt(w); |r| into `scratch`
-    when given."""
-    _residuals(beta, XT, y, sw, out, np.empty(len(out)) if scratch is None else scratch)
-    return out
 
 
 @njit(cache=True, nogil=True, fastmath=_FAST, error_model="numpy")
@@ -240,26 +232,33 @@ def _unpack(sums: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     return sums[..., _SYM[:k, :k]], sums[..., 15:15 + k].copy()
 
 
-def _newton_system(XT: np.ndarray, r: np.ndarray, w: np.ndarray, sw: np.ndarray, cs: float,
-                   scale: float | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """A Newton step's B = sum over the unclipped reports (|r_i| <= c s) of x x^T w and
-    h = sum x sqrt(w) clip(r, -c s, c s) (module docstring), r = sqrt(w) (y - X b); with
-    `scale` the sums of _sums5 themselves (u = r / scale clipped at cs)."""
+def _weighted_sums(XT: np.ndarray, r: np.ndarray, w: np.ndarray, sw: np.ndarray, cut: float,
+                   scale: float) -> tuple[np.ndarray, np.ndarray]:
+    """_sums5 as (B, h): B = sum over |r / scale| <= cut of x x^T w / scale (k x k),
+    h = sum x sqrt(w) clip(r / scale, -cut, cut)."""
     out = np.empty(20)
-    if scale is not None:
-        _sums5(*_rows(XT), r, w, sw, cs, scale, out)
-        return _unpack(out, XT.shape[0])
-    _sums5(*_rows(XT), r, w, sw, 1.0, cs, out)  # u = r / (c s) clipped at 1: times c s below
-    B, h = _unpack(out, XT.shape[0])
+    _sums5(*_rows(XT), r, w, sw, cut, scale, out)
+    return _unpack(out, XT.shape[0])
+
+
+def _newton_system(XT: np.ndarray, r: np.ndarray, w: np.ndarray, sw: np.ndarray, cs: float) -> tuple[np.ndarray, np.ndarray]:
+    """A Newton step's B = sum over the unclipped reports (|r_i| <= c s) of x x^T w and
+    h = sum x sqrt(w) clip(r, -c s, c s) (module docstring), r = sqrt(w) (y - X b)."""
+    B, h = _weighted_sums(XT, r, w, sw, 1.0, cs)  # u = r / (c s) clipped at 1: times c s
     return B * cs, h * cs
+
+
+def _wls(XT: np.ndarray, y: np.ndarray, w: np.ndarray) -> np.ndarray:
+    """Weighted least squares: b solving X^T W X b = X^T W y, the sums in one pass (r = sqrt(w)
+    y, nothing clipped)."""
+    sw = np.sqrt(w)
+    return np.linalg.solve(*_weighted_sums(XT, y * sw, w, sw, np.inf, 1.0))
 
 
 def weighted_gram_t(XT: np.ndarray, w: np.ndarray) -> np.ndarray:
     """X^T W X of the transposed (k, n) design, weights w: one compiled pass."""
     zero = np.zeros(len(w))
-    out = np.empty(20)
-    _sums5(*_rows(XT), zero, w, zero, np.inf, 1.0, out)
-    return _unpack(out, XT.shape[0])[0]
+    return _weighted_sums(XT, zero, w, zero, np.inf, 1.0)[0]
 
 
 def _cluster_parts(XT: np.ndarray, r: np.ndarray, w: np.ndarray, starts: np.ndarray, scale: float,
@@ -377,21 +376,10 @@ def huber_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float
     sqrt(w) (y - X b) at the solution. Normal equations (k <= 5 bounded columns: well conditioned
     whenever the coverage gate passes). The per-report work runs in buffers allocated once per fit (fresh
     arrays each step cost more in page faults than the arithmetic)."""
-    k, n = XT.shape
-    XW = np.empty((k, n))
-    r, ar, wt, tmp = np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-
-    def solve(weights):  # weighted least squares
-        np.multiply(XT, weights, out=XW)
-        return np.linalg.solve(XW @ XT.T, XW @ y)
-
+    n = XT.shape[1]
+    r, ar, tmp = np.empty(n), np.empty(n), np.empty(n)
     sw = np.sqrt(w)
-    if beta0 is None:  # the least-squares start: X^T W X and X^T W y in one pass (r = sqrt(w) y, no clipping)
-        np.multiply(y, sw, out=r)
-        A, h = _newton_system(XT, r, w, sw, np.inf, 1.0)
-        beta = np.linalg.solve(A, h)
-    else:
-        beta = beta0
+    beta = _wls(XT, y, w) if beta0 is None else beta0  # the least-squares start
 
     def residuals(b):  # r = sqrt(w) (y - X b), ar = |r|
         _residuals(b, XT, y, sw, r, ar)
@@ -411,12 +399,8 @@ def huber_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float
                 new = beta + np.linalg.solve(B, hs)
             else:
                 newton = False
-        if new is None:  # IRLS step
-            np.maximum(ar, 1e-300, out=wt)
-            np.divide(cs, wt, out=wt)
-            np.minimum(wt, 1.0, out=wt)
-            np.multiply(wt, w, out=wt)
-            new = solve(wt)
+        if new is None:  # IRLS step: weights w min(1, c s / |r|)
+            new = _wls(XT, y, np.minimum(cs / np.maximum(ar, 1e-300), 1.0) * w)
         done = np.max(np.abs(new - beta)) < 1e-5  # deg: far below any standard error
         beta = new
         if done:
