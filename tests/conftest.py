@@ -1,5 +1,10 @@
 """Test-session settings: flown truth goes to a temporary truth store, never to the
-user's cache folder (worker processes inherit the variable)."""
+user's cache folder (worker processes inherit the variable).
+
+The suite runs on two pytest-xdist processes (pyproject's addopts: `-n 2 --dist loadfile`,
+each file on one process so a file's flights are flown once). Its longest files start
+first: the quick campaign alone is ~3 min of JSBSim, and started last it would run with
+the other process idle. `pytest -n 0` runs the suite in one process."""
 
 from __future__ import annotations
 
@@ -7,3 +12,19 @@ import os
 import tempfile
 
 os.environ["AEROTRUTH_CACHE"] = tempfile.mkdtemp(prefix="aerotruth-test-cache-")
+
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    # two test processes share the cores: one BLAS/OpenMP thread each, as campaign
+    # workers have (set before numpy is first imported by a test module)
+    for var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        os.environ.setdefault(var, "1")
+
+# the longest files (measured, `pytest --durations`), in the order they should start
+LONGEST_FIRST = ("test_quick_regression.py", "test_diagnose_wind.py", "test_diagnose.py",
+                 "test_flight.py", "test_heading_correction.py", "test_campaign_truth.py",
+                 "test_honest_caching.py", "test_afis.py", "test_toy_study.py")
+
+
+def pytest_collection_modifyitems(session, config, items):
+    rank = {name: i for i, name in enumerate(LONGEST_FIRST)}
+    items.sort(key=lambda item: rank.get(item.path.name, len(rank)))  # stable: the rest keep their order
