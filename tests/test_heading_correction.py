@@ -305,10 +305,11 @@ def test_shuffled_table_with_repeated_rows_gives_the_same_fit():
 
 
 def test_rows_are_ordered_as_a_full_sort_by_aircraft_time_and_model():
-    """validate_observations orders rows by aircraft, time, reference model: a time-ordered
-    table takes a shortcut (a stable sort of the aircraft alone, checked). Against numpy's
-    lexsort on random small tables, time-ordered or not, with missing aircraft and times
-    (rows that are then dropped may sit anywhere)."""
+    """validate_observations orders rows by aircraft, time, reference model (two stable
+    sorts, then the runs of one aircraft and time by reference; an ordered table is kept as
+    it is). Against numpy's lexsort on random small tables, time-ordered or not, up to three
+    reference models a report, with missing aircraft and times (rows that are then dropped
+    may sit anywhere)."""
     from aerotruth.analysis.observations import _sort_order
 
     rng = np.random.default_rng(0)
@@ -320,7 +321,7 @@ def test_rows_are_ordered_as_a_full_sort_by_aircraft_time_and_model():
             t[rng.random(n) < 0.1] = np.nan
         if trial % 2 == 0:
             t = np.sort(t)
-        ref = rng.integers(0, 2, n).astype(np.int8)
+        ref = rng.integers(0, 3, n).astype(np.int8)
         got, want = _sort_order(ac, t, ref), np.lexsort((ref, t, ac))
         keep = (ac >= 0) & np.isfinite(t)
         assert np.array_equal(got[keep[got]], want[keep[want]])
