@@ -8,7 +8,8 @@ import pandas as pd
 import pytest
 
 import obs_generator as gen
-from aerotruth.analysis.heading_fit import heading_fit_main, read_observation_table
+from aerotruth.analysis.heading_fit import heading_fit_main, read_observation_file, read_observation_table
+from aerotruth.analysis.observations import validate_observations
 from aerotruth.measured import load_measured
 from aerotruth.tables import csv_separator, read_csv_table
 
@@ -46,6 +47,31 @@ def test_heading_input_is_a_word_in_any_case(tmp_path):
     obs = _obs().assign(heading_input="TRUE")
     obs.to_csv(tmp_path / "obs.csv", index=False)
     assert list(read_observation_table(tmp_path / "obs.csv")["heading_input"].unique()) == ["true"]
+
+
+@pytest.mark.parametrize("suffix", [".csv", ".parquet"])
+def test_labels_read_as_categories_validate_to_the_table_of_labels_read_as_text(tmp_path, suffix):
+    """A Parquet file's labels are read once each (categoricals from its dictionary pages),
+    a CSV file's as text ("0511" and " 0511" stay text: pandas' "category" dtype would make
+    both the number 511); validation then gives the table that labels read as plain text
+    give (pandas' own reader, dtype str)."""
+    obs = _obs()
+    obs["aircraft"] = np.where(np.arange(len(obs)) % 3 == 0, " 0511", "0511")
+    obs["ref_source"] = np.where(np.arange(len(obs)) % 5 == 0, None, obs["ref_source"])
+    obs["flight"] = (np.arange(len(obs)) // 40).astype(str)
+    path = tmp_path / f"obs{suffix}"
+    if suffix == ".csv":
+        obs.to_csv(path, index=False)
+        text = pd.read_csv(path, dtype={c: str for c in ("aircraft", "ref_source", "flight", "phase")})
+    else:
+        obs.to_parquet(path)
+        text = pd.read_parquet(path)
+    raw = read_observation_file(path)
+    assert isinstance(raw["aircraft"].dtype, pd.CategoricalDtype) == (suffix == ".parquet")
+    assert sorted(raw["aircraft"].unique()) == [" 0511", "0511"]
+    got = read_observation_table(path)
+    pd.testing.assert_frame_equal(got, validate_observations(text, str(path)))
+    assert got["aircraft"].unique().tolist() == ["0511"] and got["flight"].nunique() == obs["flight"].nunique()
 
 
 @pytest.mark.parametrize("sep", [";", "\t"])

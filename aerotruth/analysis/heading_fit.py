@@ -32,7 +32,7 @@ from aerotruth.analysis.wind_metrics import wind_errors_before_after
 from aerotruth.errors import DataError, output_folder
 from aerotruth.files import atomic_write, atomic_write_text
 from aerotruth.markdown import to_markdown
-from aerotruth.tables import read_csv_table
+from aerotruth.tables import read_csv_table, read_parquet_table
 
 EXTENSIONS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
 
@@ -40,6 +40,17 @@ EXTENSIONS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
 def read_observation_table(path: str | Path) -> pd.DataFrame:
     """Read and validate an observation table; DataError (a ValueError) naming the file and
     the column on any problem."""
+    path = Path(path)
+    return validate_observations(read_observation_file(path), str(path))
+
+
+def read_observation_file(path: str | Path) -> pd.DataFrame:
+    """An observation table's file as read, not yet validated; DataError naming the file if
+    it cannot be read. A Parquet file's label columns (aircraft, ref_source, flight, ...)
+    come as categoricals from its dictionary pages: validation then cleans each distinct
+    label once, not every row's copy (measured on the 1.1 M-row benchmark table: read 103
+    -> 85 ms, validation 204 -> 153 ms; the validated table is the same). A CSV file's
+    labels come as text (aerotruth.tables.read_csv_table)."""
     path = Path(path)
     kind = EXTENSIONS.get(path.suffix.lower())
     if kind is None:
@@ -49,15 +60,12 @@ def read_observation_table(path: str | Path) -> pd.DataFrame:
     if path.is_dir():
         raise DataError(f"{path}: is a folder, expected an observation table file")
     try:
-        if kind == "csv":
-            df = read_csv_table(path)
-        else:
-            df = pd.read_parquet(path)
+        df = read_csv_table(path) if kind == "csv" else read_parquet_table(path, categorical=True)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
         raise DataError(f"{path}: not a readable CSV table ({str(e).splitlines()[0]})") from None
     except Exception as e:  # noqa: BLE001 - pyarrow's many error types: one line naming the file
         raise DataError(f"{path}: not a readable Parquet table ({str(e).splitlines()[0]})") from None
-    return validate_observations(df, str(path))
+    return df
 
 
 def _safe_name(aircraft: str) -> str:
