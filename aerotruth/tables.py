@@ -50,12 +50,10 @@ def read_csv_table(source: str | Path | bytes) -> pd.DataFrame:
     return df if sep == "," else _decimal_commas(df)
 
 
-def read_parquet_table(path: str | Path, categorical: bool = False) -> pd.DataFrame:
-    """A Parquet table; with `categorical`, its `TEXT_COLUMNS` stored as strings read as
-    categoricals straight from the file's dictionary pages (no per-row strings made).
-    pyarrow's errors pass through (the callers name the file)."""
-    if not categorical:
-        return pd.read_parquet(path)
+def read_parquet_table(path: str | Path) -> pd.DataFrame:
+    """A Parquet table, its `TEXT_COLUMNS` stored as strings read as categoricals straight
+    from the file's dictionary pages (no per-row strings made). pyarrow's errors pass
+    through (the callers name the file)."""
     import pyarrow as pa
     import pyarrow.parquet as pq
 

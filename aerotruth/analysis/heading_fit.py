@@ -60,7 +60,7 @@ def read_observation_file(path: str | Path) -> pd.DataFrame:
     if path.is_dir():
         raise DataError(f"{path}: is a folder, expected an observation table file")
     try:
-        df = read_csv_table(path) if kind == "csv" else read_parquet_table(path, categorical=True)
+        df = read_csv_table(path) if kind == "csv" else read_parquet_table(path)
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
         raise DataError(f"{path}: not a readable CSV table ({str(e).splitlines()[0]})") from None
     except Exception as e:  # noqa: BLE001 - pyarrow's many error types: one line naming the file
