@@ -221,7 +221,7 @@ def ground_track(t: np.ndarray, lat_rad: np.ndarray, lon_rad: np.ndarray, flight
     vg_e, vg_n, gate = np.full(m, np.nan), np.full(m, np.nan), np.ones(m, dtype=np.int8)
     if m >= 2:
         de, dn = segment_displacements(lat_rad, lon_rad)
-        sin_lat, cos_lat = sin_cos(lat_rad)  # (step_noise's, at single precision)
+        sin_lat, cos_lat = sin_cos(lat_rad)  # for step_noise
         # the rounding's own noise (step_noise) only where the plain limits fail: elsewhere
         # the widened gates pass whatever it is (V_G's rounding error is at most
         # _MAX_STEP_NOISE_M * step in metres per degree: the span gate passes above that)
