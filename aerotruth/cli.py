@@ -347,7 +347,7 @@ def build_parser() -> argparse.ArgumentParser:
                                       "eqs. 7-17), fixes the bias at the threshold from radar altimeter and TVPS (eq. 18) "
                                       "and writes the trajectory (eq. 19); with DGPS in the log, the errors and the "
                                       "requirement figure too.")
-    fits.add_argument("log", help="approach log (CSV or Parquet, docs/data-formats.md)")
+    fits.add_argument("log", help="approach log (CSV, .csv.gz or Parquet, docs/data-formats.md)")
     fits.add_argument("--out", required=True, help="output folder")
     fits.add_argument("--ra-lever-arm", type=float, default=0.0, help="height of the log's reference point above the radar-altimeter antenna (m)")
     fits.add_argument("--waas-latency", type=_waas_latency_s, default=0.0,
@@ -358,7 +358,7 @@ def build_parser() -> argparse.ArgumentParser:
     heading = sub.add_parser("heading", help="the wind paper's heading-deviation method on your own reports")
     hsub = heading.add_subparsers(dest="heading_command", required=True)
     hfit = hsub.add_parser("fit", help="fit eq. 2 per aircraft from an observation table -> DIR/deviation.csv, figures, report")
-    hfit.add_argument("obs", help="observation table (CSV or Parquet, docs/data-formats.md)")
+    hfit.add_argument("obs", help="observation table (CSV, .csv.gz or Parquet, docs/data-formats.md)")
     hfit.add_argument("--out", required=True, help="output folder")
     hfit.add_argument("--bootstrap", type=int, default=200, metavar="N",
                       help="flight resamples for the 95 %% intervals of A..E and the table entries (deviation_ci.csv; "
@@ -367,7 +367,7 @@ def build_parser() -> argparse.ArgumentParser:
     hfit.set_defaults(func=_cmd_heading_fit)
     happ = hsub.add_parser("apply", help="apply the tables of `heading fit` to the reports of another period -> "
                            "DIR/corrected.*, apply.csv (before/after per aircraft), figure, report")
-    happ.add_argument("obs", help="observation table (CSV or Parquet, docs/data-formats.md)")
+    happ.add_argument("obs", help="observation table (CSV, .csv.gz or Parquet, docs/data-formats.md)")
     happ.add_argument("--tables", required=True, help="the deviation.csv (or deviation_mag.csv) of `aerotruth heading fit`")
     happ.add_argument("--out", required=True, help="output folder")
     happ.set_defaults(func=_cmd_heading_apply)

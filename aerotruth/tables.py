@@ -18,6 +18,7 @@ Two things a plain `pandas.read_csv` gets wrong on such files:
 
 from __future__ import annotations
 
+import gzip
 import io
 import re
 from pathlib import Path
@@ -39,14 +40,16 @@ def csv_separator(header_line: str) -> str:
 
 
 def read_csv_table(source: str | Path | bytes) -> pd.DataFrame:
-    """A CSV table (a path or the file's bytes) with `TEXT_COLUMNS` read as text and the
-    separator taken from the header. pandas' errors pass through (the callers name the
-    file). (Not as pandas' "category" dtype: measured with pandas 3.1, it turns the
-    categories "0511" and " 0511" into the number 511.)"""
-    sep = csv_separator(_first_line(source).decode("utf-8", errors="replace"))
-    columns = pd.read_csv(_readable(source), sep=sep, nrows=0).columns
+    """A CSV table (a path or the file's bytes, plain or gzip-compressed: recognised by its
+    magic bytes, whatever the name) with `TEXT_COLUMNS` read as text and the separator
+    taken from the header. pandas' errors pass through (the callers name the file). (Not as
+    pandas' "category" dtype: measured with pandas 3.1, it turns the categories "0511" and
+    " 0511" into the number 511.)"""
+    compression = "gzip" if _is_gzip(source) else None
+    sep = csv_separator(_first_line(source, compression).decode("utf-8", errors="replace"))
+    columns = pd.read_csv(_readable(source), sep=sep, nrows=0, compression=compression).columns
     dtype = {c: str for c in TEXT_COLUMNS if c in columns}
-    df = pd.read_csv(_readable(source), sep=sep, dtype=dtype, low_memory=False)
+    df = pd.read_csv(_readable(source), sep=sep, dtype=dtype, low_memory=False, compression=compression)
     return df if sep == "," else _decimal_commas(df)
 
 
@@ -85,7 +88,20 @@ def _readable(source: str | Path | bytes):
     return source if isinstance(source, (str, Path)) else io.BytesIO(source)
 
 
-def _first_line(source: str | Path | bytes) -> bytes:
+_GZIP_MAGIC = b"\x1f\x8b"
+
+
+def _is_gzip(source: str | Path | bytes) -> bool:
+    if isinstance(source, (str, Path)):
+        with open(source, "rb") as f:
+            return f.read(2) == _GZIP_MAGIC
+    return source[:2] == _GZIP_MAGIC
+
+
+def _first_line(source: str | Path | bytes, compression: str | None = None) -> bytes:
+    if compression == "gzip":
+        with gzip.open(_readable(source), "rb") as f:
+            return f.readline()
     if isinstance(source, (str, Path)):
         with open(source, "rb") as f:
             return f.readline()

@@ -353,7 +353,7 @@ def test_missing_file_and_wrong_extension_are_named(tmp_path):
     with pytest.raises(ValueError, match=r"nothere\.csv: no such file"):
         heading_fit_main(str(tmp_path / "nothere.csv"), str(tmp_path / "out"))
     (tmp_path / "obs.json").write_text("{}")
-    with pytest.raises(ValueError, match=r"obs\.json: expected a \.csv or \.parquet"):
+    with pytest.raises(ValueError, match=r"obs\.json: expected a \.csv, \.csv\.gz or \.parquet"):
         heading_fit_main(str(tmp_path / "obs.json"), str(tmp_path / "out"))
 
 

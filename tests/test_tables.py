@@ -117,3 +117,53 @@ def test_a_column_not_all_decimal_commas_is_not_guessed(tmp_path, cell):
     assert read_csv_table(tmp_path / "locale.csv")["lat"].dtype != float
     with pytest.raises(ValueError, match="lat"):
         read_observation_table(tmp_path / "locale.csv")
+
+
+def test_signed_directions_read_as_the_same_directions(tmp_path):
+    """Headings and wind angles written signed, (-180, 180] (ARINC 429's binary labels 314,
+    320, 322), validate to the table written in [0, 360); below -180 is still an error."""
+    obs = _obs()
+    obs["heading_deg"] = (obs["time"] * 0.37) % 360  # the generator writes none: any per-report values
+    obs["heading_mag_deg"] = (obs["heading_deg"] - 12.0) % 360
+    signed = obs.copy()
+    for c in ("heading_deg", "heading_mag_deg", "wind_dir_deg", "ref_wind_dir_deg"):
+        signed[c] = (obs[c] + 180.0) % 360 - 180.0
+        assert (signed[c] < 0).any()
+    obs.to_csv(tmp_path / "plain.csv", index=False)
+    signed.to_csv(tmp_path / "signed.csv", index=False)
+    a, b = read_observation_table(tmp_path / "plain.csv"), read_observation_table(tmp_path / "signed.csv")
+    pd.testing.assert_frame_equal(a, b, check_exact=False, atol=1e-9, rtol=0)
+    signed.loc[3, "heading_deg"] = -190.0
+    signed.to_csv(tmp_path / "bad.csv", index=False)
+    with pytest.raises(ValueError, match=r"bad\.csv: column 'heading_deg', data row 4: -190 outside"):
+        read_observation_table(tmp_path / "bad.csv")
+
+
+def test_a_gzip_compressed_csv_reads_as_the_plain_one(tmp_path):
+    """`.csv.gz` (and gzip content under any name: recognised by its magic bytes) reads as
+    the plain file; a cut stream is one error naming the file."""
+    import gzip
+
+    obs = _obs()
+    obs.to_csv(tmp_path / "plain.csv", index=False)
+    data = gzip.compress((tmp_path / "plain.csv").read_bytes())
+    (tmp_path / "obs.csv.gz").write_bytes(data)
+    (tmp_path / "zipped.csv").write_bytes(data)
+    want = read_observation_table(tmp_path / "plain.csv")
+    for name in ("obs.csv.gz", "zipped.csv"):
+        pd.testing.assert_frame_equal(read_observation_table(tmp_path / name), want)
+    assert read_csv_table(data).equals(read_csv_table(tmp_path / "plain.csv"))
+    (tmp_path / "cut.csv.gz").write_bytes(data[: len(data) // 2])
+    with pytest.raises(ValueError, match=r"cut\.csv\.gz: not a readable CSV table") as e:
+        read_observation_table(tmp_path / "cut.csv.gz")
+    assert "\n" not in str(e.value)
+
+
+def test_a_gzip_compressed_approach_log_reads_as_the_plain_one(tmp_path):
+    import approach_log_generator as alg
+    from aerotruth.analysis.fits_log import read_approach_log
+
+    log, _ = alg.make_log(1, 5)
+    log.to_csv(tmp_path / "log.csv", index=False)
+    log.to_csv(tmp_path / "log.csv.gz", index=False)  # pandas compresses by the name
+    pd.testing.assert_frame_equal(read_approach_log(tmp_path / "log.csv.gz"), read_approach_log(tmp_path / "log.csv"))

@@ -42,7 +42,7 @@ import pandas as pd
 
 from aerotruth.analysis.heading_correction import FleetHeadingFit
 from aerotruth.analysis.heading_errors import heading_errors, towards_from_report
-from aerotruth.analysis.heading_fit import EXTENSIONS, read_observation_table, require_used_reports
+from aerotruth.analysis.heading_fit import read_observation_table, require_used_reports, table_kind
 from aerotruth.analysis.wind_metrics import heading_turn, wind_errors_before_after
 from aerotruth.errors import DataError, output_folder
 from aerotruth.files import atomic_write, atomic_write_text
@@ -198,7 +198,7 @@ def heading_apply_main(obs_path: str, tables_path: str, out_dir: str) -> int:
     (out / "figures").mkdir(parents=True, exist_ok=True)
     raw = obs.drop(columns=["time_s"]).assign(time=obs["time_s"].to_numpy())
     table = pd.concat([raw.reset_index(drop=True), corrected], axis=1)
-    if EXTENSIONS[Path(obs_path).suffix.lower()] == "csv":
+    if table_kind(Path(obs_path)) == "csv":
         atomic_write_text(out / "corrected.csv", table.to_csv(index=False))
     else:
         atomic_write(out / "corrected.parquet", lambda tmp: table.to_parquet(tmp, index=False))

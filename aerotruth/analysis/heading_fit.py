@@ -34,7 +34,13 @@ from aerotruth.files import atomic_write, atomic_write_text
 from aerotruth.markdown import to_markdown
 from aerotruth.tables import read_csv_table, read_parquet_table
 
-EXTENSIONS = {".csv": "csv", ".parquet": "parquet", ".pq": "parquet"}
+EXTENSIONS = {".csv": "csv", ".csv.gz": "csv", ".parquet": "parquet", ".pq": "parquet"}
+
+
+def table_kind(path: Path) -> str | None:
+    """"csv" or "parquet" from the file's name (EXTENSIONS, any case), None for neither."""
+    name = path.name.lower()
+    return next((kind for ext, kind in EXTENSIONS.items() if name.endswith(ext)), None)
 
 
 def read_observation_table(path: str | Path) -> pd.DataFrame:
@@ -52,20 +58,24 @@ def read_observation_file(path: str | Path) -> pd.DataFrame:
     -> 85 ms, validation 204 -> 153 ms; the validated table is the same). A CSV file's
     labels come as text (aerotruth.tables.read_csv_table)."""
     path = Path(path)
-    kind = EXTENSIONS.get(path.suffix.lower())
+    kind = table_kind(path)
     if kind is None:
-        raise DataError(f"{path}: expected a .csv or .parquet observation table, got '{path.suffix or 'no extension'}'")
+        raise DataError(f"{path}: expected a .csv, .csv.gz or .parquet observation table, got "
+                        f"'{path.suffix or 'no extension'}'")
     if not path.exists():
         raise DataError(f"{path}: no such file")
     if path.is_dir():
         raise DataError(f"{path}: is a folder, expected an observation table file")
+    if kind == "csv":
+        try:
+            return read_csv_table(path)
+        except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, EOFError, OSError) as e:
+            # OSError, EOFError: a damaged or cut gzip stream
+            raise DataError(f"{path}: not a readable CSV table ({str(e).splitlines()[0]})") from None
     try:
-        df = read_csv_table(path) if kind == "csv" else read_parquet_table(path)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as e:
-        raise DataError(f"{path}: not a readable CSV table ({str(e).splitlines()[0]})") from None
+        return read_parquet_table(path)
     except Exception as e:  # noqa: BLE001 - pyarrow's many error types: one line naming the file
         raise DataError(f"{path}: not a readable Parquet table ({str(e).splitlines()[0]})") from None
-    return df
 
 
 def _safe_name(aircraft: str) -> str:

@@ -73,9 +73,12 @@ def _parse_times(df: pd.DataFrame, source: str) -> np.ndarray:
 
 
 _RANGES = {"lat": (-90.0, 90.0), "lon": (-180.0, 360.0), "wind_speed_kt": (0.0, 500.0), "ref_wind_speed_kt": (0.0, 500.0),
-           "wind_dir_deg": (0.0, 360.0), "ref_wind_dir_deg": (0.0, 360.0), "pressure_altitude_ft": (-2000.0, 70000.0),
-           "tas_kt": (0.0, 1000.0), "heading_deg": (0.0, 360.0), "heading_mag_deg": (0.0, 360.0),
+           "wind_dir_deg": (-180.0, 360.0), "ref_wind_dir_deg": (-180.0, 360.0), "pressure_altitude_ft": (-2000.0, 70000.0),
+           "tas_kt": (0.0, 1000.0), "heading_deg": (-180.0, 360.0), "heading_mag_deg": (-180.0, 360.0),
            "declination_deg": (-180.0, 180.0), "roll_deg": (-180.0, 180.0)}
+# directions read either way round: [0, 360] or signed [-180, 180] (ARINC 429 carries
+# heading and wind angle as signed binary, labels 314, 320 and 322), kept as [0, 360]
+DIRECTIONS = ("wind_dir_deg", "ref_wind_dir_deg", "heading_deg", "heading_mag_deg")
 
 
 @njit(cache=True, nogil=True)
@@ -126,6 +129,8 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
         i = _outside(out[c], lo, hi, keep, c == "time_s" or c in REQUIRED_COLUMNS)
         if i >= 0:
             raise DataError(f"{source}: column '{c}', data row {i + 1}: {out[c][i]:g} outside [{lo:g}, {hi:g}]")
+        if c in DIRECTIONS and (out[c] < 0).any():
+            out[c] = np.where(out[c] < 0, out[c] + 360.0, out[c])
     out["ref_source"] = _labels(obs["ref_source"], "ref") if "ref_source" in obs.columns else pd.Categorical(np.full(len(obs), "ref"))
     if "flight" in obs.columns:  # `phase` is not used by the method
         out["flight"] = _labels(obs["flight"], "")
