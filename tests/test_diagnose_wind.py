@@ -78,6 +78,20 @@ def test_hard_iron_scaling_with_the_horizontal_field():
     _first(findings, "field_scaling", 1.0)
 
 
+def test_a_field_independent_deviation_against_a_hard_iron_model_is_named_as_less_field_dependent():
+    """The converse: B, C the same at every field (the generator's default) against a model
+    whose hard iron scales as 1/H (gamma 1): gamma is found near 0, and the cause says the
+    deviation depends on the field less than the model, not that it grows where H is weak."""
+    fleet, rng = _fleet(4)
+    obs = gen.generate(fleet, rng, flights=80, spoke_km=(400.0, 900.0))
+    findings, _, _ = _diagnose(obs, WindModelSpec(field_scaling=1.0))
+    f = findings[0]
+    assert f.effect == "field_scaling", [x.effect for x in findings]
+    g = f.parameters["gamma"]
+    assert g["model"] == 1.0 and abs(g["value"]) < max(3 * g["se"], 0.15), g
+    assert "less than the model" in f.cause and "grows" not in f.cause, f.cause
+
+
 def test_tas_scale_one_percent():
     fleet, rng = _fleet(5)
     fleet = [replace(a, tas_scale=0.01) for a in fleet]

@@ -104,6 +104,22 @@ CAUSES = {
 }
 
 
+def cause(eff: str, params: dict) -> str:
+    """The finding's cause in words, its direction from the fitted parameters where the
+    effect can go either way against the model (field scaling, the reports' grid)."""
+    if eff == "field_scaling":
+        g, g0 = params["gamma"]["value"], params["gamma"]["model"]
+        if g < g0:
+            return (f"the once-round deviation depends on the horizontal field less than the model says (gamma {g:.2f} "
+                    f"against the model's {g0:g}; 1: hard iron, ~1/H; 0: the same at every field): part of it is not "
+                    "magnetic, e.g. an error of the heading system's synchro or resolver transmission")
+        return CAUSES[eff] + f" (gamma {g:.2f} against the model's {g0:g})"
+    if eff == "quantization" and params["lat_lon_step_deg"]["value"] < params["lat_lon_step_deg"]["model"]:
+        return ("the reports' latitude and longitude are rounded to a finer grid than the model's: the model's ground "
+                "tracks are noisier than the data's")
+    return CAUSES[eff]
+
+
 
 # ----------------------------------------------------------------------------- the loop
 
@@ -254,7 +270,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
                     "held_out": "6-h weather blocks alternate between two folds; learned on one, measured on the other"}
             plots[eff] = _plot_data(d, fit0, fit1, eff, ch)
         params["size"] = _size(eff, params)
-        findings.append(Finding(eff, CAUSES[eff], params, evidence, gain))
+        findings.append(Finding(eff, cause(eff, params), params, evidence, gain))
         st.entered.append(eff)
         if eff == "field_scaling":
             st.gamma = params["gamma"]["value"]
@@ -557,7 +573,8 @@ _ITEMS = {
 
 def _fmt_params(effect: str, p: dict) -> str:
     """The finding's parameters in words: its summary values, then each aircraft's (or model's)."""
-    parts = [f"{k} = {v['value']:.4g} ± {v['se']:.2g}" for k, v in p.items() if isinstance(v, dict) and "value" in v]
+    parts = [f"{k} = {v['value']:.4g} ± {v['se']:.2g}" + (f" (model {v['model']:g})" if "model" in v else "")
+             for k, v in p.items() if isinstance(v, dict) and "value" in v]
     if effect in _ITEMS:
         key, phrase = _ITEMS[effect]
         parts += [f"{name}: {phrase(x)}" for name, x in p[key].items()]
