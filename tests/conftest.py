@@ -1,5 +1,6 @@
 """Test-session settings: flown truth goes to a temporary truth store, never to the
-user's cache folder (worker processes inherit the variable).
+user's cache folder (worker processes inherit the variable), removed when the test process
+ends.
 
 The suite runs on two pytest-xdist processes (pyproject's addopts: `-n 2 --dist loadfile`,
 each file on one process so a file's flights are flown once). Its longest files start
@@ -8,10 +9,14 @@ the other process idle. `pytest -n 0` runs the suite in one process."""
 
 from __future__ import annotations
 
+import atexit
 import os
+import shutil
 import tempfile
 
-os.environ["AEROTRUTH_CACHE"] = tempfile.mkdtemp(prefix="aerotruth-test-cache-")
+_CACHE = tempfile.mkdtemp(prefix="aerotruth-test-cache-")
+os.environ["AEROTRUTH_CACHE"] = _CACHE
+atexit.register(shutil.rmtree, _CACHE, ignore_errors=True)  # each test process removes its own at exit
 
 if os.environ.get("PYTEST_XDIST_WORKER"):
     # two test processes share the cores: one BLAS/OpenMP thread each, as campaign
