@@ -349,6 +349,29 @@ def test_bad_observation_tables_raise_one_line_naming_file_and_column(tmp_path, 
     assert "\n" not in msg and all(w in msg for w in words), msg
 
 
+@pytest.mark.parametrize("columns, factor, words", [
+    (("wind_speed_kt", "ref_wind_speed_kt"), 1852 / 3600, ["column 'wind_speed_kt'", "in m/s? expected knots"]),
+    (("wind_speed_kt", "ref_wind_speed_kt"), 1.852, ["column 'wind_speed_kt'", "in km/h? expected knots"]),
+    (("ref_wind_speed_kt",), 1852 / 3600, ["column 'ref_wind_speed_kt'", "in m/s? expected knots"]),
+    (("wind_speed_kt",), 1.852, ["column 'wind_speed_kt'", "in km/h? expected knots"]),
+])
+def test_wind_speeds_in_another_unit_are_named_not_fitted(tmp_path, columns, factor, words):
+    """Winds written in m/s or km/h under the _kt names: a reported wind so written makes the
+    wind triangle's airspeed follow the along-track wind (slope (1 - f) / f: +0.94 in m/s,
+    -0.46 in km/h); a reference wind so written is f x the reported one. Either way the
+    deviation fit would silently scale by ~f: refused, naming the column and the unit."""
+    obs = gen.generate([gen.AircraftTruth("N511XJ", A=1.0, B=3.0, C=-2.0)], np.random.default_rng(17), flights=12)
+    obs.to_csv(tmp_path / "kt.csv", index=False)
+    heading_fit_main(str(tmp_path / "kt.csv"), str(tmp_path / "out_kt"), n_boot=0)  # in knots: fitted
+    for c in columns:
+        obs[c] = obs[c] * factor
+    obs.to_csv(tmp_path / "obs.csv", index=False)
+    with pytest.raises(ValueError) as e:
+        heading_fit_main(str(tmp_path / "obs.csv"), str(tmp_path / "out"), n_boot=0)
+    msg = str(e.value)
+    assert "\n" not in msg and all(w in msg for w in ["obs.csv", *words]), msg
+
+
 def test_missing_file_and_wrong_extension_are_named(tmp_path):
     with pytest.raises(ValueError, match=r"nothere\.csv: no such file"):
         heading_fit_main(str(tmp_path / "nothere.csv"), str(tmp_path / "out"))

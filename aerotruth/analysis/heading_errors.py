@@ -286,6 +286,87 @@ def _check_tas_units(tas_col_ms: np.ndarray, tas_triangle_ms: np.ndarray, ok: np
                     f"{'in ' + unit + '? ' if unit else ''}expected knots")
 
 
+# Wind speed columns in other units than knots. The aircraft's airspeed |V_A| = |V_G - V_W|
+# (eq. 3) does not follow the wind; a reported wind written in a unit u reads f = (kt per u)^-1
+# times the wind, and then |V_G - f V_W| = |V_A + (1 - f) V_W| grows with the along-track wind
+# w = f V_W . u_A at the slope b = (1 - f) / f: 0 in knots, +0.94 in m/s, -0.46 in km/h
+# (mph, -0.13, is not told from what remains in knots: -0.07 to +0.05 on simulated and
+# generated tables, `_check_wind_units`). The reference wind is then compared with the
+# reported one (`_check_reference_units`: the models' winds are within a few % of the reports').
+WIND_SLOPE_RANGE = (-0.3, 0.6)
+REFERENCE_RATIO_RANGE = (0.65, 1.55)
+_WIND_UNITS = (("m/s", 1.0 / 1.943844), ("km/h", 1.852))  # f: the column's number per knot
+_UNIT_CHECK_MAX_REPORTS = 20_000  # a stride through the gated reports beyond this
+
+
+def _unit_named(f: float) -> str:
+    unit = next((u for u, fu in _WIND_UNITS if abs(f / fu - 1) < 0.15), None)
+    return f"in {unit}? " if unit else ""
+
+
+def _check_wind_units(va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray, wt_n: np.ndarray, ac: np.ndarray,
+                      alt_ft: np.ndarray, ok: np.ndarray, source: str) -> None:
+    """DataError when the reported wind (`wind_speed_kt`) is not in knots: the slope of the
+    triangle's airspeed on the along-track wind (comment above), the means of each aircraft
+    and 2,000-ft band removed (TAS and wind both change with height: with the aircraft's
+    means alone the slope in knots was -0.13 to +0.17 on simulated and generated tables,
+    with the bands' -0.07 to +0.05)."""
+    idx = np.flatnonzero(ok)
+    idx = idx[:: max(1, len(idx) // _UNIT_CHECK_MAX_REPORTS)]
+    if len(idx) < 50:
+        return
+    ve, vn = va_e[idx], va_n[idx]
+    va = hypot(ve, vn)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        w = (wt_e[idx] * ve + wt_n[idx] * vn) / va
+    keep = np.isfinite(w) & np.isfinite(va)
+    va, w, idx = va[keep], w[keep], idx[keep]
+    band = (alt_ft[idx] * (1 / 2000.0)).astype(np.int64)
+    band -= band.min()
+    g = ac[idx].astype(np.int64) * (int(band.max()) + 1) + band
+    n = np.maximum(np.bincount(g), 1)
+    y = va - (np.bincount(g, va) / n)[g]
+    x = w - (np.bincount(g, w) / n)[g]
+    sxx = float(x @ x)
+    if len(x) < 50 or sxx < len(x) * (5.0 * KT) ** 2:  # the along-track wind must vary (sd >= 5 kt)
+        return
+    b = float(x @ y) / sxx
+    lo, hi = WIND_SLOPE_RANGE
+    if lo <= b <= hi:
+        return
+    f = 1.0 / (1.0 + b)
+    raise DataError(f"{source}: column 'wind_speed_kt': the airspeed of the wind triangle (ground track minus reported "
+                    f"wind, wind paper eq. 3) changes by {b:+.2f} kt per kt of along-track wind over {len(x)} reports, as "
+                    f"if the reported wind were {f:.3f}x the wind: {_unit_named(f)}expected knots")
+
+
+def _check_reference_units(wt_e: np.ndarray, wt_n: np.ndarray, wr_e: np.ndarray, wr_n: np.ndarray, first: np.ndarray,
+                           ok: np.ndarray, source: str) -> None:
+    """DataError when `ref_wind_speed_kt` is not in the reported wind's knots: the scale r of
+    the reference wind against the reported one, from regressing the reported wind vector on
+    the reference's (r = sum |W_ref|^2 / sum W_TAM . W_REF; a heading error's transverse
+    wind error averages out of the dot product, where it would inflate a ratio of speeds),
+    over the gated reports (`ok`, per report; reported wind per report, reference per row,
+    `first` each report's first row)."""
+    rep = np.flatnonzero(ok)
+    if len(rep) < 50:
+        return
+    rep = rep[:: max(1, len(rep) // _UNIT_CHECK_MAX_REPORTS)]
+    rows = first[rep]
+    we, wn, re, rn = wt_e[rep], wt_n[rep], wr_e[rows], wr_n[rows]
+    dot = float(we @ re + wn @ rn)
+    ref2 = float(re @ re + rn @ rn)
+    if not (ref2 > len(rep) * (5.0 * KT) ** 2 and dot > 0):  # calm (rms < 5 kt) or no agreement at all: no scale
+        return
+    r = ref2 / dot
+    lo, hi = REFERENCE_RATIO_RANGE
+    if lo <= r <= hi:
+        return
+    raise DataError(f"{source}: column 'ref_wind_speed_kt': the reference wind is {r:.3f}x the reported wind (the scale "
+                    f"fitted between the two over {len(rep)} gated reports): {_unit_named(r)}expected knots, as "
+                    "'wind_speed_kt'")
+
+
 def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str = "observation table") -> pd.DataFrame:
     """One row per (report, reference model): ground track (three adjacent reports, gated),
     V_A (eq. 3), V_A' (eq. 4), heading error d = psi - psi' (deg), measured heading (true and,
@@ -317,10 +398,12 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     if "heading_deg" in df.columns:
         h = df["heading_deg"].to_numpy().take(first)
         heading = np.where(np.isfinite(h), wrap(h, 360.0), psi)
+    src = df.attrs.get("source") or source
+    _check_wind_units(va_e_r, va_n_r, wt_e, wt_n, rac, df["pressure_altitude_ft"].to_numpy().take(first), gate == 0, src)
     tas = hypot(va_e_r, va_n_r)
     if "tas_kt" in df.columns:
         tk = df["tas_kt"].to_numpy().take(first) * KT
-        _check_tas_units(tk, tas, gate == 0, df.attrs.get("source") or source)
+        _check_tas_units(tk, tas, gate == 0, src)
         tas = np.where(np.isfinite(tk), tk, tas)
     heading_mag = np.full(m, np.nan)
     if "declination_deg" in df.columns:
@@ -331,6 +414,7 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     # per (report, model) row: V_A' = V_G - V_W,REF = V_A + dw with dw = V_W,TAM - V_W,REF
     # (eqs. 3, 4), so d = angle(V_A) - angle(V_A') from V_A and dw alone (_row_errors)
     wr_e, wr_n = towards_from_report(df["ref_wind_speed_kt"].to_numpy(), df["ref_wind_dir_deg"].to_numpy())
+    _check_reference_units(wt_e, wt_n, wr_e, wr_n, first, gate == 0, src)
     va_e, va_n, dw_e, dw_n, d = _row_errors(rep_of_row, va_e_r, va_n_r, wt_e, wt_n, wr_e, wr_n)
     implausible = GATE_NAMES.index("implausible")
     with np.errstate(invalid="ignore"):  # TAS per report, |d| per row
