@@ -35,7 +35,7 @@ def test_quick_campaign_matches_its_baseline(tmp_path, capsys):
 def _unit_checks_on_simulated_reports(obs) -> None:
     """The wind-unit checks of the method (aerotruth.analysis.heading_errors) on JSBSim's
     reports: tables in knots cut to a few flights are never refused (with the checks' plain
-    ranges, without their clustered standard errors, 28-45 % of such cuts were), the whole
+    ranges, without their clustered standard errors, 28-46 % of such cuts were), the whole
     table with its reference winds in m/s is."""
     import numpy as np
     import pytest

@@ -295,7 +295,7 @@ def _check_tas_units(tas_col_ms: np.ndarray, tas_triangle_ms: np.ndarray, ok: np
 # reported one (`_check_reference_units`: the models' winds are within a few % of the
 # reports'). Either is refused only when outside its range by more than UNIT_SIGMAS
 # flight-clustered standard errors from knots, on MIN_UNIT_FLIGHTS flights or more: on
-# subsets of 2-7 simulated flights the plain ranges refused 28-45 % of tables in knots
+# subsets of 2-7 simulated flights the plain ranges refused 28-46 % of tables in knots
 # (heading errors of 10 deg and model errors of 8 kt make few flights' slopes noisy).
 WIND_SLOPE_RANGE = (-0.3, 0.6)
 REFERENCE_RATIO_RANGE = (0.65, 1.55)
