@@ -225,7 +225,8 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
              quant_deg: float = 0.01, include_heading: bool = False, t_start: float = 1_249_084_800.0,
              spoke_km: tuple[float, float] = (250.0, 650.0), cruise_ft: tuple[float, float] = (12000.0, 22000.0),
              exact: bool = False, hub: tuple[float, float] = HUB, stale_declination_years: float = 0.0,
-             ref_bias_kt: dict[str, float] | None = None, alt_error_deg_per_kft: float = 0.0,
+             ref_bias_kt: dict[str, float] | None = None, ref_scale: dict[str, float] | None = None,
+             alt_error_deg_per_kft: float = 0.0,
              shared_ref_sigma_kt: float = 0.0, shared_ref_tau_s: float = 3 * 3600.0) -> pd.DataFrame:
     """An observation table: one row per (report, reference model). Defaults: a SAAB-340-like
     turboprop network; regional jets: spoke_km (400, 1000), cruise_ft (25000, 35000) and
@@ -236,7 +237,7 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
     declination change over that many years (IGRF via ppigrf: D(t - years) - D(t), t the
     dataset's start; FieldGrid) to the measured true heading; `ref_bias_kt` {model: b} adds
     b kt along the true wind to that
-    model's analysis; `alt_error_deg_per_kft` adds a heading error growing with pressure
+    model's analysis, `ref_scale` {model: s} s times the true wind (a model too strong by s); `alt_error_deg_per_kft` adds a heading error growing with pressure
     altitude (an effect outside diagnose's library); AircraftTruth.tas_scale, a_step_deg and a_drift_deg_per_day.
 
     `shared_ref_sigma_kt`: each model's analysis also errs in wind speed by an amount common
@@ -244,7 +245,7 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
     along each report's true wind): the analysis is one field, so aircraft flying in the
     same hours share its error; its mean over the data is zero (no bias)."""
     spokes = _spokes(rng, spoke_km, hub=hub)
-    ref_bias_kt = ref_bias_kt or {}
+    ref_bias_kt, ref_scale = ref_bias_kt or {}, ref_scale or {}
     field = stale = None
     if any(a.h0_nT is not None for a in truths) or stale_declination_years:
         field = FieldGrid.over([hub, *spokes], t_start)
@@ -300,7 +301,7 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
                 if shared[m] is not None:
                     err = err + np.interp(fl["time"][k], grid, shared[m][:, 0])[:, None] * along_unit(fl["wind"][k])
                 wk = fl["wind"][k]
-                rs, rd = _from_dir(wk + err + ref_bias_kt.get(m, 0.0) * KT_MS * along_unit(wk))
+                rs, rd = _from_dir(wk * (1.0 + ref_scale.get(m, 0.0)) + err + ref_bias_kt.get(m, 0.0) * KT_MS * along_unit(wk))
                 piece = {**base, "ref_wind_speed_kt": np.round(rs, 2), "ref_wind_dir_deg": np.round(rd, 2), "ref_source": m}
                 for c, v in piece.items():
                     cols.setdefault(c, []).append(np.full(len(k), v, dtype=object) if np.isscalar(v) else v)

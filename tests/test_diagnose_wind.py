@@ -112,6 +112,22 @@ def test_reference_model_bias_along_the_wind():
     findings, _, _ = _diagnose(gen.generate(fleet, rng, flights=40, ref_bias_kt={"rr": 2.0}))
     f = _first(findings, "reference_bias", 2.0)
     assert abs(f.parameters["bias_kt"]["rtfdda"]["value"]) < 4 * f.parameters["bias_kt"]["rtfdda"]["se"] + 0.2
+    assert f.parameters["bias_kt"]["rr"]["form"] == "offset" and "in proportion" not in f.cause
+
+
+@pytest.mark.parametrize("scale", [0.10, -0.08])
+def test_reference_model_wind_scale_is_told_from_an_offset(scale):
+    """A model whose wind is s times too strong (a common analysis error: jets too weak or
+    too strong) is found as the reference's error, with the scale form preferred and s
+    recovered; the other model's stays near 0."""
+    fleet, rng = _fleet(7)
+    findings, _, _ = _diagnose(gen.generate(fleet, rng, flights=40, ref_scale={"rr": scale}))
+    f = findings[0]
+    assert f.effect == "reference_bias", [x.effect for x in findings]
+    rr, other = f.parameters["bias_kt"]["rr"], f.parameters["bias_kt"]["rtfdda"]
+    assert rr["form"] == "scale" and "in proportion" in f.cause, (rr, f.cause)
+    assert rr["scale"]["value"] == pytest.approx(scale, abs=3 * rr["scale"]["se"] + 0.01)
+    assert abs(other["scale"]["value"]) < 4 * other["scale"]["se"] + 0.01
 
 
 def test_recalibration_step_mid_period():

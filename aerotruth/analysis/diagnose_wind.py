@@ -31,6 +31,7 @@ rest; `field_scaling` by Gauss-Newton on gamma):
     tas_scale          per aircraft k: along residual = k TAS
     stale_declination  age a (years): transverse = a (-dD/dt)(lat, lon), D the IGRF declination
     reference_bias     per reference model b (kt along its wind): t = b w.n, a = b w.u
+                       (also as a scale s of its wind, error = s W, and which form fits better)
     recalibration      per aircraft a step of A at an unknown time (CUSUM of flight means)
     offset_drift       per aircraft A changing linearly in time (trend of its weather-block means)
     quantization       the reports' lat/lon grid is coarser (or finer) than the model's
@@ -106,7 +107,8 @@ CAUSES = {
 
 def cause(eff: str, params: dict) -> str:
     """The finding's cause in words, its direction from the fitted parameters where the
-    effect can go either way against the model (field scaling, the reports' grid)."""
+    effect can go either way against the model (field scaling, the reports' grid) or take
+    two forms (a reference's offset along its wind or scale of it)."""
     if eff == "field_scaling":
         g, g0 = params["gamma"]["value"], params["gamma"]["model"]
         if g < g0:
@@ -114,6 +116,12 @@ def cause(eff: str, params: dict) -> str:
                     f"against the model's {g0:g}; 1: hard iron, ~1/H; 0: the same at every field): part of it is not "
                     "magnetic, e.g. an error of the heading system's synchro or resolver transmission")
         return CAUSES[eff] + f" (gamma {g:.2f} against the model's {g0:g})"
+    if eff == "reference_bias":
+        name, x = max(params["bias_kt"].items(), key=lambda kv: abs(kv[1]["value"]))
+        if x["form"] == "scale":
+            return (f"a reference model's wind is too {'strong' if x['scale']['value'] > 0 else 'weak'} in proportion to "
+                    f"its speed ({name}: {100 * x['scale']['value']:+.1f} %, a scale fits its rows better than an offset "
+                    "along the wind): the reference, not the aircraft")
     if eff == "quantization" and params["lat_lon_step_deg"]["value"] < params["lat_lon_step_deg"]["model"]:
         return ("the reports' latitude and longitude are rounded to a finer grid than the model's: the model's ground "
                 "tracks are noisier than the data's")
@@ -157,8 +165,11 @@ def _parameters(eff: str, d: WindData, fit: Fit, dgamma: float, st: State) -> di
                            "meaning": "the receivers' declination model is this many years older than the data"},
                 "identifiable_share": declination_identifiable(d)}
     if eff == "reference_bias":
-        return {"bias_kt": {b.label: {"value": float(be[0]), "se": float(_se(v)[0])} for b, be, v in parts},
-                "meaning": "reference wind = truth + b along the wind"}
+        per = {}
+        for b, be, v in parts:
+            per[b.label] = {"value": float(be[0]), "se": float(_se(v)[0]), **_bias_or_scale(d, fit, b.cols[:, 0], float(be[0]))}
+        return {"bias_kt": per, "meaning": "reference wind = truth + b along the wind; or truth x (1 + s), `form` the "
+                                           "one of the two that fits the model's rows better"}
     if eff == "offset_drift":
         per = {}
         for b, be, v in parts:
@@ -173,6 +184,31 @@ def _parameters(eff: str, d: WindData, fit: Fit, dgamma: float, st: State) -> di
                                                 "step_deg": float(be[0] * r2d), "se_deg": float(_se(v)[0] * r2d)}
                           for b, be, v in parts}}
     raise KeyError(eff)
+
+
+def _bias_or_scale(d: WindData, fit: Fit, col: np.ndarray, bias_kt: float) -> dict:
+    """A reference model's error along its wind as an offset b (kt, the library's form) or as
+    a scale s of its wind (error = s W): each fitted alone to that model's rows of the
+    residual with the fitted bias term put back, the one with the smaller residual sum of
+    squares is `form` (both have one parameter); s with its weather-block clustered se.
+    `col`: the model's reference_bias column (kt), `bias_kt` its fitted coefficient."""
+    rows = col != 0
+    r0 = (fit.resid + col * bias_kt)[rows]  # m/s
+    unit = col[rows] / KT  # the unit wind vector on the transverse and along axes
+    speed = np.r_[d.wref_speed, d.wref_speed][rows]
+    out = {}
+    for form, x in (("offset", unit), ("scale", unit * speed)):
+        sxx = float(x @ x)
+        c = float(x @ r0) / sxx
+        e = r0 - c * x
+        out[form] = (float(e @ e), c, x, e, sxx)
+    rss_o, rss_s = out["offset"][0], out["scale"][0]
+    _, c, x, e, sxx = out["scale"]
+    sums = np.bincount(fit.clusters[rows], x * e)
+    g = int(np.count_nonzero(np.bincount(fit.clusters[rows])))
+    se = math.sqrt(float(sums @ sums) * g / max(g - 1, 1)) / sxx
+    return {"scale": {"value": c, "se": se, "meaning": "reference wind = truth x (1 + s)"},
+            "form": "scale" if rss_s < rss_o else "offset", "rss_scale_over_offset": rss_s / rss_o}
 
 
 def _size(eff: str, params: dict) -> float:
@@ -564,7 +600,9 @@ def _data_lines(table: dict) -> list[str]:
 _ITEMS = {
     "soft_iron": ("aircraft", lambda x: f"D {x['D_deg']:+.2f} ± {x['D_se_deg']:.2f}, E {x['E_deg']:+.2f} ± {x['E_se_deg']:.2f} deg"),
     "tas_scale": ("aircraft", lambda x: f"k {x['k']:+.4f} ± {x['se']:.4f}"),
-    "reference_bias": ("bias_kt", lambda x: f"{x['value']:+.2f} ± {x['se']:.2f} kt along the wind"),
+    "reference_bias": ("bias_kt", lambda x: f"{x['value']:+.2f} ± {x['se']:.2f} kt along the wind, or a scale of its wind "
+                                            f"{100 * x['scale']['value']:+.1f} ± {100 * x['scale']['se']:.1f} %; "
+                                            f"the {x['form']} fits better"),
     "recalibration": ("steps", lambda x: f"{x['step_deg']:+.2f} ± {x['se_deg']:.2f} deg at {x['time_utc']}"),
     "offset_drift": ("aircraft", lambda x: f"{x['rate_deg_per_day']:+.3f} ± {x['se_deg_per_day']:.3f} deg/day "
                                            f"({x['change_deg']:+.2f} deg over {x['days']:.1f} days)"),

@@ -39,6 +39,7 @@ class WindData:
     along: np.ndarray  # m/s
     wref_e: np.ndarray  # unit vector along the wind for a reference bias: the other references' mean (0 where calm)
     wref_n: np.ndarray
+    wref_speed: np.ndarray  # m/s: that wind's speed (a reference's scale error is proportional to it)
     lat: np.ndarray
     lon: np.ndarray
     alt_ft: np.ndarray
@@ -202,6 +203,7 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     first = _report_rows(df)
     return WindData(aircraft=ac, names=names, source=src_cat.cat.codes.to_numpy(), sources=[str(c) for c in src_cat.cat.categories],
                     flight=flight, time_s=t, z=z, tas=r["tas_ms"].to_numpy(), trans=trans, along=along, wref_e=ue, wref_n=un,
+                    wref_speed=np.nan_to_num(sp),
                     lat=lat, lon=lon, alt_ft=alt, h_ratio=h_ratio, sv_deg_yr=sv, roll=roll, phase=phase, turn_deg_s=turn, climb_fpm=climb,
                     cluster=cluster, fold=fold, report_lat=df["lat"].to_numpy()[first], report_lon=df["lon"].to_numpy()[first],
                     jitter=_jitter(df, first), table=table)
