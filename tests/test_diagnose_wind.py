@@ -121,13 +121,18 @@ def test_reference_model_wind_scale_is_told_from_an_offset(scale):
     too strong) is found as the reference's error, with the scale form preferred and s
     recovered; the other model's stays near 0."""
     fleet, rng = _fleet(7)
-    findings, _, _ = _diagnose(gen.generate(fleet, rng, flights=40, ref_scale={"rr": scale}))
+    d = prepare(gen.generate(fleet, rng, flights=40, ref_scale={"rr": scale}))
+    findings, _, st, _ = diagnose_wind(d, WindModelSpec())
     f = findings[0]
     assert f.effect == "reference_bias", [x.effect for x in findings]
     rr, other = f.parameters["bias_kt"]["rr"], f.parameters["bias_kt"]["rtfdda"]
     assert rr["form"] == "scale" and "in proportion" in f.cause, (rr, f.cause)
     assert rr["scale"]["value"] == pytest.approx(scale, abs=3 * rr["scale"]["se"] + 0.01)
     assert abs(other["scale"]["value"]) < 4 * other["scale"]["se"] + 0.01
+    # the extended model carries the scale; with it the reference's error is not found again
+    ext = extended_spec(WindModelSpec(), findings, d, st)
+    assert ext.reference_scale["rr"] == rr["scale"]["value"] and "rr" not in ext.reference_bias_kt
+    assert "reference_bias" not in [x.effect for x in diagnose_wind(d, ext)[0]]
 
 
 def test_recalibration_step_mid_period():

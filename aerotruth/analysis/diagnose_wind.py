@@ -518,9 +518,12 @@ def extended_spec(spec: WindModelSpec, findings: list, d: WindData, st: State) -
             up["tas_scale"] = {**spec.tas_scale, **{a: spec.tas_scale.get(a, 0.0) + v["k"] for a, v in p["aircraft"].items()}}
         elif f.effect == "stale_declination":
             up["declination_age_yr"] = float(p["age_yr"]["value"])
-        elif f.effect == "reference_bias":
+        elif f.effect == "reference_bias":  # each model in the form that fits it better
+            forms = {s: v.get("form", "offset") for s, v in p["bias_kt"].items()}
             up["reference_bias_kt"] = {**spec.reference_bias_kt, **{s: spec.reference_bias_kt.get(s, 0.0) + v["value"]
-                                                                   for s, v in p["bias_kt"].items()}}
+                                                                   for s, v in p["bias_kt"].items() if forms[s] == "offset"}}
+            up["reference_scale"] = {**spec.reference_scale, **{s: spec.reference_scale.get(s, 0.0) + v["scale"]["value"]
+                                                               for s, v in p["bias_kt"].items() if forms[s] == "scale"}}
         elif f.effect == "recalibration":
             rec = {a: list(ts) for a, ts in spec.recalibrations.items()}
             for a, s in p["steps"].items():

@@ -42,6 +42,8 @@ class WindModelSpec(Section):
                                  "TAS (1 - cos gamma), gamma from the reports' altitude rate")
     declination_age_yr: float = Field(default=0.0, ge=-50, le=50, description="age of the receivers' declination model")
     reference_bias_kt: dict[str, float] = Field(default_factory=dict, description="per reference model, bias along its wind (kt)")
+    reference_scale: dict[str, float] = Field(default_factory=dict, description="per reference model, scale error of "
+                                              "its wind: reference = truth x (1 + s)")
     recalibrations: dict[str, list[float]] = Field(default_factory=dict, description="per aircraft, UTC epoch seconds after "
                                                    "which its offset A is new")
     offset_drifts: list[str] = Field(default_factory=list, description="aircraft whose offset A changes linearly with "
@@ -192,6 +194,12 @@ def reference_bias_column(d: WindData, m: int) -> np.ndarray:
     return _stack(tr, al, d.n) * KT
 
 
+def reference_scale_column(d: WindData, m: int) -> np.ndarray:
+    """Reference m's rows: its wind (speed x the unit vector) on n and u, m/s (coefficient:
+    the scale s of its wind error, s W)."""
+    return reference_bias_column(d, m) / KT * np.r_[d.wref_speed, d.wref_speed]
+
+
 def signature_column(d: WindData, sig: dict) -> np.ndarray:
     """A screening term: deg per unit of the covariate (transverse), kt per unit (along)."""
     x = _covariate(d, sig["covariate"]) - float(sig.get("center", 0.0))
@@ -200,7 +208,7 @@ def signature_column(d: WindData, sig: dict) -> np.ndarray:
 
 def known_offsets(d: WindData, spec: WindModelSpec) -> np.ndarray:
     """What the spec states as known (subtracted from the data): TAS scales, the declination
-    table's age, reference biases along the wind, stated signature terms."""
+    table's age, reference biases along the wind and scales of it, stated signature terms."""
     out = np.zeros(2 * d.n)
     for i, name in enumerate(d.names):
         out += spec.tas_scale.get(name, 0.0) * tas_column(d, i)
@@ -209,6 +217,7 @@ def known_offsets(d: WindData, spec: WindModelSpec) -> np.ndarray:
         out += flight_path_column(d)
     for m, src in enumerate(d.sources):
         out += spec.reference_bias_kt.get(src, 0.0) * reference_bias_column(d, m)
+        out += spec.reference_scale.get(src, 0.0) * reference_scale_column(d, m)
     for sig in spec.signatures:
         out += float(sig["slope"]) * signature_column(d, sig)
     return out
