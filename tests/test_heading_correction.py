@@ -372,6 +372,33 @@ def test_wind_speeds_in_another_unit_are_named_not_fitted(tmp_path, columns, fac
     assert "\n" not in msg and all(w in msg for w in ["obs.csv", *words]), msg
 
 
+def test_a_magnetic_heading_in_the_true_heading_column_is_said(tmp_path, capsys):
+    """Around Anchorage (declination ~ +18 deg): `heading_deg` written as the reports' own
+    air-vector heading (true) gives no warning; the same minus the IGRF declination
+    (ppigrf here, at each report) is named as magnetic, in the report and on stderr."""
+    import datetime as dt
+
+    import ppigrf
+
+    obs = gen.generate([gen.AircraftTruth("N513XJ", A=1.0, B=2.0, C=-1.0)], np.random.default_rng(18), flights=12,
+                       hub=(61.17, -150.0))
+    v = validate_observations(obs)
+    rows = heading_errors(v)  # one row per validated row, same order
+    true_h = np.degrees(np.arctan2(rows["va_e"].to_numpy(), rows["va_n"].to_numpy())) % 360
+    when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(v["time_s"].median()))
+    be, bn, _ = ppigrf.igrf(v["lon"].to_numpy(), v["lat"].to_numpy(), v["pressure_altitude_ft"].to_numpy() * 0.3048e-3, when)
+    decl = np.degrees(np.arctan2(np.ravel(be), np.ravel(bn)))
+    assert decl.min() > 10
+    table = v.drop(columns=["time_s"]).assign(time=v["time_s"])
+    for name, h in (("true", true_h), ("mag", (true_h - decl) % 360)):
+        table.assign(heading_deg=h).to_csv(tmp_path / f"{name}.csv", index=False)
+        heading_fit_main(str(tmp_path / f"{name}.csv"), str(tmp_path / name), n_boot=0)
+    err = capsys.readouterr().err
+    assert "true.csv" not in err and "Warnings" not in (tmp_path / "true" / "report.md").read_text()
+    assert "mag.csv: aircraft N513XJ: `heading_deg`" in err and "is it magnetic?" in err, err
+    assert "is it magnetic?" in (tmp_path / "mag" / "report.md").read_text()
+
+
 def test_missing_file_and_wrong_extension_are_named(tmp_path):
     with pytest.raises(ValueError, match=r"nothere\.csv: no such file"):
         heading_fit_main(str(tmp_path / "nothere.csv"), str(tmp_path / "out"))

@@ -20,6 +20,7 @@ Writes
 from __future__ import annotations
 
 import re
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -125,8 +126,47 @@ def _figure(fit, rows: pd.DataFrame, col: str, path: Path, ci: pd.DataFrame | No
     plt.close(fig)
 
 
+# `heading_deg` is true heading. It only indexes the table (d comes from the winds, eqs.
+# 3-4), so a magnetic one there (Mode-S BDS 6,0 heading is) turns the fitted sinusoid by the
+# declination D and leaves A alone; but it differs from the heading of the report's own air
+# vector (V_G - V_W,TAM, eq. 3: the aircraft's measured true heading, whatever its
+# deviation) by -D. Said when that median difference is within MAGNETIC_SUSPECT_TOL_DEG of
+# -D where |D| >= MAGNETIC_SUSPECT_MIN_DEG.
+MAGNETIC_SUSPECT_TOL_DEG = 2.0
+MAGNETIC_SUSPECT_MIN_DEG = 4.0
+
+
+def magnetic_heading_warnings(obs: pd.DataFrame, rows: pd.DataFrame) -> list[str]:
+    """One line per aircraft whose `heading_deg` sits about minus the IGRF declination (at the
+    median place and time of its reports) from its reports' air-vector heading: it looks
+    magnetic. `rows`: heading_errors of `obs`."""
+    import datetime as dt
+
+    from aerotruth.analysis.modes_wind import declination_deg
+
+    if "heading_deg" not in obs.columns:
+        return []
+    used = rows["gate"].to_numpy() == "used"
+    r = rows.loc[used]
+    psi = np.degrees(np.arctan2(r["va_e"].to_numpy(), r["va_n"].to_numpy()))
+    diff = pd.Series((r["heading_deg"].to_numpy() - psi + 180.0) % 360.0 - 180.0).groupby(r["aircraft"].to_numpy()).median()
+    out = []
+    ac = obs["aircraft"].to_numpy()
+    for name, off in diff.items():
+        mine = obs.loc[ac == name]
+        when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(mine["time_s"].median()))
+        d = float(declination_deg(mine["lat"].median(), mine["lon"].median(),
+                                  mine["pressure_altitude_ft"].median() * 0.3048, when)[0])
+        if abs(d) >= MAGNETIC_SUSPECT_MIN_DEG and abs(off + d) <= MAGNETIC_SUSPECT_TOL_DEG:
+            out.append(f"aircraft {name}: `heading_deg` is {off:+.1f} deg from the heading of its reports' air vector "
+                       f"(eq. 3), about minus the declination there ({d:+.1f} deg, IGRF): is it magnetic? It should be "
+                       "true heading (a magnetic heading goes in `heading_mag_deg`); as given, the table is indexed by "
+                       "magnetic heading")
+    return out
+
+
 def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: FleetHeadingFit | None, src: str,
-            ci: pd.DataFrame | None = None) -> str:
+            ci: pd.DataFrame | None = None, warnings: list[str] = ()) -> str:
     gates = rows.drop_duplicates("report")["gate"].value_counts().reindex(GATE_NAMES, fill_value=0)
     table = fleet.to_table()
     out = [f"# Heading deviation fit: {src}", "",
@@ -140,6 +180,8 @@ def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: 
            to_markdown(table[["aircraft", "status", "n_used", "A_deg", "B_deg", "C_deg", "D_deg", "E_deg",
                               "A_se_deg", "B_se_deg", "C_se_deg"]]), "",
            "Reasons:", "", *[f"* {r.aircraft}: {r.reason}" for r in table.itertuples()], ""]
+    if warnings:
+        out += ["## Warnings", "", *[f"* {w}" for w in warnings], ""]
     if mag is not None:
         mt = mag.to_table()
         out += ["## Fit on magnetic heading (deviation_mag.csv; the onboard table's index)", "",
@@ -233,8 +275,11 @@ def heading_fit_main(obs_path: str, out_dir: str, n_boot: int = 200, seed: int =
     for name, fit in fleet.fits_.items():
         mine = ci[ci["aircraft"] == name] if ci is not None else None
         _figure(fit, rows.loc[ac == name], "heading_deg", out / "figures" / f"{_safe_name(name)}.png", mine)
-    atomic_write_text(out / "report.md", _report(obs, rows, fleet, mag, str(obs_path), ci))
+    warnings = magnetic_heading_warnings(obs, rows)
+    atomic_write_text(out / "report.md", _report(obs, rows, fleet, mag, str(obs_path), ci, warnings))
     status = pd.Series([f.status_ for f in fleet.fits_.values()]).value_counts()
     print(f"{obs_path}: {len(fleet.fits_)} aircraft: " + ", ".join(f"{int(status.get(k, 0))} {k}" for k in STATUSES)
           + f" -> {out / 'deviation.csv'}")
+    for w in warnings:
+        print(f"aerotruth heading: warning: {obs_path}: {w}", file=sys.stderr)
     return 0
