@@ -34,7 +34,7 @@ from pathlib import Path
 import pandas as pd
 
 from aerotruth.errors import DataError
-from aerotruth.tables import read_csv_table
+from aerotruth.tables import GZIP_MAGIC, read_csv_table
 
 OBSERVATION_COLUMNS = ("aircraft", "time", "lat", "lon", "pressure_altitude_ft", "wind_speed_kt", "wind_dir_deg",
                        "ref_wind_speed_kt", "ref_wind_dir_deg")
@@ -72,7 +72,7 @@ def _raw_bytes(path: Path) -> bytes:
         raise DataError(f"{path}: is a folder, expected a data file") from None
     except OSError as e:
         raise DataError(f"{path}: cannot read ({e.strerror})") from None
-    if data[:2] == b"\x1f\x8b":
+    if data[:2] == GZIP_MAGIC:
         try:
             data = gzip.decompress(data)
         except (OSError, EOFError) as e:

@@ -88,14 +88,14 @@ def _readable(source: str | Path | bytes):
     return source if isinstance(source, (str, Path)) else io.BytesIO(source)
 
 
-_GZIP_MAGIC = b"\x1f\x8b"
+GZIP_MAGIC = b"\x1f\x8b"  # a gzip stream's first two bytes
 
 
 def _is_gzip(source: str | Path | bytes) -> bool:
     if isinstance(source, (str, Path)):
         with open(source, "rb") as f:
-            return f.read(2) == _GZIP_MAGIC
-    return source[:2] == _GZIP_MAGIC
+            return f.read(2) == GZIP_MAGIC
+    return source[:2] == GZIP_MAGIC
 
 
 def _first_line(source: str | Path | bytes, compression: str | None = None) -> bytes:

@@ -73,7 +73,8 @@ from aerotruth.analysis.diagnose_wind_data import WindData, prepare  # noqa: F40
 from aerotruth.analysis.diagnose_wind_model import (  # noqa: F401  (WindModelSpec, wind_model_from_campaign re-exported)
     CANDIDATES, CHANNEL, MIN_COVERAGE, Block, Fit, State, WindModelSpec, _build, _channel_rows, _covariate, _fit_with,
     _kolmogorov_cusum, group_means, _rms_kt, _se, _stack, block_p, current_blocks, fold_fits, signature_column, declination_identifiable, held_out,
-    known_offsets, quantization_candidate, solve, wind_model_from_campaign)
+    known_offsets, quantization_candidate, reference_bias_column, reference_scale_column, solve,
+    wind_model_from_campaign)
 from aerotruth.analysis.heading_correction import heading_spread
 from aerotruth.units import DEG, KT
 
@@ -167,7 +168,8 @@ def _parameters(eff: str, d: WindData, fit: Fit, dgamma: float, st: State) -> di
     if eff == "reference_bias":
         per = {}
         for b, be, v in parts:
-            per[b.label] = {"value": float(be[0]), "se": float(_se(v)[0]), **_bias_or_scale(d, fit, b.cols[:, 0], float(be[0]))}
+            per[b.label] = {"value": float(be[0]), "se": float(_se(v)[0]),
+                            **_bias_or_scale(d, fit, d.sources.index(b.label), float(be[0]))}
         return {"bias_kt": per, "meaning": "reference wind = truth + b along the wind; or truth x (1 + s), `form` the "
                                            "one of the two that fits the model's rows better"}
     if eff == "offset_drift":
@@ -186,29 +188,29 @@ def _parameters(eff: str, d: WindData, fit: Fit, dgamma: float, st: State) -> di
     raise KeyError(eff)
 
 
-def _bias_or_scale(d: WindData, fit: Fit, col: np.ndarray, bias_kt: float) -> dict:
-    """A reference model's error along its wind as an offset b (kt, the library's form) or as
-    a scale s of its wind (error = s W): each fitted alone to that model's rows of the
-    residual with the fitted bias term put back, the one with the smaller residual sum of
-    squares is `form` (both have one parameter); s with its weather-block clustered se.
-    `col`: the model's reference_bias column (kt), `bias_kt` its fitted coefficient."""
+def _bias_or_scale(d: WindData, fit: Fit, m: int, bias_kt: float) -> dict:
+    """Reference m's error along its wind as an offset b (kt, the library's form) or as a
+    scale s of its wind (error = s W): each fitted alone to that model's rows of the
+    residual with the fitted bias term (`bias_kt`) put back, the one with the smaller
+    residual sum of squares is `form` (both have one parameter); s with its weather-block
+    clustered se."""
+    col = reference_bias_column(d, m)
     rows = col != 0
     r0 = (fit.resid + col * bias_kt)[rows]  # m/s
-    unit = col[rows] / KT  # the unit wind vector on the transverse and along axes
-    speed = np.r_[d.wref_speed, d.wref_speed][rows]
-    out = {}
-    for form, x in (("offset", unit), ("scale", unit * speed)):
+
+    def fitted(x: np.ndarray) -> tuple[float, np.ndarray, float]:
         sxx = float(x @ x)
         c = float(x @ r0) / sxx
-        e = r0 - c * x
-        out[form] = (float(e @ e), c, x, e, sxx)
-    rss_o, rss_s = out["offset"][0], out["scale"][0]
-    _, c, x, e, sxx = out["scale"]
+        return c, r0 - c * x, sxx
+
+    _, e_off, _ = fitted(col[rows])
+    s, e, sxx = fitted(x := reference_scale_column(d, m)[rows])
     sums = np.bincount(fit.clusters[rows], x * e)
     g = int(np.count_nonzero(np.bincount(fit.clusters[rows])))
     se = math.sqrt(float(sums @ sums) * g / max(g - 1, 1)) / sxx
-    return {"scale": {"value": c, "se": se, "meaning": "reference wind = truth x (1 + s)"},
-            "form": "scale" if rss_s < rss_o else "offset", "rss_scale_over_offset": rss_s / rss_o}
+    ratio = float(e @ e) / float(e_off @ e_off)
+    return {"scale": {"value": s, "se": se, "meaning": "reference wind = truth x (1 + s)"},
+            "form": "scale" if ratio < 1 else "offset", "rss_scale_over_offset": ratio}
 
 
 def _size(eff: str, params: dict) -> float:

@@ -321,19 +321,19 @@ def _clustered_se(score: np.ndarray, flight: np.ndarray, scale: float) -> tuple[
 
 
 def _sampled(ok: np.ndarray) -> np.ndarray:
-    """The gated reports, a stride through them beyond _UNIT_CHECK_MAX_REPORTS."""
+    """The gated reports, a stride through them beyond _UNIT_CHECK_MAX_REPORTS (the unit
+    checks' reports)."""
     idx = np.flatnonzero(ok)
     return idx[:: max(1, len(idx) // _UNIT_CHECK_MAX_REPORTS)]
 
 
 def _check_wind_units(va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray, wt_n: np.ndarray, ac: np.ndarray,
-                      alt_ft: np.ndarray, flight: np.ndarray, ok: np.ndarray, source: str) -> None:
+                      alt_ft: np.ndarray, flight: np.ndarray, idx: np.ndarray, source: str) -> None:
     """DataError when the reported wind (`wind_speed_kt`) is not in knots: the slope of the
     triangle's airspeed on the along-track wind (comment above), the means of each aircraft
     and 2,000-ft band removed (TAS and wind both change with height: with the aircraft's
     means alone the slope in knots was -0.13 to +0.17 on simulated and generated tables,
-    with the bands' -0.07 to +0.05)."""
-    idx = _sampled(ok)
+    with the bands' -0.07 to +0.05). `idx`: the reports checked (_sampled)."""
     if len(idx) < 50:
         return
     ve, vn = va_e[idx], va_n[idx]
@@ -363,14 +363,13 @@ def _check_wind_units(va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray, wt_n
 
 
 def _check_reference_units(wt_e: np.ndarray, wt_n: np.ndarray, wr_e: np.ndarray, wr_n: np.ndarray, first: np.ndarray,
-                           flight: np.ndarray, ok: np.ndarray, source: str) -> None:
+                           flight: np.ndarray, rep: np.ndarray, source: str) -> None:
     """DataError when `ref_wind_speed_kt` is not in the reported wind's knots: the scale r of
     the reference wind against the reported one, from regressing the reported wind vector on
     the reference's (r = sum |W_ref|^2 / sum W_TAM . W_REF; a heading error's transverse
     wind error averages out of the dot product, where it would inflate a ratio of speeds),
-    over the gated reports (`ok`, per report; reported wind per report, reference per row,
-    `first` each report's first row)."""
-    rep = _sampled(ok)
+    over the reports `rep` (_sampled; reported wind per report, reference per row, `first`
+    each report's first row)."""
     if len(rep) < 50:
         return
     rows = first[rep]
@@ -422,12 +421,14 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
         h = df["heading_deg"].to_numpy().take(first)
         heading = np.where(np.isfinite(h), wrap(h, 360.0), psi)
     src = df.attrs.get("source") or source
+    ok = gate == 0
+    checked = _sampled(ok)  # the unit checks' reports
     _check_wind_units(va_e_r, va_n_r, wt_e, wt_n, rac, df["pressure_altitude_ft"].to_numpy().take(first), flight,
-                      gate == 0, src)
+                      checked, src)
     tas = hypot(va_e_r, va_n_r)
     if "tas_kt" in df.columns:
         tk = df["tas_kt"].to_numpy().take(first) * KT
-        _check_tas_units(tk, tas, gate == 0, src)
+        _check_tas_units(tk, tas, ok, src)
         tas = np.where(np.isfinite(tk), tk, tas)
     heading_mag = np.full(m, np.nan)
     if "declination_deg" in df.columns:
@@ -438,11 +439,11 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     # per (report, model) row: V_A' = V_G - V_W,REF = V_A + dw with dw = V_W,TAM - V_W,REF
     # (eqs. 3, 4), so d = angle(V_A) - angle(V_A') from V_A and dw alone (_row_errors)
     wr_e, wr_n = towards_from_report(df["ref_wind_speed_kt"].to_numpy(), df["ref_wind_dir_deg"].to_numpy())
-    _check_reference_units(wt_e, wt_n, wr_e, wr_n, first, flight, gate == 0, src)
+    _check_reference_units(wt_e, wt_n, wr_e, wr_n, first, flight, checked, src)
     va_e, va_n, dw_e, dw_n, d = _row_errors(rep_of_row, va_e_r, va_n_r, wt_e, wt_n, wr_e, wr_n)
     implausible = GATE_NAMES.index("implausible")
     with np.errstate(invalid="ignore"):  # TAS per report, |d| per row
-        gate[(gate == 0) & ~((tas >= g.min_tas_kt * KT) & (tas <= g.max_tas_kt * KT))] = implausible
+        gate[ok & ~((tas >= g.min_tas_kt * KT) & (tas <= g.max_tas_kt * KT))] = implausible
         row_gate = gate.take(rep_of_row)
         row_gate[(row_gate == 0) & ~(np.abs(d) <= g.max_heading_error_deg)] = implausible
     tas = tas.take(rep_of_row)

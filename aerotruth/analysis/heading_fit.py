@@ -152,8 +152,8 @@ def magnetic_heading_warnings(obs: pd.DataFrame, rows: pd.DataFrame) -> list[str
     diff = pd.Series((r["heading_deg"].to_numpy() - psi + 180.0) % 360.0 - 180.0).groupby(r["aircraft"].to_numpy()).median()
     out = []
     ac = obs["aircraft"].to_numpy()
-    for name, off in diff.items():
-        mine = obs.loc[ac == name]
+    for name, off in diff[diff.abs() >= MAGNETIC_SUSPECT_MIN_DEG - MAGNETIC_SUSPECT_TOL_DEG].items():  # IGRF only
+        mine = obs.loc[ac == name]  # for those that could be magnetic (ppigrf reads its coefficients each call)
         when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(mine["time_s"].median()))
         d = float(declination_deg(mine["lat"].median(), mine["lon"].median(),
                                   mine["pressure_altitude_ft"].median() * 0.3048, when)[0])
