@@ -4,6 +4,7 @@
 
 from __future__ import annotations
 
+import re
 import sys
 from pathlib import Path
 
@@ -370,6 +371,56 @@ def test_wind_speeds_in_another_unit_are_named_not_fitted(tmp_path, columns, fac
         heading_fit_main(str(tmp_path / "obs.csv"), str(tmp_path / "out"), n_boot=0)
     msg = str(e.value)
     assert "\n" not in msg and all(w in msg for w in ["obs.csv", *words]), msg
+
+
+def _turned(obs: pd.DataFrame, col: str, f, source: str | None = None) -> pd.DataFrame:
+    """obs with f applied to column col (only on reference `source`'s rows if given)."""
+    obs = obs.copy()
+    rows = obs.index if source is None else obs.index[obs["ref_source"] == source]
+    obs.loc[rows, col] = f(obs.loc[rows, col])
+    return obs
+
+
+@pytest.mark.parametrize("mutate, words", [
+    (lambda o: _turned(o, "wind_dir_deg", lambda d: (d + 180) % 360), ["column 'wind_dir_deg'", "blows to?"]),
+    (lambda o: _turned(o, "ref_wind_dir_deg", lambda d: (d + 180) % 360, "rtfdda"),
+     ["column 'ref_wind_dir_deg' (reference 'rtfdda')", "blows against the reported wind", "blows to?"]),
+    (lambda o: _turned(o, "ref_wind_speed_kt", lambda v: v * 1852 / 3600, "rtfdda"),
+     ["column 'ref_wind_speed_kt' (reference 'rtfdda')", "in m/s?"]),
+    (lambda o: _turned(o, "ref_wind_dir_deg", lambda d: (90 - d) % 360),
+     ["'ref_wind_dir_deg'", "does not follow the reported wind", "direction convention"]),
+    (lambda o: _turned(o, "wind_dir_deg", np.radians), ["column 'wind_dir_deg'", "in radians? expected degrees"]),
+    (lambda o: _turned(o, "heading_deg", np.radians), ["column 'heading_deg'", "N514XJ", "in radians?"]),
+    (lambda o: _turned(o, "heading_deg", lambda h: (h + 90) % 360), ["column 'heading_deg'", "N514XJ", "median of"]),
+])
+def test_wind_and_heading_conventions_are_named_not_fitted(tmp_path, mutate, words):
+    """A wind direction written where the wind blows to (the reported wind's: the triangle's
+    airspeed then follows the along-track wind at slope -2; a reference's: its wind is -1 x the
+    reported), a reference in m/s on one model only, a mirrored (mathematical) direction, and
+    angles in radians: each refused in one line naming the column (and the reference), where
+    the fit would have run on them and returned a wrong deviation."""
+    obs = gen.generate([gen.AircraftTruth("N514XJ", A=1.0, B=3.0, C=-2.0)], np.random.default_rng(19), flights=12,
+                       include_heading=True)
+    obs.to_csv(tmp_path / "ok.csv", index=False)
+    heading_fit_main(str(tmp_path / "ok.csv"), str(tmp_path / "out_ok"), n_boot=0)  # as generated: fitted
+    mutate(obs).to_csv(tmp_path / "obs.csv", index=False)
+    with pytest.raises(ValueError) as e:
+        heading_fit_main(str(tmp_path / "obs.csv"), str(tmp_path / "out"), n_boot=0)
+    msg = str(e.value)
+    assert "\n" not in msg and all(w in msg for w in ["obs.csv", *words]), msg
+
+
+def test_a_heading_column_offset_from_the_air_vector_is_said(tmp_path, capsys):
+    """`heading_deg` 30 deg from the heading the reported wind was computed with (and not
+    minus the declination): fitted, with a warning naming the aircraft and the offset."""
+    obs = gen.generate([gen.AircraftTruth("N515XJ", A=1.0, B=3.0, C=-2.0)], np.random.default_rng(20), flights=12,
+                       include_heading=True)
+    _turned(obs, "heading_deg", lambda h: (h + 30) % 360).to_csv(tmp_path / "obs.csv", index=False)
+    heading_fit_main(str(tmp_path / "obs.csv"), str(tmp_path / "out"), n_boot=0)
+    err = capsys.readouterr().err
+    m = re.search(r"aircraft N515XJ: `heading_deg` is \+(\d+\.\d) deg", err)
+    assert m and abs(float(m.group(1)) - 30.0) < 1.0 and "computed with?" in err and "magnetic?" not in err, err
+    assert "computed with?" in (tmp_path / "out" / "report.md").read_text()
 
 
 def test_a_magnetic_heading_in_the_true_heading_column_is_said(tmp_path, capsys):

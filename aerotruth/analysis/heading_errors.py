@@ -296,10 +296,16 @@ def _check_tas_units(tas_col_ms: np.ndarray, tas_triangle_ms: np.ndarray, ok: np
 # reports'). Either is refused only when outside its range by more than UNIT_SIGMAS
 # flight-clustered standard errors from knots, on MIN_UNIT_FLIGHTS flights or more: on
 # subsets of 2-7 simulated flights the plain ranges refused 28-46 % of tables in knots
-# (heading errors of 10 deg and model errors of 8 kt make few flights' slopes noisy).
+# (heading errors of 10 deg and model errors of 8 kt make few flights' slopes noisy). Below
+# the range the slope must also lie RANGE_SIGMAS of its standard errors beyond its edge,
+# which is only 0.3 from knots: on 966 subsets of 10-39 flights of two PenAir runs in knots
+# the slope was -0.10 +- 0.10 and +0.05 +- 0.12 (each run's own mean; down to -0.67 and -1.02,
+# up to +0.54), and without the margin 2 were refused (-0.40 +- 0.07 on 15 flights, -0.30 +-
+# 0.05 on 28).
 WIND_SLOPE_RANGE = (-0.3, 0.6)
 REFERENCE_RATIO_RANGE = (0.65, 1.55)
 UNIT_SIGMAS = 5.0
+RANGE_SIGMAS = 2.0
 MIN_UNIT_FLIGHTS = 10
 _WIND_UNITS = (("m/s", 1.0 / 1.943844), ("km/h", 1.852))  # f: the column's number per knot
 _UNIT_CHECK_MAX_REPORTS = 20_000  # a stride through the gated reports beyond this
@@ -354,39 +360,106 @@ def _check_wind_units(va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray, wt_n
     b = float(x @ y) / sxx
     se, flights = _clustered_se(x * (y - b * x), flight[idx], sxx)
     lo, hi = WIND_SLOPE_RANGE
-    if lo <= b <= hi or abs(b) < UNIT_SIGMAS * se or flights < MIN_UNIT_FLIGHTS:
+    if lo - RANGE_SIGMAS * se <= b <= hi or abs(b) < UNIT_SIGMAS * se or flights < MIN_UNIT_FLIGHTS:
         return
     f = 1.0 / (1.0 + b)
-    raise DataError(f"{source}: column 'wind_speed_kt': the airspeed of the wind triangle (ground track minus reported "
-                    f"wind, wind paper eq. 3) changes by {b:+.2f} ± {se:.2g} kt per kt of along-track wind over "
-                    f"{flights} flights, as if the reported wind were {f:.3f}x the wind: {_unit_named(f)}expected knots")
+
+    def what(columns: str) -> str:
+        return (f"{source}: {columns}: the airspeed of the wind triangle (ground track minus reported wind, wind "
+                f"paper eq. 3) changes by {b:+.2f} ± {se:.2g} kt per kt of along-track wind over {flights} flights, "
+                f"as if the reported wind were {f:.3f}x the wind: ")
+
+    if _unit_named(f):
+        raise DataError(what("column 'wind_speed_kt'") + f"{_unit_named(f)}expected knots")
+    if abs(f + 1.0) < 0.35:  # |V_G - f V_W| with f ~ -1: the wind's direction reversed (slope -2)
+        raise DataError(what("column 'wind_dir_deg'") + "a direction the wind blows to? expected the direction it "
+                        "blows from (meteorological convention)")
+    raise DataError(what("columns 'wind_speed_kt', 'wind_dir_deg'") + "check the speed unit (knots) and the "
+                    "direction convention (degrees clockwise from north, where the wind blows from)")
 
 
-def _check_reference_units(wt_e: np.ndarray, wt_n: np.ndarray, wr_e: np.ndarray, wr_n: np.ndarray, first: np.ndarray,
-                           flight: np.ndarray, rep: np.ndarray, source: str) -> None:
-    """DataError when `ref_wind_speed_kt` is not in the reported wind's knots: the scale r of
-    the reference wind against the reported one, from regressing the reported wind vector on
-    the reference's (r = sum |W_ref|^2 / sum W_TAM . W_REF; a heading error's transverse
-    wind error averages out of the dot product, where it would inflate a ratio of speeds),
-    over the reports `rep` (_sampled; reported wind per report, reference per row, `first`
-    each report's first row)."""
+# `heading_deg` is the measured true heading the reported wind was computed with, so it is the
+# heading of the report's own air vector V_G - V_W,TAM (eq. 3) up to the track's noise (a
+# degree or two on gated reports). A column whose median difference from it exceeds this is
+# not that heading (radians, another column); a magnetic heading there (|D| mostly < 30 deg)
+# is left to heading fit's warning (`magnetic_heading_warnings`).
+HEADING_SUSPECT_DEG = 45.0
+
+
+def _check_heading_column(h: np.ndarray, psi: np.ndarray, ac: np.ndarray, names: pd.Index, idx: np.ndarray,
+                          source: str) -> None:
+    """DataError naming the first aircraft whose `heading_deg` (h, deg, per report) differs
+    from its reports' air-vector heading psi (deg) by a median of more than
+    HEADING_SUSPECT_DEG, over at least 50 of the reports `idx` (_sampled)."""
+    hh, a = h.take(idx), ac.take(idx)
+    fin = np.isfinite(hh)
+    hh, a, pp = hh[fin], a[fin], psi.take(idx)[fin]
+    diff = np.abs(wrap(hh - pp, 360.0, -180.0))
+    g = pd.Series(diff).groupby(a)
+    med, n = g.median(), g.size()
+    bad = med[(n >= 50) & (med > HEADING_SUSPECT_DEG)]
+    if bad.empty:
+        return
+    c = int(bad.index[0])
+    mine = hh[a == c]
+    hint = " (all within ±2 pi: in radians?)" if np.all(np.abs(mine) <= 2 * math.pi) else ""
+    raise DataError(f"{source}: column 'heading_deg': aircraft {names[c]}'s headings differ from the heading of its "
+                    f"reports' air vector (ground track minus reported wind, wind paper eq. 3) by a median of "
+                    f"{bad.iloc[0]:.1f} deg over {int(n[c])} reports{hint}: expected the measured true heading (deg) "
+                    "the reported wind was computed with")
+
+
+def _check_reference_units(wt_e: np.ndarray, wt_n: np.ndarray, wr_e: np.ndarray, wr_n: np.ndarray,
+                           rep_of_row: np.ndarray, ref: pd.Categorical, flight: np.ndarray, rep: np.ndarray,
+                           source: str) -> None:
+    """DataError when a reference model's wind is not the reported wind's: the scale r of
+    each reference's wind against the reported one, from regressing the reported wind vector
+    on the reference's (W_TAM ~ q W_REF, q = sum W_TAM . W_REF / sum |W_REF|^2, r = 1/q; a
+    heading error's transverse wind error averages out of the dot product, where it would
+    inflate a ratio of speeds), over the rows of the reports `rep` (_sampled; reported wind
+    per report, reference per row), each reference model on its own. r far from 1 is a speed
+    unit (`ref_wind_speed_kt`); r near -1 a direction written where the wind blows to, not
+    from (`ref_wind_dir_deg`); q near 0 a reference that does not follow the reported wind
+    at all (another direction convention). The reported wind's own unit and convention are
+    checked first (`_check_wind_units`)."""
     if len(rep) < 50:
         return
-    rows = first[rep]
-    we, wn, re, rn = wt_e[rep], wt_n[rep], wr_e[rows], wr_n[rows]
-    dots = we * re + wn * rn
-    refs = re * re + rn * rn
-    dot, ref2 = float(dots.sum()), float(refs.sum())
-    if not (ref2 > len(rep) * (5.0 * KT) ** 2 and dot > 0):  # calm (rms < 5 kt) or no agreement at all: no scale
-        return
-    r = ref2 / dot
-    se, flights = _clustered_se(refs - r * dots, flight[rep], dot)
-    lo, hi = REFERENCE_RATIO_RANGE
-    if lo <= r <= hi or abs(r - 1.0) < UNIT_SIGMAS * se or flights < MIN_UNIT_FLIGHTS:
-        return
-    raise DataError(f"{source}: column 'ref_wind_speed_kt': the reference wind is {r:.3f} ± {se:.2g} times the "
-                    f"reported wind (the scale fitted between the two over {flights} flights): {_unit_named(r)}expected "
-                    "knots, as 'wind_speed_kt'")
+    sampled = np.zeros(len(wt_e), dtype=bool)
+    sampled[rep] = True
+    rows = np.flatnonzero(sampled.take(rep_of_row))
+    codes = ref.codes.take(rows)
+    for c in np.unique(codes[codes >= 0]):
+        i = rows[codes == c]
+        j = rep_of_row.take(i)
+        we, wn, re_, rn = wt_e.take(j), wt_n.take(j), wr_e.take(i), wr_n.take(i)
+        dots = we * re_ + wn * rn
+        refs = re_ * re_ + rn * rn
+        dot, ref2 = float(dots.sum()), float(refs.sum())
+        if not (len(i) >= 50 and ref2 > len(i) * (5.0 * KT) ** 2):  # calm (rms < 5 kt): no scale
+            continue
+        q = dot / ref2  # W_TAM ~ q W_REF: 1/r, defined however little the two agree
+        se_q, flights = _clustered_se(dots - q * refs, flight.take(j), ref2)
+        if flights < MIN_UNIT_FLIGHTS:
+            continue
+        name = f" (reference '{ref.categories[c]}')" if len(ref.categories) > 1 else ""
+        fitted = f"the scale fitted between the two over {flights} flights"
+        lo, hi = REFERENCE_RATIO_RANGE
+        if q > 0.3:  # r = 1/q < 3.3: tested as r (its standard error se_q / q^2)
+            r, se = 1 / q, se_q / q**2
+            if lo <= r <= hi or abs(r - 1.0) < UNIT_SIGMAS * se:
+                continue
+            raise DataError(f"{source}: column 'ref_wind_speed_kt'{name}: the reference wind is {r:.3f} ± {se:.2g} "
+                            f"times the reported wind ({fitted}): {_unit_named(r)}expected knots, as 'wind_speed_kt'")
+        if abs(q - 1.0) < UNIT_SIGMAS * se_q:
+            continue
+        if -1 / lo <= q <= -1 / hi:
+            raise DataError(f"{source}: column 'ref_wind_dir_deg'{name}: the reference wind blows against the reported "
+                            f"wind ({1 / q:.3f} ± {se_q / q**2:.2g} times it, {fitted}): a direction the wind blows "
+                            f"to? expected the direction it blows from, as 'wind_dir_deg' (meteorological convention)")
+        raise DataError(f"{source}: columns 'ref_wind_speed_kt', 'ref_wind_dir_deg'{name}: the reference wind does not "
+                        f"follow the reported wind (the reported wind is {q:.3f} ± {se_q:.2g} times the reference's, "
+                        f"{fitted}; expected 1): check its speed unit (knots) and direction convention (degrees "
+                        "clockwise from north, where the wind blows from)")
 
 
 def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str = "observation table") -> pd.DataFrame:
@@ -425,6 +498,8 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     checked = _sampled(ok)  # the unit checks' reports
     _check_wind_units(va_e_r, va_n_r, wt_e, wt_n, rac, df["pressure_altitude_ft"].to_numpy().take(first), flight,
                       checked, src)
+    if "heading_deg" in df.columns:
+        _check_heading_column(h, psi, rac, df["aircraft"].cat.categories, checked, src)
     tas = hypot(va_e_r, va_n_r)
     if "tas_kt" in df.columns:
         tk = df["tas_kt"].to_numpy().take(first) * KT
@@ -439,7 +514,8 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     # per (report, model) row: V_A' = V_G - V_W,REF = V_A + dw with dw = V_W,TAM - V_W,REF
     # (eqs. 3, 4), so d = angle(V_A) - angle(V_A') from V_A and dw alone (_row_errors)
     wr_e, wr_n = towards_from_report(df["ref_wind_speed_kt"].to_numpy(), df["ref_wind_dir_deg"].to_numpy())
-    _check_reference_units(wt_e, wt_n, wr_e, wr_n, first, flight, checked, src)
+    _check_reference_units(wt_e, wt_n, wr_e, wr_n, rep_of_row, df["ref_source"].array, flight, checked,
+                           src)
     va_e, va_n, dw_e, dw_n, d = _row_errors(rep_of_row, va_e_r, va_n_r, wt_e, wt_n, wr_e, wr_n)
     implausible = GATE_NAMES.index("implausible")
     with np.errstate(invalid="ignore"):  # TAS per report, |d| per row

@@ -134,12 +134,16 @@ def _figure(fit, rows: pd.DataFrame, col: str, path: Path, ci: pd.DataFrame | No
 # -D where |D| >= MAGNETIC_SUSPECT_MIN_DEG.
 MAGNETIC_SUSPECT_TOL_DEG = 2.0
 MAGNETIC_SUSPECT_MIN_DEG = 4.0
+# any other median offset this large is said too (beyond HEADING_SUSPECT_DEG the table is
+# refused, heading_errors._check_heading_column)
+OFFSET_SUSPECT_DEG = 10.0
 
 
 def magnetic_heading_warnings(obs: pd.DataFrame, rows: pd.DataFrame) -> list[str]:
     """One line per aircraft whose `heading_deg` sits about minus the IGRF declination (at the
-    median place and time of its reports) from its reports' air-vector heading: it looks
-    magnetic. `rows`: heading_errors of `obs`."""
+    median place and time of its reports) from its reports' air-vector heading (it looks
+    magnetic), or OFFSET_SUSPECT_DEG or more from it otherwise. `rows`: heading_errors of
+    `obs`."""
     import datetime as dt
 
     from aerotruth.analysis.modes_wind import declination_deg
@@ -162,6 +166,10 @@ def magnetic_heading_warnings(obs: pd.DataFrame, rows: pd.DataFrame) -> list[str
                        f"(eq. 3), about minus the declination there ({d:+.1f} deg, IGRF): is it magnetic? It should be "
                        "true heading (a magnetic heading goes in `heading_mag_deg`); as given, the table is indexed by "
                        "magnetic heading")
+        elif abs(off) >= OFFSET_SUSPECT_DEG:
+            out.append(f"aircraft {name}: `heading_deg` is {off:+.1f} deg from the heading of its reports' air vector "
+                       f"(eq. 3; the declination there {d:+.1f} deg, IGRF): is it the heading the reported wind was "
+                       f"computed with? As given, the table is indexed by it")
     return out
 
 

@@ -79,6 +79,7 @@ _RANGES = {"lat": (-90.0, 90.0), "lon": (-180.0, 360.0), "wind_speed_kt": (0.0, 
 # directions read either way round: [0, 360] or signed [-180, 180] (ARINC 429 carries
 # heading and wind angle as signed binary, labels 314, 320 and 322), kept as [0, 360]
 DIRECTIONS = ("wind_dir_deg", "ref_wind_dir_deg", "heading_deg", "heading_mag_deg")
+WIND_DIRECTIONS = DIRECTIONS[:2]
 
 
 @njit(cache=True, nogil=True)
@@ -92,6 +93,23 @@ def _outside(v: np.ndarray, lo: float, hi: float, keep: np.ndarray, required: bo
         if required and not math.isfinite(x):
             keep[i] = False
     return -1
+
+
+# a wind direction column in radians: at least this many values, all within [0, 2 pi] and
+# spanning more than 0.2 (in degrees: every wind from within 6.3 deg east of north, none
+# from west of it). Headings are checked against the wind triangle (heading_errors).
+_RADIANS_MIN_VALUES = 200
+
+
+def _check_degrees(v: np.ndarray, col: str, source: str) -> None:
+    """DataError when a wind direction column reads as radians (comment above)."""
+    fin = v[np.isfinite(v)]
+    if len(fin) < _RADIANS_MIN_VALUES:
+        return
+    lo, hi = float(fin.min()), float(fin.max())
+    if 0.0 <= lo and hi <= 2 * math.pi and hi - lo > 0.2:
+        raise DataError(f"{source}: column '{col}': all {len(fin)} values lie within [{lo:.3g}, {hi:.3g}]: in radians? "
+                        "expected degrees")
 
 
 def _labels(values: pd.Series, fill: str | None = None, lower: bool = False) -> pd.Categorical:
@@ -129,8 +147,11 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
         i = _outside(out[c], lo, hi, keep, c == "time_s" or c in REQUIRED_COLUMNS)
         if i >= 0:
             raise DataError(f"{source}: column '{c}', data row {i + 1}: {out[c][i]:g} outside [{lo:g}, {hi:g}]")
-        if c in DIRECTIONS and (out[c] < 0).any():
-            out[c] = np.where(out[c] < 0, out[c] + 360.0, out[c])
+        if c in DIRECTIONS:
+            if c in WIND_DIRECTIONS:
+                _check_degrees(out[c], c, source)
+            if (out[c] < 0).any():
+                out[c] = np.where(out[c] < 0, out[c] + 360.0, out[c])
     out["ref_source"] = _labels(obs["ref_source"], "ref") if "ref_source" in obs.columns else pd.Categorical(np.full(len(obs), "ref"))
     if "flight" in obs.columns:  # `phase` is not used by the method
         out["flight"] = _labels(obs["flight"], "")
