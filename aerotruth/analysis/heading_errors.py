@@ -410,8 +410,8 @@ def _check_heading_column(h: np.ndarray, psi: np.ndarray, ac: np.ndarray, names:
 
 
 def _check_reference_units(wt_e: np.ndarray, wt_n: np.ndarray, wr_e: np.ndarray, wr_n: np.ndarray,
-                           rep_of_row: np.ndarray, ref: pd.Categorical, flight: np.ndarray, rep: np.ndarray,
-                           source: str) -> None:
+                           first: np.ndarray, rep_of_row: np.ndarray, ref: pd.Categorical, flight: np.ndarray,
+                           rep: np.ndarray, source: str) -> None:
     """DataError when a reference model's wind is not the reported wind's: the scale r of
     each reference's wind against the reported one, from regressing the reported wind vector
     on the reference's (W_TAM ~ q W_REF, q = sum W_TAM . W_REF / sum |W_REF|^2, r = 1/q; a
@@ -424,9 +424,11 @@ def _check_reference_units(wt_e: np.ndarray, wt_n: np.ndarray, wr_e: np.ndarray,
     checked first (`_check_wind_units`)."""
     if len(rep) < 50:
         return
-    sampled = np.zeros(len(wt_e), dtype=bool)
-    sampled[rep] = True
-    rows = np.flatnonzero(sampled.take(rep_of_row))
+    begin = first.take(rep)
+    nxt = rep + 1
+    counts = np.where(nxt < len(first), first.take(np.minimum(nxt, len(first) - 1)), len(rep_of_row)) - begin
+    starts = np.cumsum(counts) - counts
+    rows = np.repeat(begin - starts, counts) + np.arange(int(counts.sum()))  # the rows of reports `rep`
     codes = ref.codes.take(rows)
     for c in np.unique(codes[codes >= 0]):
         i = rows[codes == c]
@@ -514,7 +516,7 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     # per (report, model) row: V_A' = V_G - V_W,REF = V_A + dw with dw = V_W,TAM - V_W,REF
     # (eqs. 3, 4), so d = angle(V_A) - angle(V_A') from V_A and dw alone (_row_errors)
     wr_e, wr_n = towards_from_report(df["ref_wind_speed_kt"].to_numpy(), df["ref_wind_dir_deg"].to_numpy())
-    _check_reference_units(wt_e, wt_n, wr_e, wr_n, rep_of_row, df["ref_source"].array, flight, checked,
+    _check_reference_units(wt_e, wt_n, wr_e, wr_n, first, rep_of_row, df["ref_source"].array, flight, checked,
                            src)
     va_e, va_n, dw_e, dw_n, d = _row_errors(rep_of_row, va_e_r, va_n_r, wt_e, wt_n, wr_e, wr_n)
     implausible = GATE_NAMES.index("implausible")
