@@ -129,6 +129,11 @@ def test_reference_model_wind_scale_is_told_from_an_offset(scale):
     assert rr["form"] == "scale" and "in proportion" in f.cause, (rr, f.cause)
     assert rr["scale"]["value"] == pytest.approx(scale, abs=3 * rr["scale"]["se"] + 0.01)
     assert abs(other["scale"]["value"]) < 4 * other["scale"]["se"] + 0.01
+    # tested and held out in the chosen forms too: significant, and it predicts the held-out
+    # flights at least as well as the library's offset form (the truth is a scale)
+    fc = f.evidence["forms_chosen"]
+    assert fc["forms"]["rr"] == "scale" and fc["p_value"] < f.evidence["alpha"], fc
+    assert fc["held_out_after"] < fc["held_out_before"] and fc["held_out_after"] <= f.gain["held_out_after"], (fc, f.gain)
     # the extended model carries the scale; with it the reference's error is not found again
     ext = extended_spec(WindModelSpec(), findings, d, st)
     assert ext.reference_scale["rr"] == rr["scale"]["value"] and "rr" not in ext.reference_bias_kt
