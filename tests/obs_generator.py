@@ -142,13 +142,17 @@ def _spokes(rng: np.random.Generator, km: tuple[float, float], n: int = 16, hub=
 
 
 def _fly(a: AircraftTruth, start: tuple[float, float], end: tuple[float, float], t0: float,
-         rng: np.random.Generator, cruise_ft_range: tuple[float, float]) -> dict[str, np.ndarray]:
-    """5-s samples of one flight: time, position, altitude, truth wind, V_G, true heading, TAS."""
+         rng: np.random.Generator, cruise_ft_range: tuple[float, float],
+         wind_ms: tuple[float, float] = (5.0, 25.0), wind_from_deg: float | None = None) -> dict[str, np.ndarray]:
+    """5-s samples of one flight: time, position, altitude, truth wind (low-level speed drawn
+    in `wind_ms`, from a random direction or `wind_from_deg`), V_G, true heading, TAS."""
     az0, _, dist = GEOD.inv(start[1], start[0], end[1], end[0])
     cruise_ft = rng.uniform(*cruise_ft_range)
     rate_fps = 1500.0 / 60.0
     t_climb = cruise_ft / rate_fps
-    w_speed, w_dir = rng.uniform(5.0, 25.0), rng.uniform(0, 2 * np.pi)
+    w_speed, w_dir = rng.uniform(*wind_ms), rng.uniform(0, 2 * np.pi)
+    if wind_from_deg is not None:  # a prevailing wind: towards the opposite direction
+        w_dir = np.radians(wind_from_deg + 180.0)
     w0 = w_speed * np.array([np.sin(w_dir), np.cos(w_dir)])
     osc_phase = rng.uniform(0, 2 * np.pi, 2)
     tas_cruise = a.cruise_tas_kt * KT_MS
@@ -227,7 +231,8 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
              exact: bool = False, hub: tuple[float, float] = HUB, stale_declination_years: float = 0.0,
              ref_bias_kt: dict[str, float] | None = None, ref_scale: dict[str, float] | None = None,
              alt_error_deg_per_kft: float = 0.0,
-             shared_ref_sigma_kt: float = 0.0, shared_ref_tau_s: float = 3 * 3600.0) -> pd.DataFrame:
+             shared_ref_sigma_kt: float = 0.0, shared_ref_tau_s: float = 3 * 3600.0,
+             wind_ms: tuple[float, float] = (5.0, 25.0), wind_from_deg: float | None = None) -> pd.DataFrame:
     """An observation table: one row per (report, reference model). Defaults: a SAAB-340-like
     turboprop network; regional jets: spoke_km (400, 1000), cruise_ft (25000, 35000) and
     fleet(tas_kt=(400, 450)). exact=True: no onboard heading/TAS/GPS noise and no rounding of
@@ -239,6 +244,10 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
     b kt along the true wind to that
     model's analysis, `ref_scale` {model: s} s times the true wind (a model too strong by s); `alt_error_deg_per_kft` adds a heading error growing with pressure
     altitude (an effect outside diagnose's library); AircraftTruth.tas_scale, a_step_deg and a_drift_deg_per_day.
+
+    `wind_ms`: the range of each flight's low-level wind speed (m/s; it grows by half at
+    6 km, plus a 2-m/s oscillation); `wind_from_deg`: every flight's wind from that direction
+    (a prevailing wind), else from a random one.
 
     `shared_ref_sigma_kt`: each model's analysis also errs in wind speed by an amount common
     to every aircraft at the same time (an OU process in time, e-folding `shared_ref_tau_s`,
@@ -266,7 +275,7 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
             else:  # the aircraft rotates through the spokes: out, back, next spoke
                 spoke = spokes[order[f // 2]]
                 start, end = (hub, spoke) if f % 2 == 0 else (spoke, hub)
-            fl = _fly(a, start, end, t0, rng, cruise_ft)
+            fl = _fly(a, start, end, t0, rng, cruise_ft, wind_ms, wind_from_deg)
             t0 = fl["time"][-1] + rng.uniform(2400, 20000)
             psi_t = fl["psi_true"]
             decl = declination(fl["lat"], fl["lon"])
