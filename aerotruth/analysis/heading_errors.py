@@ -386,9 +386,12 @@ def _check_wind_units(va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray, wt_n
 
     if _unit_named(f):
         raise DataError(what("column 'wind_speed_kt'") + f"{_unit_named(f)}expected knots")
-    if abs(f + 1.0) < 0.35:  # |V_G - f V_W| with f ~ -1: the wind's direction reversed (slope -2)
+    # |V_G - f V_W| with f ~ -1: the wind's direction reversed (slope -2); a longitude of the
+    # wrong sign mirrors V_G east-west, which under a zonal wind reads the same (-1.8 measured)
+    if abs(f + 1.0) < 0.35:
         raise DataError(what("column 'wind_dir_deg'") + "a direction the wind blows to? expected the direction it "
-                        "blows from (meteorological convention)")
+                        "blows from (meteorological convention); or, in a mostly east-west wind, the ground track "
+                        "mirrored east-west: 'lon' of the wrong sign?")
     raise DataError(what("columns 'wind_speed_kt', 'wind_dir_deg'") + "check the speed unit (knots) and the "
                     "direction convention (degrees clockwise from north, where the wind blows from)")
 
@@ -421,7 +424,8 @@ def _check_heading_column(h: np.ndarray, psi: np.ndarray, ac: np.ndarray, names:
     raise DataError(f"{source}: column 'heading_deg': aircraft {names[c]}'s headings differ from the heading of its "
                     f"reports' air vector (ground track minus reported wind, wind paper eq. 3) by a median of "
                     f"{bad.iloc[0]:.1f} deg over {int(n[c])} reports{hint}: expected the measured true heading (deg) "
-                    "the reported wind was computed with")
+                    "the reported wind was computed with (if it is, 'lat'/'lon' swapped or of the wrong sign turn "
+                    "the ground track)")
 
 
 def _check_reference_units(va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray, wt_n: np.ndarray, wr_e: np.ndarray,
