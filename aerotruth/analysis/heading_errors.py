@@ -327,11 +327,32 @@ def _clustered_se(score: np.ndarray, flight: np.ndarray, scale: float) -> tuple[
     return math.sqrt(float(sums @ sums) * g / (g - 1)) / abs(scale), g
 
 
-def _sampled(ok: np.ndarray) -> np.ndarray:
-    """The gated reports, a stride through them beyond _UNIT_CHECK_MAX_REPORTS (the unit
-    checks' reports)."""
-    idx = np.flatnonzero(ok)
-    return idx[:: max(1, len(idx) // _UNIT_CHECK_MAX_REPORTS)]
+@dataclass(frozen=True)
+class _Sample:
+    """The unit checks' reports (the gated ones, a stride through them beyond
+    _UNIT_CHECK_MAX_REPORTS), with what every check reads of them, computed once: their
+    index among the reports, V_A = V_G - V_W,TAM (eq. 3) and its length, the reported
+    along-track wind (m/s), aircraft code, pressure altitude and flight."""
+
+    idx: np.ndarray
+    va_e: np.ndarray
+    va_n: np.ndarray
+    va: np.ndarray
+    along: np.ndarray
+    ac: np.ndarray
+    alt_ft: np.ndarray
+    flight: np.ndarray
+
+    @classmethod
+    def of(cls, ok: np.ndarray, va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray, wt_n: np.ndarray,
+           ac: np.ndarray, alt_ft: np.ndarray, flight: np.ndarray) -> _Sample:
+        idx = np.flatnonzero(ok)
+        idx = idx[:: max(1, len(idx) // _UNIT_CHECK_MAX_REPORTS)]
+        ve, vn = va_e.take(idx), va_n.take(idx)
+        va = hypot(ve, vn)
+        with np.errstate(invalid="ignore", divide="ignore"):
+            along = (wt_e.take(idx) * ve + wt_n.take(idx) * vn) / va
+        return cls(idx, ve, vn, va, along, ac.take(idx), alt_ft.take(idx), flight.take(idx))
 
 
 def _band_slope(x: np.ndarray, y: np.ndarray, ac: np.ndarray, alt_ft: np.ndarray,
@@ -359,18 +380,13 @@ def _band_slope(x: np.ndarray, y: np.ndarray, ac: np.ndarray, alt_ft: np.ndarray
     return b, se, flights
 
 
-def _check_wind_units(va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray, wt_n: np.ndarray, ac: np.ndarray,
-                      alt_ft: np.ndarray, flight: np.ndarray, idx: np.ndarray, source: str) -> None:
+def _check_wind_units(sample: _Sample, source: str) -> None:
     """DataError when the reported wind (`wind_speed_kt`, `wind_dir_deg`) is not in knots
     and meteorological degrees: the slope of the triangle's airspeed on the along-track wind
-    (comment above; `_band_slope`). `idx`: the reports checked (_sampled)."""
-    if len(idx) < 50:
+    (comment above; `_band_slope`)."""
+    if len(sample.idx) < 50:
         return
-    ve, vn = va_e[idx], va_n[idx]
-    va = hypot(ve, vn)
-    with np.errstate(invalid="ignore", divide="ignore"):
-        w = (wt_e[idx] * ve + wt_n[idx] * vn) / va
-    fitted = _band_slope(w, va, ac[idx], alt_ft[idx], flight[idx])
+    fitted = _band_slope(sample.along, sample.va, sample.ac, sample.alt_ft, sample.flight)
     if fitted is None:
         return
     b, se, flights = fitted
@@ -404,14 +420,13 @@ def _check_wind_units(va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray, wt_n
 HEADING_SUSPECT_DEG = 45.0
 
 
-def _check_heading_column(h: np.ndarray, psi: np.ndarray, ac: np.ndarray, names: pd.Index, idx: np.ndarray,
-                          source: str) -> None:
+def _check_heading_column(h: np.ndarray, psi: np.ndarray, names: pd.Index, sample: _Sample, source: str) -> None:
     """DataError naming the first aircraft whose `heading_deg` (h, deg, per report) differs
     from its reports' air-vector heading psi (deg) by a median of more than
-    HEADING_SUSPECT_DEG, over at least 50 of the reports `idx` (_sampled)."""
-    hh, a = h.take(idx), ac.take(idx)
+    HEADING_SUSPECT_DEG, over at least 50 of the sample's reports."""
+    hh = h.take(sample.idx)
     fin = np.isfinite(hh)
-    hh, a, pp = hh[fin], a[fin], psi.take(idx)[fin]
+    hh, a, pp = hh[fin], sample.ac[fin], psi.take(sample.idx)[fin]
     diff = np.abs(wrap(hh - pp, 360.0, -180.0))
     g = pd.Series(diff).groupby(a)
     med, n = g.median(), g.size()
@@ -428,14 +443,12 @@ def _check_heading_column(h: np.ndarray, psi: np.ndarray, ac: np.ndarray, names:
                     "the ground track)")
 
 
-def _check_reference_units(va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray, wt_n: np.ndarray, wr_e: np.ndarray,
-                           wr_n: np.ndarray, first: np.ndarray, rep_of_row: np.ndarray, ref: pd.Categorical,
-                           ac: np.ndarray, alt_ft: np.ndarray, flight: np.ndarray, rep: np.ndarray,
-                           source: str) -> None:
+def _check_reference_units(sample: _Sample, wt_e: np.ndarray, wt_n: np.ndarray, wr_e: np.ndarray, wr_n: np.ndarray,
+                           first: np.ndarray, rep_of_row: np.ndarray, ref: pd.Categorical, source: str) -> None:
     """DataError when a reference model's wind is not in the reported wind's units and
-    convention, each reference model on its own, over the rows of the reports `rep`
-    (_sampled; per report: V_A = V_G - V_W,TAM, the reported wind, aircraft, altitude and
-    flight; per row the reference wind; `first` each report's first row). A heading error
+    convention, each reference model on its own, over the rows of the sample's reports (per
+    report the reported wind; per row the reference wind; `first` each report's first row,
+    `rep_of_row` each row's report). A heading error
     only turns V_A, so the airspeed the reference implies, |V_G - V_W,REF| (eq. 4), differs
     from |V_A| by the reference's error along V_A: for a reference written a x the wind,
     by (1 - a) x the along-track wind, which the reported wind measures free of the
@@ -447,23 +460,23 @@ def _check_reference_units(va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray,
     2 sigma^2 / W^2) and by the deviation's once-round terms, whose wind error TAS d(psi)
     correlates with the wind (on 2 aircraft x 100 flights in 8 kt winds with C = 5 deg: a
     scale of 3.5 refused a table in knots)."""
+    rep = sample.idx
     if len(rep) < 50:
         return
     begin = first.take(rep)
     nxt = rep + 1
     counts = np.where(nxt < len(first), first.take(np.minimum(nxt, len(first) - 1)), len(rep_of_row)) - begin
     starts = np.cumsum(counts) - counts
-    rows = np.repeat(begin - starts, counts) + np.arange(int(counts.sum()))  # the rows of reports `rep`
+    rows = np.repeat(begin - starts, counts) + np.arange(int(counts.sum()))  # the rows of the sample's reports
+    k_of_row = np.repeat(np.arange(len(rep)), counts)  # each row's report, as a position in the sample
     codes = ref.codes.take(rows)
     for c in np.unique(codes[codes >= 0]):
-        i = rows[codes == c]
-        j = rep_of_row.take(i)
-        ve, vn = va_e.take(j), va_n.take(j)
-        va = hypot(ve, vn)
-        with np.errstate(invalid="ignore", divide="ignore"):
-            w = (wt_e.take(j) * ve + wt_n.take(j) * vn) / va  # the reported along-track wind
-        dv = hypot(ve + wt_e.take(j) - wr_e.take(i), vn + wt_n.take(j) - wr_n.take(i)) - va  # |V_A'| - |V_A|
-        fitted = _band_slope(w, dv, ac.take(j), alt_ft.take(j), flight.take(j))
+        sel = codes == c
+        i, k = rows[sel], k_of_row[sel]
+        j = rep.take(k)
+        dv = hypot(sample.va_e.take(k) + wt_e.take(j) - wr_e.take(i),
+                   sample.va_n.take(k) + wt_n.take(j) - wr_n.take(i)) - sample.va.take(k)  # |V_A'| - |V_A|
+        fitted = _band_slope(sample.along.take(k), dv, sample.ac.take(k), sample.alt_ft.take(k), sample.flight.take(k))
         if fitted is None:
             continue
         slope, se, flights = fitted
@@ -519,11 +532,10 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
         heading = np.where(np.isfinite(h), wrap(h, 360.0), psi)
     src = df.attrs.get("source") or source
     ok = gate == 0
-    checked = _sampled(ok)  # the unit checks' reports
-    alt_r = df["pressure_altitude_ft"].to_numpy().take(first)
-    _check_wind_units(va_e_r, va_n_r, wt_e, wt_n, rac, alt_r, flight, checked, src)
+    sample = _Sample.of(ok, va_e_r, va_n_r, wt_e, wt_n, rac, df["pressure_altitude_ft"].to_numpy().take(first), flight)
+    _check_wind_units(sample, src)
     if "heading_deg" in df.columns:
-        _check_heading_column(h, psi, rac, df["aircraft"].cat.categories, checked, src)
+        _check_heading_column(h, psi, df["aircraft"].cat.categories, sample, src)
     tas = hypot(va_e_r, va_n_r)
     if "tas_kt" in df.columns:
         tk = df["tas_kt"].to_numpy().take(first) * KT
@@ -538,8 +550,7 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     # per (report, model) row: V_A' = V_G - V_W,REF = V_A + dw with dw = V_W,TAM - V_W,REF
     # (eqs. 3, 4), so d = angle(V_A) - angle(V_A') from V_A and dw alone (_row_errors)
     wr_e, wr_n = towards_from_report(df["ref_wind_speed_kt"].to_numpy(), df["ref_wind_dir_deg"].to_numpy())
-    _check_reference_units(va_e_r, va_n_r, wt_e, wt_n, wr_e, wr_n, first, rep_of_row, df["ref_source"].array, rac,
-                           alt_r, flight, checked, src)
+    _check_reference_units(sample, wt_e, wt_n, wr_e, wr_n, first, rep_of_row, df["ref_source"].array, src)
     va_e, va_n, dw_e, dw_n, d = _row_errors(rep_of_row, va_e_r, va_n_r, wt_e, wt_n, wr_e, wr_n)
     implausible = GATE_NAMES.index("implausible")
     with np.errstate(invalid="ignore"):  # TAS per report, |d| per row
