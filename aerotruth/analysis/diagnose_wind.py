@@ -78,6 +78,7 @@ from aerotruth.analysis.diagnose_wind_model import (  # noqa: F401  (WindModelSp
     known_offsets, quantization_candidate, reference_bias_column, reference_scale_column, solve,
     wind_model_from_campaign)
 from aerotruth.analysis.heading_correction import heading_spread
+from aerotruth.analysis.least_squares import clustered_se
 from aerotruth.units import DEG, KT
 
 ALPHA_LIBRARY = 0.01
@@ -207,9 +208,7 @@ def _bias_or_scale(d: WindData, fit: Fit, m: int, bias_kt: float) -> dict:
 
     _, e_off, _ = fitted(col[rows])
     s, e, sxx = fitted(x := reference_scale_column(d, m)[rows])
-    sums = np.bincount(fit.clusters[rows], x * e)
-    g = int(np.count_nonzero(np.bincount(fit.clusters[rows])))
-    se = math.sqrt(float(sums @ sums) * g / max(g - 1, 1)) / sxx
+    se, _ = clustered_se(x * e, fit.clusters[rows], sxx)
     ratio = float(e @ e) / float(e_off @ e_off)
     return {"scale": {"value": s, "se": se, "meaning": "reference wind = truth x (1 + s)"},
             "form": "scale" if ratio < 1 else "offset", "rss_scale_over_offset": ratio}

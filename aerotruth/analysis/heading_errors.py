@@ -43,6 +43,7 @@ import pandas as pd
 from pydantic import Field
 
 from aerotruth.analysis.fast_trig import arctan2, atan2_scalar, hypot, sin_cos, sincos_scalar
+from aerotruth.analysis.least_squares import clustered_se
 from aerotruth.analysis.observations import validate_observations
 from aerotruth.config import Section
 from aerotruth.errors import DataError
@@ -317,16 +318,6 @@ def _unit_named(f: float) -> str:
     return f"in {unit}? " if unit else ""
 
 
-def _clustered_se(score: np.ndarray, flight: np.ndarray, scale: float) -> tuple[float, int]:
-    """Standard error sqrt(G / (G - 1) sum_g (sum of `score` over flight g)^2) / scale of an
-    estimate whose linearised error is sum(score) / scale, and the number G of flights."""
-    sums = np.bincount(flight, score)
-    g = int(np.count_nonzero(np.bincount(flight)))
-    if g < 2:
-        return math.inf, g
-    return math.sqrt(float(sums @ sums) * g / (g - 1)) / abs(scale), g
-
-
 @dataclass(frozen=True)
 class _Sample:
     """The unit checks' reports (the gated ones, a stride through them beyond
@@ -376,7 +367,7 @@ def _band_slope(x: np.ndarray, y: np.ndarray, ac: np.ndarray, alt_ft: np.ndarray
     if sxx < len(x) * (5.0 * KT) ** 2:  # x must vary (sd >= 5 kt)
         return None
     b = float(x @ y) / sxx
-    se, flights = _clustered_se(x * (y - b * x), flight, sxx)
+    se, flights = clustered_se(x * (y - b * x), flight, sxx)
     return b, se, flights
 
 
