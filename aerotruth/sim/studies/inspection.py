@@ -388,22 +388,26 @@ class InspectionStudy(FitsStudy):
         if sysrows.empty:
             return []
         names = list(dict.fromkeys(sysrows["system"]))
-        fig, axes = plt.subplots(2, len(names), figsize=(3.2 * len(names), 6), squeeze=False)
-        for j, nm in enumerate(names):
-            g = sysrows[sysrows["system"] == nm]
-            for i, (tcol, ecol, unit) in enumerate((("alignment_true_m", "alignment_est_m", "m"),
-                                                     ("gp_angle_true_deg", "gp_angle_est_deg", "deg"))):
+        # each system's recovery error against the injected value, one y scale per row so the
+        # systems compare (a plot of recovered vs injected collapses to a point when the
+        # campaign injects one fixed value, and its autoscaled axes then magnify the scatter)
+        fig, axes = plt.subplots(2, len(names), figsize=(3.2 * len(names), 6), squeeze=False, sharey="row")
+        for i, (tcol, ecol, unit, label) in enumerate((("alignment_true_m", "alignment_err_m", "m", "alignment"),
+                                                        ("gp_angle_true_deg", "gp_angle_err_deg", "deg", "path angle error"))):
+            for j, nm in enumerate(names):
+                g = sysrows[sysrows["system"] == nm]
                 ax = axes[i, j]
+                ax.axhline(0.0, color="k", ls=":", lw=1)
                 ax.plot(g[tcol], g[ecol], ".", ms=4)
-                lim = [min(g[tcol].min(), g[ecol].min()), max(g[tcol].max(), g[ecol].max())]
-                ax.plot(lim, lim, "k:", lw=1)
-                ax.set(title=nm if i == 0 else "", xlabel=f"injected ({unit})", ylabel=f"recovered ({unit})" if j == 0 else "")
+                rms = float(np.sqrt(np.mean(np.square(g[ecol].to_numpy(float)))))
+                ax.text(0.03, 0.95, f"RMS {rms:.3g} {unit} (n={len(g)})", transform=ax.transAxes, va="top", fontsize=8)
+                ax.set(title=nm if i == 0 else "", xlabel=f"injected {label} ({unit})")
                 ax.grid(alpha=0.3)
-        axes[0, 0].set_ylabel("alignment recovered (m)")
-        axes[1, 0].set_ylabel("path angle error recovered (deg)")
+            axes[i, 0].set_ylabel(f"{label} recovery error ({unit})")
+        fig.suptitle("Recovered minus injected facility error, per truth system", fontsize=11)
         fig.tight_layout()
         save(fig, out_dir, "inspection_recovery")
-        figs = [Figure("inspection_recovery", "Recovered against injected localizer alignment (top) and glide-path angle error (bottom), per truth system")]
+        figs = [Figure("inspection_recovery", "Recovery error (recovered - injected) of the localizer alignment (top) and the glide-path angle error (bottom) against the injected value, per truth system")]
         ep = rows[rows["kind"] == "epoch"]
         fig, axes = plt.subplots(2, len(names), figsize=(3.2 * len(names), 6), squeeze=False, sharex=True)
         for j, nm in enumerate(names):
@@ -420,7 +424,8 @@ class InspectionStudy(FitsStudy):
                     ax.plot(g0["distance_to_threshold_m"] / NM, r, "k", ls=ls, lw=1)
                     ax.plot(g0["distance_to_threshold_m"] / NM, -r, "k", ls=ls, lw=1)
                 lim = max(1.0, 1.3 * float(np.percentile(np.abs(e[col]), 99))) if len(e) else 1.0
-                ax.set(ylim=(-lim, lim), title=f"{nm}: {lab}" if True else "", xlabel="distance to threshold (nm)" if i else "")
+                ax.set(ylim=(-lim, lim), title=f"{nm}: {lab}", xlabel="distance to threshold (nm)" if i else "",
+                       ylabel=f"{lab} position error (m)" if j == 0 else "")
                 ax.grid(alpha=0.3)
         fig.tight_layout()
         save(fig, out_dir, "inspection_requirement")
