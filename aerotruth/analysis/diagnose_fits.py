@@ -64,6 +64,7 @@ from scipy import signal, stats
 from aerotruth.analysis.diagnose import Finding
 from aerotruth.analysis.fits import FitsSpec
 from aerotruth.analysis.fits_log import ApproachInputs, _at, _check_approach, approach_inputs, fits_of, retagged
+from aerotruth.analysis.least_squares import clustered_se
 from aerotruth.errors import DataError
 from aerotruth.sensors.inertial_errors import INS_GRADES, MICRO_G
 
@@ -307,9 +308,9 @@ def _latency_fit(aps: list[_Approach], model: FitsModel) -> tuple[float, float, 
     if len(parts) < 3 or den <= 0:
         return 0.0, math.inf, len(parts)
     slope = num / den
-    g = len(parts)
-    scores = np.array([np.sum(v * (e - slope * v)) for e, v in parts])
-    se = math.sqrt(float(np.sum(scores**2)) * g / (g - 1)) / den
+    score = np.concatenate([np.sum(v * (e - slope * v), axis=1) for e, v in parts])
+    approach = np.repeat(np.arange(len(parts)), [len(e) for e, _ in parts])
+    se, g = clustered_se(score, approach, den)
     return -slope, se, g
 
 
