@@ -5,9 +5,13 @@ white noise; tactical INS; RA, TVPS, DGPS; 12 approaches per dataset).
 
 Prints `label: value` lines: `null_datasets`, `null_findings` (by effect), and the share of
 datasets whose first finding is the hidden effect, per size, for the DGPS reference offset,
-the INS bias scale and the WAAS time-tag latency; writes the power figure to --out.
+the INS bias scale, the WAAS time-tag latency and the TVPS scale; writes the power figure to
+--out. The null datasets' approaches cross the threshold laterally scattered (`--threshold-y-sd`,
+default 3 m: crossings scatter by metres, coupled or flown by hand; on the centreline every
+time, a TVPS scale cannot be told from an offset and is not tested).
 
     python benchmarks/diagnose_fits_null.py [--datasets 100] [--out runs/diagnose_fits_power.png]
+        [--threshold-y-sd 3.0]
 """
 
 from __future__ import annotations
@@ -27,6 +31,8 @@ POWER = {
     "dgps_offset": ("DGPS offset per axis (m)", [0.02, 0.05, 0.1, 0.2, 0.3], lambda v: {"dgps_offset": (0.0, v, v)}),
     "ins_bias": ("INS bias scale (x grade)", [1.0, 1.5, 2.0, 2.5, 3.0], lambda v: {"ins_bias_scale": v}),
     "waas_latency": ("WAAS time-tag latency (s)", [0.01, 0.02, 0.05, 0.1, 0.2], lambda v: {"waas_latency_s": v}),
+    "tvps_scale": ("TVPS scale k (threshold y sd 3 m)", [0.99, 0.98, 0.97, 0.95, 0.9],
+                   lambda v: {"tvps_scale": v, "threshold_y_sd_m": 3.0}),
 }
 
 
@@ -35,10 +41,12 @@ def main() -> None:
     ap.add_argument("--datasets", type=int, default=100)
     ap.add_argument("--power-datasets", type=int, default=20)
     ap.add_argument("--out", default="runs/diagnose_fits_power.png")
+    ap.add_argument("--threshold-y-sd", type=float, default=3.0,
+                    help="sd (m) of where the null datasets' approaches cross the threshold laterally (0: on the centreline)")
     args = ap.parse_args()
     found = Counter()
     for s in range(args.datasets):
-        log, _ = gen.make_log(12, seed=10_000 + s, jumps_per_s=0.0)
+        log, _ = gen.make_log(12, seed=10_000 + s, jumps_per_s=0.0, threshold_y_sd_m=args.threshold_y_sd)
         for f in diagnose_log("null", log, FitsModel())[0]:
             found[f.effect] += 1
     print(f"null_datasets: {args.datasets}")

@@ -26,12 +26,14 @@ G = 9.80665
 UG = 1e-6 * G
 
 
-def truth_xyz(t: np.ndarray, t_cross: float, rng: np.random.Generator | None, ph: np.ndarray | None = None) -> np.ndarray:
-    """The trajectory at times t; its wander phases `ph` drawn from rng when not given."""
+def truth_xyz(t: np.ndarray, t_cross: float, rng: np.random.Generator | None, ph: np.ndarray | None = None,
+              y_offset_m: float = 0.0) -> np.ndarray:
+    """The trajectory at times t; its wander phases `ph` drawn from rng when not given;
+    `y_offset_m` a lateral offset of the whole track (where it crosses the threshold)."""
     x = SPEED * (t - t_cross)
     far = np.clip(-x / 5000.0, 0.0, 1.0)
     ph = rng.uniform(0, 2 * math.pi, 2) if ph is None else ph
-    y = 15.0 * far * np.sin(2 * math.pi * t / 90.0 + ph[0])
+    y = 15.0 * far * np.sin(2 * math.pi * t / 90.0 + ph[0]) + y_offset_m
     z_app = TCH - x * math.tan(math.radians(GLIDE_DEG)) + 3.0 * far * np.sin(2 * math.pi * t / 70.0 + ph[1])
     z_pass = 8.0 + 7.0 * np.exp(-np.maximum(x, 0.0) / 400.0)
     return np.column_stack([x, y, np.where(x < 0, z_app, z_pass)])
@@ -121,21 +123,25 @@ def baro_coupled_error(t: np.ndarray, rng: np.random.Generator, tau_s: float, gm
 def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before_s: float = 300.0, after_s: float = 60.0,
                   waveform: str = "sine", lever_arm_m: float = 0.0, t0_s: float = 1000.0, numeric_event: bool = False,
                   dgps_offset=(0.0, 0.0, 0.0), ins_bias_scale: float = 1.0, baro_loop_tau_s: float | None = None,
-                  waas_latency_s: float = 0.0, **waas_kw):
+                  waas_latency_s: float = 0.0, threshold_y_sd_m: float = 0.0, tvps_scale: float = 1.0, **waas_kw):
     """One approach: (log rows, truth rows). WAAS on the whole seconds, other sensors every
     row. Pilot marks as the contract has them: rows of their own at the press time, code
     'thr' at the threshold and 'end' at the stop end (numeric_event: the old 0/1 flag on
-    the first row after the press instead)."""
+    the first row after the press instead). `threshold_y_sd_m`: each approach flown
+    laterally offset by a normal draw of that sd (0: on the centreline at the threshold, no
+    draw); `tvps_scale`: the TVPS reads that multiple of the cross-track position (-1: the
+    opposite sign convention)."""
     n = int(round((before_s + after_s) * rate_hz)) + 1
     t = t0_s + np.arange(n) / rate_hz
     t_cross = t0_s + before_s + rng.uniform(0.0, 1.0)
     ph = rng.uniform(0, 2 * math.pi, 2)
-    p = truth_xyz(t, t_cross, None, ph)
+    y_off = float(rng.normal(0.0, threshold_y_sd_m)) if threshold_y_sd_m > 0 else 0.0
+    p = truth_xyz(t, t_cross, None, ph, y_off)
     w_rows = np.arange(0, n, rate_hz)
     w = waas_errors(t[w_rows], rng, waveform=waveform, **waas_kw)
     waas = np.full((n, 3), np.nan)
     # a receiver stamping its positions waas_latency_s late: the fix logged at t is the truth of t - latency
-    waas[w_rows] = truth_xyz(t[w_rows] - waas_latency_s, t_cross, None, ph) + w["total"]
+    waas[w_rows] = truth_xyz(t[w_rows] - waas_latency_s, t_cross, None, ph, y_off) + w["total"]
     ins = p + ins_errors(t, rng, accel_bias_ug=500.0 * ins_bias_scale, gyro_bias_deg_h=1.0 * ins_bias_scale)
     if baro_loop_tau_s is not None:
         ins[:, 2] = p[:, 2] + baro_coupled_error(t, rng, baro_loop_tau_s)
@@ -143,7 +149,7 @@ def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before
     over = (p[:, 0] >= 0) & (p[:, 0] <= RUNWAY_M) & (np.abs(p[:, 1]) <= 30.0)
     ra = np.where(over, p[:, 2] - lever_arm_m + 0.30 / 1.96 * rng.normal(size=n), np.nan)
     seen = (p[:, 0] >= -600.0) & (p[:, 0] <= RUNWAY_M)
-    tvps = np.where(seen, p[:, 1] + 0.60 / 1.96 * rng.normal(size=n), np.nan)
+    tvps = np.where(seen, tvps_scale * p[:, 1] + 0.60 / 1.96 * rng.normal(size=n), np.nan)
     t_press = t_cross + 0.2 + 0.05 * rng.normal()
     t_end = t_cross + RUNWAY_M / SPEED + 0.2 + 0.05 * rng.normal()
     event = np.zeros(n, int)

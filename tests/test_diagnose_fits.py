@@ -37,6 +37,28 @@ def test_a_hidden_effect_is_ranked_first_sized_within_25_percent_with_held_out_g
     assert g["held_out_after"] < g["held_out_before"]
 
 
+@pytest.mark.parametrize("scale", [-1.0, 1.1])
+def test_a_tvps_of_the_other_sign_or_scale_is_named_not_taken_for_a_dgps_offset(scale):
+    """Approaches crossing the threshold 3 m (sd) off the centreline; the TVPS reads
+    scale x the cross-track position. Eq. 18 fixes the cross-track bias on that reading,
+    so FITS - DGPS is off by (1 - 1/k) y on each approach: slope 2 across approaches for
+    the opposite sign, 1 - 1/1.1 = 0.091 for a 10 % scale (hand-worked)."""
+    log, _ = gen.make_log(12, seed=31, jumps_per_s=0.0, threshold_y_sd_m=3.0, tvps_scale=scale)
+    findings, _ = diagnose_log("log", log, FitsModel())
+    assert [f.effect for f in findings] == ["tvps_scale"], [f.effect for f in findings]
+    f = findings[0]
+    assert f.parameters["slope"]["value"] == pytest.approx(1.0 - 1.0 / scale, abs=4 * f.parameters["slope"]["se"] + 0.005)
+    assert f.parameters["tvps_scale"]["value"] == pytest.approx(scale, rel=0.05)
+    assert f.gain["held_out_after"] < 0.1 < f.gain["held_out_before"]  # m: back to the FITS's own noise
+    assert ("opposite sign" in f.cause) == (scale < 0)
+
+
+def test_a_tvps_as_the_model_says_gives_no_finding_when_approaches_spread():
+    n = sum(len(diagnose_log("log", gen.make_log(12, seed=s, jumps_per_s=0.0, threshold_y_sd_m=3.0)[0], FitsModel())[0])
+            for s in range(120, 126))
+    assert n == 0
+
+
 def test_nothing_hidden_nothing_found():
     n = sum(len(diagnose_log("log", gen.make_log(12, seed=s, jumps_per_s=0.0)[0], FitsModel())[0]) for s in range(100, 110))
     assert n == 0

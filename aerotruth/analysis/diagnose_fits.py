@@ -44,6 +44,15 @@ Effects (each with the size the hidden-effect tests use):
   level-off's change of vertical speed reads as an unflagged jump in every approach and the
   glide path's as a DGPS offset, so the effects after it run on re-tagged epochs.
   Extension: FitsSpec.waas_latency_s (`aerotruth fits --waas-latency`).
+* `tvps_scale` — the TVPS reads k x the camera's cross-track position (k = -1: the opposite
+  sign convention; a focal length or pixel size off): eq. 18 fixes the cross-track bias on
+  the reading at the threshold, so FITS - DGPS is off by (1 - 1/k) y for the whole approach;
+  regressed across approaches on the reading (mean within the fix window), the slope is
+  1 - 1/k and a common DGPS/TVPS offset the intercept. Tested when >= 6 approaches cross
+  the threshold with readings spread by >= 0.5 m (sd; on the centreline every time a scale
+  is an offset); finding when |slope| > 4 se and it moves the FITS by > 0.1 m at the
+  readings' RMS. Extension: `tvps_y_m` / k. The offset and later effects run on the
+  rescaled readings.
 * `ins_bias` — the INS drift against DGPS (quadratic per axis over the approach; the
   accelerometer bias is twice its t^2 coefficient) is larger than the grade says:
   sum of (b_hat / sigma)^2 is chi-square with one degree per approach and axis under the
@@ -281,6 +290,69 @@ def _offset_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
                    {"offset_y_m": {"value": float(mu[1]), "se": float(se[1])}, "offset_z_m": {"value": float(mu[2]), "se": float(se[2])}},
                    {"z": [float(v) for v in z], "approaches": len(m), "score": float(np.log10(max(z.max(), 1.0)) + 1.0)},
                    {"before": before, "after": after, "held_out_before": before, "held_out_after": held, "unit": "m"})
+
+
+TVPS_MIN_SPREAD_M = 0.5  # sd of the approaches' threshold readings below which a TVPS scale is an offset
+TVPS_MIN_EFFECT_M = 0.1  # a scale moving the FITS less at the approaches' readings (RMS) is not worth a finding
+
+
+def _tvps_fit(aps: list[_Approach], model: FitsModel, min_approaches: int = 6):
+    """(slope s, its standard error, intercept, readings y_i, errors e_i) of the regression
+    across approaches of the mean cross-track FITS - DGPS on the TVPS reading that fixed the
+    bias (the mean within the fix window, as eq. 18 takes it). A TVPS reading k x the
+    camera's position leaves the FITS (k - 1) y_true = (1 - 1/k) y off cross-track for the
+    whole approach (eq. 18-19), so s = 1 - 1/k: 2 for the opposite sign, 0 when k = 1.
+    None with fewer approaches than `min_approaches` or readings spread less than
+    TVPS_MIN_SPREAD_M (then a scale cannot be told from an offset)."""
+    spec = FitsSpec(period_s=model.period_s)
+    ys, es = [], []
+    for ap in aps:
+        near = (np.abs(ap.t_rows - (ap.t_mark - spec.event_delay_s)) <= spec.fix_window_s) & np.isfinite(ap.tvps)
+        r = _fits(ap, model.period_s)
+        d = r.xyz_m[:, 1] - (ap.dgps_w[:, 1] - model.dgps_offset_m[1])
+        d = d[np.isfinite(d)]
+        if near.any() and len(d):
+            ys.append(float(np.mean(ap.tvps[near])))
+            es.append(float(np.mean(d)))
+    y, e = np.array(ys), np.array(es)
+    if len(y) < min_approaches or np.std(y, ddof=1) < TVPS_MIN_SPREAD_M:
+        return None
+    fit = stats.linregress(y, e)
+    return float(fit.slope), float(fit.stderr), float(fit.intercept), y, e
+
+
+def _rescaled(ap: _Approach, k: float) -> _Approach:
+    return dataclasses.replace(ap, tvps=ap.tvps / k)
+
+
+def _tvps_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
+    got = _tvps_fit(aps, model)
+    if got is None:
+        return None
+    s, se, _, y, _ = got
+    if not (abs(s) > 4.0 * se and abs(s) * math.sqrt(np.mean(y**2)) > TVPS_MIN_EFFECT_M) or abs(1.0 - s) < 1e-6:
+        return None
+    k = 1.0 / (1.0 - s)
+    held = []
+    for fit, test in zip(_halves(aps), _halves(aps)[::-1]):
+        g = _tvps_fit(fit, model, min_approaches=3)
+        k_fit = 1.0 / (1.0 - g[0]) if g is not None and abs(1.0 - g[0]) > 1e-6 else 1.0
+        held.append((_err_rms(test, model.period_s, model.dgps_offset_m),
+                     _err_rms([_rescaled(ap, k_fit) for ap in test], model.period_s, model.dgps_offset_m)))
+    what = ("has the opposite sign to the runway frame's y (positive left of the centreline)"
+            if k < 0 else f"is {k:.3g}x the camera's cross-track position (its scale: focal length, pixel size)")
+    return Finding("tvps_scale",
+                   f"The TVPS cross-track reading {what}: across the approaches, FITS minus DGPS cross-track follows the "
+                   f"TVPS reading at the threshold with slope {s:+.2f} (1 - 1/k), since eq. 18 fixes the cross-track bias "
+                   f"on that reading. Dividing `tvps_y_m` by {k:.3g} removes it. A common DGPS or TVPS offset is the "
+                   "intercept, not this slope.",
+                   {"tvps_scale": {"value": k, "se": se / (1.0 - s) ** 2}, "slope": {"value": s, "se": se}},
+                   {"z": abs(s) / se, "approaches": len(y), "threshold_y_sd_m": float(np.std(y, ddof=1)),
+                    "score": float(np.log10(max(abs(s) / se, 1.0)) + 1.0)},
+                   {"before": _err_rms(aps, model.period_s, model.dgps_offset_m),
+                    "after": _err_rms([_rescaled(ap, k) for ap in aps], model.period_s, model.dgps_offset_m),
+                    "held_out_before": float(np.mean([h[0] for h in held])),
+                    "held_out_after": float(np.mean([h[1] for h in held])), "unit": "m"})
 
 
 LATENCY_MIN_S = 0.02  # smaller latencies move the FITS by < 7 cm on a 3-deg glide path: not worth a finding
@@ -525,6 +597,10 @@ def diagnose_log(path, df: pd.DataFrame, model: FitsModel) -> tuple[list[Finding
         if lat is not None:  # the other effects on the re-tagged epochs (else the latency reads as jumps and an offset)
             findings.append(lat)
             aps = [retagged(ap, lat.parameters["latency_s"]["value"]) for ap in aps]
+        tv = _tvps_effect(aps, m2)
+        if tv is not None:  # the offset and the rest on rescaled readings (else the scale reads as an offset)
+            findings.append(tv)
+            aps = [_rescaled(ap, tv.parameters["tvps_scale"]["value"]) for ap in aps]
         for g in (_offset_effect(aps, m2), _ins_bias_effect(aps, m2), _baro_effect(aps, m2)):
             if g is not None:
                 findings.append(g)
