@@ -59,6 +59,32 @@ def test_a_tvps_as_the_model_says_gives_no_finding_when_approaches_spread():
     assert n == 0
 
 
+FRAMES = {  # INS columns as logged -> the signed permutation P with INS = P r (r the runway frame)
+    "y of the other sign": (lambda g: g.assign(ins_y_m=-g["ins_y_m"]), [[1, 0, 0], [0, -1, 0], [0, 0, 1]]),
+    "z down": (lambda g: g.assign(ins_z_m=-g["ins_z_m"]), [[1, 0, 0], [0, 1, 0], [0, 0, -1]]),
+    "x and y swapped": (lambda g: g.assign(ins_x_m=g["ins_y_m"], ins_y_m=g["ins_x_m"]), [[0, 1, 0], [1, 0, 0], [0, 0, 1]]),
+}
+
+
+@pytest.mark.parametrize("frame", list(FRAMES))
+@pytest.mark.parametrize("with_dgps", [True, False])
+def test_an_ins_logged_in_another_frame_is_named_with_or_without_dgps(frame, with_dgps):
+    """The generator's approaches wander 15 m laterally and 3 m vertically far out and level
+    off over the runway: motion no cubic drift follows. An INS column of the other sign or
+    two columns swapped is told from drift by that motion, even where the logged axis
+    itself hardly moves beyond a cubic (x, at constant speed: the swap shows in y)."""
+    mutate, p = FRAMES[frame]
+    log, _ = gen.make_log(12, seed=35, jumps_per_s=1 / 120.0, jump_sigma=1.0)
+    log = mutate(log)
+    if not with_dgps:
+        log = log.drop(columns=["dgps_x_m", "dgps_y_m", "dgps_z_m"])
+    findings, _ = diagnose_log("log", log, FitsModel())
+    assert [f.effect for f in findings] == ["ins_frame"], [f.effect for f in findings]
+    f = findings[0]
+    assert f.evidence["frame"] == p
+    assert f.gain["held_out_after"] < 0.1 * f.gain["held_out_before"]
+
+
 def test_nothing_hidden_nothing_found():
     n = sum(len(diagnose_log("log", gen.make_log(12, seed=s, jumps_per_s=0.0)[0], FitsModel())[0]) for s in range(100, 110))
     assert n == 0
@@ -70,7 +96,7 @@ def test_a_baro_coupled_ins_as_the_model_says_gives_no_finding():
         assert diagnose_log("log", log, BARO_MODEL)[0] == []
 
 
-def test_without_dgps_only_the_cyclic_period_is_tested():
+def test_without_dgps_only_the_cyclic_period_and_the_ins_frame_are_tested():
     log, _ = gen.make_log(10, seed=32, jumps_per_s=0.0, period_s=6.0, dgps_offset=(0.0, 0.3, 0.3))
     findings, base = diagnose_log("log", log.drop(columns=["dgps_x_m", "dgps_y_m", "dgps_z_m"]), FitsModel())
     assert base["dgps"] is False and [f.effect for f in findings] == ["cyclic_period"]

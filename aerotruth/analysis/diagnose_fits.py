@@ -9,9 +9,21 @@ estimated on one half and its gain measured on the other, then the other way rou
 the two gains averaged ("held out"). Gains are in the metric a flight inspector cares
 about: the RMS of the WAAS-aided FITS minus the DGPS truth, cross-track and vertical
 (along-track is left out: it is the pilot's mark timing), and for the INS the Gaussian
-log-likelihood of its drift. Without DGPS only the cyclic period can be tested.
+log-likelihood of its drift. Without DGPS only the INS frame and the cyclic period can be
+tested.
 
 Effects (each with the size the hidden-effect tests use):
+* `ins_frame` — the INS columns are not in the runway frame: an axis of the other sign (z
+  down, y right) or two axes swapped. Drift is smooth (a cubic in time holds its bias,
+  velocity, tilt, accelerometer and gyro terms over an approach), the aircraft's motion
+  is not (wander, level-offs, speed changes), so beyond a cubic per approach (and a step
+  at each flagged WAAS epoch) the INS must follow the WAAS axis by axis: the loadings F of
+  the INS's axes on the WAAS's (least squares over approaches, standard errors clustered
+  by approach) are the identity, shrunk by the WAAS noise. Tested on the axes whose motion
+  beyond the cubic is >= 1 m RMS; finding when the nearest signed permutation is not the
+  identity and each entry that differs is > 4 se from it. Needs no DGPS. Extension: the
+  INS columns put back in the frame; the other effects run on them (else the motion reads
+  as WAAS noise: a z down read as a second cyclic period, a DGPS offset and jumps).
 * `cyclic_period` — the WAAS - INS difference, detrended by a local cubic (Savitzky-Golay,
   41 s) and averaged over approaches as a periodogram, peaks at a period other than the
   model's (or at a second one): the fast-correction interval is not what the model says
@@ -63,6 +75,7 @@ Effects (each with the size the hidden-effect tests use):
 from __future__ import annotations
 
 import dataclasses
+import itertools
 import math
 from dataclasses import dataclass
 
@@ -222,6 +235,121 @@ def _periodic_rms(aps: list[_Approach], periods: list[float]) -> float:
         sq += float(np.sum(r**2))
         n += r.size
     return math.sqrt(sq / n) if n else float("nan")
+
+
+FRAME_MIN_MOTION_M = 1.0  # an axis whose motion (beyond the drift polynomial) is smaller is hidden by the WAAS noise
+FRAME_AXES = "xyz"
+
+
+def _beyond_drift(t: np.ndarray, flags: np.ndarray, y: np.ndarray) -> np.ndarray:
+    """y (n, k) less its least-squares fit by a cubic in time (an INS's drift: bias, velocity
+    and tilt errors, accelerometer and gyro biases) and a step at each flagged WAAS epoch
+    (the WAAS bias jumps there)."""
+    u = (t - t.mean()) / max(np.ptp(t), 1e-9)
+    a = np.column_stack([u**0, u, u**2, u**3, *((t >= t[i]).astype(float) for i in np.flatnonzero(flags))])
+    return y - a @ np.linalg.lstsq(a, y, rcond=None)[0]
+
+
+def _frame_fit(aps: list[_Approach]):
+    """(F, its standard errors, motion RMS per axis): the loadings F[i, j] of the INS's axis
+    i on the WAAS's axis j, both beyond the drift polynomial, least squares over the
+    approaches' WAAS epochs, standard errors clustered by approach. An INS logging
+    P x the runway-frame position (P a signed permutation: an axis of the other sign,
+    two axes swapped) gives F = P attenuated by the WAAS noise on each column
+    (m^2 / (m^2 + w^2), ~0.85 at m = 1 m of motion); its drift is in the polynomial."""
+    xs, ys, grp = [], [], []
+    for i, ap in enumerate(aps):
+        ok = np.isfinite(ap.waas).all(axis=1) & np.isfinite(ap.ins_w).all(axis=1)
+        if ok.sum() < 60:
+            continue
+        xs.append(_beyond_drift(ap.t_w[ok], ap.flags[ok], ap.waas[ok]))
+        ys.append(_beyond_drift(ap.t_w[ok], ap.flags[ok], ap.ins_w[ok]))
+        grp.append(np.full(ok.sum(), i))
+    if len(xs) < 3:
+        return None
+    x, y, grp = np.vstack(xs), np.vstack(ys), np.concatenate(grp)
+    xtx_inv = np.linalg.inv(x.T @ x)
+    f = (xtx_inv @ x.T @ y).T
+    r = y - x @ f.T
+    groups = np.unique(grp)
+    se = np.zeros((3, 3))
+    for i in range(3):
+        scores = np.array([x[grp == g].T @ r[grp == g, i] for g in groups])
+        cov = xtx_inv @ (scores.T @ scores) @ xtx_inv * len(groups) / (len(groups) - 1)
+        se[i] = np.sqrt(np.diag(cov))
+    return f, se, np.sqrt(np.mean(x**2, axis=0))
+
+
+def _signed_permutation(f: np.ndarray, cols: np.ndarray) -> np.ndarray:
+    """The signed permutation matrix nearest F on the columns `cols` (the identity's where
+    the columns do not decide)."""
+    best, best_cost = np.eye(3), np.inf
+    for perm in itertools.permutations(range(3)):
+        for signs in itertools.product((1.0, -1.0), repeat=3):
+            p = np.zeros((3, 3))
+            p[list(perm), range(3)] = signs
+            cost = float(np.sum((f[:, cols] - p[:, cols]) ** 2)) + 1e-6 * float(np.sum((p - np.eye(3)) ** 2))
+            if cost < best_cost:
+                best, best_cost = p, cost
+    return best
+
+
+def _in_frame(ap: _Approach, p: np.ndarray) -> _Approach:
+    """The approach with its INS positions taken back to the runway frame (INS = P r)."""
+    return dataclasses.replace(ap, ins_w=ap.ins_w @ p, ins_rows=ap.ins_rows @ p)
+
+
+def _beyond_drift_rms(aps: list[_Approach]) -> float:
+    """RMS of WAAS - INS beyond the drift polynomial (what the FITS's filter takes for WAAS
+    noise), cross-track and vertical."""
+    sq, n = 0.0, 0
+    for ap in aps:
+        ok = np.isfinite(ap.waas).all(axis=1) & np.isfinite(ap.ins_w).all(axis=1)
+        if ok.sum() >= 60:
+            d = _beyond_drift(ap.t_w[ok], ap.flags[ok], ap.waas[ok] - ap.ins_w[ok])[:, 1:]
+            sq, n = sq + float(np.sum(d**2)), n + d.size
+    return math.sqrt(sq / n) if n else float("nan")
+
+
+def _frame_effect(aps: list[_Approach]) -> Finding | None:
+    got = _frame_fit(aps)
+    if got is None:
+        return None
+    f, se, motion = got
+    cols = np.flatnonzero(motion >= FRAME_MIN_MOTION_M)
+    if not len(cols):
+        return None
+    p = _signed_permutation(f, cols)
+    z = np.abs(f - np.eye(3)) / np.maximum(se, 1e-12)
+    if np.allclose(p, np.eye(3)) or not (z[:, cols][np.abs(p - np.eye(3))[:, cols] > 0] > 4.0).all():
+        return None
+    said = []
+    for i in range(3):
+        j = int(np.flatnonzero(p[i])[0])
+        if j == i and p[i, j] < 0:
+            said.append(f"its {FRAME_AXES[i]} axis has the opposite sign")
+        elif j != i:
+            said.append(f"its {FRAME_AXES[i]} column holds the {'-' if p[i, j] < 0 else ''}{FRAME_AXES[j]} of the runway frame")
+    held = []
+    for fit, test in zip(_halves(aps), _halves(aps)[::-1]):
+        g = _frame_fit(fit)
+        p_fit = _signed_permutation(g[0], np.flatnonzero(g[2] >= FRAME_MIN_MOTION_M)) if g is not None else np.eye(3)
+        held.append((_beyond_drift_rms(test), _beyond_drift_rms([_in_frame(ap, p_fit) for ap in test])))
+    loads = ", ".join(f"{FRAME_AXES[i]} on {FRAME_AXES[j]} {f[i, j]:+.2f}" for j in cols for i in range(3) if p[i, j] != 0)
+    return Finding("ins_frame",
+                   f"The INS positions are not in the runway frame (x along the course, y left, z up): {'; '.join(said)}. "
+                   f"Beyond a drift (a cubic in time per approach), the INS follows the aircraft's motion as the WAAS sees "
+                   f"it with loadings {loads} (1 in the frame; the WAAS noise shrinks them a little). The FITS's filter "
+                   "then takes the motion for WAAS noise. Put the INS columns in the runway frame.",
+                   {f"F_{FRAME_AXES[i]}{FRAME_AXES[j]}": {"value": float(f[i, j]), "se": float(se[i, j])}
+                    for j in cols for i in range(3)},
+                   {"frame": p.tolist(), "motion_rms_m": [float(v) for v in motion], "axes_tested": [FRAME_AXES[j] for j in cols],
+                    "approaches": len(aps), "z": float(z[:, cols].max()),
+                    "score": float(np.log10(max(z[:, cols].max(), 1.0)) + 1.0)},
+                   {"before": _beyond_drift_rms(aps), "after": _beyond_drift_rms([_in_frame(ap, p) for ap in aps]),
+                    "held_out_before": float(np.mean([h[0] for h in held])),
+                    "held_out_after": float(np.mean([h[1] for h in held])),
+                    "unit": "m (WAAS - INS beyond the drift polynomial, RMS)"})
 
 
 def _period_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
@@ -583,6 +711,10 @@ def diagnose_log(path, df: pd.DataFrame, model: FitsModel) -> tuple[list[Finding
     aps = _approaches(path, df)
     dgps = all(a.dgps_w is not None and np.isfinite(a.dgps_w).any() for a in aps)
     findings: list[Finding] = []
+    fr = _frame_effect(aps)
+    if fr is not None:  # the rest on the INS in the runway frame (else the motion reads as WAAS noise)
+        findings.append(fr)
+        aps = [_in_frame(ap, np.asarray(fr.evidence["frame"])) for ap in aps]
     f = _period_effect(aps, model)
     period = model.period_s
     if f is not None:
@@ -623,7 +755,7 @@ def write_log_diagnosis(path, df: pd.DataFrame, findings: list[Finding], baselin
     diag = Diagnosis(str(path), "approach_log", int(len(df)), {}, findings, {**baseline, "model": asdict(model)})
     atomic_write_text(out / "diagnosis.json", json.dumps(asdict(diag), indent=2, default=float) + "\n")
     lines = [f"# Diagnosis of `{path}`", "", f"Kind: approach log; {baseline['approaches']} approaches; DGPS truth: "
-             f"{'yes' if baseline['dgps'] else 'no (only the cyclic period can be tested)'}.", "",
+             f"{'yes' if baseline['dgps'] else 'no (only the INS frame and the cyclic period can be tested)'}.", "",
              f"Model: WAAS cyclic period {model.period_s:g} s, {model.grade} INS ({model.accel_bias_ug:g} ug), DGPS survey offset "
              f"{tuple(model.dgps_offset_m)} m.", ""]
     if "fits_minus_dgps_rms_m" in baseline:
