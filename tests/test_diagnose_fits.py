@@ -85,6 +85,16 @@ def test_an_ins_logged_in_another_frame_is_named_with_or_without_dgps(frame, wit
     assert f.gain["held_out_after"] < 0.1 * f.gain["held_out_before"]
 
 
+def test_the_fits_command_refuses_an_ins_in_another_frame_naming_the_columns(tmp_path, capsys):
+    log, _ = gen.make_log(4, seed=36, jumps_per_s=0.0)
+    log.to_csv(tmp_path / "ok.csv", index=False)
+    assert main(["fits", str(tmp_path / "ok.csv"), "--out", str(tmp_path / "ok")]) == 0
+    log.assign(ins_z_m=-log["ins_z_m"]).to_csv(tmp_path / "z.csv", index=False)
+    assert main(["fits", str(tmp_path / "z.csv"), "--out", str(tmp_path / "z")]) == 2
+    err = capsys.readouterr().err
+    assert "z.csv: columns ins_x_m/ins_y_m/ins_z_m: ins_z_m has the opposite sign" in err and err.count("\n") == 1
+
+
 def test_nothing_hidden_nothing_found():
     n = sum(len(diagnose_log("log", gen.make_log(12, seed=s, jumps_per_s=0.0)[0], FitsModel())[0]) for s in range(100, 110))
     assert n == 0

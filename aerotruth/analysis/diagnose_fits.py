@@ -75,7 +75,6 @@ Effects (each with the size the hidden-effect tests use):
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import math
 from dataclasses import dataclass
 
@@ -83,6 +82,7 @@ import numpy as np
 import pandas as pd
 from scipy import signal, stats
 
+from aerotruth.analysis import ins_frame
 from aerotruth.analysis.diagnose import Finding
 from aerotruth.analysis.fits import FitsSpec
 from aerotruth.analysis.fits_log import ApproachInputs, _at, _check_approach, approach_inputs, fits_of, retagged
@@ -237,116 +237,27 @@ def _periodic_rms(aps: list[_Approach], periods: list[float]) -> float:
     return math.sqrt(sq / n) if n else float("nan")
 
 
-FRAME_MIN_MOTION_M = 1.0  # an axis whose motion (beyond the drift polynomial) is smaller is hidden by the WAAS noise
-FRAME_AXES = "xyz"
-
-
-def _beyond_drift(t: np.ndarray, flags: np.ndarray, y: np.ndarray) -> np.ndarray:
-    """y (n, k) less its least-squares fit by a cubic in time (an INS's drift: bias, velocity
-    and tilt errors, accelerometer and gyro biases) and a step at each flagged WAAS epoch
-    (the WAAS bias jumps there)."""
-    u = (t - t.mean()) / max(np.ptp(t), 1e-9)
-    a = np.column_stack([u**0, u, u**2, u**3, *((t >= t[i]).astype(float) for i in np.flatnonzero(flags))])
-    return y - a @ np.linalg.lstsq(a, y, rcond=None)[0]
-
-
-def _frame_fit(aps: list[_Approach]):
-    """(F, its standard errors, motion RMS per axis): the loadings F[i, j] of the INS's axis
-    i on the WAAS's axis j, both beyond the drift polynomial, least squares over the
-    approaches' WAAS epochs, standard errors clustered by approach. An INS logging
-    P x the runway-frame position (P a signed permutation: an axis of the other sign,
-    two axes swapped) gives F = P attenuated by the WAAS noise on each column
-    (m^2 / (m^2 + w^2), ~0.85 at m = 1 m of motion); its drift is in the polynomial."""
-    xs, ys, grp = [], [], []
-    for i, ap in enumerate(aps):
-        ok = np.isfinite(ap.waas).all(axis=1) & np.isfinite(ap.ins_w).all(axis=1)
-        if ok.sum() < 60:
-            continue
-        xs.append(_beyond_drift(ap.t_w[ok], ap.flags[ok], ap.waas[ok]))
-        ys.append(_beyond_drift(ap.t_w[ok], ap.flags[ok], ap.ins_w[ok]))
-        grp.append(np.full(ok.sum(), i))
-    if len(xs) < 3:
-        return None
-    x, y, grp = np.vstack(xs), np.vstack(ys), np.concatenate(grp)
-    xtx_inv = np.linalg.inv(x.T @ x)
-    f = (xtx_inv @ x.T @ y).T
-    r = y - x @ f.T
-    groups = np.unique(grp)
-    se = np.zeros((3, 3))
-    for i in range(3):
-        scores = np.array([x[grp == g].T @ r[grp == g, i] for g in groups])
-        cov = xtx_inv @ (scores.T @ scores) @ xtx_inv * len(groups) / (len(groups) - 1)
-        se[i] = np.sqrt(np.diag(cov))
-    return f, se, np.sqrt(np.mean(x**2, axis=0))
-
-
-def _signed_permutation(f: np.ndarray, cols: np.ndarray) -> np.ndarray:
-    """The signed permutation matrix nearest F on the columns `cols` (the identity's where
-    the columns do not decide)."""
-    best, best_cost = np.eye(3), np.inf
-    for perm in itertools.permutations(range(3)):
-        for signs in itertools.product((1.0, -1.0), repeat=3):
-            p = np.zeros((3, 3))
-            p[list(perm), range(3)] = signs
-            cost = float(np.sum((f[:, cols] - p[:, cols]) ** 2)) + 1e-6 * float(np.sum((p - np.eye(3)) ** 2))
-            if cost < best_cost:
-                best, best_cost = p, cost
-    return best
-
-
-def _in_frame(ap: _Approach, p: np.ndarray) -> _Approach:
-    """The approach with its INS positions taken back to the runway frame (INS = P r)."""
-    return dataclasses.replace(ap, ins_w=ap.ins_w @ p, ins_rows=ap.ins_rows @ p)
-
-
-def _beyond_drift_rms(aps: list[_Approach]) -> float:
-    """RMS of WAAS - INS beyond the drift polynomial (what the FITS's filter takes for WAAS
-    noise), cross-track and vertical."""
-    sq, n = 0.0, 0
-    for ap in aps:
-        ok = np.isfinite(ap.waas).all(axis=1) & np.isfinite(ap.ins_w).all(axis=1)
-        if ok.sum() >= 60:
-            d = _beyond_drift(ap.t_w[ok], ap.flags[ok], ap.waas[ok] - ap.ins_w[ok])[:, 1:]
-            sq, n = sq + float(np.sum(d**2)), n + d.size
-    return math.sqrt(sq / n) if n else float("nan")
-
-
 def _frame_effect(aps: list[_Approach]) -> Finding | None:
-    got = _frame_fit(aps)
-    if got is None:
+    fe = ins_frame.frame_error(aps)
+    if fe is None:
         return None
-    f, se, motion = got
-    cols = np.flatnonzero(motion >= FRAME_MIN_MOTION_M)
-    if not len(cols):
-        return None
-    p = _signed_permutation(f, cols)
-    z = np.abs(f - np.eye(3)) / np.maximum(se, 1e-12)
-    if np.allclose(p, np.eye(3)) or not (z[:, cols][np.abs(p - np.eye(3))[:, cols] > 0] > 4.0).all():
-        return None
-    said = []
-    for i in range(3):
-        j = int(np.flatnonzero(p[i])[0])
-        if j == i and p[i, j] < 0:
-            said.append(f"its {FRAME_AXES[i]} axis has the opposite sign")
-        elif j != i:
-            said.append(f"its {FRAME_AXES[i]} column holds the {'-' if p[i, j] < 0 else ''}{FRAME_AXES[j]} of the runway frame")
     held = []
     for fit, test in zip(_halves(aps), _halves(aps)[::-1]):
-        g = _frame_fit(fit)
-        p_fit = _signed_permutation(g[0], np.flatnonzero(g[2] >= FRAME_MIN_MOTION_M)) if g is not None else np.eye(3)
-        held.append((_beyond_drift_rms(test), _beyond_drift_rms([_in_frame(ap, p_fit) for ap in test])))
-    loads = ", ".join(f"{FRAME_AXES[i]} on {FRAME_AXES[j]} {f[i, j]:+.2f}" for j in cols for i in range(3) if p[i, j] != 0)
+        g = ins_frame.frame_error(fit)
+        p_fit = g.p if g is not None else np.eye(3)
+        held.append((ins_frame.beyond_drift_rms(test), ins_frame.beyond_drift_rms([ins_frame.in_frame(ap, p_fit) for ap in test])))
+    ax = ins_frame.AXES
     return Finding("ins_frame",
-                   f"The INS positions are not in the runway frame (x along the course, y left, z up): {'; '.join(said)}. "
+                   f"The INS positions are not in the runway frame (x along the course, y left, z up): {'; '.join(fe.said())}. "
                    f"Beyond a drift (a cubic in time per approach), the INS follows the aircraft's motion as the WAAS sees "
-                   f"it with loadings {loads} (1 in the frame; the WAAS noise shrinks them a little). The FITS's filter "
+                   f"it with loadings {fe.loads()} (1 in the frame; the WAAS noise shrinks them a little). The FITS's filter "
                    "then takes the motion for WAAS noise. Put the INS columns in the runway frame.",
-                   {f"F_{FRAME_AXES[i]}{FRAME_AXES[j]}": {"value": float(f[i, j]), "se": float(se[i, j])}
-                    for j in cols for i in range(3)},
-                   {"frame": p.tolist(), "motion_rms_m": [float(v) for v in motion], "axes_tested": [FRAME_AXES[j] for j in cols],
-                    "approaches": len(aps), "z": float(z[:, cols].max()),
-                    "score": float(np.log10(max(z[:, cols].max(), 1.0)) + 1.0)},
-                   {"before": _beyond_drift_rms(aps), "after": _beyond_drift_rms([_in_frame(ap, p) for ap in aps]),
+                   {f"F_{ax[i]}{ax[j]}": {"value": float(fe.f[i, j]), "se": float(fe.se[i, j])} for j in fe.cols for i in range(3)},
+                   {"frame": fe.p.tolist(), "motion_rms_m": [float(v) for v in fe.motion_m],
+                    "axes_tested": [ax[j] for j in fe.cols], "approaches": len(aps), "z": fe.z,
+                    "score": float(np.log10(max(fe.z, 1.0)) + 1.0)},
+                   {"before": ins_frame.beyond_drift_rms(aps),
+                    "after": ins_frame.beyond_drift_rms([ins_frame.in_frame(ap, fe.p) for ap in aps]),
                     "held_out_before": float(np.mean([h[0] for h in held])),
                     "held_out_after": float(np.mean([h[1] for h in held])),
                     "unit": "m (WAAS - INS beyond the drift polynomial, RMS)"})
@@ -714,7 +625,7 @@ def diagnose_log(path, df: pd.DataFrame, model: FitsModel) -> tuple[list[Finding
     fr = _frame_effect(aps)
     if fr is not None:  # the rest on the INS in the runway frame (else the motion reads as WAAS noise)
         findings.append(fr)
-        aps = [_in_frame(ap, np.asarray(fr.evidence["frame"])) for ap in aps]
+        aps = [ins_frame.in_frame(ap, np.asarray(fr.evidence["frame"])) for ap in aps]
     f = _period_effect(aps, model)
     period = model.period_s
     if f is not None:

@@ -22,7 +22,11 @@ fixed). Units are checked from the physics: an approach whose WAAS ground speed 
 its epochs) is outside 10-130 m/s is refused as not in metres (a log in km or feet), a
 radar-altimeter reading below -3 m as no height (a sign or a unit), and an approach whose
 WAAS height over the runway differs from the radar altimeter's (plus its lever arm) by more
-than 10 m in the median (RA in feet, or z not from the threshold).
+than 10 m in the median (RA in feet, or z not from the threshold). A log of 3 or more
+approaches whose INS columns are not in the runway frame (an axis of the other sign, two
+swapped: aerotruth.analysis.ins_frame, from the aircraft's motion beyond a drift) is
+refused naming the columns; fewer approaches are not checked (a single approach can
+mislead).
 
 Events (the contract): `event` is empty on ordinary rows; a pilot mark is a row of its
 own at its exact time with the code `thr` (threshold) or `end` (stop end), its other
@@ -50,6 +54,7 @@ import numpy as np
 import pandas as pd
 
 from aerotruth.analysis.fits import FitsResult, FitsSpec, fits_approach
+from aerotruth.analysis.ins_frame import frame_error
 from aerotruth.analysis.ils_metrics import (FLOOR_HORIZONTAL_M, FLOOR_VERTICAL_M, REQUIREMENTS, approach_errors,
                                             approach_verdict, required_error_m)
 from aerotruth.errors import DataError, output_folder
@@ -394,10 +399,17 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
         a = missing[0].item() if isinstance(missing[0], np.generic) else missing[0]
         raise DataError(f"{geom_src}: no runway geometry for approach {a!r} (it has "
                         f"{', '.join(map(str, geoms))}); give every approach one, or one for the whole log")
-    traj, grid, noise, bias, errs = [], [], [], [], []
+    approaches = []
     for a, g in df.groupby("approach", sort=False):
         _check_approach(p, a, g)
-        inputs = retagged(approach_inputs(g), spec.waas_latency_s)
+        approaches.append((a, g, retagged(approach_inputs(g), spec.waas_latency_s)))
+    fe = frame_error([inputs for _, _, inputs in approaches])  # needs 3 approaches: a single one can mislead
+    if fe is not None:
+        raise DataError(f"{p}: columns ins_x_m/ins_y_m/ins_z_m: {'; '.join(fe.said())} (beyond a drift the INS follows "
+                        f"the aircraft's motion as the WAAS sees it with loadings {fe.loads()}, over {len(approaches)} "
+                        "approaches); expected the runway frame, x along the course, y left, z up")
+    traj, grid, noise, bias, errs = [], [], [], [], []
+    for a, g, inputs in approaches:
         try:
             r = fits_of(inputs, spec)
         except ValueError as exc:
