@@ -336,7 +336,7 @@ TVPS_MIN_EFFECT_M = 0.1  # a scale moving the FITS less at the approaches' readi
 
 
 def _tvps_fit(aps: list[_Approach], model: FitsModel, min_approaches: int = 6):
-    """(slope s, its standard error, intercept, readings y_i, errors e_i) of the regression
+    """(slope s, its standard error, the readings y_i) of the regression
     across approaches of the mean cross-track FITS - DGPS on the TVPS reading that fixed the
     bias (the mean within the fix window, as eq. 18 takes it). A TVPS reading k x the
     camera's position leaves the FITS (k - 1) y_true = (1 - 1/k) y off cross-track for the
@@ -357,7 +357,7 @@ def _tvps_fit(aps: list[_Approach], model: FitsModel, min_approaches: int = 6):
     if len(y) < min_approaches or np.std(y, ddof=1) < TVPS_MIN_SPREAD_M:
         return None
     fit = stats.linregress(y, e)
-    return float(fit.slope), float(fit.stderr), float(fit.intercept), y, e
+    return float(fit.slope), float(fit.stderr), y
 
 
 def _rescaled(ap: _Approach, k: float) -> _Approach:
@@ -368,7 +368,7 @@ def _tvps_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
     got = _tvps_fit(aps, model)
     if got is None:
         return None
-    s, se, _, y, _ = got
+    s, se, y = got
     if not (abs(s) > 4.0 * se and abs(s) * math.sqrt(np.mean(y**2)) > TVPS_MIN_EFFECT_M) or abs(1.0 - s) < 1e-6:
         return None
     k = 1.0 / (1.0 - s)
