@@ -81,8 +81,27 @@ def test_an_ins_logged_in_another_frame_is_named_with_or_without_dgps(frame, wit
     findings, _ = diagnose_log("log", log, FitsModel())
     assert [f.effect for f in findings] == ["ins_frame"], [f.effect for f in findings]
     f = findings[0]
-    assert f.evidence["frame"] == p
+    q, tested = np.asarray(f.evidence["frame"]), ["xyz".index(a) for a in f.evidence["axes_tested"]]
+    assert tested == [1, 2]  # x hardly moves beyond a cubic at the generator's constant speed
+    assert np.allclose(q[:, tested], np.asarray(p)[:, tested], atol=0.02), q
     assert f.gain["held_out_after"] < 0.1 * f.gain["held_out_before"]
+
+
+@pytest.mark.parametrize("deg", [16.0, -40.0])
+def test_ins_axes_turned_about_the_vertical_are_named_with_the_angle(deg):
+    """An INS logged in axes turned by the declination (a magnetic course used for the true
+    one: 16 deg) or by 40 deg: x along the course leaks into y by sin(angle)."""
+    log, _ = gen.make_log(12, seed=35, jumps_per_s=0.0)
+    th = np.radians(deg)
+    x, y = log["ins_x_m"], log["ins_y_m"]
+    log = log.assign(ins_x_m=np.cos(th) * x - np.sin(th) * y, ins_y_m=np.sin(th) * x + np.cos(th) * y)
+    findings, _ = diagnose_log("log", log, FitsModel())
+    assert [f.effect for f in findings] == ["ins_frame"], [f.effect for f in findings]
+    q = np.asarray(findings[0].evidence["frame"])
+    assert np.degrees(np.arctan2(-q[0, 1], q[1, 1])) == pytest.approx(deg, abs=1.0)  # from the tested y column
+    assert "turned by " + ("+" if deg > 0 else "-") in findings[0].cause
+    g = findings[0].gain
+    assert g["held_out_after"] < 0.5 * g["held_out_before"]
 
 
 def test_the_fits_command_refuses_an_ins_in_another_frame_naming_the_columns(tmp_path, capsys):

@@ -24,7 +24,8 @@ radar-altimeter reading below -3 m as no height (a sign or a unit), and an appro
 WAAS height over the runway differs from the radar altimeter's (plus its lever arm) by more
 than 10 m in the median (RA in feet, or z not from the threshold). A log of 3 or more
 approaches whose INS columns are not in the runway frame (an axis of the other sign, two
-swapped: aerotruth.analysis.ins_frame, from the aircraft's motion beyond a drift) is
+swapped, the horizontal axes turned: aerotruth.analysis.ins_frame, from the aircraft's
+motion beyond a drift) is
 refused naming the columns; fewer approaches are not checked (a single approach can
 mislead).
 
