@@ -45,9 +45,9 @@ def loadings(aps: list):
     """(F, its standard errors, motion RMS per axis) or None with fewer than MIN_APPROACHES
     usable approaches: F[i, j] the loading of the INS's axis i on the WAAS's axis j, both
     beyond the drift, least squares over the approaches' WAAS epochs, standard errors
-    clustered by approach. An INS logging P x the runway-frame position (P a signed
-    permutation) gives F = P, each column shrunk by the WAAS noise w (m^2 / (m^2 + w^2),
-    ~0.85 at m = 1 m of motion). `aps`: fits_log.ApproachInputs (t_w, waas, ins_w, flags)."""
+    clustered by approach. An INS logging Q x the runway-frame position (Q orthogonal: an
+    axis flipped, two swapped, axes turned) gives F = Q, each column shrunk by the WAAS
+    noise w (m^2 / (m^2 + w^2), ~0.85 at m = 1 m of motion). `aps`: fits_log.ApproachInputs (t_w, waas, ins_w, flags)."""
     xs, ys, grp = [], [], []
     for i, ap in enumerate(aps):
         ok = _usable(ap)
