@@ -63,11 +63,9 @@ def loadings(aps: list):
     f = (xtx_inv @ x.T @ y).T
     r = y - x @ f.T
     groups = np.unique(grp)
-    se = np.zeros((3, 3))
-    for i in range(3):
-        scores = np.array([x[grp == g].T @ r[grp == g, i] for g in groups])
-        cov = xtx_inv @ (scores.T @ scores) @ xtx_inv * len(groups) / (len(groups) - 1)
-        se[i] = np.sqrt(np.diag(cov))
+    scores = np.array([x[grp == g].T @ r[grp == g] for g in groups])  # (group, WAAS axis, INS axis)
+    c = len(groups) / (len(groups) - 1)
+    se = np.array([np.sqrt(np.diag(xtx_inv @ (scores[:, :, i].T @ scores[:, :, i]) @ xtx_inv * c)) for i in range(3)])
     return f, se, np.sqrt(np.mean(x**2, axis=0))
 
 
@@ -99,10 +97,10 @@ class FrameError:
 
     def said(self) -> list[str]:
         out = self._frame()
-        guessed = [AXES[j] for j in range(3) if j not in self.cols and abs(self.q[j, j] - 1.0) > 0.02]
+        guessed = [j for j in range(3) if j not in self.cols and abs(self.q[j, j] - 1.0) > 0.02]
         if guessed:  # its column of Q only completes the tested ones (orthogonal): which sign, the data cannot say
-            out.append(f"the runway frame's {'/'.join(guessed)} moves too little beyond the drift to be tested "
-                       f"({', '.join(f'{self.motion_m[AXES.index(a)]:.2f} m' for a in guessed)}): its sign here is a guess")
+            out.append(f"the runway frame's {'/'.join(AXES[j] for j in guessed)} moves too little beyond the drift to be "
+                       f"tested ({', '.join(f'{self.motion_m[j]:.2f} m' for j in guessed)}): its sign here is a guess")
         return out
 
     def _frame(self) -> list[str]:
