@@ -2,6 +2,6 @@
 
 import sys
 
-from aerotruth.cli import main
+from aerotruth.app.cli import main
 
 sys.exit(main())

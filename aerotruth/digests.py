@@ -22,8 +22,8 @@ RESULT_LIBRARIES = ("jsbsim", "numpy", "scipy", "pandas", "pyarrow", "ppigrf", "
 # Orchestration: how tasks are scheduled, stored and reported never changes a task's
 # numbers (the resolved configuration is digested separately), so these are not followed.
 ORCHESTRATION = frozenset({
-    "aerotruth.cli", "aerotruth.config", "aerotruth.sim.campaign", "aerotruth.sim.commands", "aerotruth.sim.executors",
-    "aerotruth.sim.figures", "aerotruth.markdown", "aerotruth.sim.regress", "aerotruth.sim.report",
+    "aerotruth.app.cli", "aerotruth.sim.campaign_file", "aerotruth.sim.campaign", "aerotruth.app.campaign_commands", "aerotruth.sim.executors",
+    "aerotruth.app.figures", "aerotruth.markdown", "aerotruth.app.regress", "aerotruth.app.report",
     "aerotruth.sim.store", "aerotruth.sim.worker", "aerotruth.digests",
 })
 

@@ -1,6 +1,6 @@
 """User-facing errors: problems in what the user gave (a campaign file, a data file, a
 command-line value, a run directory). The command line prints each as one line and exits
-with status 2; no traceback. Every layer raises these; only `aerotruth.cli` prints them."""
+with status 2; no traceback. Every layer raises these; only `aerotruth.app.cli` prints them."""
 
 from __future__ import annotations
 

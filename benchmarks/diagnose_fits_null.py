@@ -25,7 +25,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import approach_log_generator as gen  # noqa: E402
 
-from aerotruth.analysis.diagnose_fits import FitsModel, diagnose_log  # noqa: E402
+from aerotruth.analysis.diagnose.fits import FitsModel, diagnose_log  # noqa: E402
 
 POWER = {
     "dgps_offset": ("DGPS offset per axis (m)", [0.02, 0.05, 0.1, 0.2, 0.3], lambda v: {"dgps_offset": (0.0, v, v)}),

@@ -27,10 +27,10 @@ from pathlib import Path
 import pandas as pd
 
 from aerotruth import seeds
-from aerotruth.analysis.diagnose_fits import FitsModel, diagnose_log
-from aerotruth.config import load_campaign
+from aerotruth.analysis.diagnose.fits import FitsModel, diagnose_log
+from aerotruth.sim.campaign_file import load_campaign
 from aerotruth.sensors.inspection_log import approach_logs
-from aerotruth.sim.studies.fits import FitsStudy, _planned
+from aerotruth.sim.studies.fits import FitsStudy, planned_approach
 from aerotruth.truth.store import TruthStore
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -53,7 +53,7 @@ def main() -> None:
     section = campaign.section("fits")
     tasks = FitsStudy().expand(campaign, section)
     step = max(1, len(tasks) // a.approaches)  # spread over runways and days
-    planned = [_planned(t, section, campaign.seed) for t in tasks[::step][: a.approaches]]
+    planned = [planned_approach(t, section, campaign.seed) for t in tasks[::step][: a.approaches]]
     with ProcessPoolExecutor(a.workers) as ex:
         flown = list(ex.map(_fly, planned))
     store = TruthStore()

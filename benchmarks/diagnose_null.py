@@ -17,7 +17,8 @@ import datetime as dt
 
 import numpy as np
 
-from aerotruth.analysis.diagnose import diagnose_track, track_from_measured
+from aerotruth.analysis.diagnose.modes import diagnose_track
+from aerotruth.measured.modes import track_from_measured
 from aerotruth.errors import DataError
 from aerotruth.sim.modes_data import simulated_modes_day
 from aerotruth.truth.days import AircraftDay

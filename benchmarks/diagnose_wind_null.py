@@ -25,7 +25,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import obs_generator as gen  # noqa: E402
 
-from aerotruth.analysis.diagnose_wind import WindModelSpec, diagnose_wind, prepare  # noqa: E402
+from aerotruth.analysis.diagnose.wind import WindModelSpec, diagnose_wind, prepare  # noqa: E402
 
 
 def run(seed: int, tas_scale: float = 0.0, soft_deg: float = 0.0) -> list:

@@ -29,9 +29,9 @@ from pathlib import Path
 
 import numpy as np
 
-from aerotruth.analysis.diagnose_wind import diagnose_wind, prepare
-from aerotruth.analysis.diagnose_wind_model import wind_model_from_campaign
-from aerotruth.config import load_campaign
+from aerotruth.analysis.diagnose.wind import diagnose_wind, prepare
+from aerotruth.analysis.diagnose.wind_model import wind_model_from_campaign
+from aerotruth.sim.campaign_file import load_campaign
 from aerotruth.sim.wind_observations import simulated_observations
 from aerotruth.truth.days import AircraftDay
 from aerotruth.truth.store import TruthStore

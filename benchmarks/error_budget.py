@@ -44,8 +44,8 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from aerotruth.analysis.heading_errors import towards_from_report
-from aerotruth.analysis.wind_metrics import corrected_wind_error, wind_error_components
+from aerotruth.analysis.wind.heading_errors import towards_from_report
+from aerotruth.analysis.wind.metrics import corrected_wind_error, wind_error_components
 from aerotruth.sim.studies.heading_correction import COMPONENTS, adjusted_table
 from aerotruth.sim.studies.wind_reports import unbanked
 from aerotruth.units import KT

@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from aerotruth.analysis.field_aware_correction import compare_on
+from aerotruth.analysis.wind.field_aware_correction import compare_on
 
 
 def generator_runs(reps: int) -> pd.DataFrame:

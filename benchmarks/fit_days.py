@@ -27,8 +27,8 @@ import numpy as np
 import pandas as pd
 import yaml
 
-from aerotruth.analysis.heading_correction import FleetHeadingFit, lut_correction
-from aerotruth.analysis.heading_errors import GateSpec
+from aerotruth.analysis.wind.heading_correction import FleetHeadingFit, lut_correction
+from aerotruth.analysis.wind.heading_errors import GateSpec
 from aerotruth.sim.studies.wind_reports import steady_heading_error
 
 

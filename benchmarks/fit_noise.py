@@ -39,7 +39,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from aerotruth.analysis.heading_correction import LUT_COLUMNS, FleetHeadingFit
+from aerotruth.analysis.wind.heading_correction import LUT_COLUMNS, FleetHeadingFit
 from aerotruth.sim.store import RunStore
 from aerotruth.sim.studies.heading_correction import group_rms, reported, uploaded_correction
 from aerotruth.sim.studies.wind_reports import unbanked

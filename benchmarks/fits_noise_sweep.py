@@ -1,7 +1,7 @@
 """The cyclic-noise residual of the WAAS-aided FITS against the WAAS noise it cannot
 remove: share of epochs with |N_hat - N| < 0.1 m (interior, first and last 2T apart) and
 the RMS residual over the analytic floor, on a grid of Gauss-Markov and white-noise
-levels (FITS paper Fig. 14 asks < 0.1 m; aerotruth.analysis.fits.noise_floor_rms).
+levels (FITS paper Fig. 14 asks < 0.1 m; aerotruth.analysis.fits.filter.noise_floor_rms).
 
 The aircraft's motion cancels in WAAS - INS (eq. 3), so each approach is its WAAS error
 (aerotruth.sensors.waas, defaults except the two swept levels) and a tactical INS error
@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from aerotruth.analysis.fits import FitsSpec, noise_floor_rms, waas_noiseless
+from aerotruth.analysis.fits.filter import FitsSpec, noise_floor_rms, waas_noiseless
 from aerotruth.sensors.inertial_errors import InertialErrors, InertialErrorSpec
 from aerotruth.sensors.waas import WaasSpec
 

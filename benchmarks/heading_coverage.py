@@ -25,7 +25,7 @@ import numpy as np
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import obs_generator as gen  # noqa: E402
 
-from aerotruth.analysis.heading_correction import LUT_COLUMNS, LUT_HEADINGS_DEG, HeadingDeviationFit  # noqa: E402
+from aerotruth.analysis.wind.heading_correction import LUT_COLUMNS, LUT_HEADINGS_DEG, HeadingDeviationFit  # noqa: E402
 
 TRUTH = gen.AircraftTruth("N418XJ", A=1.2, B=2.0, C=-1.0, cruise_tas_kt=280.0)
 

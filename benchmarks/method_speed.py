@@ -43,11 +43,11 @@ import pandas as pd  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import obs_generator as gen  # noqa: E402
 
-from aerotruth.analysis.heading_correction import FleetHeadingFit  # noqa: E402
-from aerotruth.analysis.heading_errors import heading_errors  # noqa: E402
-from aerotruth.analysis.heading_fit import read_observation_file  # noqa: E402
-from aerotruth.analysis.observations import validate_observations  # noqa: E402
-from aerotruth.analysis.wind_metrics import wind_errors_before_after  # noqa: E402
+from aerotruth.analysis.wind.heading_correction import FleetHeadingFit  # noqa: E402
+from aerotruth.analysis.wind.heading_errors import heading_errors  # noqa: E402
+from aerotruth.measured.observations import read_observation_file  # noqa: E402
+from aerotruth.analysis.wind.observations import validate_observations  # noqa: E402
+from aerotruth.analysis.wind.metrics import wind_errors_before_after  # noqa: E402
 
 
 def table(copies: int) -> pd.DataFrame:

@@ -9,7 +9,7 @@ import math
 import numpy as np
 import pytest
 
-from aerotruth.analysis.afis import DEG_PER_H, EARTH_RADIUS_M, G0, MICRO_G, AfisSpec, afis_trajectory, horizontal_model
+from aerotruth.analysis.fits.afis import DEG_PER_H, EARTH_RADIUS_M, G0, MICRO_G, AfisSpec, afis_trajectory, horizontal_model
 from aerotruth.analysis.kalman import kalman_rts
 
 QUIET = AfisSpec(accel_white_ug2_hz=0.0, gyro_white_deg2_s2_hz=0.0)

@@ -166,7 +166,7 @@ def test_bad_runway_and_profile_are_one_clear_error():
 @pytest.mark.parametrize("height, ok", [("-50", False), ("5", False), ("1500", False), ("abc", False), ("50", True)])
 def test_pass_height_is_checked_by_the_argument_parser(height, ok, capsys):
     """A level pass below the runway (or at 5 ft) used to fly into the divergence guard."""
-    from aerotruth.cli import _pass_height_ft
+    from aerotruth.app.cli import _pass_height_ft
 
     if ok:
         assert _pass_height_ft(height) == float(height)

@@ -14,8 +14,8 @@ from pathlib import Path
 
 import pytest
 
-from aerotruth.cli import main
-from aerotruth.config import parse_campaign
+from aerotruth.app.cli import main
+from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.campaign import TaskFailed, run_campaign
 from aerotruth.sim.executors import ExecutorChoice
 
@@ -79,7 +79,7 @@ def test_dask_localcluster_gives_identical_metrics_bytes(reference, tmp_path):
 def test_sigkill_midway_then_resume_gives_identical_metrics(reference, tmp_path):
     (tmp_path / "tiny.yaml").write_text(TINY)
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-m", "aerotruth.cli", "run", "tiny.yaml", "--workers", "1", "--out", str(out), "--no-report", "--quiet"]
+    cmd = [sys.executable, "-m", "aerotruth.app.cli", "run", "tiny.yaml", "--workers", "1", "--out", str(out), "--no-report", "--quiet"]
     proc = subprocess.Popen(cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
     deadline = time.monotonic() + 60
     while len(list((out / "tasks").glob("*.parquet"))) < 2:

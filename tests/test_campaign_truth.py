@@ -9,7 +9,7 @@ import datetime as dt
 import numpy as np
 import pytest
 
-from aerotruth.config import parse_campaign
+from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.campaign import expand, run_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.context import TaskContext
@@ -146,7 +146,7 @@ def test_diverged_leg_is_kept_by_name_with_its_seed_and_left_out_of_statistics(m
 
 
 def test_unknown_aircraft_type_is_one_line_from_validate(tmp_path, capsys):
-    from aerotruth.cli import main
+    from aerotruth.app.cli import main
 
     path = tmp_path / "c.yaml"
     path.write_text(FIXED.replace("{name: f, aircraft: [N1, N2]}", "{name: f, aircraft_type: concorde, aircraft: [N1]}"))

@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from aerotruth.cli import main
+from aerotruth.app.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 

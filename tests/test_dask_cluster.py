@@ -12,8 +12,8 @@ import time
 
 import pytest
 
-from aerotruth.cli import main
-from aerotruth.config import parse_campaign
+from aerotruth.app.cli import main
+from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.campaign import run_campaign
 from aerotruth.sim.executors import ExecutorChoice
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from test_modes_wind import synthetic
 
-from aerotruth.analysis.diagnose import diagnose_track
-from aerotruth.cli import main
-from aerotruth.measured import real_data_dir
+from aerotruth.analysis.diagnose.modes import diagnose_track
+from aerotruth.app.cli import main
+from aerotruth.measured.kinds import real_data_dir
 
 
 @pytest.mark.parametrize("hidden, effect, param, size", [
@@ -64,7 +64,7 @@ def test_cli_writes_the_contract_files_and_refuses_unknown_data(tmp_path, capsys
     f = doc["findings"][0]
     assert set(f) >= {"effect", "cause", "parameters", "evidence", "gain"} and "se" in f["parameters"]["A_deg"]
     assert (out / "report.md").exists() and (out / "figures" / "wind_along_flight.png").exists()
-    from aerotruth.config import load_campaign
+    from aerotruth.sim.campaign_file import load_campaign
 
     extended = load_campaign(out / "extended_model.yaml")  # a valid campaign carrying the found effect
     assert extended.section("modes_diagnose").table_error_deg == pytest.approx(f["parameters"]["A_deg"]["value"], abs=1e-3)
@@ -106,7 +106,7 @@ def _day():
     ({"heading_lag_s": 2.0}, "heading_time_offset", "D_s", 2.0),
 ])
 def test_effects_hidden_in_a_simulated_mode_s_day_are_found_and_nothing_else(hidden, effect, param, size):
-    from aerotruth.analysis.diagnose import track_from_measured
+    from aerotruth.measured.modes import track_from_measured
     from aerotruth.sim.modes_data import simulated_modes_day
 
     frame, _ = track_from_measured(simulated_modes_day(_day(), rng=np.random.default_rng(0), **hidden))

@@ -9,8 +9,8 @@ import pandas as pd
 import pytest
 
 import approach_log_generator as gen
-from aerotruth.analysis.diagnose_fits import FitsModel, diagnose_log
-from aerotruth.cli import main
+from aerotruth.analysis.diagnose.fits import FitsModel, diagnose_log
+from aerotruth.app.cli import main
 
 CASES = [
     ({"period_s": 6.0}, "cyclic_period", {"period_s": 6.0}),

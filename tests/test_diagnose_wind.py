@@ -22,7 +22,8 @@ import pandas as pd
 import pytest
 
 import obs_generator as gen
-from aerotruth.analysis.diagnose_wind import WindModelSpec, diagnose_wind, extended_spec, prepare, write_wind_diagnosis
+from aerotruth.analysis.diagnose.wind import WindModelSpec, diagnose_wind, extended_spec, prepare
+from aerotruth.app.diagnose import write_wind_diagnosis
 from aerotruth.errors import DataError
 
 ANCHORAGE = (61.17, -150.0)
@@ -241,7 +242,7 @@ def test_units_are_guessed_from_the_physics_and_refused_with_the_unit_named():
 
 
 def test_rows_left_out_are_counted_in_the_report_and_on_the_command_line(tmp_path, capsys):
-    from aerotruth.cli import main
+    from aerotruth.app.cli import main
 
     fleet, rng = _fleet(15, n=4)
     obs = gen.generate(fleet, rng, flights=16)
@@ -260,7 +261,7 @@ def test_rows_left_out_are_counted_in_the_report_and_on_the_command_line(tmp_pat
 
 
 def test_weather_blocks_keep_flights_whole_and_alternate_folds():
-    from aerotruth.analysis.diagnose_wind_data import WEATHER_BLOCK_S, weather_blocks
+    from aerotruth.analysis.diagnose.wind_data import WEATHER_BLOCK_S, weather_blocks
 
     h = 3600.0
     # flight 7: 05:00-07:30 (mid 06:15 -> block 1); flight 3: 00:10-01:00 (block 0);
@@ -288,8 +289,8 @@ def test_an_analysis_error_shared_by_the_fleet_is_not_a_reference_bias(seed):
 def test_the_model_of_a_campaigns_sensors_states_what_they_put_in_reports():
     from pathlib import Path
 
-    from aerotruth.analysis.diagnose_wind_model import SENSOR_DYNAMICS, wind_model_from_campaign
-    from aerotruth.config import load_campaign
+    from aerotruth.analysis.diagnose.wind_model import SENSOR_DYNAMICS, wind_model_from_campaign
+    from aerotruth.sim.campaign_file import load_campaign
 
     root = Path(__file__).resolve().parents[1] / "campaigns"
     spec = wind_model_from_campaign(load_campaign(root / "mesaba_2009.yaml"))
@@ -315,7 +316,8 @@ def test_the_model_of_a_campaigns_sensors_states_what_they_put_in_reports():
 def test_too_few_weather_blocks_are_not_tested_and_the_report_says_so(tmp_path):
     """Twelve aircraft for about a day: a 1 % TAS scale is there, but 6-h blocks are too few
     for cluster-robust tests; diagnose says so instead of testing."""
-    from aerotruth.analysis.diagnose_wind import MIN_BLOCKS, write_wind_diagnosis
+    from aerotruth.analysis.diagnose.wind import MIN_BLOCKS
+    from aerotruth.app.diagnose import write_wind_diagnosis
 
     fleet, rng = _fleet(41)
     fleet = [replace(a, tas_scale=0.01) for a in fleet]

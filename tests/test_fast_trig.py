@@ -5,7 +5,7 @@ way, far beyond it, every quadrant and magnitude, signed zeros and missing value
 import numpy as np
 import pytest
 
-from aerotruth.analysis.fast_trig import arctan2, hypot, sin_cos
+from aerotruth.analysis.wind.fast_trig import arctan2, hypot, sin_cos
 
 
 def test_within_the_stated_bound_of_double_precision_for_any_angle():

@@ -5,7 +5,7 @@ import numpy as np
 import obs_generator as gen
 import pytest
 
-from aerotruth.analysis.field_aware_correction import FieldAwareDeviationFit, compare_on
+from aerotruth.analysis.wind.field_aware_correction import FieldAwareDeviationFit, compare_on
 
 H0 = 17000.0
 

@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aerotruth.analysis.heading_correction import LUT_COLUMNS
+from aerotruth.analysis.wind.heading_correction import LUT_COLUMNS
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
 import fit_noise  # noqa: E402

@@ -14,8 +14,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aerotruth.analysis.fits_log import fits_main
-from aerotruth.config import ConfigError, parse_campaign
+from aerotruth.app.fits import fits_main
+from aerotruth.sim.campaign_file import ConfigError, parse_campaign
 from aerotruth.sim.campaign import run_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.truth.store import TruthStore

@@ -78,7 +78,7 @@ def test_flight_ends_near_2000_ft_above_the_arrival_runway(msp_dlh):
 
 def _fly_subprocess(tmp_path, name):
     out = tmp_path / name
-    subprocess.run([sys.executable, "-m", "aerotruth.cli", "fly", "--from", "KMSP", "--to", "KRST",
+    subprocess.run([sys.executable, "-m", "aerotruth.app.cli", "fly", "--from", "KMSP", "--to", "KRST",
                     "--date", "2009-08-15", "--seed", "7", "--out", str(out)], check=True, capture_output=True)
     return out
 
@@ -147,7 +147,7 @@ def test_flight_starts_at_the_scheduled_airspeed_without_sideslip_in_a_crosswind
     (["--from", "KMSP", "--to", "KMEM", "--cruise-fl", "450", "--aircraft", "737"], "above the 737's ceiling, FL410"),
 ])
 def test_fly_command_reports_bad_input_in_one_line(argv, expect, capsys, tmp_path):
-    from aerotruth.cli import main
+    from aerotruth.app.cli import main
 
     args = ["fly", "--date", "2009-08-15", "--out", str(tmp_path / "f.parquet")] + argv
     assert main(args) == 2
@@ -164,7 +164,7 @@ def test_running_out_of_fuel_ends_the_flight_with_that_reason():
 
 
 def test_fly_refuses_a_folder_as_out_before_flying(tmp_path, capsys):
-    from aerotruth.cli import main
+    from aerotruth.app.cli import main
 
     assert main(["fly", "--from", "KMSP", "--to", "KRST", "--date", "2009-08-15", "--out", str(tmp_path)]) == 2
     err = capsys.readouterr().err
@@ -173,7 +173,7 @@ def test_fly_refuses_a_folder_as_out_before_flying(tmp_path, capsys):
 
 
 def test_fly_refuses_another_formats_file_name_before_flying(tmp_path, capsys):
-    from aerotruth.cli import main
+    from aerotruth.app.cli import main
 
     assert main(["fly", "--from", "KMSP", "--to", "KRST", "--date", "2009-08-15", "--out", str(tmp_path / "f.csv")]) == 2
     assert "expected a .parquet file name, got 'f.csv'" in capsys.readouterr().err
@@ -181,7 +181,7 @@ def test_fly_refuses_another_formats_file_name_before_flying(tmp_path, capsys):
 
 
 def test_negative_seed_is_refused_by_the_argument_parser(capsys):
-    from aerotruth.cli import main
+    from aerotruth.app.cli import main
 
     with pytest.raises(SystemExit) as e:
         main(["fly", "--from", "KMSP", "--to", "KRST", "--date", "2009-08-15", "--seed", "-1", "--out", "x.parquet"])
@@ -194,7 +194,7 @@ def test_fly_re_flies_a_campaign_leg_bit_for_bit_from_its_recorded_seeds(tmp_pat
     `aerotruth fly` with the fly_command of its truth row, in another process."""
     import shlex
 
-    from aerotruth.config import parse_campaign
+    from aerotruth.sim.campaign_file import parse_campaign
     from aerotruth.sim.campaign import run_campaign
     from aerotruth.sim.executors import ExecutorChoice
     from aerotruth.truth.store import TruthStore
@@ -204,7 +204,7 @@ def test_fly_re_flies_a_campaign_leg_bit_for_bit_from_its_recorded_seeds(tmp_pat
     run_campaign(parse_campaign(text), ExecutorChoice("local", workers=1), out=tmp_path / "run", progress=False, log=lambda m: None)
     (row,) = pd.read_parquet(next((tmp_path / "run" / "tasks").glob("truth--*.parquet"))).to_dict("records")
     args = shlex.split(row["fly_command"])[1:] + ["--out", str(tmp_path / "again.parquet")]
-    subprocess.run([sys.executable, "-m", "aerotruth.cli", *args], check=True, capture_output=True)
+    subprocess.run([sys.executable, "-m", "aerotruth.app.cli", *args], check=True, capture_output=True)
     again = TruthTrack.read_parquet(tmp_path / "again.parquet")
     stored = next(p for p in TruthStore().files() if p.stem == row["truth_key"])
     original = TruthTrack.read_parquet(stored)

@@ -1,4 +1,4 @@
-"""The wind paper's heading-deviation method (aerotruth.analysis.heading_correction and the
+"""The wind paper's heading-deviation method (aerotruth.analysis.wind.heading_correction and the
 `heading fit` command function) against reports from an independent generator
 (tests/obs_generator.py) whose deviation, noise and reference errors are known."""
 
@@ -13,10 +13,10 @@ import pandas as pd
 import pytest
 
 import obs_generator as gen
-from aerotruth.analysis.heading_correction import TABLE_COLUMNS, FleetHeadingFit, HeadingDeviationFit
-from aerotruth.analysis.heading_errors import GateSpec, heading_errors, towards_from_report
-from aerotruth.analysis.observations import validate_observations
-from aerotruth.analysis.heading_fit import heading_fit_main
+from aerotruth.analysis.wind.heading_correction import TABLE_COLUMNS, FleetHeadingFit, HeadingDeviationFit
+from aerotruth.analysis.wind.heading_errors import GateSpec, heading_errors, towards_from_report
+from aerotruth.analysis.wind.observations import validate_observations
+from aerotruth.app.heading_fit import heading_fit_main
 
 REQUIRED_HEAD = ("aircraft, status, reason, n_used, A_deg, B_deg, C_deg, D_deg, E_deg, A_se_deg, B_se_deg, C_se_deg, "
                  "D_se_deg, E_se_deg, lut_000_deg, lut_045_deg, lut_090_deg, lut_135_deg, lut_180_deg, lut_225_deg, "
@@ -250,7 +250,7 @@ def test_heading_error_equals_the_deviation_on_noise_free_reports():
 
 
 def test_reported_wind_from_the_west_blows_towards_the_east():
-    # to the single-precision trig's bound (aerotruth.analysis.fast_trig: 2.6e-7 of the speed)
+    # to the single-precision trig's bound (aerotruth.analysis.wind.fast_trig: 2.6e-7 of the speed)
     u, v = towards_from_report([10.0, 10.0], [270.0, 0.0])
     assert np.allclose(u, [10 * 1852 / 3600, 0.0], atol=2e-6) and np.allclose(v, [0.0, -10 * 1852 / 3600], atol=2e-6)
 
@@ -277,7 +277,7 @@ def test_lookup_table_correction_is_piecewise_linear_round_the_circle():
 def test_lookup_tables_chosen_per_heading_interpolate_their_own_table():
     """Several tables (one per aircraft) and a table index per heading: each heading takes
     its own table's two neighbouring points (hand-worked)."""
-    from aerotruth.analysis.heading_correction import lut_correction
+    from aerotruth.analysis.wind.heading_correction import lut_correction
 
     luts = np.vstack([np.arange(8.0), 10.0 * np.arange(8.0)])
     got = lut_correction(luts, np.array([22.5, 22.5, 337.5, 315.0]), table=np.array([0, 1, 1, 0]))
@@ -311,7 +311,7 @@ def test_rows_are_ordered_as_a_full_sort_by_aircraft_time_and_model():
     it is). Against numpy's lexsort on random small tables, time-ordered or not, up to three
     reference models a report, with missing aircraft and times (rows that are then dropped
     may sit anywhere)."""
-    from aerotruth.analysis.observations import _sort_order
+    from aerotruth.analysis.wind.observations import _sort_order
 
     rng = np.random.default_rng(0)
     for trial in range(2000):
@@ -482,7 +482,7 @@ def test_estimator_parameters_are_checked():
 
 
 def _huber_by_irls_and_newton(XT, y, w, monkeypatch):
-    import aerotruth.analysis.robust_fit as rf
+    import aerotruth.analysis.wind.robust_fit as rf
     newton = rf.huber_t(XT, y, w, True, 1.345)[:2]
     monkeypatch.setattr(rf, "_NEWTON_STEPS", 0)  # IRLS steps only: another algorithm, the same estimator
     irls = rf.huber_t(XT, y, w, True, 1.345)[:2]
@@ -525,7 +525,7 @@ def test_compiled_flight_sums_equal_the_sums_written_out(k, cc):
     """The fit's per-flight B_g = sum x x^T w psi'(u) / s and h_g = sum x sqrt(w) psi(u)
     (compiled, the columns beyond k zero) and a Newton step's B and h, against the same
     sums written as plain numpy per flight; Huber clipping (1.345) and least squares (inf)."""
-    import aerotruth.analysis.robust_fit as rf
+    import aerotruth.analysis.wind.robust_fit as rf
 
     rng = np.random.default_rng(31)
     lens = rng.integers(1, 60, 25)
@@ -554,7 +554,7 @@ def test_the_fits_median_is_numpys_with_any_guess():
     """The scale's median (a window round a guess, a subsample's median as the guess of a
     large array, else a full partition) is np.median exactly: odd and even sizes, heavy
     tails, half zeros, sorted values, guesses that miss."""
-    import aerotruth.analysis.robust_fit as rf
+    import aerotruth.analysis.wind.robust_fit as rf
 
     rng = np.random.default_rng(3)
     for n in (1, 2, 12799, 12800, 12801, 90000):
@@ -569,7 +569,7 @@ def test_leave_one_flight_out_influences_solve_each_system_or_fall_back():
     """CR3's q_g = (B - B_g)^-1 h_g (compiled Cholesky) against numpy's general solver; and
     with a term carried by one flight alone (B - B_0 singular) the plain sandwich term
     pinv(B - B_g) h_g for every flight, as before the compiled path."""
-    import aerotruth.analysis.robust_fit as rf
+    import aerotruth.analysis.wind.robust_fit as rf
 
     rng = np.random.default_rng(2)
     G, k = 30, 5
@@ -597,7 +597,7 @@ def test_fit_from_a_nearby_start_matches_the_iterated_fit(start_se):
     (robust_fit_t), started 1, 5 and 20 standard errors away (one step alone lands 1-2 SE
     off from 20): coefficients within a tenth of a standard error and standard errors within
     5 %, on heavy-tailed (t3) noise correlated within 40 flights."""
-    from aerotruth.analysis.robust_fit import design_t, fit_from_t, robust_fit_t
+    from aerotruth.analysis.wind.robust_fit import design_t, fit_from_t, robust_fit_t
 
     rng = np.random.default_rng(21)
     G, per = 40, 150
@@ -619,7 +619,7 @@ def test_wind_errors_before_after_against_a_hand_rotation():
     """Before/after wind error components on rows paired by report (two reference models
     each, so the trigonometry is shared per report): against the wind recomputed by hand
     with V_A rotated clockwise by the correction, and components along/across the heading."""
-    from aerotruth.analysis.wind_metrics import wind_errors_before_after
+    from aerotruth.analysis.wind.metrics import wind_errors_before_after
     from aerotruth.units import KT
 
     rng = np.random.default_rng(4)
@@ -642,7 +642,7 @@ def test_wind_errors_before_after_against_a_hand_rotation():
     e2 = dw_e + va_e - tas * np.sin(np.radians(h + c))
     n2 = dw_n + va_n - tas * np.cos(np.radians(h + c))
     for got, want in ((before, comps(dw_e, dw_n, h)), (after, comps(e2, n2, h + c))):
-        # single-precision trig (aerotruth.analysis.fast_trig): ~2.6e-7 of |V_A| per report,
+        # single-precision trig (aerotruth.analysis.wind.fast_trig): ~2.6e-7 of |V_A| per report,
         # 4e-5 m/s here against 3-m/s errors; the RMS averages it further
         assert np.allclose([got["rms_kt"], got["longitudinal_kt"], got["transverse_kt"]], want, rtol=1e-6)
 
@@ -679,7 +679,7 @@ def test_step_noise_matches_rounding_by_monte_carlo_and_lets_a_straight_climb_th
     itself (random offsets of the track against the grid); then the gates: a straight
     departure climb reported every 10 s (1.6-km spans, where rounding alone bends the
     track by tens of degrees) passes, a 30-deg turn over 10-km segments does not."""
-    from aerotruth.analysis.heading_errors import step_noise
+    from aerotruth.analysis.wind.heading_errors import step_noise
     from pyproj import Geod
 
     geod = Geod(ellps="WGS84")
@@ -740,7 +740,7 @@ def test_step_noise_matches_rounding_by_monte_carlo_and_lets_a_straight_climb_th
 def test_bootstrap_leaves_out_resamples_that_cannot_be_fitted(monkeypatch):
     """A resample whose flights cannot identify the terms raises in the fit: it is left out
     (a few: intervals from the rest; more than a tenth: NaN intervals, no crash)."""
-    import aerotruth.analysis.heading_correction as hc
+    import aerotruth.analysis.wind.heading_correction as hc
 
     a = gen.AircraftTruth("N480XJ", A=1.0, B=2.0, C=-1.0, cruise_tas_kt=280.0)
     fit = HeadingDeviationFit(terms="sinusoid", heading="magnetic").fit(gen.generate([a], np.random.default_rng(2), flights=12))

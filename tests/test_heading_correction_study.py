@@ -7,7 +7,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aerotruth.config import ConfigError, parse_campaign
+from aerotruth.sim.campaign_file import ConfigError, parse_campaign
 from aerotruth.sensors.tamdar import LookupTableCorrection, OffsetCorrection
 from aerotruth.sim.studies.heading_correction import (STUDY, HeadingCorrectionConfig, adjusted_table,
                                                       uploaded_correction)
@@ -207,7 +207,7 @@ def test_fit_figure_draws_the_fits_own_frame_and_gates(tmp_path):
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    from aerotruth.analysis.heading_errors import heading_errors
+    from aerotruth.analysis.wind.heading_errors import heading_errors
     from aerotruth.sim.studies import Summary
 
     rng = np.random.default_rng(8)

@@ -38,7 +38,7 @@ studies:
 
 def _run(tmp: Path) -> tuple[dict, str]:
     env = dict(os.environ, PYTHONPATH=str(tmp / "pkg"), AEROTRUTH_CACHE=str(tmp / "cache"))
-    cmd = [sys.executable, "-m", "aerotruth.cli", "run", str(tmp / "c.yaml"), "--out", str(tmp / "run"),
+    cmd = [sys.executable, "-m", "aerotruth.app.cli", "run", str(tmp / "c.yaml"), "--out", str(tmp / "run"),
            "--workers", "1", "--quiet", "--no-report"]
     p = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=tmp)
     assert p.returncode == 0, p.stderr

@@ -5,7 +5,7 @@ import math
 import numpy as np
 import pytest
 
-from aerotruth.sensors.ils import TOLERANCES, IlsFacilitySpec, ddm_to_microamps, nominal
+from aerotruth.truth.ils import TOLERANCES, IlsFacilitySpec, ddm_to_microamps, nominal
 
 LENGTH = 3000.0
 

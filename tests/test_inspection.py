@@ -6,8 +6,8 @@ import math
 import numpy as np
 import pytest
 
-from aerotruth.analysis.inspection import inspect_approach, verdict
-from aerotruth.sensors.ils import IlsFacilitySpec
+from aerotruth.analysis.fits.inspection import inspect_approach, verdict
+from aerotruth.truth.ils import IlsFacilitySpec
 from aerotruth.units import NM
 
 LENGTH = 2800.0

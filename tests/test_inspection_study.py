@@ -11,7 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aerotruth.config import ConfigError, parse_campaign
+from aerotruth.sim.campaign_file import ConfigError, parse_campaign
 from aerotruth.sim.campaign import run_campaign
 from aerotruth.sim.executors import ExecutorChoice
 
@@ -86,7 +86,7 @@ def test_a_mission_is_scored_by_run_type_beside_a_real_track_found_from_the_camp
     import gzip
     import shutil
 
-    from aerotruth.config import load_campaign
+    from aerotruth.sim.campaign_file import load_campaign
 
     real = [{"timestamp": 1000 * k, "altitude": 2200 if k % 400 < 200 else 1300, "groundspeed": 160,
              "vertical_rate": 0, "track": 90 if k % 400 < 200 else 270, "latitude": 50.0, "longitude": 4.0} for k in range(1, 1200)]

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from aerotruth.errors import DataError
-from aerotruth.measured import load_measured, real_data_dir
+from aerotruth.measured.kinds import load_measured, real_data_dir
 
 REAL = real_data_dir()
 needs_real = pytest.mark.skipif(not REAL.is_dir(), reason=f"real flight data not found at {REAL} (set AEROTRUTH_REAL_DATA)")
@@ -81,7 +81,7 @@ def test_the_real_flights_are_recognised(name, kind, rows):
 
 
 def test_a_mode_s_track_without_headings_is_one_line_in_diagnose(tmp_path):
-    from aerotruth.analysis.diagnose import track_from_measured
+    from aerotruth.measured.modes import track_from_measured
 
     rec = [{"timestamp": 1593069386000 + 1000 * i, "latitude": 44.8, "longitude": -0.7, "altitude": 20000.0,
             "groundspeed": 300.0, "track": 90.0, "heading": None, "TAS": 280.0} for i in range(300)]
@@ -110,7 +110,7 @@ def test_bad_mode_s_records_are_one_line_naming_record_and_field(tmp_path, recor
 
 
 def test_a_raw_log_without_a_register_diagnose_needs_names_it(tmp_path):
-    from aerotruth.analysis.diagnose import track_from_measured
+    from aerotruth.measured.modes import track_from_measured
 
     t0 = 1720248189.0
     msgs = [{"timestamp": t0 + i, "df": "17", "frame": "8f", "icao24": "393322", "bds": "05", "latitude": 49.0,

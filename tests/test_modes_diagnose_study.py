@@ -9,7 +9,7 @@ import math
 import pandas as pd
 import pytest
 
-from aerotruth.config import parse_campaign
+from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.campaign import run_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.studies.modes_diagnose import hidden_effect_outcome

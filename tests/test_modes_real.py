@@ -6,7 +6,7 @@ and when — must match the real log at p25, p50 and p90 within 20 %."""
 import numpy as np
 import pytest
 
-from aerotruth.measured import load_measured, real_data_dir
+from aerotruth.measured.kinds import load_measured, real_data_dir
 from aerotruth.sensors.modes import (ModeSSensor, ModeSSpec, avionics_from_raw, fit_reply_process, register_times,
                                      unique_payload_intervals)
 

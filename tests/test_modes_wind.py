@@ -5,7 +5,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aerotruth.analysis.modes_wind import fit, predict_rms
+from aerotruth.analysis.wind.modes_wind import fit, predict_rms
 
 
 def synthetic(A_deg=1.5, k=0.01, D_s=2.0, B_deg=0.0, C_deg=0.0, noise_mps=0.5, seed=0, hours=2.0, slaving_tau_s=0.0):
@@ -77,7 +77,7 @@ def test_declination_history_is_the_per_date_declination_in_one_call():
     declination there fell from east to about zero between 1950 and 2010 (IGRF)."""
     import datetime as dt
 
-    from aerotruth.analysis.modes_wind import declination_deg, declination_history_deg
+    from aerotruth.analysis.wind.modes_wind import declination_deg, declination_history_deg
 
     dates = [dt.datetime(y, 1, 1) for y in (1950, 1980, 2010)]
     got = declination_history_deg(44.88, -93.22, 3000.0, dates)

@@ -11,7 +11,7 @@ relative holds that ten times over; the 0.02-deg quantization below moves 47 met
 
 from pathlib import Path
 
-from aerotruth.cli import main
+from aerotruth.app.cli import main
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -33,14 +33,14 @@ def test_quick_campaign_matches_its_baseline(tmp_path, capsys):
 
 
 def _unit_checks_on_simulated_reports(obs) -> None:
-    """The wind-unit checks of the method (aerotruth.analysis.heading_errors) on JSBSim's
+    """The wind-unit checks of the method (aerotruth.analysis.wind.heading_errors) on JSBSim's
     reports: tables in knots cut to a few flights are never refused (with the checks' plain
     ranges, without their clustered standard errors, 28-46 % of such cuts were), the whole
     table with its reference winds in m/s is."""
     import numpy as np
     import pytest
 
-    from aerotruth.analysis.heading_errors import heading_errors
+    from aerotruth.analysis.wind.heading_errors import heading_errors
     from aerotruth.errors import DataError
 
     keys = obs[["aircraft", "flight"]].drop_duplicates()

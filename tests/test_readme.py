@@ -7,7 +7,7 @@ import re
 from pathlib import Path
 
 import aerotruth
-from aerotruth.cli import build_parser
+from aerotruth.app.cli import build_parser
 
 ROOT = Path(__file__).resolve().parents[1]
 README = (ROOT / "README.md").read_text(encoding="utf-8")

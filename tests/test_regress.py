@@ -7,8 +7,8 @@ import json
 
 import pytest
 
-from aerotruth.cli import main
-from aerotruth.sim.regress import BaselineError, Check, load_baseline
+from aerotruth.app.cli import main
+from aerotruth.app.regress import BaselineError, Check, load_baseline
 from aerotruth.sim.store import RunStore
 
 

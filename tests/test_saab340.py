@@ -26,7 +26,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from aerotruth.truth import saab340_checks as chk
+import saab340_checks as chk
 from aerotruth.units import DEG, FPM, FT, KG_PER_LB, KT, SLUG_FT2
 
 HP = chk.HP_W
@@ -256,7 +256,7 @@ def test_aircraft_rests_on_its_three_gear_legs():
 
 
 def _load_bem():
-    path = Path(chk.AIRCRAFT_DIR) / "engine" / "propeller_bem.py"
+    path = Path(__file__).resolve().parents[1] / "tools" / "propeller_bem.py"
     spec = importlib.util.spec_from_file_location("propeller_bem", path)
     mod = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(mod)

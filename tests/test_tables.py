@@ -1,4 +1,4 @@
-"""A user's CSV read as written (aerotruth.tables): labels stay text, the separator is the
+"""A user's CSV read as written (aerotruth.measured.tables): labels stay text, the separator is the
 header's; through `aerotruth heading fit`, `fits`' log reader and `diagnose`'s loader."""
 
 from __future__ import annotations
@@ -8,10 +8,11 @@ import pandas as pd
 import pytest
 
 import obs_generator as gen
-from aerotruth.analysis.heading_fit import heading_fit_main, read_observation_file, read_observation_table
-from aerotruth.analysis.observations import validate_observations
-from aerotruth.measured import load_measured
-from aerotruth.tables import csv_separator, read_csv_table
+from aerotruth.app.heading_fit import heading_fit_main
+from aerotruth.measured.observations import read_observation_file, read_observation_table
+from aerotruth.analysis.wind.observations import validate_observations
+from aerotruth.measured.kinds import load_measured
+from aerotruth.measured.tables import csv_separator, read_csv_table
 
 
 def _obs() -> pd.DataFrame:
@@ -161,7 +162,7 @@ def test_a_gzip_compressed_csv_reads_as_the_plain_one(tmp_path):
 
 def test_a_gzip_compressed_approach_log_reads_as_the_plain_one(tmp_path):
     import approach_log_generator as alg
-    from aerotruth.analysis.fits_log import read_approach_log
+    from aerotruth.measured.approach_log import read_approach_log
 
     log, _ = alg.make_log(1, 5)
     log.to_csv(tmp_path / "log.csv", index=False)

@@ -11,8 +11,8 @@ import pandas as pd
 import pytest
 from pyproj import Geod
 
-from aerotruth.analysis.heading_errors import GATE_NAMES, ground_track, report_flights
-from aerotruth.analysis.wind_metrics import METRIC_GATES
+from aerotruth.analysis.wind.heading_errors import GATE_NAMES, ground_track, report_flights
+from aerotruth.analysis.wind.metrics import METRIC_GATES
 from aerotruth.ellipsoid import radii
 from aerotruth.sensors.air_data import AirDataSpec
 from aerotruth.sensors.tamdar import (LookupTableCorrection, OffsetCorrection, ReportSpec, generate_reports, quantize,

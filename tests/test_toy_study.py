@@ -10,7 +10,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from aerotruth.config import parse_campaign
+from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.campaign import run_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.studies import load_study, source_for

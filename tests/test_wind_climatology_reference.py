@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aerotruth.config import ConfigError, parse_campaign
+from aerotruth.sim.campaign_file import ConfigError, parse_campaign
 from aerotruth.sim.studies.wind_climatology import PERIOD_SEP, ReferenceClimatology, versus_reference, wind_by_region
 from aerotruth.units import KT
 
@@ -127,7 +127,7 @@ def test_a_campaign_with_a_reference_reports_each_cell_beside_the_truth(tmp_path
     assert set(zip(by["period"], by["flight level"])) == {("a", "FL100"), ("a", "FL300"), ("b", "FL100"), ("b", "FL300")}
     # period a holds both days (10 points x 1 hour each), b the second only
     assert set(by.loc[by["period"] == "a", "samples"]) == {20} and set(by.loc[by["period"] == "b", "samples"]) == {10}
-    from aerotruth.sim.report import write_report
+    from aerotruth.app.report import write_report
 
     report = write_report(out).read_text()
     assert "wind_versus_reference.png" in report and "| midwest | b | FL300 | mean wind vector (m/s) | 500 |" in report

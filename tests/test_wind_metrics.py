@@ -7,8 +7,8 @@ import pandas as pd
 import pytest
 from pyproj import Geod
 
-from aerotruth.analysis.heading_errors import GATE_NAMES, ground_track
-from aerotruth.analysis.wind_metrics import (METRIC_GATES, air_track_heading, longitudinal_transverse,
+from aerotruth.analysis.wind.heading_errors import GATE_NAMES, ground_track
+from aerotruth.analysis.wind.metrics import (METRIC_GATES, air_track_heading, longitudinal_transverse,
                                              rms_vector_difference, wind_error_summary, wind_errors)
 
 

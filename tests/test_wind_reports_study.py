@@ -13,7 +13,7 @@ import pandas as pd
 import ppigrf
 import pytest
 
-from aerotruth.config import ConfigError, parse_campaign
+from aerotruth.sim.campaign_file import ConfigError, parse_campaign
 from aerotruth.sim.campaign import run_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.wind_observations import aircraft_heading

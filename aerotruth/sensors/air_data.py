@@ -28,8 +28,8 @@ import numpy as np
 import pandas as pd
 from pydantic import Field
 
-from aerotruth.config import Section
 from aerotruth.ellipsoid import radii
+from aerotruth.schema import Section
 from aerotruth.truth.isa import isa_pressure_pa
 from aerotruth.units import FT, KT
 

@@ -11,7 +11,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import Field
 
-from aerotruth.config import Section
+from aerotruth.schema import Section
 
 
 class DgpsSpec(Section):

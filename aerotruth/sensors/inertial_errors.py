@@ -37,7 +37,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import Field
 
-from aerotruth.config import Section
+from aerotruth.schema import Section
 
 G0 = 9.80665
 EARTH_RADIUS_M = 6.371e6

@@ -122,7 +122,7 @@ def ins_positions(track, spec: InsSpec, rng: np.random.Generator, point: str = "
 def inertial_vertical_error(t: np.ndarray, draw: InertialErrors) -> np.ndarray:
     """Down error (m) of the unaided inertial vertical channel with the gravity gradient
     (Titterton & Weston, 2nd ed.: the vertical channel's instability; the AFIS filter's
-    model, aerotruth.analysis.afis): x'' = w_v^2 x + beta, w_v^2 = 2 g / R, solved as eq. 4's
+    model, aerotruth.analysis.fits.afis): x'' = w_v^2 x + beta, w_v^2 = 2 g / R, solved as eq. 4's
     horizontal channels are (closed form for the bias and initial errors, cumulative sums
     of the white noise against cosh, sinh)."""
     from aerotruth.sensors.inertial_errors import EARTH_RADIUS_M, G0

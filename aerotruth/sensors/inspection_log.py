@@ -34,7 +34,7 @@ import numpy as np
 import pandas as pd
 from pydantic import Field, field_validator
 
-from aerotruth.config import Section
+from aerotruth.schema import Section
 from aerotruth.sensors.dgps import DgpsSpec
 from aerotruth.sensors.ins import InsSpec, ins_positions
 from aerotruth.sensors.ranging import EventButtonSpec, RadarAltimeterSpec, TvpsSpec

@@ -108,7 +108,7 @@ from numpy.typing import ArrayLike
 from pydantic import Field, field_validator
 from scipy.signal import lfilter
 
-from aerotruth.config import Section
+from aerotruth.schema import Section
 from aerotruth.units import DEG, G0
 
 TWO_PI = 2.0 * np.pi

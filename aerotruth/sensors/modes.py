@@ -32,7 +32,7 @@ import numpy as np
 import pandas as pd
 from pydantic import Field
 
-from aerotruth.config import Section
+from aerotruth.schema import Section
 
 LSB = {
     "roll_deg": 45 / 256, "track_deg": 90 / 512, "groundspeed_kt": 2.0, "track_rate_deg_s": 8 / 256, "tas_kt": 2.0,
@@ -264,7 +264,7 @@ def decoded_track(messages: pd.DataFrame, start_epoch_s: float, rate_hz: float =
     """The messages as a 1-s trajectory with the column names of decoded Mode-S data
     (`timestamp` in ms, heading magnetic from BDS 6,0, TAS from BDS 5,0, track and ground
     speed from ADS-B velocity), as the A310 sample file holds them: what `diagnose` and
-    `aerotruth.measured` take as a Mode-S trajectory."""
+    `aerotruth.measured.kinds` take as a Mode-S trajectory."""
     h = held_track(messages, rate_hz).dropna()
     return pd.DataFrame({
         "timestamp": (start_epoch_s + h["time_s"]) * 1000.0, "latitude": h["lat"], "longitude": h["lon"],

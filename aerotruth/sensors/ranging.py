@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from pydantic import Field
 
-from aerotruth.config import Section
+from aerotruth.schema import Section
 
 RA_95_M, TVPS_95_M = 0.30, 0.60  # FITS paper section II
 

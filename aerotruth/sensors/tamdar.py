@@ -42,11 +42,11 @@ psi_corr = psi + offset. Both tables hold the correction added to the measured h
 from __future__ import annotations
 
 import numpy as np
-from numpy.typing import ArrayLike
 import pandas as pd
+from numpy.typing import ArrayLike
 from pydantic import Field, ValidationInfo, field_validator
 
-from aerotruth.config import Section
+from aerotruth.schema import Section
 from aerotruth.sensors.air_data import AIR_DATA_COLUMNS, ideal_air_data
 from aerotruth.units import DEG, FPM, FT, HPA, KT
 

@@ -41,8 +41,8 @@ import numpy as np
 from pydantic import Field
 from scipy.signal import lfilter
 
-from aerotruth.config import Section
 from aerotruth.ellipsoid import radii
+from aerotruth.schema import Section
 
 
 class WaasSpec(Section):

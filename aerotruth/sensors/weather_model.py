@@ -100,7 +100,7 @@ import numpy as np
 import pandas as pd
 from pydantic import Field, StrictInt, field_validator, model_validator
 
-from aerotruth.config import Section
+from aerotruth.schema import Section
 from aerotruth.truth.atmosphere import TruthAtmosphere
 from aerotruth.truth.isa import (
     ISA_R_AIR,

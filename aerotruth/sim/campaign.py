@@ -26,12 +26,12 @@ from typing import Any
 
 import pandas as pd
 
-from aerotruth.config import Campaign, ConfigError
 from aerotruth.digests import code_digest
 from aerotruth.errors import RunDirError, UserError, output_folder
-from aerotruth.seeds import generator, named_sequence
-from aerotruth.sim.executors import ExecutorChoice, open_executor
 from aerotruth.markdown import to_markdown
+from aerotruth.seeds import generator, named_sequence
+from aerotruth.sim.campaign_file import Campaign, ConfigError
+from aerotruth.sim.executors import ExecutorChoice, open_executor
 from aerotruth.sim.store import RunStore
 from aerotruth.sim.studies import Registry, Study, campaign_registry
 from aerotruth.sim.tasks import Task
@@ -131,7 +131,14 @@ class _Progress:
         self._bar = None
         if enabled and total:
             from rich.console import Console
-            from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn, TimeRemainingColumn
+            from rich.progress import (
+                BarColumn,
+                MofNCompleteColumn,
+                Progress,
+                TextColumn,
+                TimeElapsedColumn,
+                TimeRemainingColumn,
+            )
 
             console = Console(stderr=True)
             if console.is_terminal:

@@ -11,7 +11,8 @@ import datetime as _dt
 
 from pydantic import Field, StrictBool, StrictInt, field_validator
 
-from aerotruth.config import Campaign, References, Section
+from aerotruth.schema import Section
+from aerotruth.sim.campaign_file import Campaign, References
 from aerotruth.sim.tasks import MAIN_STAGE, Task
 from aerotruth.truth.days import AircraftDay, FixedLeg
 from aerotruth.truth.store import LegOutcome

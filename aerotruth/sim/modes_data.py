@@ -1,6 +1,6 @@
 """Simulated Mode-S data of an aircraft-day, with sensor effects hidden in it, in the form
 a receiver's decoder gives (a 1-s Mode-S trajectory): truth from the truth store, the
-Mode-S sensor, then `aerotruth.measured.Measured` as `diagnose` takes real data. Hidden
+Mode-S sensor, then `aerotruth.measured.kinds.Measured` as `diagnose` takes real data. Hidden
 effects: an error of the aircraft's magnetic-variation table (a heading offset) and a lag
 of the heading samples."""
 
@@ -11,9 +11,14 @@ import datetime as dt
 import numpy as np
 import pandas as pd
 
-from aerotruth.analysis.modes_wind import declination_deg
-from aerotruth.measured import Measured
-from aerotruth.sensors.modes import ModeSSensor, ModeSSpec, avionics_from_truth, decoded_track
+from aerotruth.analysis.wind.modes_wind import declination_deg
+from aerotruth.measured.kinds import Measured
+from aerotruth.sensors.modes import (
+    ModeSSensor,
+    ModeSSpec,
+    avionics_from_truth,
+    decoded_track,
+)
 from aerotruth.truth.days import AircraftDay
 from aerotruth.truth.store import TruthStore
 

@@ -30,10 +30,14 @@ import pandas as pd
 import pyarrow as pa
 import pyarrow.parquet as pq
 
-from aerotruth.config import Campaign, load_campaign
 from aerotruth.digests import library_versions
 from aerotruth.errors import RunDirError
-from aerotruth.files import atomic_write_bytes, atomic_write_text, remove_stale_temporaries
+from aerotruth.files import (
+    atomic_write_bytes,
+    atomic_write_text,
+    remove_stale_temporaries,
+)
+from aerotruth.sim.campaign_file import Campaign, load_campaign
 from aerotruth.sim.tasks import Task
 from aerotruth.sim.worker import META_TASK_ID, META_TASK_KEY
 

@@ -30,11 +30,21 @@ import pandas as pd
 from pydantic import Field
 
 from aerotruth import seeds
-from aerotruth.config import Section
+from aerotruth.schema import Section
 from aerotruth.sensors.air_data import AirDataErrors, AirDataSpec
-from aerotruth.sensors.magnetics import FluxValveFleetSpec, FluxValveSpec, GeomagneticField, HeadingSystem, poor_valves
+from aerotruth.sensors.magnetics import (
+    FluxValveFleetSpec,
+    FluxValveSpec,
+    GeomagneticField,
+    HeadingSystem,
+    poor_valves,
+)
 from aerotruth.sensors.tamdar import HeadingCorrection, ReportSpec, generate_reports
-from aerotruth.sensors.weather_model import WeatherModelAnalysis, WeatherModelSpec, preset
+from aerotruth.sensors.weather_model import (
+    WeatherModelAnalysis,
+    WeatherModelSpec,
+    preset,
+)
 from aerotruth.truth.days import AircraftDay, PlannedLeg
 from aerotruth.units import HPA, KT
 

@@ -13,7 +13,7 @@ section II) or a go-around at the decision altitude. Recording continues for
 `past_threshold_s` after the threshold (filters need data on both sides).
 
 Geometry is the runway frame (aerotruth.truth.runway) and the glide path of an ILS
-installation (aerotruth.sensors.ils: glide-path mast at x_G = TCH / tan(theta) abeam
+installation (aerotruth.truth.ils: glide-path mast at x_G = TCH / tan(theta) abeam
 the touchdown zone, offset to the side): the aircraft flies the facility's nominal
 beams; the facility errors an inspection measures are the inspection issue's.
 
@@ -34,12 +34,21 @@ from datetime import datetime, timezone
 import jsbsim
 import numpy as np
 
-from aerotruth.sensors.ils import IlsFacilitySpec
 from aerotruth.truth.airframes import Airframe, airframe, new_fdm
 from aerotruth.truth.airports import Runway, airport
-from aerotruth.truth.flight import (DT, FPS, FlightDiverged, _digest, _Recorder, _set_atmosphere, _trim, _WindAhead,
-                                     seed_repr)
+from aerotruth.truth.flight import (
+    DT,
+    FPS,
+    FlightDiverged,
+    Recorder,
+    WindAhead,
+    params_digest,
+    seed_repr,
+    set_atmosphere,
+    trim_or_settle,
+)
 from aerotruth.truth.guidance import GreatCircleLeg
+from aerotruth.truth.ils import IlsFacilitySpec
 from aerotruth.truth.runway import RunwayFrame
 from aerotruth.truth.track import TruthTrack
 from aerotruth.truth.turbulence import Mil8785Gusts, TurbulencePatches
@@ -131,7 +140,7 @@ def find_runway(icao: str, ident: str) -> Runway:
     raise ValueError(f"runway: {icao} has no runway {ident!r}; expected one of {sorted(r.ident for r in apt.runways)}")
 
 
-class _GlidePath:
+class GlidePath:
     """Nominal ILS geometry in the runway frame."""
 
     def __init__(self, spec: IlsFacilitySpec, runway: Runway):
@@ -160,7 +169,7 @@ INERTIAL_PROPS = tuple(f"imu/v-{a}-fps" for a in "xyz") + tuple(f"imu/theta-{a}-
     f"inertia/cg-{a}-in" for a in "xyz")
 
 
-def _ic(fdm, frame: RunwayFrame, gp: _GlidePath, spec: ApproachSpec, af: Airframe, sched: ApproachSchedule,
+def _ic(fdm, frame: RunwayFrame, gp: GlidePath, spec: ApproachSpec, af: Airframe, sched: ApproachSchedule,
         atmosphere: Atmosphere, undulation: float, t0_s: float) -> None:
     # y is left of the course: from the left (y > 0) the intercept heads right of the course
     initial_conditions(fdm, frame, -spec.start_nm * NM, spec.offset_nm * NM, gp.height_m(-spec.intercept_nm * NM, 0.0),
@@ -183,7 +192,7 @@ def initial_conditions(fdm, frame: RunwayFrame, x0: float, y0: float, z0: float,
     _set_mass(fdm, mass_kg)
     fdm["fcs/flap-cmd-norm"] = flaps_deg / 35.0
     fdm["fcs/flap-pos-deg"] = flaps_deg
-    _set_atmosphere(fdm, _Und(undulation), atmosphere, lat, lon, t0_s)
+    set_atmosphere(fdm, _Und(undulation), atmosphere, lat, lon, t0_s)
     u, v, w = (float(np.asarray(c).ravel()[0]) for c in atmosphere.wind(lat, lon, h - undulation, t0_s))
     fdm["ap/wind/t0-sec"] = 0.0
     fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"] = v / FPS, u / FPS, -w / FPS
@@ -219,7 +228,7 @@ def _set_mass(fdm, mass_kg: float) -> None:
 class _Guide:
     """1 Hz guidance: vertical mode, configuration and speed schedule."""
 
-    def __init__(self, fdm, spec: ApproachSpec, sched: ApproachSchedule, gp: _GlidePath, frame: RunwayFrame):
+    def __init__(self, fdm, spec: ApproachSpec, sched: ApproachSchedule, gp: GlidePath, frame: RunwayFrame):
         self.fdm, self.spec, self.sched, self.gp, self.frame = fdm, spec, sched, gp, frame
         self.mode = "level"  # level -> glidepath -> pass | go-around
         self.vapp = sched.vref_kt(spec.mass_kg) + sched.additive_kt
@@ -290,7 +299,7 @@ class _Guide:
 
 
 def frame_meta(kind: str, route_suffix: str, af: Airframe, seed_id, spec, runway: Runway, frame: RunwayFrame,
-               undulation_m: float, gp: _GlidePath) -> dict:
+               undulation_m: float, gp: GlidePath) -> dict:
     """The metadata every runway-frame track carries (approaches, missions): what was flown
     where, the runway frame and the nominal ILS geometry."""
     return {
@@ -336,7 +345,7 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
     approach's gusts follow the day's surface wind) and updated at 50 Hz. No light chop
     here: the chop climatology was measured in cruise, and near the ground the
     low-altitude model's gusts are of its size already."""
-    rec = _Recorder(fdm)
+    rec = Recorder(fdm)
     pm = fdm.get_property_manager()
     getters = rec.getters + [pm.get_node(p).get_double_value for p in extra_props]
     g = {k: pm.get_node(p).get_double_value for k, p in (
@@ -344,7 +353,7 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
         ("t", "simulation/sim-time-sec"), ("vn", "velocities/v-north-fps"), ("ve", "velocities/v-east-fps"),
         ("vd", "velocities/v-down-fps"), ("vc", "velocities/vc-fps"), ("phi", "attitude/phi-rad"),
         ("theta", "attitude/theta-rad"))}
-    wind_ahead = _WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * DT)
+    wind_ahead = WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * DT)
     steps_per_sample = int(round(1.0 / (rate_hz * DT)))
     if steps_per_sample % 2 or GUIDE_EVERY % steps_per_sample:
         raise ValueError(f"rate_hz: expected 50 Hz or a divisor of it that divides 1 Hz, got {rate_hz}")
@@ -377,7 +386,7 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
                 turbulence.update_from(path_m, atmosphere, frame.lat0_deg, frame.lon0_deg, ground_elevation_m, t0_s + t)
             path_m += math.hypot(vn, ve) * GUIDE_EVERY * DT
         if int(round(t)) % 10 == 0:
-            _set_atmosphere(fdm, _Und(und), atmosphere, lat, lon, t0_s + t)
+            set_atmosphere(fdm, _Und(und), atmosphere, lat, lon, t0_s + t)
         tag = (0, 3)
         if gusts is None:
             for _ in range(GUIDE_EVERY // steps_per_sample):
@@ -406,7 +415,7 @@ class IlsSetup:
     af: Airframe
     runway: Runway
     frame: RunwayFrame
-    gp: _GlidePath
+    gp: GlidePath
     atmosphere: Atmosphere
     rng: np.random.Generator
     t0_s: float
@@ -423,7 +432,7 @@ def ils_setup(spec, seed, aircraft: str | Airframe | None, atmosphere: Atmospher
         raise ValueError(f"aircraft: {what} are flown by the saab340 only{why}, got {af.name!r}")
     runway = find_runway(spec.airport, spec.runway)
     day0 = spec.start_utc.replace(hour=0, minute=0, second=0, microsecond=0)
-    return IlsSetup(af, runway, RunwayFrame.of(runway), _GlidePath(spec.ils, runway),
+    return IlsSetup(af, runway, RunwayFrame.of(runway), GlidePath(spec.ils, runway),
                     atmosphere if atmosphere is not None else UniformAtmosphere(), np.random.default_rng(seed),
                     (spec.start_utc - day0).total_seconds(), runway.undulation_m, new_fdm(af, DT))
 
@@ -443,7 +452,7 @@ def engage(fdm, af: Airframe, leg: GreatCircleLeg, ias_kt: float) -> None:
     fdm["ap/target/ias-kt"] = ias_kt
     fdm.run_ic()
     fdm["propulsion/set-running"] = -1
-    _trim(fdm, af)
+    trim_or_settle(fdm, af)
     for prop, value in af.phase_properties.get("approach", {}).items():
         fdm[prop] = value
 
@@ -510,7 +519,7 @@ def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = 
         "turbulence_patches": turb.meta() if turb is not None else [],
         "rate_hz": RATE_HZ,
     }
-    meta["config_hash"] = _digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})
+    meta["config_hash"] = params_digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})
     return TruthTrack(df, meta)
 
 
@@ -559,7 +568,7 @@ def approach_metrics(track: TruthTrack) -> dict[str, float]:
     deviation RMS inside 1 nm; height, speed, pitch and roll at the threshold."""
     df, meta = track.df, track.meta
     g = meta["glide_path"]
-    gp = _GlidePath.__new__(_GlidePath)
+    gp = GlidePath.__new__(GlidePath)
     gp.theta, gp.tan = g["theta_deg"] * DEG, math.tan(g["theta_deg"] * DEG)
     gp.gp_x, gp.gp_y, gp.loc_x = g["gp_x_m"], g["gp_y_m"], g["loc_x_m"]
     gp.loc_half_sector = math.atan(0.155 / 0.00145 / gp.loc_x)

@@ -63,7 +63,11 @@ class AircraftDay:
     def plans(self) -> list[PlannedLeg]:
         """The day's legs in flying order, each with its atmosphere and seeds."""
         from aerotruth.truth.routes import day_schedule
-        from aerotruth.truth.weather import NETWORK_REGION, region_for_airport, surface_wind_from
+        from aerotruth.truth.weather import (
+            NETWORK_REGION,
+            region_for_airport,
+            surface_wind_from,
+        )
 
         rng = seeds.generator(seeds.child(seeds.seed_sequence(self.day_seed, ()), "plan"))
         out: list[PlannedLeg] = []

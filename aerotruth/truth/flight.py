@@ -22,10 +22,10 @@ import pandas as pd
 
 from aerotruth.truth.airframes import Airframe, airframe, new_fdm, quiet_jsbsim
 from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, turn_anticipation_m
-from aerotruth.truth.track import PHASES, TruthTrack
-from aerotruth.truth.weather import ISA_LAPSE, Atmosphere, UniformAtmosphere
 from aerotruth.truth.steering import SteeringWander
+from aerotruth.truth.track import PHASES, TruthTrack
 from aerotruth.truth.turbulence import ChopGusts, TurbulencePatches
+from aerotruth.truth.weather import ISA_LAPSE, Atmosphere, UniformAtmosphere
 from aerotruth.units import DEG, FT, KT, NM
 
 DT = 0.01  # s: JSBSim step (100 Hz, a multiple of 50 Hz: IMU and 10 Hz samples fall on steps)
@@ -81,11 +81,11 @@ class Route:
                 for i in range(len(w) - 1)]
 
 
-def _digest(obj) -> str:
+def params_digest(obj) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
-class _Recorder:
+class Recorder:
     """Reads the truth properties through property nodes (faster than fdm[...])."""
 
     PROPS = (
@@ -243,7 +243,7 @@ def _initial_conditions(fdm, route: Route, af: Airframe, atmosphere: Atmosphere,
             fdm[f"propulsion/tank[{i}]/contents-lbs"] = lbs
     for k, v in af.extra_ic.items():
         fdm[k] = v
-    _set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s)
+    set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s)
     u, v, w = (float(np.asarray(c).ravel()[0]) for c in
                atmosphere.wind(lat, lon, route.start_h_ellipsoid_m - route.undulation_m, t0_s,
                                ground_elevation_m=route.departure_elevation_msl_m))
@@ -270,7 +270,7 @@ def _initial_conditions(fdm, route: Route, af: Airframe, atmosphere: Atmosphere,
     fdm["ic/vt-kts"] = math.hypot(math.hypot(gn, ge), climb) / KT
 
 
-class _WindAhead:
+class WindAhead:
     """The autopilot's wind input (ap/wind/*, eased in by the XML between guidance ticks):
     at each tick the truth wind one tick ahead at the dead-reckoned position, reached
     linearly from the value set at the previous tick."""
@@ -301,7 +301,7 @@ class _WindAhead:
         self._prev = nxt
 
 
-def _set_atmosphere(fdm, route: Route, atmosphere: Atmosphere, lat: float, lon: float, t_s: float) -> None:
+def set_atmosphere(fdm, route: Route, atmosphere: Atmosphere, lat: float, lon: float, t_s: float) -> None:
     """JSBSim's 'sea level' is the ellipsoid; the truth atmosphere is referenced to mean sea
     level. Give JSBSim the truth pressure at the ellipsoid (MSL height -N) as its sea-level
     pressure and the temperature offset shifted by the lapse over N, so JSBSim's pressure
@@ -348,12 +348,12 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         fdm[prop] = value
     fdm.run_ic()
     fdm["propulsion/set-running"] = -1
-    _trim(fdm, af)
+    trim_or_settle(fdm, af)
     fdm["ap/active"] = 1
 
     total_m = float(sum(guide.lengths))
     limit_s = max_duration_s if max_duration_s is not None else total_m / (180 * KT) + 1800.0
-    rec = _Recorder(fdm)
+    rec = Recorder(fdm)
     rows, tags = rec.rows, rec.tags
     getters = rec.getters
     run = fdm.run
@@ -364,7 +364,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
             "velocities/v-north-fps", "velocities/v-east-fps", "velocities/v-down-fps", "simulation/sim-time-sec",
             "velocities/vtrue-fps", "velocities/vc-fps", "attitude/phi-rad", "attitude/theta-rad"))
     g_psi = pm.get_node("attitude/psi-rad").get_double_value
-    wind_ahead = _WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * DT)
+    wind_ahead = WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * DT)
     max_bank, max_pitch, min_pitch = af.max_bank_deg * DEG, af.max_pitch_deg * DEG, af.min_pitch_deg * DEG
     floor_ft = (route.lowest_runway_ellipsoid_m - 150.0) / FT
     seed_id = seed_repr(seed)
@@ -401,7 +401,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
             path_m += gs * dt_g
         ticks += 1
         if ticks % ATMOSPHERE_EVERY == 0:
-            _set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s + t)
+            set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s + t)
         tag = (guide.leg, guide.phase)
         for _ in range(GUIDE_EVERY // RECORD_EVERY):
             rows.append([g() for g in getters])
@@ -433,7 +433,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         "chop_patches": [[round(a, 1), round(sw, 3)] for a, sw in chop.patches] if chop is not None else [],
         "rate_hz": 1.0 / (DT * RECORD_EVERY),
     })
-    meta["config_hash"] = _digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})
+    meta["config_hash"] = params_digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})
     return TruthTrack(df, meta)
 
 
@@ -444,7 +444,7 @@ def seed_repr(seed):
     return int(seed)
 
 
-def _trim(fdm, af: Airframe) -> None:
+def trim_or_settle(fdm, af: Airframe) -> None:
     """Start from JSBSim's longitudinal trim when it converges; otherwise from a mid
     throttle guess (turboprop trims are unreliable) and let the autopilot settle."""
     try:

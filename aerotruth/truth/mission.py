@@ -40,13 +40,22 @@ from typing import Literal
 import numpy as np
 from pydantic import Field
 
-from aerotruth.config import Section
-from aerotruth.sensors.ils import IlsFacilitySpec
+from aerotruth.schema import Section
 from aerotruth.truth.airframes import Airframe
-from aerotruth.truth.approach import (DEFAULT_POINTS_M, ApproachSchedule, _GlidePath, add_frame_columns, engage,
-                                      fly_loop, frame_meta, ils_setup, initial_conditions)
-from aerotruth.truth.flight import FlightDiverged, _digest, seed_repr
+from aerotruth.truth.approach import (
+    DEFAULT_POINTS_M,
+    ApproachSchedule,
+    GlidePath,
+    add_frame_columns,
+    engage,
+    fly_loop,
+    frame_meta,
+    ils_setup,
+    initial_conditions,
+)
+from aerotruth.truth.flight import FlightDiverged, params_digest, seed_repr
 from aerotruth.truth.guidance import GreatCircleLeg
+from aerotruth.truth.ils import IlsFacilitySpec
 from aerotruth.truth.runway import RunwayFrame
 from aerotruth.truth.track import TruthTrack
 from aerotruth.truth.turbulence import TurbulencePatches
@@ -92,7 +101,7 @@ class MissionSpec:
             raise ValueError("runs: expected at least one run")
 
 
-def run_path(run: MissionRun, gp: _GlidePath, length_m: float) -> list[tuple[float, float]]:
+def run_path(run: MissionRun, gp: GlidePath, length_m: float) -> list[tuple[float, float]]:
     """Runway-frame waypoints (m) of a run's lateral path."""
     if run.type == "level_run":
         if not run.from_nm > run.to_nm:
@@ -113,7 +122,7 @@ def run_path(run: MissionRun, gp: _GlidePath, length_m: float) -> list[tuple[flo
 class _MissionGuide:
     """1 Hz guidance through the runs (module docstring)."""
 
-    def __init__(self, fdm, spec: MissionSpec, gp: _GlidePath, frame: RunwayFrame, length_m: float, sched: ApproachSchedule):
+    def __init__(self, fdm, spec: MissionSpec, gp: GlidePath, frame: RunwayFrame, length_m: float, sched: ApproachSchedule):
         self.fdm, self.spec, self.gp, self.frame, self.length = fdm, spec, gp, frame, length_m
         self.sched = sched
         self.vapp = sched.vref_kt(spec.mass_kg) + sched.additive_kt
@@ -295,5 +304,5 @@ def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = No
         "turbulence_patches": turb.meta() if turb is not None else [],
         "rate_hz": RATE_HZ,
     }
-    meta["config_hash"] = _digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})
+    meta["config_hash"] = params_digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})
     return TruthTrack(df, meta)

@@ -32,7 +32,14 @@ from zoneinfo import ZoneInfo
 import numpy as np
 
 from aerotruth.geo import forward, inverse, wrap180, wrap360
-from aerotruth.truth.airports import Airport, Network, Runway, airport, ellipsoidal_height_m, network
+from aerotruth.truth.airports import (
+    Airport,
+    Network,
+    Runway,
+    airport,
+    ellipsoidal_height_m,
+    network,
+)
 from aerotruth.units import FT, KT, NM
 
 INITIAL_HEIGHT_AGL_FT = 400.0  # over the far end of the departure runway (<= 500 ft AGL)

@@ -5,7 +5,7 @@ its own module (and its tests) only.
 A study module defines `STUDY`, an instance of a `Study` subclass with
 
 * `name` (its section under `studies:`), `title` (for the report) and `Config` (the
-  pydantic schema of its section, a subclass of `aerotruth.config.Section`);
+  pydantic schema of its section, a subclass of `aerotruth.schema.Section`);
 * `check(campaign, refs)` — cross-references of its section (fleets, periods, airports),
   raising `refs.error(loc, text)` so that the message names the YAML path and line;
 * `expand(campaign, section) -> list[Task]` — independent tasks, each with a stable
@@ -49,7 +49,8 @@ if TYPE_CHECKING:
     import numpy as np
     import pandas as pd
 
-    from aerotruth.config import Campaign, References, Section
+    from aerotruth.schema import Section
+    from aerotruth.sim.campaign_file import Campaign, References
     from aerotruth.sim.context import TaskContext
     from aerotruth.sim.tasks import Task
 

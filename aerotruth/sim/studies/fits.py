@@ -1,6 +1,6 @@
 """FITS study: the WAAS-aided flight-inspection truth system of the FITS paper on JSBSim
 approaches, scored against the truth and the ILS accuracy requirement (0.015 deg desired,
-0.05 deg minimum; aerotruth.analysis.ils_metrics).
+0.05 deg minimum; aerotruth.analysis.fits.ils_metrics).
 
 One task per approach: runway x date x k. Its truth (a coupled ILS approach flown by the
 SAAB 340 with the AFIS level pass, aerotruth.truth.approach) comes from the truth store
@@ -10,7 +10,7 @@ turbulence on by default. The sensors (aerotruth.sensors.inspection_log) write t
 approach log of each INS variant; every variant of an approach shares its truth, WAAS
 noise, RA, TVPS, DGPS and pilot marks (paired draws: only the INS differs), so the
 equivalence test of section VI compares like with like. The FITS runs on the log exactly
-as `aerotruth fits` does (aerotruth.analysis.fits_log.run_approach).
+as `aerotruth fits` does (aerotruth.analysis.fits.approach_log.run_approach).
 
 Rows: `kind = approach` (one per approach and INS: residual and bias summaries, verdicts;
 or the divergence), `kind = epoch` (one per WAAS epoch and INS: residual, errors, angular
@@ -29,9 +29,10 @@ import pandas as pd
 from pydantic import Field, model_validator
 
 from aerotruth import seeds
-from aerotruth.analysis.fits import FitsSpec, noise_floor_rms
-from aerotruth.config import Campaign, References, Section
+from aerotruth.analysis.fits.filter import FitsSpec, noise_floor_rms
+from aerotruth.schema import Section
 from aerotruth.sensors.inspection_log import LOG_COLUMNS, InspectionSensors
+from aerotruth.sim.campaign_file import Campaign, References
 from aerotruth.sim.studies import Figure, Study, Summary
 from aerotruth.sim.tasks import Task
 
@@ -86,7 +87,7 @@ class FitsStudyConfig(Section):
         return self
 
 
-def _planned(task: Task, section: FitsStudyConfig, campaign_seed: int):
+def planned_approach(task: Task, section: FitsStudyConfig, campaign_seed: int):
     from aerotruth.truth.approach import PlannedApproach, approach_spec
     from aerotruth.truth.weather import region_for_airport
 
@@ -146,14 +147,18 @@ class FitsStudy(Study):
         return 3.0
 
     def run(self, task: Task, ctx) -> pd.DataFrame:
-        from aerotruth.analysis.fits import period_samples
-        from aerotruth.analysis.fits_log import run_approach
-        from aerotruth.analysis.fits_scoring import approach_summary, epoch_rows, waas_at_epochs
+        from aerotruth.analysis.fits.approach_log import run_approach
+        from aerotruth.analysis.fits.filter import period_samples
+        from aerotruth.analysis.fits.scoring import (
+            approach_summary,
+            epoch_rows,
+            waas_at_epochs,
+        )
         from aerotruth.sensors.inspection_log import approach_logs
         from aerotruth.truth.approach import approach_metrics
 
         section: FitsStudyConfig = task.params["section"]
-        planned = _planned(task, section, task.params["campaign_seed"])
+        planned = planned_approach(task, section, task.params["campaign_seed"])
         out = ctx.truth.approach(planned)
         label = f"{task.params['airport']}-{task.params['runway']}-{task.params['date']}-{task.params['k']}"
         head = {"approach": label, "airport": task.params["airport"], "runway": task.params["runway"],
@@ -182,8 +187,8 @@ class FitsStudy(Study):
     # ------------------------------------------------------------------ summary
 
     def summarize(self, rows: pd.DataFrame, learned, section: FitsStudyConfig) -> Summary:
-        from aerotruth.analysis.fits_scoring import tost_paired
-        from aerotruth.analysis.ils_metrics import REQUIREMENTS
+        from aerotruth.analysis.fits.ils_metrics import REQUIREMENTS
+        from aerotruth.analysis.fits.scoring import tost_paired
 
         appr = rows[rows["kind"] == "approach"] if len(rows) else rows
         ok = appr[~appr["diverged"].astype(bool)] if len(appr) else appr

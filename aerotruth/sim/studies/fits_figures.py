@@ -25,9 +25,14 @@ def _first(ep: pd.DataFrame) -> pd.DataFrame:
 def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
     import matplotlib.pyplot as plt
 
-    from aerotruth.analysis.fits import frequency_response
-    from aerotruth.analysis.ils_metrics import FLOOR_HORIZONTAL_M, FLOOR_VERTICAL_M, REQUIREMENTS, required_error_m
-    from aerotruth.sim.figures import save
+    from aerotruth.analysis.fits.filter import frequency_response
+    from aerotruth.analysis.fits.ils_metrics import (
+        FLOOR_HORIZONTAL_M,
+        FLOOR_VERTICAL_M,
+        REQUIREMENTS,
+        required_error_m,
+    )
+    from aerotruth.app.figures import save
 
     figs: list[Figure] = []
     ep = rows[rows["kind"] == "epoch"] if len(rows) else rows

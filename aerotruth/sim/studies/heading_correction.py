@@ -9,7 +9,7 @@ every period because its sensor streams are named by the aircraft, not the day):
 * `fit`    — reports of the fit period, uncorrected;
 * `before` — reports of the before period, uncorrected;
 * learned `corrections` (fitted once both are done, stored in RUN_DIR/learned): per
-  aircraft the deviation fit of `aerotruth.analysis.heading_correction` on the fit
+  aircraft the deviation fit of `aerotruth.analysis.wind.heading_correction` on the fit
   period (true heading, the paper's choice, or magnetic: `fit_heading`), its before-period
   RMS vector difference against the combined references (total and transverse), and its
   group: the `poor` aircraft with the largest before RMS, the `control` aircraft with the
@@ -48,11 +48,26 @@ import numpy as np
 import pandas as pd
 from pydantic import Field, StrictBool, StrictInt, model_validator
 
-from aerotruth.config import Campaign, References, Section
-from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_networks, day_cost, day_task
+from aerotruth.schema import Section
+from aerotruth.sim.campaign_file import Campaign, References
+from aerotruth.sim.fleet_days import (
+    FlightSelection,
+    aircraft_days,
+    check_networks,
+    day_cost,
+    day_task,
+)
 from aerotruth.sim.studies import Figure, Study, Summary
-from aerotruth.sim.studies.wind_reports import (DIVERGED, band_midpoints_ft, check_sensors, day_rows, observations_only,
-                                                 sensor_params, steady_heading_error, unbanked)
+from aerotruth.sim.studies.wind_reports import (
+    DIVERGED,
+    band_midpoints_ft,
+    check_sensors,
+    day_rows,
+    observations_only,
+    sensor_params,
+    steady_heading_error,
+    unbanked,
+)
 from aerotruth.sim.tasks import Task
 from aerotruth.sim.wind_observations import WindSensors
 
@@ -127,7 +142,7 @@ class HeadingCorrectionConfig(Section):
 
     def gates(self):
         """The method's ground-track gates: the study's roll limit, the reports' position step."""
-        from aerotruth.analysis.heading_errors import GateSpec
+        from aerotruth.analysis.wind.heading_errors import GateSpec
 
         return GateSpec(max_roll_deg=self.max_roll_deg, position_step_deg=self.sensors.reports.lat_lon_step_deg)
 
@@ -139,7 +154,7 @@ class HeadingCorrectionConfig(Section):
 
 def group_rms(obs: pd.DataFrame) -> dict[str, float]:
     """Total/longitudinal/transverse RMS and report count of an observation table."""
-    from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
+    from aerotruth.analysis.wind.metrics import wind_error_summary, wind_errors
 
     if obs.empty:
         return {"n": 0, **{c: np.nan for c, _ in COMPONENTS}}
@@ -149,7 +164,7 @@ def group_rms(obs: pd.DataFrame) -> dict[str, float]:
 
 def per_aircraft_rms(obs: pd.DataFrame) -> pd.DataFrame:
     """RMS vector difference (combined references) per aircraft."""
-    from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
+    from aerotruth.analysis.wind.metrics import wind_error_summary, wind_errors
 
     if obs.empty:
         return pd.DataFrame(columns=["aircraft", "n", "rms_kt", "transverse_rms_kt"])
@@ -200,7 +215,7 @@ class HeadingCorrection(Study):
         return pd.concat([rows, twin[twin["trigger"] != DIVERGED].assign(untreated=True)], ignore_index=True)
 
     def fit(self, name: str, rows: pd.DataFrame, section: HeadingCorrectionConfig, rng) -> pd.DataFrame:
-        from aerotruth.analysis.heading_correction import FleetHeadingFit
+        from aerotruth.analysis.wind.heading_correction import FleetHeadingFit
 
         fit_obs = reported(rows[rows["stage"] == "fit"])
         before = unbanked(reported(rows[rows["stage"] == "before"]), section.max_roll_deg)
@@ -283,7 +298,7 @@ class HeadingCorrection(Study):
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-        from aerotruth.sim.figures import save
+        from aerotruth.app.figures import save
 
         figs = []
         wide = summary.tables.get("per_aircraft")
@@ -324,7 +339,7 @@ class HeadingCorrection(Study):
         corr = learned.get("corrections")
         fit_obs = reported(rows[rows["stage"] == "fit"]) if "stage" in rows else pd.DataFrame()
         if corr is not None and len(fit_obs):
-            from aerotruth.analysis.heading_errors import GateSpec, heading_errors
+            from aerotruth.analysis.wind.heading_errors import GateSpec, heading_errors
 
             poor = corr[(corr["group"] == "poor") & (corr["status"] != "refused")].sort_values("before_rms_kt", ascending=False)
             show = poor["aircraft"].tolist()[:4]
@@ -368,7 +383,7 @@ def rms_by_altitude(scored: dict[str, pd.DataFrame], table: pd.DataFrame) -> pd.
     ascent/descent/level) and 5,000-ft pressure-altitude band (wind paper Figs. 5/6, 11/12,
     13/14); the poor group's after rows also adjusted by the control group's change of the
     whole table (period "after_adjusted", the paper's Fig. 14: "0.6 kn ... subtracted")."""
-    from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
+    from aerotruth.analysis.wind.metrics import wind_error_summary, wind_errors
 
     parts = []
     for stage, obs in scored.items():
@@ -400,7 +415,7 @@ def trustworthy_by_day(scored: dict[str, pd.DataFrame], section: HeadingCorrecti
     """Per day of the before and after periods: how many aircraft reported and how many of
     them had a day's RMS vector difference under `trustworthy_rms_kt` (wind paper Fig. 10;
     AirDat's flag is set by its quality system, whose rule is not published)."""
-    from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
+    from aerotruth.analysis.wind.metrics import wind_error_summary, wind_errors
 
     rows = []
     for stage, obs in scored.items():
@@ -445,7 +460,7 @@ def _altitude_panels(panels, out_dir: Path, stem: str, xlabel: str, width: float
     """One row of panels (title, [(rows, column, label, color)]) of RMS vs altitude-band middle."""
     import matplotlib.pyplot as plt
 
-    from aerotruth.sim.figures import save
+    from aerotruth.app.figures import save
 
     fig, axes = plt.subplots(1, len(panels), figsize=(width * len(panels), 4), sharex=True, sharey=True, squeeze=False)
     for ax, (name, lines) in zip(axes[0], panels):
@@ -484,7 +499,7 @@ def uploaded_correction(corrections: pd.DataFrame, aircraft: str):
     """The correction uploaded to `aircraft`: its 8-point table (magnetic-heading systems)
     or its offset (true-heading avionics) when it is in the poor group and was fitted;
     None otherwise."""
-    from aerotruth.analysis.heading_correction import LUT_COLUMNS
+    from aerotruth.analysis.wind.heading_correction import LUT_COLUMNS
     from aerotruth.sensors.tamdar import LookupTableCorrection, OffsetCorrection
 
     rows = corrections[corrections["aircraft"].astype(str) == aircraft]

@@ -5,7 +5,7 @@ sections I-II for AFIS and DGPS-FIS.)
 One task per approach, as in the `fits` study (same section fields, same truth from the
 store, same sensors and paired draws), plus the ILS facility and the baselines:
 
-* the facility (aerotruth.sensors.ils): alignment, path angle, sensitivity errors and
+* the facility (aerotruth.truth.ils): alignment, path angle, sensitivity errors and
   course bends; `facility_errors: fixed` injects the section's values on every approach,
   `uniform_2x_tolerance` draws alignment and path-angle error per approach uniformly over
   +-2x the category's Annex 10 tolerance (the wrong-verdict experiment). The receiver
@@ -16,13 +16,13 @@ store, same sensors and paired draws), plus the ILS facility and the baselines:
   aerotruth.sensors.dgps, with its survey offset if set), `afis` (a navigation-grade
   INS by eq. 4 horizontally and the free-inertial vertical channel with its gravity
   feedback, the AFIS filter's own model), a barometer (Gauss-Markov + white, AfisSpec), RA, TVPS and the marks at
-  both runway ends through the Kalman filter and RTS smoother of aerotruth.analysis.afis),
+  both runway ends through the Kalman filter and RTS smoother of aerotruth.analysis.fits.afis),
   and `waas/<ins>` for every INS of the sensors (the WAAS-aided FITS, carried between WAAS
   epochs by that INS). Antenna positions follow from the reference point by the true
   lever arms (the systems' attitude errors move them by millimetres).
-* the inspection (aerotruth.analysis.inspection) on each system: alignment, path angle
+* the inspection (aerotruth.analysis.fits.inspection) on each system: alignment, path angle
   and bend amplitude against the injected ones; verdicts against the true verdicts; the
-  0.015/0.05 deg requirement from 10 nm (aerotruth.analysis.ils_metrics).
+  0.015/0.05 deg requirement from 10 nm (aerotruth.analysis.fits.ils_metrics).
 """
 
 from __future__ import annotations
@@ -36,13 +36,13 @@ import numpy as np
 import pandas as pd
 from pydantic import Field, ValidationInfo, field_validator
 
-from aerotruth.analysis.afis import AfisSpec
-from aerotruth.config import Section
-from aerotruth.truth.mission import MissionRun
-from aerotruth.sensors.ils import TOLERANCES, IlsFacilitySpec
+from aerotruth.analysis.fits.afis import AfisSpec
+from aerotruth.schema import Section
 from aerotruth.sim.studies import Figure, Summary
-from aerotruth.sim.studies.fits import FitsStudy, FitsStudyConfig, _planned
+from aerotruth.sim.studies.fits import FitsStudy, FitsStudyConfig, planned_approach
 from aerotruth.sim.tasks import Task
+from aerotruth.truth.ils import TOLERANCES, IlsFacilitySpec
+from aerotruth.truth.mission import MissionRun
 
 NM = 1852.0
 
@@ -111,14 +111,17 @@ class InspectionStudy(FitsStudy):
     Config = InspectionConfig
 
     def run(self, task: Task, ctx) -> pd.DataFrame:
-        from aerotruth.analysis.ils_metrics import approach_errors, approach_verdict
-        from aerotruth.analysis.inspection import inspect_approach, verdict
+        from aerotruth.analysis.fits.ils_metrics import (
+            approach_errors,
+            approach_verdict,
+        )
+        from aerotruth.analysis.fits.inspection import inspect_approach, verdict
         from aerotruth.sensors.inspection_log import REFERENCE_POINT, approach_logs
 
         section: InspectionConfig = task.params["section"]
         if task.params.get("mission"):
             return self._run_mission(task, ctx)
-        planned = _planned(task, section, task.params["campaign_seed"])
+        planned = planned_approach(task, section, task.params["campaign_seed"])
         out = ctx.truth.approach(planned)
         label = f"{task.params['airport']}-{task.params['runway']}-{task.params['date']}-{task.params['k']}"
         head = {"approach": label, "airport": task.params["airport"], "runway": task.params["runway"], "date": task.params["date"]}
@@ -178,11 +181,11 @@ class InspectionStudy(FitsStudy):
 
     def _systems(self, track, logs, section: InspectionConfig, ctx) -> tuple[dict[str, np.ndarray], pd.DataFrame]:
         """The reference point at the log rows by every truth system, and the log rows used."""
-        from aerotruth.analysis.afis import afis_trajectory
-        from aerotruth.analysis.fits import carry_with_ins
-        from aerotruth.analysis.fits_log import run_approach
-        from aerotruth.sensors.inspection_log import REFERENCE_POINT
+        from aerotruth.analysis.fits.afis import afis_trajectory
+        from aerotruth.analysis.fits.approach_log import run_approach
+        from aerotruth.analysis.fits.filter import carry_with_ins
         from aerotruth.sensors.ins import InsSpec, ins_positions
+        from aerotruth.sensors.inspection_log import REFERENCE_POINT
 
         t, ref = logs.t_rows, logs.points_rows[REFERENCE_POINT]
         length = float(track.meta["runway_length_m"])
@@ -232,7 +235,7 @@ class InspectionStudy(FitsStudy):
 
     def _run_mission(self, task: Task, ctx) -> pd.DataFrame:
         from aerotruth import seeds
-        from aerotruth.analysis.ils_metrics import approach_errors
+        from aerotruth.analysis.fits.ils_metrics import approach_errors
         from aerotruth.sensors.inspection_log import REFERENCE_POINT, approach_logs
         from aerotruth.truth.mission import MissionSpec
         from aerotruth.truth.weather import region_for_airport
@@ -297,7 +300,7 @@ class InspectionStudy(FitsStudy):
         """Alignment at the threshold (m, + left) from the mean course error in angle over
         the segment (metres before the threshold), each epoch's course error taken to the
         threshold by the localizer's range there: the displacement of a straight course."""
-        from aerotruth.sensors.ils import LOC_HALF_SECTOR_DDM, nominal
+        from aerotruth.truth.ils import LOC_HALF_SECTOR_DDM, nominal
 
         ref = nominal(facility)
         s_loc = (1 + fspec.loc_sensitivity_rel) * LOC_HALF_SECTOR_DDM / ref.loc_half_sector_rad
@@ -381,8 +384,13 @@ class InspectionStudy(FitsStudy):
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-        from aerotruth.analysis.ils_metrics import FLOOR_HORIZONTAL_M, FLOOR_VERTICAL_M, REQUIREMENTS, required_error_m
-        from aerotruth.sim.figures import save
+        from aerotruth.analysis.fits.ils_metrics import (
+            FLOOR_HORIZONTAL_M,
+            FLOOR_VERTICAL_M,
+            REQUIREMENTS,
+            required_error_m,
+        )
+        from aerotruth.app.figures import save
 
         sysrows = rows[(rows["kind"] == "system") & ~rows["diverged"].astype(bool)] if len(rows) else rows
         if sysrows.empty:

@@ -6,7 +6,7 @@ study of the campaign): the day's legs from the truth store go through the Mode-
 (aerotruth.sensors.modes) with the hidden effects of the section (a variation-table
 error, a heading lag; the sensor's reply and noise draws from the task's "sensor",
 "modes" stream), are decoded to a 1-s trajectory and diagnosed
-(aerotruth.analysis.diagnose). One row per finding (or one empty row per day).
+(aerotruth.analysis.diagnose.modes). One row per finding (or one empty row per day).
 Metrics: the share of days whose first finding is the hidden effect, the estimated size
 (mean and spread), and the count of other findings (false findings when nothing is hidden);
 a table of each day's account of the hidden effect (found, or how far its test got:
@@ -23,8 +23,15 @@ import numpy as np
 import pandas as pd
 from pydantic import Field
 
-from aerotruth.config import Campaign, References, Section
-from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_flights, day_cost, day_task
+from aerotruth.schema import Section
+from aerotruth.sim.campaign_file import Campaign, References
+from aerotruth.sim.fleet_days import (
+    FlightSelection,
+    aircraft_days,
+    check_flights,
+    day_cost,
+    day_task,
+)
 from aerotruth.sim.studies import Figure, Study, Summary
 from aerotruth.sim.tasks import Task
 
@@ -83,8 +90,9 @@ class ModesDiagnose(Study):
         return day_cost(task.params["day"]) + 2.0
 
     def run(self, task: Task, ctx) -> pd.DataFrame:
-        from aerotruth.analysis.diagnose import diagnose_track, track_from_measured
+        from aerotruth.analysis.diagnose.modes import diagnose_track
         from aerotruth.errors import DataError
+        from aerotruth.measured.modes import track_from_measured
         from aerotruth.sim.modes_data import simulated_modes_day
 
         day, p = task.params["day"], task.params
@@ -140,7 +148,7 @@ class ModesDiagnose(Study):
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-        from aerotruth.sim.figures import save
+        from aerotruth.app.figures import save
 
         found = rows[rows["rank"] > 0]
         fig, ax = plt.subplots(figsize=(6, 3.5))

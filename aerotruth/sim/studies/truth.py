@@ -24,8 +24,15 @@ from typing import Any
 import numpy as np
 import pandas as pd
 
-from aerotruth.config import Campaign, References
-from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_flights, day_cost, day_task, flown_legs
+from aerotruth.sim.campaign_file import Campaign, References
+from aerotruth.sim.fleet_days import (
+    FlightSelection,
+    aircraft_days,
+    check_flights,
+    day_cost,
+    day_task,
+    flown_legs,
+)
 from aerotruth.sim.studies import Figure, Study, Summary
 from aerotruth.sim.tasks import Task
 from aerotruth.units import KT, NM
@@ -159,7 +166,7 @@ class TruthFlights(Study):
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-        from aerotruth.sim.figures import save
+        from aerotruth.app.figures import save
         from aerotruth.truth.airports import airport
 
         figs = []

@@ -28,10 +28,10 @@ from typing import Any
 
 import numpy as np
 import pandas as pd
-
 from pydantic import Field, StrictInt, field_validator, model_validator
 
-from aerotruth.config import Campaign, References, Section
+from aerotruth.schema import Section
+from aerotruth.sim.campaign_file import Campaign, References
 from aerotruth.sim.studies import Figure, Study, Summary
 from aerotruth.sim.tasks import Task, weather_seed
 from aerotruth.units import FT, KT
@@ -300,7 +300,7 @@ class WindClimatology(Study):
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-        from aerotruth.sim.figures import save
+        from aerotruth.app.figures import save
 
         figs = []
         fig, ax = plt.subplots(figsize=(5.5, 4.5))
@@ -453,7 +453,11 @@ def msl_height_of_flight_level(atm, lat: np.ndarray, lon: np.ndarray, flight_lev
     hypsometric relation: a layer of the ISA + dT column is T / T_ISA times as thick as
     the same layer of the standard atmosphere, so
     z <- z + (PA_target - PA(p(z))) * T(z) / T_ISA(PA(p(z))) (ICAO Doc 7488 ISA)."""
-    from aerotruth.truth.isa import geometric_altitude_m, isa_temperature_k, pressure_altitude_m
+    from aerotruth.truth.isa import (
+        geometric_altitude_m,
+        isa_temperature_k,
+        pressure_altitude_m,
+    )
 
     target = flight_level * 100.0 * FT
     z = np.full(np.shape(lat), float(geometric_altitude_m(target)))

@@ -15,7 +15,7 @@ the metrics (they stay in the exported table). Metrics per fleet (and per headin
 difference report - reference against each model and against the combined references
 (every (report, model) pair pooled), with its longitudinal and transverse split (axis from
 the 3-report air track; components over the reports whose track passes the gates, total
-over all: aerotruth.analysis.wind_metrics).
+over all: aerotruth.analysis.wind.metrics).
 """
 
 from __future__ import annotations
@@ -27,8 +27,15 @@ import numpy as np
 import pandas as pd
 from pydantic import Field, field_validator
 
-from aerotruth.config import Campaign, References, Section
-from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_flights, day_cost, day_task
+from aerotruth.schema import Section
+from aerotruth.sim.campaign_file import Campaign, References
+from aerotruth.sim.fleet_days import (
+    FlightSelection,
+    aircraft_days,
+    check_flights,
+    day_cost,
+    day_task,
+)
 from aerotruth.sim.studies import Figure, Study, Summary
 from aerotruth.sim.tasks import Task
 from aerotruth.sim.wind_observations import WindSensors
@@ -141,7 +148,7 @@ def day_rows(task: Task, ctx, correction=None, mark_corrected: bool = False) -> 
 
 def summary_rows(errors: pd.DataFrame, keys: dict[str, Any], total_over: str) -> dict[str, Any]:
     """One summary row (n, rms, components) of a set of wind_errors rows."""
-    from aerotruth.analysis.wind_metrics import wind_error_summary
+    from aerotruth.analysis.wind.metrics import wind_error_summary
 
     if errors.empty:
         return {**keys, "n": 0, "n_components": 0, "rms_kt": np.nan, "longitudinal_rms_kt": np.nan,
@@ -198,7 +205,7 @@ class WindReports(Study):
         return day_rows(task, ctx)
 
     def summarize(self, rows: pd.DataFrame, learned, section: WindReportsConfig) -> Summary:
-        from aerotruth.analysis.wind_metrics import wind_error_summary, wind_errors
+        from aerotruth.analysis.wind.metrics import wind_error_summary, wind_errors
 
         obs = observations_only(rows)
         diverged = int((rows["trigger"] == DIVERGED).sum()) if "trigger" in rows.columns else 0
@@ -242,7 +249,7 @@ class WindReports(Study):
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-        from aerotruth.sim.figures import save
+        from aerotruth.app.figures import save
 
         figs = []
         by_alt = summary.tables.get("rms_by_altitude")

@@ -1,0 +1,584 @@
+"""`aerotruth diagnose` on an observation table (aircraft wind reports with reference-model
+winds, docs/data-formats.md): where the reports disagree with the simulation's model of the
+wind sensors, which effect explains it, by how much, and what the extension gains on
+flights it was not fitted on.
+
+The data (wind paper section 5.1, `aerotruth.analysis.wind.heading_errors`): for every gated
+report and reference model, the air-vector difference V_A - V_A' = V_W,REF - V_W,TAM
+(eqs. 3, 4; the ground track cancels), split at the measured heading z into
+
+    transverse  t = (V_A - V_A') . n,  n = (cos z, -sin z)   (= TAS sin d, d = psi - psi')
+    along       a = (V_A - V_A') . u,  u = (sin z,  cos z)   (= |V_A| - |V_A'| to first order)
+
+both in m/s, with the reference-model error as their noise (the same per component).
+
+The model (`WindModel`): each aircraft's heading deviation d(z) = A + s(H) (B sin z + C cos z)
+[+ D sin 2z + E cos 2z] (wind paper eq. 2) in the transverse channel, s(H) = (H0/H)^gamma
+the hard-iron scaling with the horizontal field (gamma = 0 in the wind paper's model), plus
+what the model states as known: a TAS scale (along: k TAS), a receiver declination epoch
+(transverse: the table's error), reference-model biases along the wind, recalibration
+times (a new offset A after each), aircraft whose offset drifts (a free rate of A in time),
+the lat/lon quantization of the reports. The
+harmonics are fitted for an aircraft only where its headings identify them (the
+heading-correction method's coverage criterion); otherwise its offset A alone, said in
+`model_fit`.
+
+Effects library (each a departure from that model, its parameters linear given the
+rest; `field_scaling` by Gauss-Newton on gamma):
+
+    soft_iron          per aircraft D, E (2z): soft iron induced by the horizontal field
+    field_scaling      gamma: hard-iron B, C grow as 1/H (magnetic latitude)
+    tas_scale          per aircraft k: along residual = k TAS
+    stale_declination  age a (years): transverse = a (-dD/dt)(lat, lon), D the IGRF declination
+    reference_bias     per reference model b (kt along its wind): t = b w.n, a = b w.u
+                       (also as a scale s of its wind, error = s W, and which form fits better;
+                       where a scale does, the error in the chosen forms is tested and held
+                       out too: evidence["forms_chosen"])
+    recalibration      per aircraft a step of A at an unknown time (CUSUM of flight means)
+    offset_drift       per aircraft A changing linearly in time (trend of its weather-block means)
+    quantization       the reports' lat/lon grid is coarser (or finer) than the model's
+
+Evidence. Reference-model errors are one field over the region, correlated for hours, so
+the flights of all aircraft in the same hours share them (on aerotruth's own simulated
+reports, clustering on flights gave false reference biases): every test is on 6-h weather
+blocks (diagnose_wind_data.weather_blocks; each flight whole in the block of its mid-time),
+a cluster-robust (CR1) Wald test, F(q, G - 1); per-aircraft parameters
+are tested aircraft by aircraft and the p-values combined by summing their chi-square
+equivalents (Fisher-type). The change-point uses the sup of the CUSUM of flight means
+(long-run variance, Bartlett lag 2) against the Kolmogorov distribution, Bonferroni over
+aircraft. Family-wise: ALPHA_LIBRARY over the library's candidates of a round and
+ALPHA_SCREEN over the screening tests, each Bonferroni-split (nominal 2 % in all).
+
+Gain. Weather blocks alternate between two folds (in time order); parameters are
+learned on one fold and the residual RMS (kt) of the effect's channel measured on the
+other, both ways; an effect enters only if it lowers that held-out RMS. The round's
+entering effect is the significant candidate with the largest relative held-out gain;
+rounds repeat until none is left (forward selection).
+
+Screening (effects outside the library, on the final residuals): each channel against
+heading harmonics (3z in the transverse channel, z..3z along), roll, flight phase, turn
+rate (course change between adjacent reports), pressure altitude, TAS, latitude and time;
+a Lomb-Scargle periodogram of the flight-mean residuals; a fleet-wide change-point. A
+significant one with a held-out gain is reported by its signature ("transverse residual
+~ pressure_altitude_ft, 0.05 deg per 1000 ft") and enters the model as a linear term.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+import math
+from typing import Any
+
+import numpy as np
+
+from aerotruth.analysis.diagnose.wind_data import WindData, prepare  # noqa: F401  (re-exported)
+from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSpec, wind_model_from_campaign re-exported)
+    CANDIDATES,
+    CHANNEL,
+    MIN_COVERAGE,
+    Block,
+    Fit,
+    State,
+    WindModelSpec,
+    block_p,
+    build_blocks,
+    channel_rows,
+    covariate,
+    current_blocks,
+    declination_identifiable,
+    fit_with,
+    fold_fits,
+    group_means,
+    held_out,
+    known_offsets,
+    kolmogorov_cusum,
+    quantization_candidate,
+    reference_bias_column,
+    reference_scale_column,
+    rms_of_kt,
+    signature_column,
+    solve,
+    stack_channels,
+    standard_errors,
+    wind_model_from_campaign,
+)
+from aerotruth.analysis.least_squares import clustered_se
+from aerotruth.analysis.wind.heading_correction import heading_spread
+from aerotruth.units import DEG, KT
+
+ALPHA_LIBRARY = 0.01
+ALPHA_SCREEN = 0.01
+MAX_ROUNDS = 8
+MIN_BLOCKS = 20  # fewest weather blocks (independent clusters) for any test: CR1 with fewer over-rejects
+# an effect must also matter: the held-out RMS must drop by >= 0.2 % (on null data the
+# screening found "turn rate" terms worth 0.02 %: the three-report heading's lag in a
+# turn, real but of no use; every hidden library effect gains >= 1 %)
+MIN_REL_GAIN = 0.002
+# candidates tested by a scan of each aircraft's series of mean offsets (p-values Bonferroni over aircraft),
+# not by the Wald test of their fitted columns (chosen by the scan, those would over-reject)
+SCANNED = {"recalibration": "sup-CUSUM of flight means, Kolmogorov, Bonferroni over aircraft",
+           "offset_drift": "trend of the aircraft's 6-h weather-block means (slope, Bartlett-weighted variance), "
+                           "Bonferroni over aircraft"}
+
+CAUSES = {
+    "soft_iron": "the heading error goes twice round with the heading (2z): soft iron magnetised by the horizontal field",
+    "field_scaling": "the once-round deviation grows where the horizontal field is weak (~1/H): permanent (hard-iron) magnetism",
+    "tas_scale": "the true airspeed reads off by a constant factor: air-data calibration (static source, temperature probe)",
+    "stale_declination": "the receiver converts magnetic to true heading with an old declination model: the error follows "
+                         "the field's secular change across the network",
+    "reference_bias": "a reference model's wind is biased along the wind (too strong or too weak): the reference, not the aircraft",
+    "recalibration": "an aircraft's heading offset changed at one time: a recalibration, a swung compass or a replaced valve",
+    "offset_drift": "an aircraft's heading offset changes steadily with time: a deviation that is not stationary (wind "
+                    "paper section 8), e.g. slowly changing airframe magnetism or a degrading compass system",
+    "quantization": "the reports' latitude and longitude are rounded to a coarser grid than the model's: noisier ground tracks",
+}
+
+
+def cause(eff: str, params: dict) -> str:
+    """The finding's cause in words, its direction from the fitted parameters where the
+    effect can go either way against the model (field scaling, the reports' grid) or take
+    two forms (a reference's offset along its wind or scale of it)."""
+    if eff == "field_scaling":
+        g, g0 = params["gamma"]["value"], params["gamma"]["model"]
+        if g < g0:
+            return (f"the once-round deviation depends on the horizontal field less than the model says (gamma {g:.2f} "
+                    f"against the model's {g0:g}; 1: hard iron, ~1/H; 0: the same at every field): part of it is not "
+                    "magnetic, e.g. an error of the heading system's synchro or resolver transmission")
+        return CAUSES[eff] + f" (gamma {g:.2f} against the model's {g0:g})"
+    if eff == "reference_bias":
+        name, x = max(params["bias_kt"].items(), key=lambda kv: abs(kv[1]["value"]))
+        if x["form"] == "scale":
+            return (f"a reference model's wind is too {'strong' if x['scale']['value'] > 0 else 'weak'} in proportion to "
+                    f"its speed ({name}: {100 * x['scale']['value']:+.1f} %, a scale fits its rows better than an offset "
+                    "along the wind): the reference, not the aircraft")
+    if eff == "quantization" and params["lat_lon_step_deg"]["value"] < params["lat_lon_step_deg"]["model"]:
+        return ("the reports' latitude and longitude are rounded to a finer grid than the model's: the model's ground "
+                "tracks are noisier than the data's")
+    return CAUSES[eff]
+
+
+# ----------------------------------------------------------------------------- the loop
+
+
+def _iso(t: float) -> str:
+    return (dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(t))).isoformat(timespec="minutes") + "Z"
+
+
+def _parameters(eff: str, d: WindData, fit: Fit, dgamma: float, st: State) -> dict:
+    parts = fit.coef(eff)
+    r2d = 1 / DEG
+    if eff == "soft_iron":
+        per = {d.names[b.aircraft]: {"D_deg": float(be[0] * r2d), "E_deg": float(be[1] * r2d),
+                                     "D_se_deg": float(standard_errors(v)[0] * r2d), "E_se_deg": float(standard_errors(v)[1] * r2d)} for b, be, v in parts}
+        a2 = np.mean([x["D_deg"] ** 2 + x["E_deg"] ** 2 for x in per.values()])
+        s2 = np.mean([x["D_se_deg"] ** 2 + x["E_se_deg"] ** 2 for x in per.values()])
+        amp = math.sqrt(max(a2 - s2, 0.0))
+        return {"amplitude_deg": {"value": amp, "se": math.sqrt(s2 / max(len(per), 1)),
+                                  "meaning": "RMS over aircraft of the 2z amplitude sqrt(D^2 + E^2), noise-debiased"},
+                "aircraft": per}
+    if eff == "field_scaling":
+        se = float(standard_errors(parts[0][2])[0])
+        return {"gamma": {"value": st.gamma + dgamma, "se": se, "model": st.gamma,
+                          "meaning": "B, C ~ (H0/H)^gamma, H0 the median horizontal field of the reports"},
+                "H_ratio_range": [float(1 / d.h_ratio.max()), float(1 / d.h_ratio.min())]}
+    if eff == "tas_scale":
+        per = {d.names[b.aircraft]: {"k": float(be[0]), "se": float(standard_errors(v)[0])} for b, be, v in parts}
+        ks = np.array([x["k"] for x in per.values()])
+        ses = np.array([x["se"] for x in per.values()])
+        return {"k_median": {"value": float(np.median(ks)), "se": float(1.2533 * np.sqrt(np.mean(ses**2) / len(ks))),
+                             "meaning": "TAS reads (1 + k) x true"}, "aircraft": per}
+    if eff == "stale_declination":
+        be, v = parts[0][1], parts[0][2]
+        return {"age_yr": {"value": float(be[0]) + st.spec.declination_age_yr, "se": float(standard_errors(v)[0]),
+                           "meaning": "the receivers' declination model is this many years older than the data"},
+                "identifiable_share": declination_identifiable(d)}
+    if eff == "reference_bias":
+        per = {}
+        for b, be, v in parts:
+            per[b.label] = {"value": float(be[0]), "se": float(standard_errors(v)[0]),
+                            **_bias_or_scale(d, fit, d.sources.index(b.label), float(be[0]))}
+        return {"bias_kt": per, "meaning": "reference wind = truth + b along the wind; or truth x (1 + s), `form` the "
+                                           "one of the two that fits the model's rows better"}
+    if eff == "offset_drift":
+        per = {}
+        for b, be, v in parts:
+            t = d.time_s[d.aircraft == b.aircraft]
+            days = float((t.max() - t.min()) / 86400.0)
+            rate, se = float(be[0] * r2d), float(standard_errors(v)[0] * r2d)
+            per[d.names[b.aircraft]] = {"rate_deg_per_day": rate, "se_deg_per_day": se, "days": days,
+                                        "change_deg": rate * days, "from_utc": _iso(float(t.min())), "to_utc": _iso(float(t.max()))}
+        return {"aircraft": per, "meaning": "offset A = A_mid + rate x (t - middle of the aircraft's data)"}
+    if eff == "recalibration":
+        return {"steps": {d.names[b.aircraft]: {"time_utc": _iso(float(b.label.split("@")[1])), "time_s": float(b.label.split("@")[1]),
+                                                "step_deg": float(be[0] * r2d), "se_deg": float(standard_errors(v)[0] * r2d)}
+                          for b, be, v in parts}}
+    raise KeyError(eff)
+
+
+def _bias_or_scale(d: WindData, fit: Fit, m: int, bias_kt: float) -> dict:
+    """Reference m's error along its wind as an offset b (kt, the library's form) or as a
+    scale s of its wind (error = s W): each fitted alone to that model's rows of the
+    residual with the fitted bias term (`bias_kt`) put back, the one with the smaller
+    residual sum of squares is `form` (both have one parameter); s with its weather-block
+    clustered se."""
+    col = reference_bias_column(d, m)
+    rows = col != 0
+    r0 = (fit.resid + col * bias_kt)[rows]  # m/s
+
+    def fitted(x: np.ndarray) -> tuple[float, np.ndarray, float]:
+        sxx = float(x @ x)
+        c = float(x @ r0) / sxx
+        return c, r0 - c * x, sxx
+
+    _, e_off, _ = fitted(col[rows])
+    s, e, sxx = fitted(x := reference_scale_column(d, m)[rows])
+    se, _ = clustered_se(x * e, fit.clusters[rows], sxx)
+    ratio = float(e @ e) / float(e_off @ e_off)
+    return {"scale": {"value": s, "se": se, "meaning": "reference wind = truth x (1 + s)"},
+            "form": "scale" if ratio < 1 else "offset", "rss_scale_over_offset": ratio}
+
+
+def _forms_chosen(d: WindData, st: State, y: np.ndarray, clusters: np.ndarray, base: list[Fit], per: dict) -> dict:
+    """The reference error tested and held out as the extended model carries it: each
+    reference in the form (`per[src]["form"]`) that fits its rows (the library's candidate,
+    whose test and gain the finding reports, is the offset along the wind)."""
+    blocks = [Block("reference_bias", src, (reference_scale_column if per[src]["form"] == "scale"
+                                            else reference_bias_column)(d, m)[:, None])
+              for m, src in enumerate(d.sources) if src in per]
+    fit, _ = fit_with(d, st, y, clusters, "reference_bias", blocks)
+    b_ho, a_ho = held_out(d, st, y, clusters, "reference_bias", (blocks, CHANNEL["reference_bias"]), base)
+    return {"forms": {src: x["form"] for src, x in per.items()}, "p_value": block_p(fit, "reference_bias", d),
+            "held_out_before": b_ho, "held_out_after": a_ho,
+            "test": "cluster-robust Wald on 6-h weather blocks; held out as the finding's gain"}
+
+
+def _size(eff: str, params: dict) -> float:
+    """One number for the effect's size (what the tests compare)."""
+    return {"soft_iron": lambda p: p["amplitude_deg"]["value"], "field_scaling": lambda p: p["gamma"]["value"],
+            "tas_scale": lambda p: p["k_median"]["value"], "stale_declination": lambda p: p["age_yr"]["value"],
+            "reference_bias": lambda p: max((x["value"] for x in p["bias_kt"].values()), key=abs),
+            "recalibration": lambda p: max((x["step_deg"] for x in p["steps"].values()), key=abs),
+            "offset_drift": lambda p: max((x["rate_deg_per_day"] for x in p["aircraft"].values()), key=abs),
+            "quantization": lambda p: p["lat_lon_step_deg"]["value"]}[eff](params)
+
+
+def _plot_data(d: WindData, fit0: Fit, fit1: Fit, eff: str, channel: str) -> dict:
+    """Added-variable view: the residual without the effect and with it, against the
+    effect's fitted term (deg transverse, kt along); a per-aircraft effect on some of the
+    fleet shows those aircraft's rows (the others' term is 0 and would fill the view)."""
+    term = np.zeros(2 * d.n)
+    concerned = set()
+    for b, s in zip(fit1.blocks, fit1.slices):
+        if b.effect in (eff, "screen"):
+            term += b.cols @ fit1.beta[s]
+            concerned.add(b.aircraft)
+    m = channel_rows(d.n, "transverse" if channel == "both" else channel)
+    if -1 not in concerned and len(concerned) < len(d.names):
+        m &= np.tile(np.isin(d.aircraft, list(concerned)), 2)
+    scale = np.r_[d.tas, np.full(d.n, KT)][m]
+    unit = "deg" if channel != "along" else "kt"
+    conv = (1 / DEG) if unit == "deg" else 1.0
+    return {"x": term[m] / scale * conv, "before": fit0.resid[m] / scale * conv,
+            "after": fit1.resid[m] / scale * conv, "unit": unit, "channel": "transverse" if channel == "both" else channel}
+
+
+def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, dict]:
+    """Forward selection over the library, then screening. Returns (findings, baseline, the
+    final state, plot data per finding)."""
+    from aerotruth.analysis.diagnose.modes import Finding
+
+    y = stack_channels(d.trans, d.along, d.n) - known_offsets(d, spec)
+    clusters = np.r_[d.cluster, d.cluster]
+    steps = {d.names.index(a): list(ts) for a, ts in spec.recalibrations.items() if a in d.names}
+    drifts = {d.names.index(a) for a in spec.offset_drifts if a in d.names}
+    st = State(spec, [], spec.field_scaling, steps, drifts, [])
+    fit_start = None  # the model before any effect: the first round's fit
+    findings, plots, rounds = [], {}, []
+    n_lib = len(CANDIDATES) + 1
+    n_blocks = len(np.unique(d.cluster))
+    testable = n_blocks >= MIN_BLOCKS
+    for _ in range(MAX_ROUNDS):
+        fit0 = solve(current_blocks(d, st), y, clusters)
+        fit_start = fit_start or fit0
+        base = fold_fits(d, st, y, clusters) if testable else None  # for the candidates' held-out gains
+        cands = []
+        for eff in CANDIDATES:
+            if eff in st.entered or not testable:
+                continue
+            blocks = build_blocks(eff, d, st, fit0, None)
+            if not blocks:
+                continue
+            fit1, dg = fit_with(d, st, y, clusters, eff, blocks)
+            p = min(b.p for b in blocks) if eff in SCANNED else block_p(fit1, eff, d)
+            b_ho, a_ho = held_out(d, st, y, clusters, eff, base=base)
+            cands.append({"effect": eff, "p": p, "held_out": (b_ho, a_ho), "fit": fit1, "dgamma": dg,
+                          "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0})
+        q = None if "quantization" in st.entered else quantization_candidate(d, spec.lat_lon_step_deg)
+        if q is not None:
+            cands.append({"effect": "quantization", "p": 10 ** max(q["log10_p"], -300), "log10_p": q["log10_p"], "q": q,
+                          "held_out": (q["gain"]["held_out_before"], q["gain"]["held_out_after"]), "rel": q["relative_gain"]})
+        level = ALPHA_LIBRARY / n_lib
+        ok = [c for c in cands if c["p"] < level and c["rel"] >= MIN_REL_GAIN]
+        rounds.append({c["effect"]: {"p": c["p"], "held_out_before_kt": c["held_out"][0], "held_out_after_kt": c["held_out"][1]}
+                       for c in cands})
+        if not ok:
+            break
+        best = max(ok, key=lambda c: c["rel"])
+        eff = best["effect"]
+        if eff == "quantization":
+            qq = best["q"]
+            params = {"lat_lon_step_deg": {"value": qq["step"], "se": 0.0, "model": spec.lat_lon_step_deg,
+                                           "meaning": "grid of the reported lat/lon"},
+                      "share_on_model_grid": qq["share_on_model_grid"]}
+            evidence = {"test": "binomial: coordinates on the coarser grid vs the share the model's grid puts there",
+                        "log10_p": qq["log10_p"], "alpha": level}
+            gain = qq["gain"]
+        else:
+            fit1 = best["fit"]
+            params = _parameters(eff, d, fit1, best["dgamma"], st)
+            ch = CHANNEL[eff]
+            evidence = {"test": SCANNED.get(eff, "cluster-robust Wald on 6-h weather blocks"), "p_value": best["p"], "alpha": level,
+                        "flights": int(len(np.unique(d.flight))), "rows": int(d.n)}
+            if eff == "stale_declination":
+                evidence["aliased_with_A"] = f"{100 * (1 - declination_identifiable(d)):.0f} % of the regressor is a per-aircraft constant"
+            if eff == "reference_bias" and any(x["form"] == "scale" for x in params["bias_kt"].values()):
+                evidence["forms_chosen"] = _forms_chosen(d, st, y, clusters, base, params["bias_kt"])
+            gain = {"metric": f"RMS of the {ch} wind residual (kt)" if ch != "both" else "RMS of the wind residual vector components (kt)",
+                    "before": rms_of_kt(fit0.resid, d.n, ch), "after": rms_of_kt(fit1.resid, d.n, ch),
+                    "held_out_before": best["held_out"][0], "held_out_after": best["held_out"][1],
+                    "held_out": "6-h weather blocks alternate between two folds; learned on one, measured on the other"}
+            plots[eff] = _plot_data(d, fit0, fit1, eff, ch)
+        params["size"] = _size(eff, params)
+        findings.append(Finding(eff, cause(eff, params), params, evidence, gain))
+        st.entered.append(eff)
+        if eff == "field_scaling":
+            st.gamma = params["gamma"]["value"]
+        if eff == "recalibration":
+            for a, s in params["steps"].items():
+                st.steps.setdefault(d.names.index(a), []).append(s["time_s"])
+        if eff == "offset_drift":
+            st.drifts.update(d.names.index(a) for a in params["aircraft"])
+    if testable:
+        findings.extend(screen(d, st, y, clusters, plots))
+    fit_end = solve(current_blocks(d, st), y, clusters)
+    free = {b.label[5:]: {"slope": float(be[0]), "se": float(standard_errors(v)[0]),
+                          "unit": "deg per unit" if b.label.startswith("free:transverse") else "kt per unit"}
+            for b, be, v in fit_end.coef("base", -1) if b.label.startswith("free:")}
+    baseline = {"rounds": rounds, "model_fit": model_fit(d, st, fit_end), "free_terms": free,
+                "residual_rms_kt": {"transverse_before": rms_of_kt(fit_start.resid, d.n, "transverse"),
+                                    "transverse_after": rms_of_kt(fit_end.resid, d.n, "transverse"),
+                                    "along_before": rms_of_kt(fit_start.resid, d.n, "along"),
+                                    "along_after": rms_of_kt(fit_end.resid, d.n, "along")},
+                "alpha": {"library": ALPHA_LIBRARY, "screening": ALPHA_SCREEN, "family_wise": ALPHA_LIBRARY + ALPHA_SCREEN},
+                "not_identifiable": ([] if declination_identifiable(d) >= 0.01 else
+                                     ["stale_declination: aliased with the per-aircraft offset A (the declination change across "
+                                      f"this network is {100 * declination_identifiable(d):.1f} % outside per-aircraft constants)"]),
+                "reports": int(len(np.unique(np.c_[d.aircraft, d.time_s], axis=0))), "rows": int(d.n),
+                "aircraft": len(d.names), "flights": int(len(np.unique(d.flight))),
+                "weather_blocks": n_blocks, "data": d.table}
+    if not testable:
+        baseline["not_tested"] = (f"the data span {n_blocks} independent 6-h weather blocks, fewer than {MIN_BLOCKS}: "
+                                  "cluster-robust tests on so few clusters reject too often (aerotruth's own null "
+                                  "reports on 15 blocks: 10 false findings in 100 datasets), so no effect is tested; the "
+                                  "quantization check (no test statistic on clusters) still runs. More days of data "
+                                  "are needed.")
+    return findings, baseline, st, plots
+
+
+def model_fit(d: WindData, st: State, fit: Fit) -> dict:
+    """The current model's per-aircraft deviation: status, reason, A (B, C, D, E) +- se (deg)."""
+    out = {}
+    r2d = 1 / DEG
+    for i, name in enumerate(d.names):
+        sel = d.aircraft == i
+        row: dict[str, Any] = {"n_rows": int(sel.sum()), "flights": int(len(np.unique(d.flight[sel])))}
+        for b, be, v in fit.coef("base", i) + fit.coef("soft_iron", i):
+            se = standard_errors(v)
+            if b.label == "A":
+                row["A_deg"] = float(be[-1] * r2d)
+                row["A_se_deg"] = float(se[-1] * r2d)
+            elif b.label == "T":
+                row["tas_bias_kt"], row["tas_bias_se_kt"] = float(be[0] / KT), float(se[0] / KT)
+            elif b.label == "drift":
+                row["A_drift_deg_per_day"], row["A_drift_se_deg_per_day"] = float(be[0] * r2d), float(se[0] * r2d)
+            else:
+                for j, t in enumerate(b.label):
+                    row[f"{t}_deg"], row[f"{t}_se_deg"] = float(be[j] * r2d), float(se[j] * r2d)
+        spread = heading_spread(np.degrees(d.z[sel]), np.ones(sel.sum())) if sel.sum() >= 3 else 0.0
+        if "B_deg" in row:
+            row["status"], row["reason"] = "fitted", ""
+        else:
+            row["status"] = "offset_only"
+            row["reason"] = (f"heading coverage cannot identify the sinusoid (spread {spread:.2f} < {MIN_COVERAGE}): "
+                             "offset A only; one heading cannot tell an offset from a sinusoid")
+        out[name] = row
+    return out
+
+
+# ----------------------------------------------------------------------------- screening
+
+UNITS = {"pressure_altitude_ft": "1000 ft", "tas_kt": "kt", "lat": "deg latitude", "time_days": "day", "roll_deg": "deg roll",
+         "turn_deg_s": "deg/s of turn", "const": "(constant)"}
+
+
+def _screen_tests(d: WindData, spec: WindModelSpec | None = None) -> list[tuple[str, list[str]]]:
+    """(channel, covariates) of every screening test; covariates the spec's free terms
+    already carry in a channel are not tested again there."""
+    common = ["pressure_altitude_ft", "lat", "time_days", "turn_deg_s"] + (["roll_deg"] if d.roll is not None else [])
+    tests = [("transverse", ["sin3", "cos3"]), ("transverse", ["phase_ascent", "phase_descent"]), ("transverse", ["tas_kt"])]
+    tests += [("transverse", [c]) for c in common]
+    tests += [("along", ["const"]), ("along", ["sin1", "cos1"]), ("along", ["sin2", "cos2"]), ("along", ["sin3", "cos3"]),
+              ("along", ["phase_ascent", "phase_descent"])]
+    tests += [("along", [c]) for c in common]
+    free = {(t["channel"], t["covariate"]) for t in spec.free_terms} if spec is not None else set()
+    tests = [(ch, [c for c in covs if (ch, c) not in free]) for ch, covs in tests]
+    return [(ch, covs) for ch, covs in tests if covs]
+
+
+def _screen_blocks(d: WindData, channel: str, covs: list[str]) -> tuple[list[Block], list[dict]]:
+    sigs = [{"channel": channel, "covariate": c, "center": 0.0 if c == "const" else float(np.mean(covariate(d, c)))}
+            for c in covs]
+    return [Block("screen", f"{channel}:{'+'.join(covs)}", np.column_stack([signature_column(d, s) for s in sigs]))], sigs
+
+
+def _periodic(d: WindData, fit: Fit) -> tuple[float, int] | None:
+    """(period s, M independent frequencies) of the strongest period in the flight-mean
+    transverse residual (least-squares periodogram, periods 2 h .. span/2). Its evidence is
+    not the white-noise p = M exp(-z): flight means share the weather's errors for hours
+    (a 4-h "period" came up in 1 of 8 null datasets of aerotruth's own reports), so the
+    term is tested like the others, by a Wald test on weather blocks, times M."""
+    m, t0, t1 = group_means(d, fit.resid[: d.n], d.flight)
+    t = 0.5 * (t0 + t1)
+    span = t.max() - t.min()
+    if len(m) < 20 or span < 4 * 7200.0:
+        return None
+    M = int(span / 7200.0)
+    freqs = np.linspace(2.0 / span, 1 / 7200.0, 4 * M)
+    e = m - m.mean()
+    best = (0.0, 0.0)
+    for f in freqs:
+        X = np.column_stack([np.sin(2 * np.pi * f * t), np.cos(2 * np.pi * f * t)])
+        b, *_ = np.linalg.lstsq(X, e, rcond=None)
+        z = np.sum(e**2) - np.sum((e - X @ b) ** 2)
+        if z > best[0]:
+            best = (float(z), 1 / f)
+    return best[1], M
+
+
+def _signature_text(sig: list[dict], beta: np.ndarray) -> str:
+    ch = sig[0]["channel"]
+    unit = "deg" if ch == "transverse" else "kt"
+    covs = [s["covariate"] for s in sig]
+    if covs[0] in ("sin1", "sin2", "sin3"):
+        k = covs[0][3]
+        return f"{ch} residual varies as {k}z with the heading, amplitude {math.hypot(*beta[:2]):.2f} {unit}"
+    if covs[0].startswith("phase_"):
+        return f"{ch} residual depends on the flight phase: ascent {beta[0]:+.2f} {unit}, descent {beta[1]:+.2f} {unit} vs level"
+    if covs[0].startswith("period_"):
+        return f"{ch} residual is periodic, period {float(covs[0].split('_')[1]) / 3600:.1f} h, amplitude {math.hypot(*beta[:2]):.2f} {unit}"
+    if covs[0].startswith("fleet_step_"):
+        return f"{ch} residual of the whole fleet steps by {beta[0]:+.2f} {unit} at {_iso(float(covs[0][11:]))}"
+    if covs[0] == "const":
+        return f"{ch} residual has a constant offset {beta[0]:+.2f} {unit} (an airspeed or reference bias not in the library)"
+    return f"{ch} residual ~ {covs[0]}, {beta[0]:+.3g} {unit} per {UNITS.get(covs[0], covs[0])}"
+
+
+def screen(d: WindData, st: State, y, clusters, plots: dict) -> list:
+    """Effects outside the library, by their signature (module docstring)."""
+    from aerotruth.analysis.diagnose.modes import Finding
+
+    out = []
+    done: set[str] = set()
+    for _ in range(3):
+        cur = current_blocks(d, st)
+        fit0 = solve(cur, y, clusters)
+        base = fold_fits(d, st, y, clusters)
+        tests = [(ch, covs) for ch, covs in _screen_tests(d, st.spec) if f"{ch}:{'+'.join(covs)}" not in done]
+        m_tests = len(_screen_tests(d, st.spec)) + 2
+        level = ALPHA_SCREEN / m_tests
+        # (channel, covariates, key, p of the fit with the term): the Wald test on weather
+        # blocks, for the periodogram's period times the M frequencies searched; the fleet
+        # step by the sup-CUSUM of the block means
+        tests = [(ch, covs, f"{ch}:{'+'.join(covs)}", lambda f1: block_p(f1, "screen", d)) for ch, covs in tests]
+        per = _periodic(d, fit0)
+        if per is not None and "periodic" not in done:
+            period, M = per
+            tests.append(("transverse", [f"period_{period:.0f}_sin", f"period_{period:.0f}_cos"], "periodic",
+                          lambda f1, M=M: min(1.0, M * block_p(f1, "screen", d))))
+        bm, t0, t1 = group_means(d, fit0.resid[: d.n], d.cluster)
+        p_cp, k = kolmogorov_cusum(bm)
+        if p_cp < level and len(bm) > 1 and "fleet_step" not in done:
+            tests.append(("transverse", [f"fleet_step_{0.5 * (t1[k] + t0[k + 1]):.0f}"], "fleet_step", lambda f1, p=p_cp: p))
+        cands = []
+        for ch, covs, key, p_of in tests:
+            blocks, sigs = _screen_blocks(d, ch, covs)
+            fit1 = solve(cur + blocks, y, clusters)
+            cands.append((ch, covs, p_of(fit1), blocks, sigs, fit1, key))
+        ok = []
+        for c in cands:
+            if c[2] < level:
+                b_ho, a_ho = held_out(d, st, y, clusters, "screen", (c[3], c[0]), base)
+                if b_ho > 0 and (b_ho - a_ho) / b_ho >= MIN_REL_GAIN:
+                    ok.append((c, b_ho, a_ho))
+        if not ok:
+            break
+        (ch, covs, p, blocks, sigs, fit1, key), b_ho, a_ho = max(ok, key=lambda x: (x[1] - x[2]) / x[1])
+        beta = fit1.coef("screen")[0][1]
+        cov = fit1.coef("screen")[0][2]
+        for s, b in zip(sigs, beta):  # deg per unit (transverse), kt per unit (along): the columns' scaling
+            s["slope"] = float(b)
+        text = _signature_text(sigs, beta)
+        params = {"signature": text, "terms": [dict(s, se=float(e)) for s, e in zip(sigs, standard_errors(cov))]}
+        params["size"] = float(beta[0]) if len(beta) == 1 else float(math.hypot(*beta[:2]))
+        evidence = {"test": "cluster-robust Wald on 6-h weather blocks (screening)" if not key.startswith(("periodic", "fleet_step")) else
+                    ("strongest period of the flight means' periodogram; cluster-robust Wald on weather blocks x M frequencies"
+                     if key == "periodic" else "sup-CUSUM of the fleet's weather-block means"),
+                    "p_value": p, "alpha": level}
+        gain = {"metric": f"RMS of the {ch} wind residual (kt)", "before": rms_of_kt(fit0.resid, d.n, ch),
+                "after": rms_of_kt(fit1.resid, d.n, ch), "held_out_before": b_ho, "held_out_after": a_ho,
+                "held_out": "6-h weather blocks alternate between two folds; learned on one, measured on the other"}
+        name = f"unexplained:{key}"
+        out.append(Finding(name, "not in the effects library; described by its signature: " + text, params, evidence, gain))
+        plots[name] = _plot_data(d, fit0, fit1, "screen", ch)
+        st.signatures.extend(sigs)
+        done.add(key)
+    return out
+
+
+# ----------------------------------------------------------------------------- outputs
+
+
+def extended_spec(spec: WindModelSpec, findings: list, d: WindData, st: State) -> WindModelSpec:
+    """The model with the findings in it (what a rerun of diagnose with it should not find again)."""
+    up: dict[str, Any] = {}
+    for f in findings:
+        p = f.parameters
+        if f.effect == "soft_iron":
+            up["deviation_terms"] = 5
+        elif f.effect == "field_scaling":
+            up["field_scaling"] = float(np.clip(p["gamma"]["value"], -3, 3))
+        elif f.effect == "tas_scale":
+            up["tas_scale"] = {**spec.tas_scale, **{a: spec.tas_scale.get(a, 0.0) + v["k"] for a, v in p["aircraft"].items()}}
+        elif f.effect == "stale_declination":
+            up["declination_age_yr"] = float(p["age_yr"]["value"])
+        elif f.effect == "reference_bias":  # each model in the form that fits it better
+            forms = {s: v.get("form", "offset") for s, v in p["bias_kt"].items()}
+            up["reference_bias_kt"] = {**spec.reference_bias_kt, **{s: spec.reference_bias_kt.get(s, 0.0) + v["value"]
+                                                                   for s, v in p["bias_kt"].items() if forms[s] == "offset"}}
+            up["reference_scale"] = {**spec.reference_scale, **{s: spec.reference_scale.get(s, 0.0) + v["scale"]["value"]
+                                                               for s, v in p["bias_kt"].items() if forms[s] == "scale"}}
+        elif f.effect == "recalibration":
+            rec = {a: list(ts) for a, ts in spec.recalibrations.items()}
+            for a, s in p["steps"].items():
+                rec.setdefault(a, []).append(s["time_s"])
+            up["recalibrations"] = rec
+        elif f.effect == "offset_drift":
+            up["offset_drifts"] = sorted(set(spec.offset_drifts) | set(p["aircraft"]))
+        elif f.effect == "quantization":
+            up["lat_lon_step_deg"] = float(p["lat_lon_step_deg"]["value"])
+        elif f.effect.startswith("unexplained:"):
+            up.setdefault("signatures", list(spec.signatures))
+            up["signatures"] += [{k: t[k] for k in ("channel", "covariate", "center", "slope")} for t in p["terms"]]
+    return spec.model_copy(update=up)
+
+

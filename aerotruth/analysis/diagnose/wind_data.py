@@ -1,0 +1,217 @@
+"""The data of `aerotruth diagnose` on an observation table: the gated (report, reference)
+rows of the wind paper's section 5.1 (`aerotruth.analysis.wind.heading_errors`) split into the
+transverse and along-heading air-vector differences, with the covariates the effects and
+the screening need (IGRF horizontal field and declination change, phase, turn rate, folds).
+See aerotruth.analysis.diagnose.wind for the method."""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass, field
+
+import numpy as np
+import pandas as pd
+
+from aerotruth.analysis.wind.heading_errors import (
+    TRACK_GATES,
+    GateSpec,
+    heading_errors,
+    segment_displacements,
+    towards_from_report,
+    wgs84_radii,
+)
+from aerotruth.analysis.wind.observations import validate_observations
+from aerotruth.errors import DataError
+from aerotruth.units import DEG, FT
+
+DECL_SPAN_YR = 5.0  # secular variation of the declination averaged over the 5 years before the data
+
+# ----------------------------------------------------------------------------- data
+
+
+@dataclass
+class WindData:
+    """The gated (report, reference) rows with everything the model and the effects need."""
+
+    aircraft: np.ndarray  # int codes
+    names: list[str]
+    source: np.ndarray  # int codes
+    sources: list[str]
+    flight: np.ndarray  # global flight id
+    time_s: np.ndarray
+    z: np.ndarray  # measured heading, rad (true)
+    tas: np.ndarray  # m/s
+    trans: np.ndarray  # m/s
+    along: np.ndarray  # m/s
+    wref_e: np.ndarray  # unit vector along the wind for a reference bias: the other references' mean (0 where calm)
+    wref_n: np.ndarray
+    wref_speed: np.ndarray  # m/s: that wind's speed (a reference's scale error is proportional to it)
+    lat: np.ndarray
+    lon: np.ndarray
+    alt_ft: np.ndarray
+    h_ratio: np.ndarray  # H0 / H
+    sv_deg_yr: np.ndarray  # declination change per year (IGRF, 5 years before the data)
+    roll: np.ndarray | None
+    phase: np.ndarray | None
+    turn_deg_s: np.ndarray
+    climb_fpm: np.ndarray  # pressure-altitude rate from the previous report of the flight (0 at the first)
+    cluster: np.ndarray  # weather block of the row's flight (the unit of every test)
+    fold: np.ndarray  # 0/1: alternating weather blocks
+    report_lat: np.ndarray  # every report (not only gated), for the quantization
+    report_lon: np.ndarray
+    jitter: dict  # ground-track jitter of the reports (segment velocity differences)
+    table: dict = field(default_factory=dict)  # what was read and what was left out, counted (rows, reports, gates)
+
+    @property
+    def n(self) -> int:
+        return len(self.trans)
+
+
+WEATHER_BLOCK_S = 6 * 3600.0  # twice the weather models' error correlation time (3 h: RR, RTFDDA presets)
+
+
+def weather_blocks(flight: np.ndarray, time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(cluster, fold) per row. A reference model's analysis error is one field over the
+    region, correlated for hours and hundreds of km (aerotruth.sensors.weather_model), so
+    the flights of every aircraft in the same hours share it: flights are not independent,
+    blocks of WEATHER_BLOCK_S are (nearly). Each flight goes whole to the block of its
+    mid-time; the tests cluster on blocks and the held-out folds alternate them."""
+    fl = pd.Series(time_s).groupby(flight)
+    mid = (fl.min() + fl.max()) / 2.0
+    block_of_flight = np.floor(mid / WEATHER_BLOCK_S).astype(np.int64)
+    blocks = block_of_flight.reindex(flight).to_numpy()
+    order = np.unique(blocks)
+    cluster = np.searchsorted(order, blocks)
+    return cluster, (cluster % 2).astype(np.int8)
+
+
+def _field_covariates(lat, lon, alt_ft, when: dt.datetime) -> tuple[np.ndarray, np.ndarray]:
+    from aerotruth.sensors.magnetics import GeomagneticField
+
+    f = GeomagneticField.covering(lat, lon, when, margin_deg=1.0, step_deg=0.5, h_m=(-1000.0, 16000.0))
+    h_m = np.clip(np.asarray(alt_ft) * FT, -900.0, 15900.0)
+    now = f.at(lat, lon, h_m)
+    before = f.for_date(when - dt.timedelta(days=365.25 * DECL_SPAN_YR)).at(lat, lon, h_m)
+    H = now.horizontal_nT
+    sv = np.degrees(((now.declination_rad - before.declination_rad + np.pi) % (2 * np.pi)) - np.pi) / DECL_SPAN_YR
+    return np.median(H) / H, sv
+
+
+def _report_rows(df: pd.DataFrame) -> np.ndarray:
+    """Index of each report's first row (a report has one row per reference model)."""
+    ac, t = df["aircraft"].cat.codes.to_numpy(), df["time_s"].to_numpy()
+    return np.flatnonzero(np.r_[True, (ac[1:] != ac[:-1]) | (np.diff(t) != 0)])
+
+
+def _jitter(df: pd.DataFrame, first: np.ndarray) -> dict:
+    """Differences of adjacent segment velocities (m/s, per component) at every interior
+    report of level flight (`first`: the reports' rows), with c = 1/dt2^2 + (1/dt1 + 1/dt2)^2
+    + 1/dt1^2 (the factor of a position-noise variance) and the report's radii per degree
+    (for the grid's metres)."""
+    ac = df["aircraft"].cat.codes.to_numpy()[first]
+    t = df["time_s"].to_numpy()[first]
+    lat, lon = df["lat"].to_numpy()[first], df["lon"].to_numpy()[first]
+    alt = df["pressure_altitude_ft"].to_numpy()[first]
+    rm, rn = wgs84_radii(lat * DEG)
+    m_lat, m_lon = rm * DEG, rn * np.cos(lat * DEG) * DEG  # metres per degree of the reports' grid
+    # segment velocities as the wind paper's ground track has them (one displacement per segment,
+    # at its mid latitude: metres from per-point scales, lon x m_lon(lat), carried lon x dm_lon)
+    de, dn = segment_displacements(lat * DEG, lon * DEG)
+    ok = (ac[2:] == ac[:-2]) & (np.diff(t)[:-1] > 0) & (np.diff(t)[1:] > 0) & (np.diff(t)[:-1] <= 600) & (np.diff(t)[1:] <= 600)
+    ok &= (np.abs(alt[2:] - alt[:-2]) < 100.0)  # level: the true velocity changes little
+    dt1, dt2 = np.diff(t)[:-1], np.diff(t)[1:]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        v1 = np.column_stack([de[:-1] / dt1, dn[:-1] / dt1])
+        v2 = np.column_stack([de[1:] / dt2, dn[1:] / dt2])
+        c = 1 / dt2**2 + (1 / dt1 + 1 / dt2) ** 2 + 1 / dt1**2
+    dv = (v2 - v1)[ok]
+    speed = np.hypot(*v1[ok].T)
+    ok2 = np.all(np.isfinite(dv), axis=1) & (speed > 30.0) & (np.hypot(*dv.T) < 0.3 * speed)  # turns are not jitter
+    return {"dv": dv[ok2], "c": c[ok][ok2], "m_lat": m_lat[1:-1][ok][ok2], "m_lon": m_lon[1:-1][ok][ok2],
+            "aircraft": ac[1:-1][ok][ok2]}
+
+
+def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpec | None = None) -> WindData:
+    """Observation table -> WindData (gated rows of the wind paper's section 5.1)."""
+    df = validate_observations(obs, source)
+    for col in ("wind_dir_deg", "ref_wind_dir_deg", "heading_deg"):  # units guessed from the range
+        if col in df.columns and len(df) >= 20:
+            v = df[col].to_numpy()
+            v = v[np.isfinite(v)]
+            if len(v) >= 20 and v.max() <= 2 * np.pi + 1e-6:
+                raise DataError(f"{source}: column '{col}' lies within [0, {v.max():.2f}]: radians? expected degrees 0-360")
+    alt = df["pressure_altitude_ft"].to_numpy()
+    alt = alt[np.isfinite(alt)]
+    if len(alt) >= 20 and 100.0 <= alt.min() and alt.max() <= 1100.0 and alt.max() - alt.min() >= 300.0:
+        # reports from near the ground to cruise span thousands of feet; 100-1100 is a pressure
+        raise DataError(f"{source}: column 'pressure_altitude_ft' lies within [{alt.min():.0f}, {alt.max():.0f}]: "
+                        f"pressure in hPa? expected feet")
+    rows = heading_errors(df, TRACK_GATES if gates is None else gates, source)
+    used = (rows["gate"] == "used").to_numpy()
+    if used.sum() < 20:
+        counts = rows["gate"].value_counts().to_dict()
+        raise DataError(f"{source}: only {int(used.sum())} report rows pass the ground-track gates (need 20); "
+                        f"gates: {counts}")
+    r = rows[used]
+    table = {"rows_read": int(len(obs)), "rows_dropped_empty": int(df.attrs.get("dropped_empty", 0)),
+             "rows_dropped_duplicate": int(df.attrs.get("dropped_duplicates", 0)),
+             "reports": int(rows["report"].nunique()),
+             "row_gates": {str(k): int(v) for k, v in rows["gate"].value_counts().items() if v}}
+    z = r["heading_deg"].to_numpy() * DEG
+    dv_e, dv_n = -r["dw_e"].to_numpy(), -r["dw_n"].to_numpy()
+    trans = dv_e * np.cos(z) - dv_n * np.sin(z)
+    # along: |V_A| - |V_A'|, not the projection on the heading, which carries TAS (1 - cos d)
+    # of the heading error d itself (~1.5 kt at 6 deg: measured as a bias of the reference test)
+    va_e, va_n = r["va_e"].to_numpy(), r["va_n"].to_numpy()
+    along = np.hypot(va_e, va_n) - np.hypot(va_e - dv_e, va_n - dv_n)
+    # the direction "along the wind" for a reference's row: the mean of the *other* references
+    # at the same report (their errors are independent of this one's; its own direction would
+    # tilt towards its own error, a bias of ~sigma^2/|W|), else the aircraft's reported wind
+    # (tilted by the aircraft's heading deviation: TAS x 3 deg is ~15 kt, which attenuates)
+    re_, rn_ = towards_from_report(df["ref_wind_speed_kt"].to_numpy()[used], df["ref_wind_dir_deg"].to_numpy()[used])
+    rep = r["report"].to_numpy()
+    g = pd.DataFrame({"rep": rep, "e": re_, "n": rn_})
+    tot = g.groupby("rep")[["e", "n"]].transform("sum").to_numpy()
+    cnt = g.groupby("rep")["e"].transform("size").to_numpy()
+    we, wn = towards_from_report(df["wind_speed_kt"].to_numpy()[used], df["wind_dir_deg"].to_numpy()[used])
+    with np.errstate(invalid="ignore", divide="ignore"):
+        others = cnt > 1
+        we = np.where(others, (tot[:, 0] - re_) / (cnt - 1), we)
+        wn = np.where(others, (tot[:, 1] - rn_) / (cnt - 1), wn)
+    sp = np.hypot(we, wn)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        ue, un = np.where(sp > 0, we / sp, 0.0), np.where(sp > 0, wn / sp, 0.0)
+    lat, lon = df["lat"].to_numpy()[used], df["lon"].to_numpy()[used]
+    alt = df["pressure_altitude_ft"].to_numpy()[used]
+    t = r["time_s"].to_numpy()
+    when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(np.median(t)))
+    h_ratio, sv = _field_covariates(lat, lon, alt, when)
+    ac_cat = r["aircraft"].astype("category")
+    names = [str(c) for c in ac_cat.cat.categories]
+    ac = ac_cat.cat.codes.to_numpy()
+    src_cat = r["ref_source"].astype("category").cat.remove_unused_categories()  # not the empty cells' fill "ref" when none is
+    flight = r["flight"].to_numpy()
+    cluster, fold = weather_blocks(flight, t)
+    # turn rate and flight phase: heading and altitude change between a flight's adjacent
+    # (used) reports, per report, then back on its rows
+    per = pd.DataFrame({"z": z, "t": t, "f": flight, "alt": alt}).groupby(rep).first()
+    dtr = np.r_[np.nan, np.diff(per["t"].to_numpy())]
+    same = np.r_[False, per["f"].to_numpy()[1:] == per["f"].to_numpy()[:-1]] & (dtr > 0)
+    dz = np.r_[np.nan, np.degrees((np.diff(per["z"].to_numpy()) + np.pi) % (2 * np.pi) - np.pi)]
+    da = np.r_[np.nan, np.diff(per["alt"].to_numpy())]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        turn_rep = np.where(same, dz / dtr, 0.0)
+        rate = np.where(same, da / dtr * 60.0, 0.0)
+    ph_rep = np.where(rate > 300.0, "ascent", np.where(rate < -300.0, "descent", "level"))
+    back = per.index.get_indexer(rep)
+    turn, phase, climb = turn_rep[back], ph_rep[back], rate[back]
+    roll = df["roll_deg"].to_numpy()[used] if "roll_deg" in df.columns else None
+    first = _report_rows(df)
+    return WindData(aircraft=ac, names=names, source=src_cat.cat.codes.to_numpy(), sources=[str(c) for c in src_cat.cat.categories],
+                    flight=flight, time_s=t, z=z, tas=r["tas_ms"].to_numpy(), trans=trans, along=along, wref_e=ue, wref_n=un,
+                    wref_speed=np.nan_to_num(sp),
+                    lat=lat, lon=lon, alt_ft=alt, h_ratio=h_ratio, sv_deg_yr=sv, roll=roll, phase=phase, turn_deg_s=turn, climb_fpm=climb,
+                    cluster=cluster, fold=fold, report_lat=df["lat"].to_numpy()[first], report_lon=df["lon"].to_numpy()[first],
+                    jitter=_jitter(df, first), table=table)
+
+

@@ -1,0 +1,708 @@
+"""The model of `aerotruth diagnose` on an observation table and its effects library: the
+columns of each term on the stacked (transverse, along) channels, flight-clustered least
+squares and Wald tests, the change-point scan and the quantization check. See
+aerotruth.analysis.diagnose.wind for the method."""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+import pandas as pd
+from pydantic import Field, ValidationError, field_validator
+from scipy import sparse, stats
+
+from aerotruth.analysis.diagnose.wind_data import WindData
+from aerotruth.analysis.least_squares import live_columns, ols
+from aerotruth.analysis.wind.heading_correction import heading_spread
+from aerotruth.errors import ConfigError
+from aerotruth.schema import Section
+from aerotruth.units import DEG, KT
+
+MIN_COVERAGE = 0.1  # smaller eigenvalue of the (sin, cos) covariance: the heading-correction criterion
+MIN_FLIGHTS = 4
+QUANT_STEPS = (1e-4, 2e-4, 2.5e-4, 5e-4, 1e-3, 2e-3, 2.5e-3, 5e-3, 0.01, 0.02, 0.025, 0.05, 0.1, 0.2, 0.25, 0.5, 1.0)
+SENSOR_DYNAMICS = ("roll_deg", "turn_deg_s", "phase_ascent", "phase_descent")  # model_of_sensors
+QUANT_SHARE = 0.99  # share of coordinates that must lie on a grid for the data to be quantized on it
+
+
+class WindModelSpec(Section):
+    """What `aerotruth diagnose` assumes about the wind sensors behind an observation table
+    (campaign YAML `diagnose: {wind: ...}`; the extended model it writes sets these)."""
+
+    deviation_terms: int = Field(default=3, description="3: A, B, C (wind paper eq. 2 as the method fits it); 5: + D, E (soft iron)")
+    field_scaling: float = Field(default=0.0, ge=-3, le=3, description="gamma of B, C ~ (H0/H)^gamma (hard iron: 1)")
+    tas_bias: bool = Field(default=False, description="each aircraft has its own constant TAS bias, fitted (the "
+                           "campaign's air_data.tas_bias_sigma_kt > 0): a free along-channel offset per aircraft")
+    tas_scale: dict[str, float] = Field(default_factory=dict, description="per aircraft TAS scale factor (0.01 = reads 1 % high)")
+    tas_along_path: bool = Field(default=False, description="the reported TAS is the airspeed along the air path (3-D), "
+                                 "which eq. 1 takes as horizontal: in climb and descent the along residual is "
+                                 "TAS (1 - cos gamma), gamma from the reports' altitude rate")
+    declination_age_yr: float = Field(default=0.0, ge=-50, le=50, description="age of the receivers' declination model")
+    reference_bias_kt: dict[str, float] = Field(default_factory=dict, description="per reference model, bias along its wind (kt)")
+    reference_scale: dict[str, float] = Field(default_factory=dict, description="per reference model, scale error of "
+                                              "its wind: reference = truth x (1 + s)")
+    recalibrations: dict[str, list[float]] = Field(default_factory=dict, description="per aircraft, UTC epoch seconds after "
+                                                   "which its offset A is new")
+    offset_drifts: list[str] = Field(default_factory=list, description="aircraft whose offset A changes linearly with "
+                                     "time (rate fitted)")
+    lat_lon_step_deg: float = Field(default=0.01, gt=0, description="quantization of reported lat/lon")
+    signatures: list[dict[str, Any]] = Field(default_factory=list, description="linear terms found by screening: "
+                                             "{channel, covariate, slope} (an effect outside the library)")
+    free_terms: list[dict[str, str]] = Field(default_factory=list, description="fleet-wide linear terms the sensors are "
+                                             "known to have, size fitted: {channel, covariate} (e.g. a pendulous valve's "
+                                             "turning error: transverse, turn_deg_s)")
+
+    @field_validator("free_terms")
+    @classmethod
+    def _free_terms(cls, v: list[dict[str, str]]) -> list[dict[str, str]]:
+        for i, t in enumerate(v):
+            if set(t) != {"channel", "covariate"} or t["channel"] not in ("transverse", "along"):
+                raise ValueError(f"item {i}: expected {{channel: transverse|along, covariate: NAME}}, got {t}")
+        return v
+
+
+def wind_model_from_campaign(campaign) -> WindModelSpec:
+    """The campaign's `diagnose.wind` section, else what the campaign's wind-report sensors
+    put into reports (`model_of_sensors`), else the wind paper's model (A, B, C; 0.01 deg)."""
+    raw = (getattr(campaign, "diagnose", None) or {}).get("wind") if campaign is not None else None
+    if raw is not None:
+        try:
+            return WindModelSpec.model_validate(raw)
+        except ValidationError as e:
+            err = e.errors()[0]
+            where = ".".join(str(p) for p in err["loc"])
+            raise ConfigError(f"diagnose.wind.{where}: {err['msg']}") from None
+    for name in ("wind_reports", "heading_correction"):
+        if campaign is not None and name in campaign.studies:
+            sensors = getattr(campaign.studies[name], "sensors", None)
+            if sensors is not None and hasattr(sensors, "reports"):
+                fleets = getattr(campaign.studies[name], "fleets", None) or [f.name for f in campaign.fleets]
+                days = campaign.days([p.name for p in campaign.periods]) if campaign.periods else []
+                return model_of_sensors(sensors, fleets, days)
+    return WindModelSpec()
+
+
+def model_of_sensors(sensors, fleets: list[str], days: list | None = None) -> WindModelSpec:
+    """The diagnose model of a campaign's wind sensors (aerotruth.sim.wind_observations.
+    WindSensors; `fleets` the fleet names they serve, `days` the campaign's dates): what its
+    simulated reports carry, so that diagnosing them finds nothing.
+
+    * hard iron in a flux valve: B, C scale as H0/H (field_scaling 1; magnetics module);
+    * soft iron (soft_iron_sigma > 0): the 2z terms D, E of eq. 2 (deviation_terms 5);
+    * a TAS bias spread over airframes (tas_bias_sigma_kt > 0 or a mean bias): one fitted
+      along-channel offset per aircraft (tas_bias);
+    * the TAS is the truth's 3-D airspeed, the air vector of eq. 1 horizontal: in climbs
+      and descents the along residual is TAS (1 - cos gamma) (tas_along_path; truth
+      legs: TAS - horizontal airspeed 0.5-1.0 kt in climbs, 0.00 kt level);
+    * a declination table of a fixed epoch: its age at the middle of the campaign's dates;
+    * the reported lat/lon step;
+    * what the sensors do in manoeuvres, fleet-wide terms of free size (SENSOR_DYNAMICS):
+      a report is the mean over a trailing window (10 s) while the truth turns under it,
+      a pendulous valve tilts with the kinematic acceleration of turns and speed changes
+      and then reads part of the vertical field (turning and acceleration errors, ~Z/H),
+      and the slaved gyro carries that on; so the transverse residual has roll and
+      turn-rate terms and climb and descent offsets. Measured on simulated Mesaba days
+      against the truth heading at the report time (12 aircraft, 2 seeds): -0.55 deg per
+      deg of roll, -0.44 deg per deg/s of turn between reports, +0.24 deg climbing, +0.14
+      deg descending (with each other in one regression).
+    Per-airframe draws (hard iron, mounting, soft iron) are free parameters, not known
+    values: the model states which terms exist, the fit finds their size."""
+    specs = [sensors.of(f) for f in fleets] or [sensors.of("")]
+    hard = any(max(s.heading.poor_hard_iron_sigma_nT * (s.heading.poor_fraction > 0),
+                   s.heading.healthy_hard_iron_sigma_nT * (s.heading.poor_fraction < 1)) > 0 for s in specs)
+    soft = any(s.heading.soft_iron_sigma > 0 for s in specs)
+    tas_bias = any(s.air_data.tas_bias_sigma_kt > 0 or s.air_data.tas_bias_kt != 0 for s in specs)
+    epochs = {s.heading.declination_epoch for s in specs} - {"truth"}
+    age = 0.0
+    if epochs and days:
+        mid = days[len(days) // 2]
+        age = float(np.mean([(mid - e).days / 365.25 for e in epochs]))
+    return WindModelSpec(deviation_terms=5 if soft else 3, field_scaling=1.0 if hard else 0.0, tas_bias=tas_bias, tas_along_path=True,
+                         declination_age_yr=age, lat_lon_step_deg=float(sensors.reports.lat_lon_step_deg),
+                         free_terms=[{"channel": "transverse", "covariate": c} for c in SENSOR_DYNAMICS])
+
+
+# ----------------------------------------------------------------------------- model
+
+
+@dataclass
+class Block:
+    """Columns of one term of the model: `aircraft` -1 for fleet-wide terms."""
+
+    effect: str
+    label: str
+    cols: np.ndarray  # (2n, q)
+    aircraft: int = -1
+    p: float | None = None  # a scanned candidate's p-value (Bonferroni over aircraft), else None
+
+
+@dataclass
+class State:
+    """The current model: the spec's known terms plus the effects entered so far (free)."""
+
+    spec: WindModelSpec
+    entered: list[str] = field(default_factory=list)
+    gamma: float = 0.0  # field scaling exponent in the design (spec value, then fitted)
+    steps: dict[int, list[float]] = field(default_factory=dict)  # aircraft -> step times (free new A after each)
+    drifts: set[int] = field(default_factory=set)  # aircraft whose A drifts linearly in time (free rate)
+    signatures: list[dict] = field(default_factory=list)  # screening terms entered (free)
+
+
+def stack_channels(trans: np.ndarray | None, along: np.ndarray | None, n: int) -> np.ndarray:
+    out = np.zeros(2 * n)
+    if trans is not None:
+        out[:n] = trans
+    if along is not None:
+        out[n:] = along
+    return out
+
+
+def tas_column(d: WindData, i: int) -> np.ndarray:
+    """Along channel of aircraft i: TAS (coefficient: its TAS scale factor)."""
+    return stack_channels(None, (d.aircraft == i) * d.tas, d.n)
+
+
+def drift_column(d: WindData, i: int) -> np.ndarray:
+    """Transverse of aircraft i: TAS x (t - t_mid) in days, t_mid the middle of its data
+    (coefficient: the drift of its offset A, rad per day)."""
+    sel = d.aircraft == i
+    t = d.time_s[sel]
+    mid = 0.5 * (t.min() + t.max()) if len(t) else 0.0
+    return stack_channels(sel * d.tas * (d.time_s - mid) / 86400.0, None, d.n)
+
+
+def flight_path_column(d: WindData) -> np.ndarray:
+    """Along channel: TAS (1 - cos gamma), sin gamma = climb rate / TAS (the reports'
+    pressure-altitude rate; m/s): what a 3-D TAS adds to a horizontal air vector."""
+    sin_g = np.clip(d.climb_fpm * 0.3048 / 60.0 / np.maximum(d.tas, 1.0), -1.0, 1.0)
+    return stack_channels(None, d.tas * (1.0 - np.sqrt(1.0 - sin_g**2)), d.n)
+
+
+def declination_column(d: WindData) -> np.ndarray:
+    """Transverse: TAS x (-dD/dt) (coefficient: the declination model's age in years)."""
+    return stack_channels(d.tas * (-d.sv_deg_yr) * DEG, None, d.n)
+
+
+def reference_bias_column(d: WindData, m: int) -> np.ndarray:
+    """Reference m's rows: the unit wind vector on n and u, in kt (coefficient: bias, kt)."""
+    s = d.source == m
+    tr = s * (d.wref_e * np.cos(d.z) - d.wref_n * np.sin(d.z))
+    al = s * (d.wref_e * np.sin(d.z) + d.wref_n * np.cos(d.z))
+    return stack_channels(tr, al, d.n) * KT
+
+
+def reference_scale_column(d: WindData, m: int) -> np.ndarray:
+    """Reference m's rows: its wind (speed x the unit vector) on n and u, m/s (coefficient:
+    the scale s of its wind error, s W)."""
+    return reference_bias_column(d, m) / KT * np.r_[d.wref_speed, d.wref_speed]
+
+
+def signature_column(d: WindData, sig: dict) -> np.ndarray:
+    """A screening term: deg per unit of the covariate (transverse), kt per unit (along)."""
+    x = covariate(d, sig["covariate"]) - float(sig.get("center", 0.0))
+    return stack_channels(d.tas * x * DEG, None, d.n) if sig["channel"] == "transverse" else stack_channels(None, x * KT, d.n)
+
+
+def known_offsets(d: WindData, spec: WindModelSpec) -> np.ndarray:
+    """What the spec states as known (subtracted from the data): TAS scales, the declination
+    table's age, reference biases along the wind and scales of it, stated signature terms."""
+    out = np.zeros(2 * d.n)
+    for i, name in enumerate(d.names):
+        out += spec.tas_scale.get(name, 0.0) * tas_column(d, i)
+    out += spec.declination_age_yr * declination_column(d)
+    if spec.tas_along_path:
+        out += flight_path_column(d)
+    for m, src in enumerate(d.sources):
+        out += spec.reference_bias_kt.get(src, 0.0) * reference_bias_column(d, m)
+        out += spec.reference_scale.get(src, 0.0) * reference_scale_column(d, m)
+    for sig in spec.signatures:
+        out += float(sig["slope"]) * signature_column(d, sig)
+    return out
+
+
+def _coverage_ok(z: np.ndarray, harmonic: int) -> bool:
+    return len(z) >= 3 and heading_spread(np.degrees(z), np.ones(len(z)), harmonic) >= MIN_COVERAGE
+
+
+def base_blocks(d: WindData, st: State) -> list[Block]:
+    """The deviation model per aircraft (A; B, C where identified; D, E when in the model)."""
+    n, out = d.n, []
+    s = d.h_ratio ** st.gamma
+    for i in range(len(d.names)):
+        sel = d.aircraft == i
+        one = sel.astype(float) * d.tas
+        times = sorted(st.steps.get(i, []))
+        edges = [-np.inf, *times, np.inf]
+        cols = [stack_channels(one * ((d.time_s >= lo) & (d.time_s < hi)), None, n) for lo, hi in zip(edges[:-1], edges[1:])]
+        out.append(Block("base", "A", np.column_stack(cols), i))
+        if i in st.drifts:
+            out.append(Block("base", "drift", drift_column(d, i)[:, None], i))
+        if st.spec.tas_bias:
+            out.append(Block("base", "T", stack_channels(None, sel.astype(float), n)[:, None], i))
+        zi = d.z[sel]
+        if _coverage_ok(zi, 1):
+            out.append(Block("base", "BC", np.column_stack([stack_channels(one * s * np.sin(d.z), None, n),
+                                                            stack_channels(one * s * np.cos(d.z), None, n)]), i))
+        if (st.spec.deviation_terms == 5 or "soft_iron" in st.entered) and _coverage_ok(zi, 2):
+            out.append(Block("soft_iron" if "soft_iron" in st.entered else "base", "DE",
+                             np.column_stack([stack_channels(one * np.sin(2 * d.z), None, n), stack_channels(one * np.cos(2 * d.z), None, n)]), i))
+    return out
+
+
+def covariate(d: WindData, name: str) -> np.ndarray:
+    if name == "const":
+        return np.ones(d.n)
+    if name == "pressure_altitude_ft":
+        return d.alt_ft / 1000.0
+    if name == "tas_kt":
+        return d.tas / KT
+    if name == "lat":
+        return d.lat
+    if name == "time_days":
+        return (d.time_s - d.time_s.min()) / 86400.0
+    if name == "roll_deg":
+        return d.roll if d.roll is not None else np.zeros(d.n)
+    if name == "turn_deg_s":
+        return d.turn_deg_s
+    if name.startswith("sin") or name.startswith("cos"):
+        k = int(name[3])
+        return np.sin(k * d.z) if name.startswith("sin") else np.cos(k * d.z)
+    if name.startswith("phase_"):
+        return (d.phase == name[6:]).astype(float)
+    if name.startswith("period_"):
+        p_s, trig = float(name.split("_")[1]), name.split("_")[2]
+        arg = 2 * np.pi * d.time_s / p_s
+        return np.sin(arg) if trig == "sin" else np.cos(arg)
+    if name.startswith("fleet_step_"):
+        return (d.time_s >= float(name[11:])).astype(float)
+    raise ConfigError(f"diagnose.wind.signatures: unknown covariate {name!r}")
+
+
+def signature_block(d: WindData, sig: dict) -> Block:
+    return Block("signature", f"{sig['channel']}:{sig['covariate']}", signature_column(d, sig)[:, None])
+
+
+def fixed_effect_blocks(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    """Blocks of the entered library effects other than soft iron (in base_blocks)."""
+    out = []
+    for eff in st.entered:
+        if eff in ("soft_iron", "recalibration", "offset_drift", "field_scaling", "quantization"):
+            continue
+        out.extend(CANDIDATES[eff](d, st, fit))
+    out.extend(signature_block(d, s) for s in st.signatures)
+    out.extend(free_term_block(d, t) for t in st.spec.free_terms)
+    return out
+
+
+def free_term_block(d: WindData, term: dict) -> Block:
+    """A free fleet-wide term of the spec (centred: the per-aircraft offsets keep the mean)."""
+    sig = {**term, "center": float(np.mean(covariate(d, term["covariate"])))}
+    return Block("base", f"free:{term['channel']}:{term['covariate']}", signature_column(d, sig)[:, None])
+
+
+# ----------------------------------------------------------------------------- least squares
+
+
+@dataclass
+class Fit:
+    blocks: list[Block]
+    beta: np.ndarray
+    cov: np.ndarray
+    resid: np.ndarray
+    slices: list[slice]
+    clusters: np.ndarray
+
+    def coef(self, effect: str, aircraft: int | None = None) -> list[tuple[Block, np.ndarray, np.ndarray]]:
+        return [(b, self.beta[s], self.cov[s, s]) for b, s in zip(self.blocks, self.slices)
+                if b.effect == effect and (aircraft is None or b.aircraft == aircraft)]
+
+
+def solve(blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.ndarray | None = None,
+          with_cov: bool = True) -> Fit:
+    """OLS on the stacked channels (rows: a mask of the 2n rows), CR1 covariance on the clusters."""
+    X = np.column_stack([b.cols for b in blocks])
+    slices, k = [], 0
+    for b in blocks:
+        slices.append(slice(k, k + b.cols.shape[1]))
+        k += b.cols.shape[1]
+    Xr, yr = (X, y) if rows is None else (X[rows], y[rows])
+    beta, xtx = ols(Xr, yr)  # columns zero on every used row (an aircraft left out): coefficient 0
+    live = live_columns(xtx)
+    resid = y - X @ beta
+    cov = np.full((X.shape[1], X.shape[1]), np.nan)
+    if with_cov:
+        idx = np.flatnonzero(live)
+        bread = np.linalg.pinv(xtx[np.ix_(idx, idx)])
+        g = clusters if rows is None else clusters[rows]
+        uniq, inv = np.unique(g, return_inverse=True)
+        G = len(uniq)
+        members = sparse.csr_matrix((np.ones(len(inv)), (inv, np.arange(len(inv)))), shape=(G, len(inv)))
+        rr = resid if rows is None else resid[rows]
+        scores = (members @ (Xr * rr[:, None]))[:, idx]  # per-cluster score sums
+        meat = scores.T @ scores * (G / max(G - 1, 1))
+        cov[np.ix_(idx, idx)] = bread @ meat @ bread
+    return Fit(blocks, beta, cov, resid, slices, clusters)
+
+
+def _wald_p(beta: np.ndarray, cov: np.ndarray, df_den: int) -> float:
+    ok = np.isfinite(np.diag(cov)) & (np.diag(cov) > 0)
+    if not ok.any() or df_den < 1:
+        return 1.0
+    b, v = beta[ok], cov[np.ix_(ok, ok)]
+    w = float(b @ np.linalg.pinv(v) @ b)
+    q = int(ok.sum())
+    return float(stats.f.sf(w / q, q, df_den))
+
+
+def block_p(fit: Fit, effect: str, d: WindData) -> float:
+    """p-value of `effect`'s blocks = 0: fleet-wide blocks by one Wald test on all flights,
+    per-aircraft blocks aircraft by aircraft (their flights) combined by chi-square sums."""
+    parts = fit.coef(effect)
+    if not parts:
+        return 1.0
+    G = len(np.unique(fit.clusters))
+    fleet = [(b, be, v) for b, be, v in parts if b.aircraft < 0]
+    per = [(b, be, v) for b, be, v in parts if b.aircraft >= 0]
+    ps = []
+    if fleet:
+        be = np.concatenate([x[1] for x in fleet])
+        sl = [s for b, s in zip(fit.blocks, fit.slices) if b.effect == effect and b.aircraft < 0]
+        idx = np.concatenate([np.arange(s.start, s.stop) for s in sl])
+        ps.append(_wald_p(be, fit.cov[np.ix_(idx, idx)], G - 1))
+    if per:
+        chi, dof = 0.0, 0
+        for b, be, v in per:
+            g_i = len(np.unique(d.cluster[d.aircraft == b.aircraft]))
+            p = _wald_p(be, v, g_i - 1)
+            q = be.size
+            chi += float(stats.chi2.isf(max(p, 1e-300), q))
+            dof += q
+        ps.append(float(stats.chi2.sf(chi, dof)))
+    return float(min(1.0, min(ps) * len(ps)))
+
+
+def rows_of_fold(d: WindData, fold: int) -> np.ndarray:
+    f = d.fold == fold
+    return np.r_[f, f]
+
+
+def channel_rows(n: int, channel: str) -> np.ndarray:
+    m = np.zeros(2 * n, dtype=bool)
+    if channel in ("transverse", "both"):
+        m[:n] = True
+    if channel in ("along", "both"):
+        m[n:] = True
+    return m
+
+
+# ----------------------------------------------------------------------------- effects library
+
+
+def _enough(d: WindData, i: int) -> bool:
+    return len(np.unique(d.flight[d.aircraft == i])) >= MIN_FLIGHTS
+
+
+def cand_soft_iron(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    if st.spec.deviation_terms == 5:
+        return []
+    n, out = d.n, []
+    for i in range(len(d.names)):
+        sel = d.aircraft == i
+        if _enough(d, i) and _coverage_ok(d.z[sel], 2):
+            one = sel * d.tas
+            out.append(Block("soft_iron", "DE", np.column_stack([stack_channels(one * np.sin(2 * d.z), None, n),
+                                                                 stack_channels(one * np.cos(2 * d.z), None, n)]), i))
+    return out
+
+
+def cand_field_scaling(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    """d/dgamma of s(H)(B sin z + C cos z) = ln(H0/H) x that term, with the current B, C."""
+    if fit is None:
+        return []
+    col = np.zeros(d.n)
+    for b, be, _ in fit.coef("base"):
+        if b.label == "BC":
+            col += (b.cols[: d.n] @ be) * np.log(d.h_ratio)
+    if not np.any(col):
+        return []
+    return [Block("field_scaling", "gamma", stack_channels(col, None, d.n)[:, None])]
+
+
+def cand_tas_scale(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    return [Block("tas_scale", "k", tas_column(d, i)[:, None], i) for i in range(len(d.names)) if _enough(d, i)]
+
+
+def declination_identifiable(d: WindData) -> float:
+    """Share of the declination-age regressor's variance left after per-aircraft offsets."""
+    x = d.tas * (-d.sv_deg_yr)
+    means = pd.Series(x).groupby(d.aircraft).transform("mean").to_numpy()
+    tot = float(np.sum((x - x.mean()) ** 2))
+    return float(np.sum((x - means) ** 2) / tot) if tot > 0 else 0.0
+
+
+def cand_stale_declination(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    if declination_identifiable(d) < 0.01:
+        return []
+    return [Block("stale_declination", "age", declination_column(d)[:, None])]
+
+
+def cand_reference_bias(d: WindData, st: State, fit: Fit | None) -> list[Block]:
+    return [Block("reference_bias", src, reference_bias_column(d, m)[:, None]) for m, src in enumerate(d.sources)]
+
+
+def kolmogorov_cusum(x: np.ndarray) -> tuple[float, int]:
+    """p-value of the sup |CUSUM| of a series (Brownian-bridge limit, long-run variance with
+    Bartlett weights to lag 2) and the index after which the mean changes."""
+    n = len(x)
+    if n < 6:
+        return 1.0, 0
+    e = x - x.mean()
+    s = np.cumsum(e)[:-1]
+    k = int(np.argmax(np.abs(s)))
+    # the long-run variance from the residuals about the two segments' means (about the
+    # overall mean, a real step would inflate it and hide itself)
+    r = np.r_[x[: k + 1] - x[: k + 1].mean(), x[k + 1:] - x[k + 1:].mean()]
+    lrv = np.mean(r**2) + 2 * sum((1 - j / 3) * np.mean(r[j:] * r[:-j]) for j in (1, 2))
+    if lrv <= 0:
+        return 1.0, 0
+    stat = abs(s[k]) / math.sqrt(n * lrv)
+    return float(stats.kstwobign.sf(stat)), k
+
+
+def group_means(d: WindData, resid_trans: np.ndarray, groups: np.ndarray,
+                sel: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Mean transverse residual (as a heading angle, rad), first and last time of each group
+    (flights: d.flight; weather blocks: d.cluster) of the rows in `sel`, in time order."""
+    s = np.ones(d.n, dtype=bool) if sel is None else sel
+    g = pd.DataFrame({"f": groups[s], "r": resid_trans[s] / d.tas[s], "t": d.time_s[s]}).groupby("f")
+    agg = g.agg(r=("r", "mean"), t0=("t", "min"), t1=("t", "max")).sort_values("t0")
+    return agg["r"].to_numpy(), agg["t0"].to_numpy(), agg["t1"].to_numpy()
+
+
+def _means_by_aircraft(d: WindData, fit: Fit, rows: np.ndarray | None, groups: np.ndarray):
+    """(aircraft, mean offsets of its rows in each group, the groups' first and last times)
+    of each aircraft with at least 2 MIN_FLIGHTS flights among `rows`, in time order (the
+    scans' series; groups: d.flight or d.cluster)."""
+    r = np.ones(d.n, dtype=bool) if rows is None else rows[: d.n]
+    for i in range(len(d.names)):
+        sel = (d.aircraft == i) & r
+        if len(np.unique(d.flight[sel])) >= 2 * MIN_FLIGHTS:
+            yield (i, *group_means(d, fit.resid[: d.n], groups, sel))
+
+
+def recalibration_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, tuple[float, float]]:
+    """Per aircraft: (p-value, time of the change) of a change in its flight-mean offset."""
+    out = {}
+    for i, m, t0, t1 in _means_by_aircraft(d, fit, rows, d.flight):
+        p, k = kolmogorov_cusum(m)
+        out[i] = (p, 0.5 * (t1[k] + t0[k + 1]))
+    return out
+
+
+def _selected(p_values: dict[int, float]) -> dict[int, float]:
+    """The scanned aircraft whose p-value, Bonferroni over the aircraft scanned, is below
+    0.05: their adjusted p-values."""
+    n_ac = max(len(p_values), 1)
+    return {i: p * n_ac for i, p in p_values.items() if p * n_ac < 0.05}
+
+
+def cand_recalibration(d: WindData, st: State, fit: Fit | None, rows: np.ndarray | None = None) -> list[Block]:
+    if fit is None:
+        return []
+    scan = recalibration_scan(d, fit, rows)
+    out = []
+    for i, q in _selected({i: p for i, (p, _) in scan.items()}).items():
+        t = scan[i][1]
+        col = (d.aircraft == i) * d.tas * (d.time_s >= t)
+        out.append(Block("recalibration", f"step@{t:.0f}", stack_channels(col, None, d.n)[:, None], i, p=q))
+    return out
+
+
+def _slope_p(x: np.ndarray, y: np.ndarray) -> float:
+    """Two-sided p-value of the OLS slope of y on x, its variance with Bartlett weights to
+    lag 2 (the series in time order: neighbours may share weather), against Student's t
+    with n - 2 degrees of freedom (a series of a few dozen weather blocks: the normal
+    limit would reject too often)."""
+    if len(x) < 6:
+        return 1.0
+    xc = x - x.mean()
+    sxx = float(np.sum(xc**2))
+    if sxx <= 0:
+        return 1.0
+    b = float(np.sum(xc * (y - y.mean())) / sxx)
+    u = xc * (y - y.mean() - b * xc)
+    lrv = np.sum(u**2) + 2 * sum((1 - j / 3) * np.sum(u[j:] * u[:-j]) for j in (1, 2))
+    if lrv <= 0:
+        return 1.0
+    return float(2 * stats.t.sf(abs(b) / math.sqrt(lrv / sxx**2), len(x) - 2))
+
+
+def drift_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, float]:
+    """Per aircraft: p-value of a linear trend of its mean offset over the 6-h weather
+    blocks it flew in (each block's middle as its time): a block's flights share the
+    reference models' error, so flights are not independent, blocks are (as in every
+    other test here)."""
+    return {i: _slope_p(0.5 * (t0 + t1) / 86400.0, m) for i, m, t0, t1 in _means_by_aircraft(d, fit, rows, d.cluster)}
+
+
+def cand_offset_drift(d: WindData, st: State, fit: Fit | None, rows: np.ndarray | None = None) -> list[Block]:
+    """Per aircraft whose mean offset trends over its weather blocks (Bonferroni over
+    aircraft): a free rate of its offset A (the recalibration's ramp counterpart)."""
+    if fit is None:
+        return []
+    return [Block("offset_drift", "rate", drift_column(d, i)[:, None], i, p=q)
+            for i, q in _selected(drift_scan(d, fit, rows)).items() if i not in st.drifts]
+
+
+CANDIDATES = {
+    "soft_iron": cand_soft_iron,
+    "field_scaling": cand_field_scaling,
+    "tas_scale": cand_tas_scale,
+    "stale_declination": cand_stale_declination,
+    "reference_bias": cand_reference_bias,
+    "recalibration": cand_recalibration,
+    "offset_drift": cand_offset_drift,
+}
+CHANNEL = {"soft_iron": "transverse", "field_scaling": "transverse", "tas_scale": "along", "stale_declination": "transverse",
+           "reference_bias": "both", "recalibration": "transverse",
+           "offset_drift": "transverse"}
+
+
+# ----------------------------------------------------------------------------- quantization
+
+
+def grid_step(values: np.ndarray) -> float:
+    """The coarsest grid in QUANT_STEPS holding >= QUANT_SHARE of the values (0: none)."""
+    v = np.asarray(values, dtype=float)
+    v = v[np.isfinite(v)]
+    best = 0.0
+    for q in QUANT_STEPS:
+        x = v / q
+        if np.mean(np.abs(x - np.round(x)) < 1e-6 * np.maximum(1.0, np.abs(x)) + 1e-7) >= QUANT_SHARE:
+            best = q
+    return best
+
+
+def _jitter_rms_kt(j: dict, step: float, sel: np.ndarray) -> tuple[float, float]:
+    """(measured, predicted) RMS per component of the segment-velocity differences (kt),
+    predicted from position errors uniform on the grid: var = (step m)^2 / 12 c."""
+    dv, c = j["dv"][sel], j["c"][sel]
+    meas = math.sqrt(np.mean(dv**2)) / KT
+    var_q = ((step * j["m_lat"][sel]) ** 2 + (step * j["m_lon"][sel]) ** 2) / 2 / 12.0
+    pred = math.sqrt(np.mean(var_q * c)) / KT
+    return meas, pred
+
+
+def quantization_candidate(d: WindData, model_step: float) -> dict | None:
+    coords = np.concatenate([d.report_lat, d.report_lon])
+    step = grid_step(coords)
+    if step == 0.0 or math.isclose(step, model_step, rel_tol=1e-9) or len(d.jitter["dv"]) < 10:
+        return None
+    coarse, fine = max(step, model_step), min(step, model_step)
+    share_model = float(np.mean(np.abs(coords / model_step - np.round(coords / model_step)) < 1e-6))
+    if step > model_step:  # all on the coarser grid, where the model puts only fine/coarse of them
+        on = np.abs(coords / coarse - np.round(coords / coarse)) < 1e-6
+        log10_p = float(stats.binom.logsf(int(on.sum()) - 1, len(coords), fine / coarse) / math.log(10))
+    else:  # the data hold values off the model's grid
+        log10_p = -math.inf if share_model < QUANT_SHARE else 0.0
+    # held out by aircraft halves: the grid learned on one half, the jitter predicted on the other
+    ac = d.jitter["aircraft"]
+    half = (ac % 2).astype(bool)
+    before = after = meas_all = 0.0
+    for h in (False, True):
+        sel = half == h
+        if sel.sum() < 5:
+            continue
+        meas, pred0 = _jitter_rms_kt(d.jitter, model_step, sel)
+        _, pred1 = _jitter_rms_kt(d.jitter, step, sel)
+        before += abs(pred0 - meas)
+        after += abs(pred1 - meas)
+        meas_all += meas
+    meas, pred0 = _jitter_rms_kt(d.jitter, model_step, np.ones(len(ac), dtype=bool))
+    _, pred1 = _jitter_rms_kt(d.jitter, step, np.ones(len(ac), dtype=bool))
+    return {"step": step, "log10_p": log10_p, "share_on_model_grid": share_model,
+            "gain": {"metric": "ground-track jitter: |predicted - measured| RMS of segment-velocity differences (kt)",
+                     "measured_kt": meas, "predicted_before_kt": pred0, "predicted_after_kt": pred1,
+                     "before": abs(pred0 - meas), "after": abs(pred1 - meas), "held_out_before": before / 2,
+                     "held_out_after": after / 2},
+            "relative_gain": (before - after) / max(meas_all, 1e-9)}
+
+
+# ----------------------------------------------------------------------------- fitting a candidate
+
+
+def current_blocks(d: WindData, st: State) -> list[Block]:
+    return base_blocks(d, st) + fixed_effect_blocks(d, st, None)
+
+
+def build_blocks(eff: str, d: WindData, st: State, fit: Fit, rows: np.ndarray | None) -> list[Block]:
+    if eff in ("recalibration", "offset_drift"):  # scans of mean offsets: on the training rows only
+        return CANDIDATES[eff](d, st, fit, rows)
+    return CANDIDATES[eff](d, st, fit)
+
+
+def fit_with(d: WindData, st: State, y, clusters, eff: str, blocks: list[Block], rows=None, with_cov=True) -> tuple[Fit, float]:
+    """The current model plus `blocks`; for field_scaling, Gauss-Newton on gamma (returns
+    the total change of gamma; 0 otherwise)."""
+    cur = current_blocks(d, st)
+    fit = solve(cur + blocks, y, clusters, rows, with_cov)
+    if eff != "field_scaling":
+        return fit, 0.0
+    first = fit
+    total = float(fit.coef("field_scaling")[0][1][0])
+    for _ in range(3):
+        st2 = State(st.spec, list(st.entered), st.gamma + total, st.steps, st.drifts, st.signatures)
+        f0 = solve(current_blocks(d, st2), y, clusters, rows, False)
+        b2 = cand_field_scaling(d, st2, f0)
+        if not b2:
+            break
+        f2 = solve(current_blocks(d, st2) + b2, y, clusters, rows, False)
+        step = float(f2.coef("field_scaling")[0][1][0])
+        total += step
+        fit = f2
+        if abs(step) < 1e-3:
+            break
+    # the test of gamma = the model's is the first linearisation's (coefficient and its
+    # covariance); the estimate and the residuals are the converged Gauss-Newton's
+    beta = first.beta.copy()
+    k = next(s for b, s in zip(first.blocks, first.slices) if b.effect == "field_scaling")
+    beta[k] = total
+    return Fit(first.blocks, beta, first.cov, fit.resid, first.slices, first.clusters), total
+
+
+def fold_fits(d: WindData, st: State, y, clusters) -> list[Fit]:
+    """The current model fitted on each fold's training flights (fold k is held out from fit k)."""
+    return [solve(current_blocks(d, st), y, clusters, rows_of_fold(d, 1 - k), False) for k in (0, 1)]
+
+
+def held_out(d: WindData, st: State, y, clusters, eff: str, build=None, base: list[Fit] | None = None) -> tuple[float, float]:
+    """RMS (kt) of the effect's channel on held-out flights, without and with the effect
+    (parameters learned on the other fold; both ways). `base`: fold_fits of the current
+    model, when the caller has them."""
+    ch = channel_rows(d.n, CHANNEL.get(eff, "transverse") if build is None else build[1])
+    base = base or fold_fits(d, st, y, clusters)
+    ss0 = ss1 = 0.0
+    cnt = 0
+    for k in (0, 1):
+        train, test = rows_of_fold(d, 1 - k), rows_of_fold(d, k)
+        f0 = base[k]
+        blocks = build_blocks(eff, d, st, f0, train) if build is None else build[0]
+        if not blocks:
+            return math.nan, math.nan
+        f1, _ = fit_with(d, st, y, clusters, eff, blocks, train, False)
+        t = test & ch
+        ss0 += float(np.sum(f0.resid[t] ** 2))
+        ss1 += float(np.sum(f1.resid[t] ** 2))
+        cnt += int(t.sum())
+    return math.sqrt(ss0 / cnt) / KT, math.sqrt(ss1 / cnt) / KT
+
+
+def rms_of_kt(resid: np.ndarray, n: int, channel: str) -> float:
+    return float(math.sqrt(np.mean(resid[channel_rows(n, channel)] ** 2)) / KT)
+
+
+def standard_errors(v: np.ndarray) -> np.ndarray:
+    return np.sqrt(np.clip(np.diag(np.atleast_2d(v)), 0, None))

@@ -1,0 +1,97 @@
+"""Scoring the WAAS-aided FITS against the truth it was simulated from (FITS paper
+sections V-VI): the cyclic-noise residual, the position errors against the ILS
+requirement, and the equivalence of two INS grades.
+
+* Residual r = N_hat - N per axis at the WAAS epochs (N the WAAS cyclic noise drawn, N_hat
+  the FITS estimate of eqs. 8-16). Epochs within 2T of either end of the record (where
+  the filter runs on its edge model, aerotruth.analysis.fits.filter) are counted apart: `edge`.
+* Position error e = z_true_hat (eq. 19) - truth of the reference point, seen from the
+  localizer and glide-path antennas (aerotruth.analysis.fits.ils_metrics) from `from_nm` to the
+  threshold.
+* Equivalence (two one-sided tests, TOST; Schuirmann 1987): for paired approaches (same
+  truth and WAAS noise, only the INS differs) d_i = RMS_i(a) - RMS_i(b) of the interior
+  residual over the three axes; H0: |mean d| >= margin is rejected at level alpha when
+  both one-sided t-tests reject, p = max(p_lower, p_upper). Equivalent means p < alpha.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+from scipy import stats
+
+from aerotruth.analysis.fits.filter import FitsResult
+from aerotruth.analysis.fits.ils_metrics import approach_errors, approach_verdict
+
+AXES = ("x", "y", "z")
+
+
+def waas_at_epochs(log: pd.DataFrame) -> np.ndarray:
+    """The log's WAAS positions (k, 3) at its WAAS epochs, in time order."""
+    w = log[["waas_x_m", "waas_y_m", "waas_z_m"]].to_numpy(dtype=float)
+    return w[np.isfinite(w[:, 0])]
+
+
+def epoch_rows(result: FitsResult, truth: pd.DataFrame, geometry: dict, waas_xyz: np.ndarray, T: int) -> pd.DataFrame:
+    """One row per WAAS epoch: truth, WAAS error, cyclic noise true and estimated, the
+    residual, the FITS error and its angular view (ils_metrics columns)."""
+    nl = result.noiseless
+    tt = truth["time_s"].to_numpy(float)
+    i = np.searchsorted(tt, nl.t_s - 1e-6)
+    if len(i) and (i.max() >= len(tt) or not np.allclose(tt[i], nl.t_s, atol=1e-6)):
+        raise ValueError("truth: expected a row at every WAAS epoch")
+    p_true = truth[["x_m", "y_m", "z_m"]].to_numpy()[i]
+    n_true = truth[["cyclic_x_m", "cyclic_y_m", "cyclic_z_m"]].to_numpy()[i]
+    errors = approach_errors(p_true[:, 0], result.xyz_m, p_true, loc_x_m=geometry["loc_x_m"], gp_x_m=geometry["gp_x_m"],
+                             gp_y_m=geometry["gp_y_m"])
+    k = np.arange(len(nl.t_s))
+    more = {"edge": (k < 2 * T) | (k >= len(k) - 2 * T)}
+    for i, a in enumerate(AXES):
+        more[f"waas_err_{a}_m"] = waas_xyz[:, i] - p_true[:, i]
+        more[f"n_true_{a}_m"] = n_true[:, i]
+        more[f"n_hat_{a}_m"] = nl.n_hat[:, i]
+        more[f"resid_{a}_m"] = nl.n_hat[:, i] - n_true[:, i]
+    more["y_true_m"] = p_true[:, 1]
+    more["z_true_m"] = p_true[:, 2]
+    # one frame from the columns at once (inserting them one by one cost more than the arithmetic)
+    return pd.DataFrame({"time_s": nl.t_s, **{c: errors[c].to_numpy() for c in errors.columns}, **more})
+
+
+def approach_summary(ep: pd.DataFrame, bias_hat: np.ndarray, bias_true: np.ndarray, from_nm: float) -> dict:
+    """Per approach: residual RMS and share < 0.1 m (interior and edges), the removed share
+    1 - RMS(r)/RMS(N), bias error at the threshold and the requirement verdicts."""
+    is_edge = ep["edge"].to_numpy(bool)
+    inner, edge = np.flatnonzero(~is_edge), np.flatnonzero(is_edge)
+    out: dict = {"epochs": len(ep)}
+    r = ep[[f"resid_{a}_m" for a in AXES]].to_numpy()
+    r_in = r[inner]
+    for i, a in enumerate(AXES):
+        out[f"resid_rms_{a}_m"] = float(np.sqrt(np.mean(r_in[:, i] ** 2)))
+        out[f"resid_share_lt_0p1_{a}"] = float(np.mean(np.abs(r_in[:, i]) < 0.1))
+        out[f"edge_resid_share_lt_0p1_{a}"] = float(np.mean(np.abs(r[edge, i]) < 0.1)) if len(edge) else float("nan")
+        n_rms = float(np.sqrt(np.mean(ep[f"n_true_{a}_m"].to_numpy()[inner] ** 2)))
+        out[f"removed_share_{a}"] = 1.0 - out[f"resid_rms_{a}_m"] / n_rms if n_rms > 0 else float("nan")
+        out[f"bias_hat_{a}_m"] = float(bias_hat[i])
+        out[f"bias_err_{a}_m"] = float(bias_hat[i] - bias_true[i])
+    out["resid_rms_m"] = float(np.sqrt(np.mean(r_in**2)))
+    out.update({f"verdict_{k}": v for k, v in approach_verdict(ep, from_nm).items()})
+    return out
+
+
+def tost_paired(a: np.ndarray, b: np.ndarray, margin: float, alpha: float = 0.05) -> dict:
+    """Two one-sided t-tests on the paired differences a - b against +-margin."""
+    d = np.asarray(a, float) - np.asarray(b, float)
+    d = d[np.isfinite(d)]
+    n = len(d)
+    if n < 3:
+        return {"pairs": n, "mean_diff_m": float("nan"), "ci90_low_m": float("nan"), "ci90_high_m": float("nan"),
+                "p_value": float("nan"), "equivalent": False}
+    m, se = float(d.mean()), float(d.std(ddof=1) / np.sqrt(n))
+    if se == 0.0:
+        p = 0.0 if abs(m) < margin else 1.0
+    else:
+        p_low = stats.t.sf((m + margin) / se, n - 1)  # H0: mean <= -margin
+        p_high = stats.t.cdf((m - margin) / se, n - 1)  # H0: mean >= +margin
+        p = float(max(p_low, p_high))
+    q = stats.t.ppf(1 - alpha, n - 1) * se  # the (1 - 2 alpha) interval TOST is equivalent to
+    return {"pairs": n, "mean_diff_m": m, "ci90_low_m": m - q, "ci90_high_m": m + q, "p_value": p, "equivalent": bool(p < alpha)}

@@ -1,0 +1,335 @@
+"""The `aerotruth` command line. Each subcommand's work lives in its module; this file
+only parses arguments and prints user errors (aerotruth.errors.UserError) as one clear
+line with exit status 2."""
+
+from __future__ import annotations
+
+import argparse
+import math
+import sys
+from pathlib import Path
+
+import aerotruth
+from aerotruth.errors import UserError
+
+
+def _non_negative_int(text: str) -> int:
+    try:
+        value = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
+    if value < 0:
+        raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {value}")
+    return value
+
+
+def _non_negative_float(text: str) -> float:
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text!r}") from None
+    if not (math.isfinite(value) and value >= 0):
+        raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text}")
+    return value
+
+
+def _waas_latency_s(text: str) -> float:
+    """A WAAS time-tag latency: seconds, within the FitsSpec's +-2 s."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
+    if not -2.0 <= value <= 2.0:
+        raise argparse.ArgumentTypeError(f"expected -2 to 2 s (receiver output latencies are tens to hundreds of ms), "
+                                         f"got {value:g}")
+    return value
+
+
+def _pass_height_ft(text: str) -> float:
+    """An AFIS level-pass height: above the runway, below a pattern altitude."""
+    try:
+        value = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a height in ft, got {text!r}") from None
+    if not 20.0 <= value <= 1000.0:
+        raise argparse.ArgumentTypeError(f"expected 20-1000 ft above the runway (AFIS passes fly 50-100 ft), got {value:g}")
+    return value
+
+
+def _positive_int(text: str) -> int:
+    value = _non_negative_int(text)
+    if value < 1:
+        raise argparse.ArgumentTypeError(f"expected a positive integer, got {value}")
+    return value
+
+
+def _output_file(value: str, option: str = "--out") -> Path:
+    """Check an output file path before any work is done."""
+    out = Path(value)
+    if out.is_dir():
+        raise UserError(f"{option}: {out} is a folder, expected a file name (e.g. {out / 'flight.parquet'})")
+    if not out.parent.exists():
+        raise UserError(f"{option}: folder {out.parent} does not exist")
+    if out.suffix and out.suffix.lower() not in (".parquet", ".pq"):
+        raise UserError(f"{option}: the TruthTrack is written as Parquet: expected a .parquet file name, "
+                        f"got '{out.name}'")
+    return out
+
+
+def _cmd_fly(args: argparse.Namespace) -> int:
+    from aerotruth.truth.airframes import DEFAULT_AIRCRAFT, airframe
+    from aerotruth.truth.days import (
+        day_atmosphere,
+        on_airway,
+        parse_departure,
+        plan_in_weather,
+    )
+    from aerotruth.truth.flight import FlightDiverged, fly_leg
+    from aerotruth.truth.routes import CRUISE_CEILING_FT
+    from aerotruth.truth.weather import region_for_airport
+    from aerotruth.units import NM
+
+    out = _output_file(args.out)
+    # certified ceilings of the flown types: the SAAB 340B's is the route planner's
+    # (CRUISE_CEILING_FT, 25,000 ft); Boeing 737 classic/NG 41,000 ft
+    ceiling_fl = {"saab340": int(CRUISE_CEILING_FT // 100), "737": 410}.get(args.aircraft or DEFAULT_AIRCRAFT)
+    if args.cruise_fl is not None and ceiling_fl is not None and args.cruise_fl > ceiling_fl:
+        raise UserError(f"--cruise-fl: FL{args.cruise_fl} is above the {args.aircraft or DEFAULT_AIRCRAFT}'s ceiling, "
+                        f"FL{ceiling_fl}")
+    origin, destination = args.origin.strip().upper(), args.destination.strip().upper()
+    weather_seed = args.seed if args.weather_seed is None else args.weather_seed
+    try:
+        airframe(args.aircraft)
+        departure = parse_departure(args.date)
+        region = args.region or region_for_airport(origin)
+        plan = plan_in_weather(origin, destination, departure, weather_seed=weather_seed, region=region,
+                               cruise_flight_level=args.cruise_fl, flight_id=args.flight_id or "")
+        if not args.direct:
+            plan = on_airway(plan, args.seed)
+        atmosphere = day_atmosphere(plan.departure_utc.date(), weather_seed, region)
+        track = fly_leg(plan, seed=args.seed, aircraft=args.aircraft, turbulence=args.turbulence, atmosphere=atmosphere)
+    except (ValueError, FlightDiverged) as e:
+        raise UserError(str(e)) from None
+    track.to_parquet(out)
+    if args.cruise_fl is not None and plan.cruise_flight_level != args.cruise_fl:
+        print(f"--cruise-fl: FL{args.cruise_fl} does not fit this leg (climb, cruise and a 3 deg descent); flown at "
+              f"FL{plan.cruise_flight_level}, the highest level of the direction's parity that does")
+    s = track.summary()
+    print(f"{plan.origin.icao} rwy {plan.departure_runway.ident} -> {plan.destination.icao} rwy "
+          f"{plan.arrival_runway.ident}, FL{plan.cruise_flight_level}, {plan.total_distance_m / NM:.0f} nm: "
+          f"{len(track)} samples ({s['duration_s'] / 60:.1f} min) -> {out}")
+    print(f"cruise TAS error max {s['cruise_tas_error_max_kt']:.2f} kt, cruise cross-track max "
+          f"{s['cruise_xtrack_max_nm']:.3f} nm, arrival off centreline {s['arrival_centreline_offset_nm']:.3f} nm")
+    return 0
+
+
+def _cmd_fly_approach(args: argparse.Namespace) -> int:
+    from aerotruth.seeds import child, named_sequence
+    from aerotruth.truth.approach import (
+        approach_metrics,
+        approach_spec,
+        find_runway,
+        fly_approach,
+    )
+    from aerotruth.truth.days import day_atmosphere, parse_departure
+    from aerotruth.truth.flight import FlightDiverged
+    from aerotruth.truth.weather import region_for_airport
+
+    out = _output_file(args.out)
+    icao = args.airport.strip().upper()
+    weather_seed = args.seed if args.weather_seed is None else args.weather_seed
+    flight_seed = args.seed if args.flight_seed is None else args.flight_seed
+    try:
+        runway = find_runway(icao, args.runway)
+        when = parse_departure(args.date, default_hour=15)
+        region = args.region or region_for_airport(icao)
+        atmosphere = None if args.calm else day_atmosphere(when.date(), weather_seed, region)
+        spec = approach_spec(icao, runway.ident, when, profile=args.profile, mass_kg=args.mass_kg,
+                             turbulence=args.turbulence, pass_height_ft=args.pass_height_ft, offset_nm=args.offset_nm,
+                             intercept_deg=args.intercept_deg)
+        seed = child(named_sequence(flight_seed, "approach", icao, runway.ident), "flight")
+        track = fly_approach(spec, seed=seed, atmosphere=atmosphere)
+    except (ValueError, FlightDiverged) as e:
+        raise UserError(str(e)) from None
+    track.to_parquet(out)
+    m = approach_metrics(track)
+    print(f"{icao} ILS {runway.ident} ({spec.profile}), {len(track)} samples at 50 Hz "
+          f"({track.df['time_s'].iloc[-1] / 60:.1f} min) -> {out}")
+    print(f"at 1,000 ft: localizer {m['loc_dots_1000ft']:+.2f} dot, glide slope {m['gs_dots_1000ft']:+.2f} dot, "
+          f"Vref{m['cas_minus_vref_kt_1000ft']:+.1f} kt, sink {m['sink_fpm_1000ft']:.0f} fpm; "
+          f"threshold crossed at {m['height_over_threshold_ft']:.0f} ft, {m['cas_threshold_kt']:.0f} KCAS")
+    return 0
+
+
+def _cmd_diagnose(args: argparse.Namespace) -> int:
+    from aerotruth.app.diagnose import diagnose_main
+
+    return diagnose_main(args.measured, args.model, args.out)
+
+
+def _cmd_fits(args: argparse.Namespace) -> int:
+    from aerotruth.analysis.fits.filter import FitsSpec
+    from aerotruth.app.fits import fits_main
+
+    spec = FitsSpec(ra_lever_arm_m=args.ra_lever_arm, waas_latency_s=args.waas_latency)
+    try:
+        return fits_main(args.log, args.out, spec)
+    except ValueError as e:  # DataError and other bad-input errors: one line
+        raise UserError(str(e)) from None
+
+
+def _cmd_heading_fit(args: argparse.Namespace) -> int:
+    from aerotruth.app.heading_fit import heading_fit_main
+
+    return heading_fit_main(args.obs, args.out, n_boot=args.bootstrap, seed=args.seed)
+
+
+def _cmd_heading_apply(args: argparse.Namespace) -> int:
+    from aerotruth.app.heading_apply import heading_apply_main
+
+    return heading_apply_main(args.obs, args.tables, args.out)
+
+
+def _add_campaign_commands(sub) -> None:
+    """run / validate / figures / report / regress: implemented in aerotruth.app.campaign_commands."""
+
+    def lazy(name: str):
+        def call(args: argparse.Namespace) -> int:
+            from aerotruth.app import campaign_commands as commands
+
+            return getattr(commands, name)(args)
+
+        return call
+
+    run = sub.add_parser("run", help="run a campaign (seeded Monte-Carlo) into a run directory")
+    run.add_argument("campaign", help="campaign YAML file")
+    run.add_argument("--size", default=None, help="apply the campaign's `sizes: NAME:` overrides (e.g. reduced); runs/<name>-<size>")
+    run.add_argument("--out", default=None, help="run directory (default runs/<campaign name>)")
+    run.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: cores)")
+    run.add_argument("--executor", choices=["local", "dask"], default=None, help="executor (default: the YAML's, else local)")
+    run.add_argument("--scheduler", default=None, help="Dask scheduler address (implies --executor dask)")
+    run.add_argument("--quiet", action="store_true", help="no progress bar")
+    run.add_argument("--no-report", action="store_true", help="skip figures and report")
+    run.set_defaults(func=lazy("run_cli"))
+
+    val = sub.add_parser("validate", help="check a campaign YAML and expand its tasks")
+    val.add_argument("campaign", help="campaign YAML file")
+    val.add_argument("--size", default=None, help="validate with the campaign's `sizes: NAME:` overrides applied")
+    val.set_defaults(func=lazy("validate_cli"))
+
+    fig = sub.add_parser("figures", help="draw the figures of a run directory")
+    fig.add_argument("run_dir", help="run directory written by `aerotruth run`")
+    fig.set_defaults(func=lazy("figures_cli"))
+
+    rep = sub.add_parser("report", help="write RUN_DIR/report.md with figures and metric tables")
+    rep.add_argument("run_dir", help="run directory written by `aerotruth run`")
+    rep.set_defaults(func=lazy("report_cli"))
+
+    reg = sub.add_parser("regress", help="compare a run's metrics with a baseline (exit 1 if a metric moved)")
+    reg.add_argument("run_dir", help="run directory written by `aerotruth run`")
+    reg.add_argument("baseline", help="baseline JSON (metric values and tolerances)")
+    reg.add_argument("--write", action="store_true", help="write the baseline from this run instead of checking")
+    reg.add_argument("--abs-tol", type=_non_negative_float, default=0.0, help="with --write: absolute tolerance per metric")
+    reg.add_argument("--rel-tol", type=_non_negative_float, default=0.01, help="with --write: relative tolerance per metric")
+    reg.add_argument("--all", action="store_true", help="print every metric, not only those that moved")
+    reg.set_defaults(func=lazy("regress_cli"))
+
+
+def build_parser() -> argparse.ArgumentParser:
+    p = argparse.ArgumentParser(prog="aerotruth", description=__doc__.split("\n\n")[0])
+    p.add_argument("--version", action="version", version=f"aerotruth {aerotruth.__version__}")
+    sub = p.add_subparsers(dest="command", required=True)
+
+    fly = sub.add_parser("fly", help="fly one leg with JSBSim and write its TruthTrack (Parquet)",
+                         description="Fly one leg. A campaign leg is re-flown bit for bit with the arguments in the "
+                                     "fly_command column of its truth row (seeds, region, cruise level, flight id).")
+    fly.add_argument("--from", dest="origin", required=True, help="departure airport ICAO code")
+    fly.add_argument("--to", dest="destination", required=True, help="arrival airport ICAO code")
+    fly.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (departure 13:00 UTC) or ISO date-time of departure")
+    fly.add_argument("--seed", type=_non_negative_int, default=0,
+                     help="flight seed (en-route fixes, turbulence); also the weather seed unless --weather-seed")
+    fly.add_argument("--weather-seed", type=_non_negative_int, default=None, help="seed of the day's truth atmosphere (default: --seed)")
+    fly.add_argument("--region", default=None, help="truth-atmosphere region (default: that of the departure airport)")
+    fly.add_argument("--cruise-fl", type=_positive_int, default=None, help="cruise flight level (default: by distance and direction)")
+    fly.add_argument("--flight-id", default=None, help="flight id recorded in the track's metadata")
+    fly.add_argument("--aircraft", default=None, help="aircraft type (default: the project default, saab340)")
+    fly.add_argument("--turbulence", action="store_true", help="a real flight's disturbances: MIL-F-8785C turbulence patches, light chop, steering wander")
+    fly.add_argument("--direct", action="store_true", help="no en-route fixes: direct from the climb-out to the arrival fix")
+    fly.add_argument("--out", required=True, help="output Parquet file")
+    fly.set_defaults(func=_cmd_fly)
+    _add_campaign_commands(sub)
+
+    fa = sub.add_parser("fly-approach", help="fly one ILS approach with JSBSim and write its 50 Hz TruthTrack (Parquet)")
+    fa.add_argument("--airport", required=True, help="airport ICAO code (the embedded airport table)")
+    fa.add_argument("--runway", required=True, help="runway end landed on, e.g. 27")
+    fa.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (start 15:00 UTC) or ISO date-time of the start")
+    fa.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the approach (weather and flight unless given)")
+    fa.add_argument("--weather-seed", type=_non_negative_int, default=None, help="seed of the day's truth atmosphere (default: --seed)")
+    fa.add_argument("--flight-seed", type=_non_negative_int, default=None, help="seed of the flight's own draws, e.g. turbulence (default: --seed)")
+    fa.add_argument("--region", default=None, help="truth-atmosphere region (default: that of the airport)")
+    fa.add_argument("--profile", choices=["afis", "go-around"], default="afis",
+                    help="after the glide path: the AFIS level pass over the runway, or a go-around at 200 ft")
+    fa.add_argument("--pass-height-ft", type=_pass_height_ft, default=100.0, help="AFIS level-pass height above the runway (ft)")
+    fa.add_argument("--mass-kg", type=float, default=12000.0, help="landing mass (kg); Vref = 1.3 Vs scales with it")
+    fa.add_argument("--turbulence", action="store_true", help="MIL-F-8785C turbulence in patches, near the ground 0.1 x the wind at 20 ft")
+    fa.add_argument("--calm", action="store_true", help="ISA, no wind (instead of the day's truth atmosphere)")
+    fa.add_argument("--offset-nm", type=float, default=0.0, help="start this far left (+) or right (-) of the centreline (nm) ...")
+    fa.add_argument("--intercept-deg", type=float, default=0.0, help="... on a heading this far off the course: a turn onto final")
+    fa.add_argument("--out", required=True, help="output Parquet file")
+    fa.set_defaults(func=_cmd_fly_approach)
+
+    dia = sub.add_parser("diagnose", help="show where measured data disagree with the simulation's sensor model, and why",
+                         description="Recognises the measured file from its content (Mode-S message logs and trajectories "
+                                     "today) and writes DIR/diagnosis.json and DIR/report.md with a figure.")
+    dia.add_argument("measured", help="measured data file (Mode-S JSON/JSONL, observation table, approach log, ...)")
+    dia.add_argument("--model", required=True, help="campaign YAML of the simulation the data are compared with")
+    dia.add_argument("--out", required=True, help="output folder")
+    dia.set_defaults(func=_cmd_diagnose)
+
+    fits = sub.add_parser("fits", help="the WAAS-aided FITS (FITS paper) on an approach log -> DIR/trajectory.csv",
+                          description="Removes the 12-s cyclic WAAS noise through the INS (triangular zero-phase filter, "
+                                      "eqs. 7-17), fixes the bias at the threshold from radar altimeter and TVPS (eq. 18) "
+                                      "and writes the trajectory (eq. 19); with DGPS in the log, the errors and the "
+                                      "requirement figure too.")
+    fits.add_argument("log", help="approach log (CSV, .csv.gz or Parquet, docs/data-formats.md)")
+    fits.add_argument("--out", required=True, help="output folder")
+    fits.add_argument("--ra-lever-arm", type=float, default=0.0, help="height of the log's reference point above the radar-altimeter antenna (m)")
+    fits.add_argument("--waas-latency", type=_waas_latency_s, default=0.0,
+                      help="seconds by which the log's WAAS positions are stamped late (what `aerotruth diagnose` finds as "
+                           "waas_latency); each epoch is put at its time minus this")
+    fits.set_defaults(func=_cmd_fits)
+
+    heading = sub.add_parser("heading", help="the wind paper's heading-deviation method on your own reports")
+    hsub = heading.add_subparsers(dest="heading_command", required=True)
+    hfit = hsub.add_parser("fit", help="fit eq. 2 per aircraft from an observation table -> DIR/deviation.csv, figures, report")
+    hfit.add_argument("obs", help="observation table (CSV, .csv.gz or Parquet, docs/data-formats.md)")
+    hfit.add_argument("--out", required=True, help="output folder")
+    hfit.add_argument("--bootstrap", type=int, default=200, metavar="N",
+                      help="flight resamples for the 95 %% intervals of A..E and the table entries (deviation_ci.csv; "
+                      "default 200, 0: none; ~20 s per million rows and heading frame at 200)")
+    hfit.add_argument("--seed", type=int, default=0, help="seed of the bootstrap's resampling (default 0)")
+    hfit.set_defaults(func=_cmd_heading_fit)
+    happ = hsub.add_parser("apply", help="apply the tables of `heading fit` to the reports of another period -> "
+                           "DIR/corrected.*, apply.csv (before/after per aircraft), figure, report")
+    happ.add_argument("obs", help="observation table (CSV, .csv.gz or Parquet, docs/data-formats.md)")
+    happ.add_argument("--tables", required=True, help="the deviation.csv (or deviation_mag.csv) of `aerotruth heading fit`")
+    happ.add_argument("--out", required=True, help="output folder")
+    happ.set_defaults(func=_cmd_heading_apply)
+    return p
+
+
+def main(argv: list[str] | None = None) -> int:
+    parser = build_parser()
+    args = parser.parse_args(argv)
+    try:
+        return int(args.func(args) or 0)
+    except UserError as e:
+        print(f"aerotruth {args.command}: {e}", file=sys.stderr)
+        return 2
+    except KeyboardInterrupt:
+        print("interrupted", file=sys.stderr)
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

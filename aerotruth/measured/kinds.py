@@ -1,0 +1,192 @@
+"""Measured data files: recognise what a file holds from its content and load it as a
+table, so that `diagnose` and the tests can take a user's data as it comes.
+
+Kinds (DESIGN.md data contracts and ../shared/real-data/README.md):
+
+* `observation_table` — aircraft reports (CSV or Parquet): aircraft, time, lat, lon,
+  pressure_altitude_ft, wind_speed_kt, wind_dir_deg, ref_wind_speed_kt, ref_wind_dir_deg;
+* `approach_log` — FITS approach epochs (CSV or Parquet): approach, time_s, waas_x_m, ...;
+* `modes_raw` — decoded Mode-S / ADS-B messages, one JSON object per line (or a JSON
+  list), each with `timestamp`, `df` and the hex `frame`;
+* `modes_track` — a trajectory with Mode-S enhanced-surveillance fields (JSON list of
+  records with `heading` (magnetic, BDS 6,0) and `TAS` (BDS 5,0) besides position);
+* `adsb_track` — an ADS-B trajectory (JSON list of records with latitude, longitude,
+  groundspeed, track; no heading or TAS);
+* `qar` — a flight-data-recorder extract (column-oriented JSON: {column: {row: value}})
+  with attitude (`pitch`, `roll`).
+
+Gzip is recognised by its magic bytes. Times become UTC epoch seconds (`time_s`). A file
+that is none of these gets one DataError naming the file and what was expected. In the
+JSON kinds, text in a numeric field (NUMERIC_FIELDS) or a record without a timestamp is an
+error naming the record (or line) and field, and so is a file holding more than one
+aircraft (several `icao24`): diagnose takes one aircraft's flight.
+"""
+
+from __future__ import annotations
+
+import gzip
+import io
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+import pandas as pd
+
+from aerotruth.errors import DataError
+from aerotruth.measured.tables import GZIP_MAGIC, read_csv_table
+
+OBSERVATION_COLUMNS = ("aircraft", "time", "lat", "lon", "pressure_altitude_ft", "wind_speed_kt", "wind_dir_deg",
+                       "ref_wind_speed_kt", "ref_wind_dir_deg")
+APPROACH_COLUMNS = ("approach", "time_s", "waas_x_m", "waas_y_m", "waas_z_m")
+KINDS = ("observation_table", "approach_log", "modes_raw", "modes_track", "adsb_track", "qar")
+_EXPECTED = ("an observation table (CSV/Parquet with columns " + ", ".join(OBSERVATION_COLUMNS) + "), an approach log "
+             "(CSV/Parquet with " + ", ".join(APPROACH_COLUMNS) + ", ...), Mode-S/ADS-B messages (JSONL with timestamp, df, "
+             "frame), a Mode-S or ADS-B trajectory (JSON records with timestamp, latitude, longitude) or a QAR extract "
+             "(column-oriented JSON with timestamp, pitch, roll)")
+
+
+@dataclass
+class Measured:
+    """A recognised measured-data file: its kind and its rows."""
+
+    kind: str
+    df: pd.DataFrame
+    path: Path
+
+
+def real_data_dir() -> Path:
+    """$AEROTRUTH_REAL_DATA, else ../shared/real-data beside the project checkout."""
+    env = os.environ.get("AEROTRUTH_REAL_DATA")
+    if env:
+        return Path(env)
+    return Path(__file__).resolve().parents[2] / "shared" / "real-data"
+
+
+def _raw_bytes(path: Path) -> bytes:
+    try:
+        data = path.read_bytes()
+    except FileNotFoundError:
+        raise DataError(f"{path}: no such file") from None
+    except IsADirectoryError:
+        raise DataError(f"{path}: is a folder, expected a data file") from None
+    except OSError as e:
+        raise DataError(f"{path}: cannot read ({e.strerror})") from None
+    if data[:2] == GZIP_MAGIC:
+        try:
+            data = gzip.decompress(data)
+        except (OSError, EOFError) as e:
+            raise DataError(f"{path}: a damaged gzip file ({e})") from None
+    return data
+
+
+def _table(path: Path, data: bytes) -> pd.DataFrame | None:
+    """A CSV or Parquet table, or None when the bytes are neither."""
+    if data[:4] == b"PAR1":
+        try:
+            return pd.read_parquet(io.BytesIO(data))
+        except Exception as e:  # noqa: BLE001 - a damaged Parquet file is one line
+            raise DataError(f"{path}: a damaged Parquet file ({e})") from None
+    head = data[:4096].decode("utf-8", errors="replace").lstrip()
+    if not head or head[0] in "[{":
+        return None
+    try:
+        return read_csv_table(data)
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError):
+        return None
+
+
+def _json(path: Path, data: bytes):
+    """The file's JSON document, or its JSON lines as a list; None when it is neither. A
+    JSON-lines file with a line that does not parse (after one that did) is a DataError
+    naming the line: a capture cut short is said so, not dropped."""
+    text = data.decode("utf-8", errors="replace").strip()
+    if not text:
+        return None
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        pass
+    lines = text.splitlines()  # JSON lines; `text` is stripped: its last line is not blank
+    records = []
+    for i, line in enumerate(lines, 1):
+        if not line.strip():
+            continue
+        try:
+            records.append(json.loads(line))
+        except json.JSONDecodeError as e:
+            if not records:
+                return None
+            cut = " (the last line: a capture cut short?)" if i == len(lines) else ""
+            raise DataError(f"{path}: line {i} is not valid JSON ({e.msg}){cut}; expected one JSON object per line") from None
+    return records
+
+
+def _epoch_seconds(ts: pd.Series) -> pd.Series:
+    """Epoch times in s or ms (recognised by size) as seconds."""
+    t = pd.to_numeric(ts, errors="coerce").astype(float)
+    return t / 1000.0 if t.abs().median() > 1e11 else t
+
+
+# fields the Mode-S / ADS-B / QAR kinds read as numbers (README of ../shared/real-data)
+NUMERIC_FIELDS = ("timestamp", "latitude", "longitude", "altitude", "groundspeed", "track", "vertical_rate", "heading",
+                  "TAS", "IAS", "Mach", "roll", "pitch", "track_rate", "CAS", "drift")
+
+
+def _checked_records(path: Path, df: pd.DataFrame, what: str) -> pd.DataFrame:
+    """Numbers as numbers (text in a numeric field is an error naming record and field),
+    every record timed, one aircraft."""
+    for c in NUMERIC_FIELDS:
+        if c in df.columns and df[c].dtype.kind not in "biuf":
+            num = pd.to_numeric(df[c], errors="coerce")
+            bad = num.isna() & df[c].notna()
+            if bad.any():
+                i = int(bad.to_numpy().nonzero()[0][0])
+                raise DataError(f"{path}: {what} {i + 1}, field {c!r}: {df[c].iloc[i]!r} is not a number")
+            df[c] = num.astype(float)
+    if df["timestamp"].isna().any():
+        i = int(df["timestamp"].isna().to_numpy().nonzero()[0][0])
+        raise DataError(f"{path}: {what} {i + 1}: no timestamp")
+    if "icao24" in df.columns:
+        ids = pd.unique(df["icao24"].dropna().astype(str).str.lower())
+        if len(ids) > 1:
+            raise DataError(f"{path}: data of {len(ids)} aircraft (icao24 {', '.join(sorted(ids)[:5])}"
+                            f"{', ...' if len(ids) > 5 else ''}); diagnose takes one aircraft's flight: keep the "
+                            f"records of one icao24")
+    return df
+
+
+def load_measured(path: str | Path) -> Measured:
+    """Recognise and load a measured-data file (see the module docstring)."""
+    path = Path(path)
+    data = _raw_bytes(path)
+    table = _table(path, data)
+    if table is not None:
+        cols = set(table.columns)
+        if set(OBSERVATION_COLUMNS) <= cols:
+            return Measured("observation_table", table, path)
+        if set(APPROACH_COLUMNS) <= cols:
+            return Measured("approach_log", table, path)
+        raise DataError(f"{path}: a table with columns {', '.join(map(str, table.columns[:12]))}; expected {_EXPECTED}")
+    obj = _json(path, data)
+    if isinstance(obj, dict) and {"timestamp", "pitch", "roll"} <= set(obj) and all(isinstance(v, dict) for v in obj.values()):
+        df = pd.DataFrame({k: pd.Series(v) for k, v in obj.items()})
+        df.index = df.index.astype(int)
+        df = _checked_records(path, df.sort_index().reset_index(drop=True), "row")
+        df.insert(0, "time_s", _epoch_seconds(df["timestamp"]))
+        return Measured("qar", df, path)
+    if isinstance(obj, list) and obj and all(isinstance(r, dict) for r in obj):
+        df = pd.DataFrame(obj)
+        cols = set(df.columns)
+        if {"timestamp", "df", "frame"} <= cols:
+            kind = "modes_raw"
+        elif {"timestamp", "latitude", "longitude", "heading", "TAS"} <= cols:
+            kind = "modes_track"
+        elif {"timestamp", "latitude", "longitude", "groundspeed", "track"} <= cols:
+            kind = "adsb_track"
+        else:
+            raise DataError(f"{path}: JSON records with keys {', '.join(sorted(cols)[:12])}; expected {_EXPECTED}")
+        df = _checked_records(path, df, "line" if kind == "modes_raw" else "record")
+        df.insert(0, "time_s", _epoch_seconds(df["timestamp"]))
+        return Measured(kind, df.sort_values("time_s", kind="stable").reset_index(drop=True), path)
+    raise DataError(f"{path}: not measured data aerotruth knows; expected {_EXPECTED}")

@@ -1,0 +1,562 @@
+"""Schema of a campaign YAML file (pydantic): the one place where campaign defaults live.
+
+A campaign names its random seed, the fleets and periods it draws on and one section per
+study type under `studies:`. Unknown keys are errors. `load_campaign(path)` turns every
+problem (YAML syntax, wrong type, unknown key, missing field, bad date, empty fleet, a
+reference to an undefined fleet or period) into one `ConfigError` whose message names
+the YAML path of the field and its line, e.g.
+`fleets[2].aircraft[0]: expected a string, got 17 (line 12)`.
+
+Units at this edge follow the aviation habit of the users (flight levels, UTC hours,
+degrees); studies convert to SI with aerotruth.units.
+"""
+
+from __future__ import annotations
+
+import datetime as _dt
+import hashlib
+import json
+import re
+import typing
+from pathlib import Path
+from typing import Any, Literal
+
+import yaml
+from pydantic import (
+    BaseModel,
+    Field,
+    StrictBool,
+    StrictInt,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
+
+from aerotruth.schema import Section  # re-exported: studies' sections derive from it
+
+# ----------------------------------------------------------------------------- schema
+
+
+class ExecutorConfig(Section):
+    """Where tasks run. The command line (--executor, --workers, --scheduler) overrides it."""
+
+    kind: Literal["local", "dask"] = "local"
+    workers: StrictInt | None = Field(default=None, ge=1, description="local: processes (default: cores); dask: LocalCluster workers (default 2)")
+    scheduler: str | None = Field(default=None, description="address of a running Dask scheduler (implies kind: dask)")
+
+
+class OutputsConfig(Section):
+    """What a run writes besides the per-task tables and metrics.json."""
+
+    dir: str | None = Field(default=None, description="run directory (default runs/<name>)")
+    figures: StrictBool = True
+    report: StrictBool = True
+
+
+class Period(Section):
+    """A named set of UTC days: either `dates:` (a list) or `start:`/`end:` (inclusive),
+    optionally every `every_days`-th day from start."""
+
+    name: str = Field(min_length=1)
+    dates: list[_dt.date] | None = None
+    start: _dt.date | None = None
+    end: _dt.date | None = None
+    every_days: StrictInt = Field(default=1, ge=1, description="with start/end: keep every N-th day from start "
+                                  "(a long period subsampled)")
+
+    @model_validator(mode="after")
+    def _one_form(self) -> Period:
+        if self.dates is not None:
+            if self.start is not None or self.end is not None:
+                raise ValueError("give either dates or start/end, not both")
+            if not self.dates:
+                raise ValueError("dates: expected at least one date, got an empty list")
+        elif self.start is None or self.end is None:
+            raise ValueError("expected dates: [...] or both start: and end:")
+        elif self.end < self.start:
+            raise ValueError(f"end {self.end} is before start {self.start}")
+        if self.dates is not None and self.every_days != 1:
+            raise ValueError("every_days subsamples start/end periods; list the dates instead")
+        return self
+
+    def days(self) -> list[_dt.date]:
+        """The period's days in calendar order, each once."""
+        if self.dates is not None:
+            return sorted(set(self.dates))
+        n = (self.end - self.start).days + 1  # type: ignore[operator]
+        return [self.start + _dt.timedelta(days=i) for i in range(0, n, self.every_days)]  # type: ignore[operator]
+
+
+class Fleet(Section):
+    """A group of aircraft flying one route network."""
+
+    name: str = Field(min_length=1)
+    aircraft_type: str | None = Field(default=None, description="aircraft model name (default: the project default)")
+    network: str | None = Field(default=None, description="route network for the daily schedule (aerotruth.truth.routes)")
+    aircraft: list[str] = Field(description="tail numbers or other unique aircraft ids")
+
+    @field_validator("aircraft")
+    @classmethod
+    def _not_empty(cls, v: list[str]) -> list[str]:
+        if not v:
+            raise ValueError("expected at least one aircraft, got an empty list")
+        if len(set(v)) != len(v):
+            dup = sorted({a for a in v if v.count(a) > 1})
+            raise ValueError(f"aircraft ids must be unique, repeated: {', '.join(dup)}")
+        return v
+
+
+class TruthStoreConfig(Section):
+    """Where flown truth is cached (shared by every run and campaign on this machine)."""
+
+    path: str | None = Field(default=None, description="folder (default $AEROTRUTH_CACHE/truth, else the user's cache folder)")
+    max_gb: float = Field(default=20.0, gt=0, description="size cap; least recently used flights are evicted after a run")
+
+
+class Campaign(Section):
+    """A whole campaign file."""
+
+    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$", description="also the default run directory runs/<name>")
+    seed: StrictInt = Field(ge=0, description="campaign seed: every task stream is SeedSequence(seed, spawn_key=digest(task))")
+    description: str = ""
+    fleets: list[Fleet] = Field(default_factory=list)
+    periods: list[Period] = Field(min_length=1)
+    study_modules: list[str] = Field(default_factory=list, description="extra study modules: importable module names or .py files (relative to the YAML file)")
+    studies: dict[str, Any] = Field(description="one section per study, validated by that study's own schema")
+    truth_store: TruthStoreConfig = TruthStoreConfig()
+    executor: ExecutorConfig = ExecutorConfig()
+    outputs: OutputsConfig = OutputsConfig()
+    sizes: dict[str, dict[str, Any]] = Field(
+        default_factory=dict, description="named reduced (or other) sizes: overrides merged into the campaign by "
+        "`aerotruth run --size NAME` (mappings merge key by key, lists and values replace)")
+    size: str | None = Field(default=None, description="the size applied (set by --size; not written by hand)")
+    diagnose: dict[str, Any] = Field(default_factory=dict, description="what `aerotruth diagnose` assumes beyond the "
+                                     "studies' sensors (wind: aerotruth.analysis.diagnose.wind.WindModelSpec); written by "
+                                     "diagnose into the extended model")
+
+    @field_validator("diagnose")
+    @classmethod
+    def _diagnose_models(cls, v: dict) -> dict:
+        unknown = set(v) - {"wind"}
+        if unknown:
+            raise ValueError(f"unknown diagnose model {sorted(unknown)[0]!r}, expected 'wind'")
+        if "wind" in v:
+            from aerotruth.analysis.diagnose.wind import WindModelSpec
+
+            WindModelSpec.model_validate(v["wind"])
+        return v
+
+    def fleet(self, name: str) -> Fleet:
+        """The fleet called `name`."""
+        return next(f for f in self.fleets if f.name == name)
+
+    def period(self, name: str) -> Period:
+        """The period called `name`."""
+        return next(p for p in self.periods if p.name == name)
+
+    def days(self, period_names) -> list:
+        """The sorted distinct dates of the named periods (what a study's tasks span)."""
+        return sorted({d for name in period_names for d in self.period(name).days()})
+
+    def section(self, study: str) -> Section:
+        """The validated section of `study`."""
+        return self.studies[study]
+
+    def results_json(self, study: str | None = None) -> str:
+        """Canonical JSON of what determines results: seed, fleets, periods and the study
+        sections (all of them, or only `study`'s); not the executor, outputs, description
+        or where truth is cached."""
+        data = self.model_dump(mode="json", by_alias=True, exclude={"executor", "outputs", "description", "truth_store", "study_modules",
+                                                                         "diagnose"})
+        if study is not None:
+            data["studies"] = {study: data["studies"][study]}
+        return json.dumps(data, sort_keys=True, separators=(",", ":"))
+
+    def config_hash(self) -> str:
+        """sha256 of everything that determines results (not executor or outputs)."""
+        return hashlib.sha256(self.results_json().encode()).hexdigest()
+
+    def to_yaml(self) -> str:
+        """The resolved campaign (all defaults filled in) as YAML that load_campaign reads back."""
+        return yaml.safe_dump(self.model_dump(mode="json", by_alias=True), sort_keys=False, allow_unicode=True)
+
+
+# ----------------------------------------------------------------------------- errors
+
+
+from aerotruth.errors import ConfigError  # noqa: E402  (re-exported: campaign problems are user errors)
+
+_EXPECTED = {
+    "int_parsing": "an integer",
+    "int_type": "an integer",
+    "int_from_float": "an integer",
+    "float_parsing": "a number",
+    "float_type": "a number",
+    "bool_parsing": "true or false",
+    "bool_type": "true or false",
+    "string_type": "a string",
+    "date_parsing": "a date YYYY-MM-DD",
+    "date_from_datetime_parsing": "a date YYYY-MM-DD",
+    "date_from_datetime_inexact": "a date YYYY-MM-DD",
+    "date_type": "a date YYYY-MM-DD",
+    "time_parsing": "a time HH:MM",
+    "time_type": "a time HH:MM",
+    "list_type": "a list",
+    "tuple_type": "a list",
+    "model_type": "a mapping",
+    "model_attributes_type": "a mapping",
+    "dict_type": "a mapping",
+}
+
+
+_BOUNDS = {"greater_than_equal": ">=", "greater_than": ">", "less_than_equal": "<=", "less_than": "<"}
+
+
+def _describe(value: Any) -> str:
+    """A short rendering of the offending YAML value."""
+    if isinstance(value, str):
+        s = value if len(value) <= 40 else value[:37] + "..."
+        return json.dumps(s, ensure_ascii=False)
+    if isinstance(value, dict):
+        return "a mapping"
+    if isinstance(value, list):
+        return f"a list of {len(value)}"
+    if value is None:
+        return "nothing (null)"
+    return json.dumps(value) if isinstance(value, (int, float, bool)) else repr(value)
+
+
+def format_path(loc: tuple[Any, ...]) -> str:
+    """('fleets', 2, 'heading', 'hard_iron_nT') -> 'fleets[2].heading.hard_iron_nT'."""
+    out = ""
+    for part in loc:
+        if isinstance(part, int):
+            out += f"[{part}]"
+        else:
+            out += ("." if out else "") + str(part)
+    return out or "(top level)"
+
+
+def _line_of(root: yaml.Node | None, loc: tuple[Any, ...]) -> int | None:
+    """1-based line of the YAML node at `loc`; the deepest existing ancestor when the path
+    does not exist in the file (a missing field points at its parent mapping)."""
+    if root is None:
+        return None
+    node = root
+    line = node.start_mark.line + 1
+    for part in loc:
+        if isinstance(node, yaml.MappingNode):
+            match = next(((k, v) for k, v in node.value if isinstance(k, yaml.ScalarNode) and k.value == str(part)), None)
+            if match is None:
+                return line
+            line = match[0].start_mark.line + 1
+            node = match[1]
+        elif isinstance(node, yaml.SequenceNode) and isinstance(part, int) and 0 <= part < len(node.value):
+            node = node.value[part]
+            line = node.start_mark.line + 1
+        else:
+            return line
+    return line
+
+
+def _check_duplicate_keys(node: yaml.Node | None, loc: tuple[Any, ...] = ()) -> None:
+    """PyYAML keeps the last of repeated keys silently; a campaign file must not."""
+    if isinstance(node, yaml.MappingNode):
+        seen: set[str] = set()
+        for k, v in node.value:
+            key = k.value if isinstance(k, yaml.ScalarNode) else str(k)
+            if key in seen:
+                raise ConfigError(f"{format_path(loc + (key,))}: duplicate key (line {k.start_mark.line + 1})")
+            seen.add(key)
+            _check_duplicate_keys(v, loc + (key,))
+    elif isinstance(node, yaml.SequenceNode):
+        for i, v in enumerate(node.value):
+            _check_duplicate_keys(v, loc + (i,))
+
+
+def _one_line(err: ValidationError, root: yaml.Node | None, fields_of: type[BaseModel], prefix: tuple[Any, ...] = ()) -> str:
+    """The first validation error as `path: expected ..., got ... (line N)`; `prefix` is
+    the YAML path of the block `fields_of` validated (e.g. ("studies", "truth"))."""
+    errors = err.errors(include_url=False)
+    e = errors[0]
+    loc = tuple(e["loc"])
+    kind = e["type"]
+    path = format_path(prefix + loc)
+    if kind == "missing":
+        text = "required field missing"
+    elif kind == "extra_forbidden":
+        parent = _model_at(fields_of, loc[:-1])
+        allowed = f" (allowed: {', '.join(_field_names(parent))})" if parent is not None else ""
+        text = f"unknown key{allowed}"
+    elif kind in _EXPECTED:
+        text = f"expected {_EXPECTED[kind]}, got {_describe(e.get('input'))}"
+    elif kind == "literal_error":
+        text = f"expected one of {e['ctx']['expected']}, got {_describe(e.get('input'))}"
+    elif kind == "too_short":
+        n = e["ctx"]["min_length"]
+        text = f"expected at least {n} item{'s' if n != 1 else ''}, got {e['ctx'].get('actual_length', 0)}"
+    elif kind == "too_long":
+        n = e["ctx"]["max_length"]
+        text = f"expected at most {n} item{'s' if n != 1 else ''}, got {e['ctx'].get('actual_length')}"
+    elif kind in _BOUNDS:
+        bound = next(v for k, v in e["ctx"].items() if k in ("ge", "gt", "le", "lt"))
+        text = f"expected a number {_BOUNDS[kind]} {bound}, got {_describe(e.get('input'))}"
+    elif kind == "string_pattern_mismatch" and loc == ("name",):
+        text = f"expected a name of letters, digits, '_', '.' and '-' (it names the run directory), got {_describe(e.get('input'))}"
+    elif kind == "value_error":
+        text = str(e["ctx"]["error"])
+    else:
+        text = f"{e['msg'][0].lower()}{e['msg'][1:]}, got {_describe(e.get('input'))}"
+    line = _line_of(root, prefix + loc)
+    more = f"; and {len(errors) - 1} more error{'s' if len(errors) > 2 else ''}" if len(errors) > 1 else ""
+    return f"{path}: {text}" + (f" (line {line})" if line is not None else "") + more
+
+
+def _field_names(model: type[BaseModel]) -> list[str]:
+    return [(f.alias or name) for name, f in model.model_fields.items()]
+
+
+def _model_at(model: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | None:
+    """The schema class found at `loc` (for naming the allowed keys of an unknown key)."""
+    current: Any = model
+    for part in loc:
+        if isinstance(part, int):
+            continue
+        if not (isinstance(current, type) and issubclass(current, BaseModel)):
+            return None
+        field = next((f for n, f in current.model_fields.items() if part in (n, f.alias)), None)
+        if field is None:
+            return None
+        current = field.annotation
+        # unwrap Optional[...] and list[...] down to a model class
+        for _ in range(3):
+            args = [a for a in typing.get_args(current) if a is not type(None)]
+            if isinstance(current, type) and issubclass(current, BaseModel):
+                break
+            if not args:
+                break
+            current = args[0]
+    return current if isinstance(current, type) and issubclass(current, BaseModel) else None
+
+
+class References:
+    """What a study's `check` uses to test the names in its section against the campaign
+    (fleets, periods, airports, ...) and to word a problem as one line with its YAML line."""
+
+    def __init__(self, campaign: Campaign, root: yaml.Node | None, prefix: tuple[Any, ...]):
+        self.campaign = campaign
+        self._root = root
+        self._prefix = prefix
+
+    def error(self, loc: tuple[Any, ...], text: str, *, absolute: bool = False) -> ConfigError:
+        """ConfigError `path: text (line N)`; `loc` is relative to the section unless absolute."""
+        full = tuple(loc) if absolute else self._prefix + tuple(loc)
+        line = _line_of(self._root, full)
+        return ConfigError(f"{format_path(full)}: {text}" + (f" (line {line})" if line is not None else ""))
+
+    @property
+    def where(self) -> str:
+        """The YAML path of the section, e.g. `studies.truth`."""
+        return format_path(self._prefix)
+
+    def names(self, field: str | tuple[Any, ...], kind: str) -> None:
+        """Each name in the section's `field` (a name or a list of names; a path relative
+        to the section) must be that of one of the campaign's `kind` ("fleets" or "periods")."""
+        path = (field,) if isinstance(field, str) else tuple(field)
+        values: Any = self.campaign.section(self._prefix[-1])
+        for part in path:
+            values = values[part] if isinstance(part, int) else getattr(values, part, None)
+        known = {x.name for x in getattr(self.campaign, kind)}
+        items = [values] if isinstance(values, str) else list(values or [])
+        for i, ref in enumerate(items):
+            if ref not in known:
+                have = ", ".join(sorted(known)) or "none defined"
+                loc = path if isinstance(values, str) else path + (i,)
+                raise self.error(loc, f"expected the name of one of the {kind} ({have}), got {_describe(ref)}")
+
+    def fleets(self, field: str = "fleets") -> None:
+        """The section's `field` names defined fleets."""
+        self.names(field, "fleets")
+
+    def periods(self, field: str = "periods") -> None:
+        """The section's `field` names defined periods."""
+        self.names(field, "periods")
+
+    def value(self, value: Any) -> str:
+        """A short rendering of an offending value for a message."""
+        return _describe(value)
+
+
+def _check_campaign(c: Campaign, root: yaml.Node | None) -> None:
+    """Checks across the campaign's own blocks: unique fleet and period names, known route
+    networks and aircraft types."""
+    for what, items in (("fleets", c.fleets), ("periods", c.periods)):
+        seen: set[str] = set()
+        for i, item in enumerate(items):
+            if item.name in seen:
+                loc = (what, i, "name")
+                raise ConfigError(f"{format_path(loc)}: duplicate name {item.name!r} (line {_line_of(root, loc)})")
+            seen.add(item.name)
+    if any(f.network is not None for f in c.fleets):
+        from aerotruth.truth.airports import networks
+
+        known_networks = networks()
+        for i, f in enumerate(c.fleets):
+            if f.network is not None and f.network not in known_networks:
+                loc = ("fleets", i, "network")
+                raise ConfigError(
+                    f"{format_path(loc)}: expected a route network ({', '.join(sorted(known_networks))}), got {_describe(f.network)} (line {_line_of(root, loc)})"
+                )
+    if any(f.aircraft_type is not None for f in c.fleets):
+        from aerotruth.truth.airframes import airframe_names
+
+        known = airframe_names()
+        for i, f in enumerate(c.fleets):
+            if f.aircraft_type is not None and f.aircraft_type not in known:
+                loc = ("fleets", i, "aircraft_type")
+                raise ConfigError(
+                    f"{format_path(loc)}: expected an aircraft type ({', '.join(known)}), got {_describe(f.aircraft_type)} (line {_line_of(root, loc)})"
+                )
+
+
+def _resolve_study_modules(c: Campaign, root: yaml.Node | None, base_dir: Path | None) -> list[str]:
+    """`study_modules:` entries as import sources: a `.py` file becomes `file:<absolute
+    path>` (relative to the YAML file's folder), anything else `module:<name>`."""
+    from aerotruth.sim.studies import source_for
+
+    out = []
+    for i, entry in enumerate(c.study_modules):
+        try:
+            out.append(source_for(entry, base_dir))
+        except ValueError as e:
+            loc = ("study_modules", i)
+            raise ConfigError(f"{format_path(loc)}: {e} (line {_line_of(root, loc)})") from None
+    return out
+
+
+def _validate_studies(c: Campaign, root: yaml.Node | None, base_dir: Path | None) -> Campaign:
+    """Validate each `studies:` section with its study's own schema and run its checks."""
+    from aerotruth.sim.studies import StudyError, registry
+
+    sources = _resolve_study_modules(c, root, base_dir)
+    try:
+        reg = registry(sources)
+    except StudyError as e:
+        raise ConfigError(f"study_modules: {e}") from None
+    if not c.studies:
+        raise ConfigError(f"studies: expected at least one study ({', '.join(reg)}) (line {_line_of(root, ('studies',))})")
+    sections: dict[str, Section] = {}
+    for name, value in c.studies.items():
+        loc = ("studies", name)
+        if name not in reg:
+            raise ConfigError(f"{format_path(loc)}: unknown study (available: {', '.join(sorted(reg))}) (line {_line_of(root, loc)})")
+        study = reg.get(name)
+        try:
+            sections[name] = study.Config.model_validate({} if value is None else value,
+                                                         context={"base_dir": base_dir})  # relative data files: the YAML's folder
+        except ValidationError as e:
+            raise ConfigError(_one_line(e, root, study.Config, prefix=loc)) from None
+    c = c.model_copy(update={"studies": sections, "study_modules": [s.split(":", 1)[1] for s in sources]})
+    for name in sections:
+        reg.get(name).check(c, References(c, root, ("studies", name)))
+    return c
+
+
+class _CampaignLoader(yaml.SafeLoader):
+    """SafeLoader that leaves dates as strings (so that pydantic reports a bad date by its
+    path; PyYAML would fail on 2009-02-30 with its own message) and reads no YAML 1.1
+    sexagesimal numbers (unquoted `13:00` would otherwise be the integer 780)."""
+
+
+_NUMBER_TAGS = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
+_CampaignLoader.yaml_implicit_resolvers = {
+    ch: [(tag, rx) for tag, rx in resolvers
+         if tag != "tag:yaml.org,2002:timestamp" and not (tag in _NUMBER_TAGS and ":" in rx.pattern)]
+    for ch, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
+}
+# YAML 1.1 ints and floats again, without their base-60 alternatives
+_CampaignLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:int",
+    re.compile(r"^(?:[-+]?0b[0-1_]+|[-+]?0[0-7_]+|[-+]?(?:0|[1-9][0-9_]*)|[-+]?0x[0-9a-fA-F_]+)$"),
+    list("-+0123456789"),
+)
+_CampaignLoader.add_implicit_resolver(
+    "tag:yaml.org,2002:float",
+    re.compile(r"^(?:[-+]?[0-9][0-9_]*\.[0-9_]*(?:[eE][-+][0-9]+)?|\.[0-9][0-9_]*(?:[eE][-+][0-9]+)?|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"),
+    list("-+0123456789."),
+)
+
+
+def _merged(base: Any, override: Any) -> Any:
+    """`override` merged into `base`: mappings key by key, anything else replaced."""
+    if isinstance(base, dict) and isinstance(override, dict):
+        out = dict(base)
+        for k, v in override.items():
+            out[k] = _merged(base.get(k), v) if k in base else v
+        return out
+    return override
+
+
+def _apply_size(data: dict, size: str) -> dict:
+    """The campaign data with the overrides of `sizes[size]` merged in, named <name>-<size>."""
+    sizes = data.get("sizes") or {}
+    if not isinstance(sizes, dict) or size not in sizes:
+        have = ", ".join(sorted(sizes)) if isinstance(sizes, dict) and sizes else "none"
+        raise ConfigError(f"--size {size}: the campaign defines no such size (sizes: {have})")
+    override = sizes[size]
+    if not isinstance(override, dict):
+        raise ConfigError(f"sizes.{size}: expected a mapping of campaign fields to override, got {_describe(override)}")
+    bad = sorted(set(override) - {"fleets", "periods", "studies", "description", "executor", "truth_store", "outputs"})
+    if bad:
+        raise ConfigError(f"sizes.{size}: cannot override {', '.join(bad)} (fleets, periods, studies, description, "
+                          "executor, truth_store, outputs)")
+    out = _merged(data, override)  # a new mapping: `data` is left as it was
+    out["name"] = f"{data.get('name')}-{size}"
+    out["size"] = size
+    return out
+
+
+def parse_campaign(text: str, base_dir: str | Path | None = None, size: str | None = None) -> Campaign:
+    """Validate campaign YAML text; any problem raises ConfigError with one line.
+    `base_dir` is where relative `study_modules:` files are found (the YAML's folder);
+    `size` applies the overrides of that entry of `sizes:` (a reduced campaign)."""
+    try:
+        root = yaml.compose(text, Loader=_CampaignLoader)
+        data = yaml.load(text, Loader=_CampaignLoader)
+    except yaml.MarkedYAMLError as e:
+        mark = e.problem_mark or e.context_mark
+        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
+        raise ConfigError(f"not valid YAML: {e.problem or e.context}{where}") from None
+    except yaml.YAMLError as e:
+        raise ConfigError(f"not valid YAML: {e}") from None
+    if not isinstance(data, dict):
+        raise ConfigError(f"expected a mapping of campaign fields at the top level, got {_describe(data)}")
+    _check_duplicate_keys(root)
+    if size is not None:
+        data = _apply_size(data, size)
+    try:
+        campaign = Campaign.model_validate(data)
+    except ValidationError as e:
+        raise ConfigError(_one_line(e, root, Campaign)) from None
+    _check_campaign(campaign, root)
+    return _validate_studies(campaign, root, Path(base_dir) if base_dir is not None else None)
+
+
+def load_campaign(path: str | Path, size: str | None = None) -> Campaign:
+    """Read and validate a campaign YAML file (ConfigError with one line on any problem);
+    `size` as in parse_campaign."""
+    p = Path(path)
+    try:
+        text = p.read_text(encoding="utf-8")
+    except FileNotFoundError:
+        raise ConfigError(f"{p}: no such campaign file") from None
+    except NotADirectoryError:
+        raise ConfigError(f"{p}: no such campaign file ({p.parent} is not a folder)") from None
+    except IsADirectoryError:
+        raise ConfigError(f"{p}: is a folder, expected a campaign YAML file") from None
+    except (OSError, UnicodeDecodeError) as e:
+        raise ConfigError(f"{p}: cannot read campaign file ({e})") from None
+    try:
+        return parse_campaign(text, base_dir=p.resolve().parent, size=size)
+    except ConfigError as e:
+        raise ConfigError(f"{p}: {e}") from None
