@@ -31,13 +31,27 @@ def make_figures(run_dir: str | Path) -> dict[str, list[Figure]]:
         prefix = f"{name}."
         summary = Summary({k[len(prefix):]: v for k, v in metrics.items() if k.startswith(prefix)}, store.read_tables(name))
         try:
-            out[name] = study.figures(rows, summary, store.learned_of(name), store.figures_dir)
+            out[name] = study.figures(rows, summary, store.learned_of(name), FigureFolder(store.figures_dir))
         finally:
             plt.close("all")
     return out
 
 
-def save(fig, out_dir: Path, stem: str) -> None:
-    """Save a matplotlib figure as out_dir/<stem>.png (150 dpi) and .pdf."""
-    fig.savefig(out_dir / f"{stem}.png", dpi=150, bbox_inches="tight")
-    fig.savefig(out_dir / f"{stem}.pdf", bbox_inches="tight")
+class FigureFolder:
+    """Where a study's figures go: `save(fig, stem)` writes the matplotlib figure as
+    <folder>/<stem>.png (150 dpi) and .pdf. A study draws; the application decides where and
+    in which formats figures are written. Path-like (`folder / name`, os.fspath) for studies
+    that write a file of their own."""
+
+    def __init__(self, path: Path):
+        self.path = Path(path)
+
+    def save(self, fig, stem: str) -> None:
+        fig.savefig(self.path / f"{stem}.png", dpi=150, bbox_inches="tight")
+        fig.savefig(self.path / f"{stem}.pdf", bbox_inches="tight")
+
+    def __truediv__(self, name: str) -> Path:
+        return self.path / name
+
+    def __fspath__(self) -> str:
+        return str(self.path)

@@ -21,7 +21,8 @@ A study module defines `STUDY`, an instance of a `Study` subclass with
   exports from
   every task's rows (concatenated in task-id order with a leading `task_id` column and a
   `stage` column); written once to the run directory and read back by figures and report;
-* optionally `figures(rows, summary, learned, out_dir) -> list[Figure]` and `cost(task)`
+* optionally `figures(rows, summary, learned, out_dir) -> list[Figure]` (each figure drawn
+  with matplotlib and handed to `out_dir.save(fig, stem)`) and `cost(task)`
   (a run-time estimate: the longest tasks are submitted first).
 
 Where studies come from: the built-in ones are entry points of the group
@@ -108,8 +109,10 @@ class Study(ABC):
     def summarize(self, rows: pd.DataFrame, learned: dict[str, pd.DataFrame], section: Any) -> Summary:
         """Metrics and tables from all rows."""
 
-    def figures(self, rows: pd.DataFrame, summary: Summary, learned: dict[str, pd.DataFrame], out_dir: Path) -> list[Figure]:
-        """Figures saved under out_dir (none by default)."""
+    def figures(self, rows: pd.DataFrame, summary: Summary, learned: dict[str, pd.DataFrame], out_dir: Any) -> list[Figure]:
+        """The study's figures, each drawn with matplotlib and handed to `out_dir.save(fig,
+        stem)` (aerotruth.app.figures.FigureFolder: the application writes it as PNG and
+        PDF); none by default."""
         return []
 
     def cost(self, task: Task) -> float:

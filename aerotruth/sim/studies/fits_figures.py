@@ -32,7 +32,6 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
         REQUIREMENTS,
         required_error_m,
     )
-    from aerotruth.app.figures import save
 
     figs: list[Figure] = []
     ep = rows[rows["kind"] == "epoch"] if len(rows) else rows
@@ -47,7 +46,7 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
     ax.set(xlabel="time (s)", ylabel="WAAS error (m)", title=f"WAAS position error, {one['approach'].iloc[0]}")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    save(fig, out_dir, "fits_waas_error")
+    out_dir.save(fig, "fits_waas_error")
     figs.append(Figure("fits_waas_error", "WAAS error of one approach: bias, 12 s cyclic noise, slow noise (FITS paper Fig. 5)"))
     # Fig. 6: averaged periodogram of the WAAS error (bias and slow trend removed per approach)
     from scipy.signal import periodogram
@@ -73,7 +72,7 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
         ax.set(xlabel="frequency (Hz)", ylabel="PSD (m$^2$/Hz)", title="Spectrum of the WAAS error (mean over approaches)")
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
-        save(fig, out_dir, "fits_waas_spectrum")
+        out_dir.save(fig, "fits_waas_spectrum")
         figs.append(Figure("fits_waas_spectrum", "Spectrum of the WAAS error, detrended, averaged over approaches: the 12 s peak of the fast corrections (FITS paper Fig. 6)"))
     # Figs. 11/12: frequency response of the low pass and of the high-pass cascade
     fr, lp, hp = frequency_response(12)
@@ -84,7 +83,7 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
     ax.set(xlabel="frequency (Hz)", ylabel="gain", title="Filter frequency response, T = 12 epochs at 1 Hz")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
-    save(fig, out_dir, "fits_frequency_response")
+    out_dir.save(fig, "fits_frequency_response")
     figs.append(Figure("fits_frequency_response", "Zero-phase frequency response: the high pass removes drifts up to cubic and passes every harmonic of the 12 s cycle (FITS paper Figs. 11/12)"))
     # Figs. 13/14: true and estimated cyclic noise, residual
     fig, axes = plt.subplots(2, 2, figsize=(10, 5.5), sharex=True)
@@ -100,7 +99,7 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
             ax.grid(alpha=0.3)
     fig.suptitle(f"{one['approach'].iloc[0]}, INS {one['ins'].iloc[0]}")
     fig.tight_layout()
-    save(fig, out_dir, "fits_cyclic_noise")
+    out_dir.save(fig, "fits_cyclic_noise")
     figs.append(Figure("fits_cyclic_noise", "True and estimated cyclic noise and the residual of one approach, the 0.1 m band shaded (FITS paper Figs. 13/14)"))
     # Figs. 15-20: errors against the requirement, per INS
     variants = list(dict.fromkeys(ep["ins"]))
@@ -128,7 +127,7 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
             if i == 0 and j == 0:
                 ax.legend(fontsize=7)
     fig.tight_layout()
-    save(fig, out_dir, "fits_requirement")
+    out_dir.save(fig, "fits_requirement")
     figs.append(Figure("fits_requirement", "FITS minus truth, cross-track and vertical, against the 0.015 deg (dashed) and 0.05 deg lines with the 2 ft/1 ft floors, per INS (FITS paper Figs. 15-20)"))
     # section VI: per-approach residual RMS of each INS
     appr = rows[(rows["kind"] == "approach") & ~rows["diverged"].astype(bool)]
@@ -143,6 +142,6 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
             ax.legend(fontsize=8)
         ax.set(ylabel="RMS of N_hat - N per approach (m)", title="Cyclic-noise residual by INS (paired approaches)")
         ax.grid(alpha=0.3)
-        save(fig, out_dir, "fits_ins_residual")
+        out_dir.save(fig, "fits_ins_residual")
         figs.append(Figure("fits_ins_residual", "Per-approach RMS of the cyclic-noise residual for each INS on the same approaches and WAAS noise, with the analytic floor of white + Gauss-Markov noise (FITS paper section VI)"))
     return figs

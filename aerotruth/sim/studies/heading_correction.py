@@ -298,7 +298,6 @@ class HeadingCorrection(Study):
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-        from aerotruth.app.figures import save
 
         figs = []
         wide = summary.tables.get("per_aircraft")
@@ -316,7 +315,7 @@ class HeadingCorrection(Study):
             ax.set_ylabel("RMS vector difference (kt)")
             ax.legend(fontsize=8)
             ax.set_title("Per aircraft before/after, combined references (wind paper Fig. 9)")
-            save(fig, out_dir, "heading_correction_per_aircraft")
+            out_dir.save(fig, "heading_correction_per_aircraft")
             figs.append(Figure("heading_correction_per_aircraft", "RMS vector difference per aircraft before and after "
                                "(poor: table uploaded; control: unchanged)"))
         alt = summary.tables.get("rms_by_altitude")
@@ -333,7 +332,7 @@ class HeadingCorrection(Study):
             ax.legend(fontsize=8)
             ax.set_title(f"Trustworthy: the day's RMS vector difference < {float(daily['threshold_kt'].iloc[0]):g} kt "
                          "(wind paper Fig. 10)", fontsize=9)
-            save(fig, out_dir, "heading_correction_trustworthy")
+            out_dir.save(fig, "heading_correction_trustworthy")
             figs.append(Figure("heading_correction_trustworthy", "Trustworthy and untrustworthy aircraft per day, "
                                "before and after the tables (every aircraft of the fleet)"))
         corr = learned.get("corrections")
@@ -368,7 +367,7 @@ class HeadingCorrection(Study):
                     ax.grid(alpha=0.3)
                 axes[0][0].set_ylabel("heading error (deg)")
                 fig.suptitle("Heading error vs measured heading with the fit (wind paper Figs. 3/8)")
-                save(fig, out_dir, "heading_correction_fits")
+                out_dir.save(fig, "heading_correction_fits")
                 figs.append(Figure("heading_correction_fits", "Fit-period heading errors of the poorest aircraft "
                                    "with the fitted eq. 2 curve"))
         return figs
@@ -460,7 +459,6 @@ def _altitude_panels(panels, out_dir: Path, stem: str, xlabel: str, width: float
     """One row of panels (title, [(rows, column, label, color)]) of RMS vs altitude-band middle."""
     import matplotlib.pyplot as plt
 
-    from aerotruth.app.figures import save
 
     fig, axes = plt.subplots(1, len(panels), figsize=(width * len(panels), 4), sharex=True, sharey=True, squeeze=False)
     for ax, (name, lines) in zip(axes[0], panels):
@@ -472,7 +470,7 @@ def _altitude_panels(panels, out_dir: Path, stem: str, xlabel: str, width: float
     axes[0][0].set_ylabel("pressure altitude (ft)")
     axes[0][0].legend(fontsize=7)
     fig.suptitle(title, fontsize=10)
-    save(fig, out_dir, stem)
+    out_dir.save(fig, stem)
     return Figure(stem, caption)
 
 

@@ -390,7 +390,6 @@ class InspectionStudy(FitsStudy):
             REQUIREMENTS,
             required_error_m,
         )
-        from aerotruth.app.figures import save
 
         sysrows = rows[(rows["kind"] == "system") & ~rows["diverged"].astype(bool)] if len(rows) else rows
         if sysrows.empty:
@@ -414,7 +413,7 @@ class InspectionStudy(FitsStudy):
             axes[i, 0].set_ylabel(f"{label} recovery error ({unit})")
         fig.suptitle("Recovered minus injected facility error, per truth system", fontsize=11)
         fig.tight_layout()
-        save(fig, out_dir, "inspection_recovery")
+        out_dir.save(fig, "inspection_recovery")
         figs = [Figure("inspection_recovery", "Recovery error (recovered - injected) of the localizer alignment (top) and the glide-path angle error (bottom) against the injected value, per truth system")]
         ep = rows[rows["kind"] == "epoch"]
         fig, axes = plt.subplots(2, len(names), figsize=(3.2 * len(names), 6), squeeze=False, sharex=True)
@@ -436,7 +435,7 @@ class InspectionStudy(FitsStudy):
                        ylabel=f"{lab} position error (m)" if j == 0 else "")
                 ax.grid(alpha=0.3)
         fig.tight_layout()
-        save(fig, out_dir, "inspection_requirement")
+        out_dir.save(fig, "inspection_requirement")
         figs.append(Figure("inspection_requirement", "Position error of each truth system against the 0.015 deg (dashed) and 0.05 deg requirement lines"))
         prof = rows[rows["kind"] == "profile"]
         if len(prof):
@@ -456,7 +455,7 @@ class InspectionStudy(FitsStudy):
             for ax in axes:
                 ax.grid(alpha=0.3)
             fig.tight_layout()
-            save(fig, out_dir, "inspection_mission_profile")
+            out_dir.save(fig, "inspection_mission_profile")
             figs.append(Figure("inspection_mission_profile", "The flown mission's profile beside real navaid-calibration ADS-B tracks: altitude over time, altitude and ground-speed distributions"))
         mr = rows[(rows["kind"] == "mission_run") & ~rows["diverged"].astype(bool)]
         if len(mr):
@@ -475,7 +474,7 @@ class InspectionStudy(FitsStudy):
                 ax.grid(alpha=0.3)
             axes[0].legend(fontsize=7)
             fig.tight_layout()
-            save(fig, out_dir, "inspection_mission_errors")
+            out_dir.save(fig, "inspection_mission_errors")
             figs.append(Figure("inspection_mission_errors", "Each truth system's position error by run type over the flown mission"))
         return figs
 

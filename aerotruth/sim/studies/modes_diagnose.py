@@ -148,7 +148,6 @@ class ModesDiagnose(Study):
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-        from aerotruth.app.figures import save
 
         found = rows[rows["rank"] > 0]
         fig, ax = plt.subplots(figsize=(6, 3.5))
@@ -162,7 +161,7 @@ class ModesDiagnose(Study):
         ax.set_xlabel("estimated size (deg, s or relative)")
         ax.set_title(f"Findings on {summary.metrics['days']} simulated Mode-S days")
         ax.grid(alpha=0.3)
-        save(fig, out_dir, "modes_diagnose_findings")
+        out_dir.save(fig, "modes_diagnose_findings")
         return [Figure("modes_diagnose_findings", "Effects diagnose finds in simulated Mode-S data, with the hidden size")]
 
 

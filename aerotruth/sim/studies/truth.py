@@ -166,7 +166,6 @@ class TruthFlights(Study):
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-        from aerotruth.app.figures import save
         from aerotruth.truth.airports import airport
 
         figs = []
@@ -192,7 +191,7 @@ class TruthFlights(Study):
             ax.grid(alpha=0.3)
         fig.suptitle(f"Leg metrics of {len(flown)} flown legs ({summary.metrics['legs_diverged']} diverged)")
         fig.tight_layout()
-        save(fig, out_dir, "truth_leg_metrics")
+        out_dir.save(fig, "truth_leg_metrics")
         figs.append(Figure("truth_leg_metrics", "Cumulative distribution of the per-leg truth metrics, with the foundation acceptance limits"))
 
         fig, ax = plt.subplots(figsize=(7, 5))
@@ -208,7 +207,7 @@ class TruthFlights(Study):
         ax.set_ylabel("latitude (deg)")
         ax.set_title("Legs flown (red: diverged)")
         ax.grid(alpha=0.3)
-        save(fig, out_dir, "truth_legs_map")
+        out_dir.save(fig, "truth_legs_map")
         figs.append(Figure("truth_legs_map", "Legs flown by the campaign, airport to airport"))
         return figs
 

@@ -300,7 +300,6 @@ class WindClimatology(Study):
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-        from aerotruth.app.figures import save
 
         figs = []
         fig, ax = plt.subplots(figsize=(5.5, 4.5))
@@ -314,7 +313,7 @@ class WindClimatology(Study):
         ax.set_ylabel("flight level")
         ax.grid(alpha=0.3)
         ax.set_title("Truth wind speed by flight level")
-        save(fig, out_dir, "wind_speed_by_level")
+        out_dir.save(fig, "wind_speed_by_level")
         figs.append(Figure("wind_speed_by_level", "Horizontal truth wind speed by flight level over all regions, days and hours"))
 
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
@@ -329,7 +328,7 @@ class WindClimatology(Study):
         ax.grid(alpha=0.3)
         fig.autofmt_xdate()
         ax.set_title("Day-to-day variation of the truth wind")
-        save(fig, out_dir, "wind_speed_by_day")
+        out_dir.save(fig, "wind_speed_by_day")
         figs.append(Figure("wind_speed_by_day", "Daily mean truth wind speed per region and flight level"))
 
         vs = summary.tables.get("versus_reference")
@@ -356,7 +355,7 @@ class WindClimatology(Study):
                 ax.grid(alpha=0.3)
                 ax.legend(fontsize="small", title="red: off")
             fig.suptitle(f"Truth atmosphere vs {str(vs['reference'].iloc[0]).split(':')[0]}", fontsize=9)
-            save(fig, out_dir, "wind_versus_reference")
+            out_dir.save(fig, "wind_versus_reference")
             figs.append(Figure("wind_versus_reference", "Truth wind statistics against the cited climatology, per region, "
                                "season and level (red: off by more than the tolerance)"))
         return figs

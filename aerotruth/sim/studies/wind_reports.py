@@ -249,7 +249,6 @@ class WindReports(Study):
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-        from aerotruth.app.figures import save
 
         figs = []
         by_alt = summary.tables.get("rms_by_altitude")
@@ -265,7 +264,7 @@ class WindReports(Study):
             axes[0].set_ylabel("pressure altitude (ft)")
             axes[0].legend(fontsize=7)
             fig.suptitle("Report minus reference, combined references (wind paper Figs. 5/6)")
-            save(fig, out_dir, "wind_reports_rms_altitude")
+            out_dir.save(fig, "wind_reports_rms_altitude")
             figs.append(Figure("wind_reports_rms_altitude", "RMS vector difference and its components by altitude, "
                                "poor and healthy heading systems (combined references)"))
         obs = observations_only(rows)
@@ -279,7 +278,7 @@ class WindReports(Study):
             ax.grid(alpha=0.3)
             ax.legend(fontsize=7)
             ax.set_title("Heading error of the simulated systems (level reports)")
-            save(fig, out_dir, "wind_reports_heading_error")
+            out_dir.save(fig, "wind_reports_heading_error")
             figs.append(Figure("wind_reports_heading_error", "Heading error vs measured heading, level reports, "
                                "against the truth (what the method has to find)"))
         return figs
