@@ -148,7 +148,7 @@ def test_the_logs_lever_arms_are_used():
     Without the lever-arm column the same log reads as a 2.4-m DGPS offset (diagnose
     ignored the column and found exactly that on aerotruth's own logs). The scan for
     unflagged jumps skipping windows that hold a flagged one is checked by
-    benchmarks/diagnose_fits_sim_null.py (this generator puts the strongest step on the
+    validation/diagnose_fits_sim_null.py (this generator puts the strongest step on the
     flagged epoch, which was always skipped)."""
     log, _ = gen.make_log(20, seed=33, jumps_per_s=1 / 120.0, jump_sigma=1.0, lever_arm_m=2.4)
     log = log.assign(ra_lever_arm_m=2.4)

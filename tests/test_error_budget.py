@@ -1,4 +1,4 @@
-"""benchmarks/error_budget.py's table bounds on a hand-built case: a heading error that is
+"""validation/error_budget.py's table bounds on a hand-built case: a heading error that is
 exactly a sinusoid of the magnetic heading is removed entirely by the full static table,
 which then leaves only the reference model's error."""
 
@@ -9,7 +9,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "validation"))
 import error_budget  # noqa: E402
 
 

@@ -1,4 +1,4 @@
-"""benchmarks/fit_noise.py's re-scoring on hand-built reports: the uploaded table undone
+"""validation/fit_noise.py's re-scoring on hand-built reports: the uploaded table undone
 (the heading before it recovered from the corrected one) and another applied equals
 reporting with that other table from the start."""
 
@@ -11,7 +11,7 @@ import pytest
 
 from aerotruth.analysis.wind.heading_correction import LUT_COLUMNS
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "validation"))
 import fit_noise  # noqa: E402
 
 

@@ -168,7 +168,7 @@ def test_standard_errors_are_within_1_2_of_the_cramer_rao_bound():
 
 
 def test_bootstrap_intervals_run_and_cover_in_a_loose_band():
-    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+    sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "validation"))
     import heading_coverage
 
     res = heading_coverage.coverage(reps=12, n_boot=60, flights=16, seed=3)

@@ -1,4 +1,4 @@
-"""benchmarks/prediction_uncertainty.py on run tables made by hand: cells linear in a
+"""validation/prediction_uncertainty.py on run tables made by hand: cells linear in a
 calibrated parameter with known slopes and seed spreads, so the parameter's standard
 error, the predicted cells' calibration spread and the conditional prediction are known
 by hand."""
@@ -10,7 +10,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "benchmarks"))
+sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "validation"))
 import prediction_uncertainty as pu  # noqa: E402
 
 N = 16

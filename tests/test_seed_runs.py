@@ -1,4 +1,4 @@
-"""benchmarks/seed_runs.py: the seed grid's parameter edits reach the campaign that runs."""
+"""validation/seed_runs.py: the seed grid's parameter edits reach the campaign that runs."""
 
 import sys
 from pathlib import Path
@@ -9,7 +9,7 @@ import yaml
 from aerotruth.sim.campaign_file import load_campaign
 
 ROOT = Path(__file__).resolve().parents[1]
-sys.path.insert(0, str(ROOT / "benchmarks"))
+sys.path.insert(0, str(ROOT / "validation"))
 import seed_runs  # noqa: E402
 
 

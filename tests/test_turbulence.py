@@ -49,7 +49,7 @@ def test_patches_follow_the_probabilities_of_exceedance_and_their_mean_length():
 
 @pytest.mark.parametrize("u,sigma", [(0.0, 0.095), (0.5, 0.212), (0.3, 0.149 + 0.2 * (0.212 - 0.149)), (1.0, 0.913)])
 def test_chop_intensity_is_the_a320_quantile_interpolated(u, sigma):
-    # hand-interpolated between the tabulated quantiles (benchmarks/chop_climatology.py)
+    # hand-interpolated between the tabulated quantiles (validation/chop_climatology.py)
     assert chop_sigma_w(u) == pytest.approx(sigma)
 
 

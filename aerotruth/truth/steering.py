@@ -5,7 +5,7 @@ What it stands for. In straight flight above 10,000 ft the real A320 recorder ex
 (../shared/real-data/fuelflow_a320.json.gz, 1 Hz) banks 0.32 deg rms (|roll| < 3 deg,
 10-s windows, as recorded in 0.35-deg steps), and that bank turns the aircraft: the window's
 track rate regresses on g tan(roll) / V with slope 0.71 and correlation 0.81
-(`python benchmarks/turn_stats.py`, `wings_level.*`). The autopilot is weaving by fractions
+(`python validation/turn_stats.py`, `wings_level.*`). The autopilot is weaving by fractions
 of a degree on its own commands; the load factor's light chop (aerotruth.truth.turbulence),
 fed to the SAAB 340 truth, moves its wings-level bank by 0.095 deg rms only (slope 0.22,
 correlation 0.34). The recorder cannot say what the wandering reference is (the FMS's
@@ -25,7 +25,7 @@ Chautauqua campaign at the A320's own speeds. At the SAAB 340's cruise TAS (~130
 bank error SIGMA is a track error SIGMA g tau / V = 0.30 SIGMA.
 
 Calibration (2 Mesaba aircraft-days, 13 legs, truth rounded to the recorder's steps,
-`python benchmarks/turn_stats.py --days 2`), against the A320's wings-level bank rms 0.324
+`python validation/turn_stats.py --days 2`), against the A320's wings-level bank rms 0.324
 deg and its share of 1-s roll changes of two or more steps above 10,000 ft, 5.5 % (the
 criterion of issue 8 is the p95 of that change, 0.70 deg/s). First explored as a track
 error (SIGMA_track below, in the track the loop steers to; bank-equivalent 3.3 x that at
@@ -41,7 +41,7 @@ cruise):
 
 TAU 5 s is the one that gives the A320's share of two-step changes with its bank rms;
 SIGMA = 0.65 deg of bank is the 0.2 deg of track at cruise speed (4 days:
-`benchmarks/turn_stats.py --days 4`, figures in the commit that made it the bank).
+`validation/turn_stats.py --days 4`, figures in the commit that made it the bank).
 
 The bank's autocorrelation is where the model and the recorder part: the A320's stays
 positive (0.62, 0.44, 0.30, 0.09 at 1, 2, 5, 10 s), the adopted model's turns negative

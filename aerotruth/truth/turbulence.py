@@ -22,7 +22,7 @@ curves put no turbulence at all on 90 % of the path above 7,500 ft, while the re
 recorder extract (../shared/real-data) shows continuous low-level vertical-load and roll
 activity in cruise. Chop patches (same patch lengths) carry an rms gust sigma_w drawn from
 the distribution measured on that recorder (CHOP_SIGMA_W_QUANTILES, derived in
-benchmarks/chop_climatology.py: the A320's vertical load factor per 120-s window above
+validation/chop_climatology.py: the A320's vertical load factor per 120-s window above
 10,000 ft divided by its gust load factor and the share of a Dryden gust's rms the
 recorder keeps), applied at every height. The gusts are the first-order forms of the
 Dryden model that JSBSim's milspec type uses (MIL-HDBK-1797 as in Yeager 1998, eqs. 30-33:
@@ -150,7 +150,7 @@ class TurbulencePatches:
         self.next_m = path_m + float(self.rng.exponential(PATCH_MEAN_M))
 
 
-# sigma_w (m/s) at these probabilities of the A320's windows (benchmarks/chop_climatology.py)
+# sigma_w (m/s) at these probabilities of the A320's windows (validation/chop_climatology.py)
 CHOP_QUANTILE_PROBS = (0.0, 0.05, 0.1, 0.25, 0.5, 0.75, 0.9, 0.95, 1.0)
 # (90 windows of one A320 flight, FL160-FL360; an upper bound: the load factor also holds
 # the autopilot's own pitch activity). Quantization of the recorder removed.

@@ -11,7 +11,7 @@ sensor seed on them. Nothing is hidden, so every finding is false (<= 5 per 100 
 The model is the campaign's first INS: another INS (`--ins`) of a worse grade than the
 first draws `ins_bias` findings by design; the others are still false.
 
-    python benchmarks/diagnose_fits_sim_null.py [--datasets 100] [--approaches 12]
+    python validation/diagnose_fits_sim_null.py [--datasets 100] [--approaches 12]
         [--campaign campaigns/fits_tactical.yaml] [--ins LABEL]
 
 Prints `label: value` lines.

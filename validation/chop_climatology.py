@@ -19,7 +19,7 @@ aircraft-days flown in turbulence, the SAAB 340's own load factor (from the trut
 vertical velocity, 1-Hz samples, the same windows) beside its quasi-static expectation
 sigma_w x K x F (K from the SAAB model's CL_alpha 5.40/rad, 12,000 kg, S = 41.81 m^2).
 
-    python benchmarks/chop_climatology.py [--truth-days 3]
+    python validation/chop_climatology.py [--truth-days 3]
 """
 
 from __future__ import annotations

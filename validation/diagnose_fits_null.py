@@ -10,7 +10,7 @@ the INS bias scale, the WAAS time-tag latency and the TVPS scale; writes the pow
 default 3 m: crossings scatter by metres, coupled or flown by hand; on the centreline every
 time, a TVPS scale cannot be told from an offset and is not tested).
 
-    python benchmarks/diagnose_fits_null.py [--datasets 100] [--out runs/diagnose_fits_power.png]
+    python validation/diagnose_fits_null.py [--datasets 100] [--out runs/diagnose_fits_power.png]
         [--threshold-y-sd 3.0]
 """
 

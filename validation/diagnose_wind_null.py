@@ -7,7 +7,7 @@ is false: the family-wise level is nominally 2 % (1 % library, 1 % screening), s
 datasets should give about 2 and must give <= 5. Power: the share of datasets where a
 hidden effect of a given size is ranked first.
 
-    python benchmarks/diagnose_wind_null.py [--datasets 100] [--power 20] [--figure FILE]
+    python validation/diagnose_wind_null.py [--datasets 100] [--power 20] [--figure FILE]
 
 Prints `label: value` lines.
 """

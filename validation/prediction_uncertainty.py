@@ -25,7 +25,7 @@ the standard error of the seeds' mean that paper_tables.py judges with.
 
 Neither changes a verdict: the judged numbers are paper_tables.py's.
 
-    python benchmarks/prediction_uncertainty.py RUN... [--frozen NAME=VALUE ...]
+    python validation/prediction_uncertainty.py RUN... [--frozen NAME=VALUE ...]
         [--variant NAME=VALUE RUN... ...]
 
 Prints `label: value` lines: `sensitivity.<cell>.<name>: slope se (kn per unit)`,

@@ -7,7 +7,7 @@ Prints `label: value` lines:
 Datasets: Mesaba schedule days (first 4 legs) of distinct aircraft, each with its own
 sensor seed; truth is flown once into the truth store and reused.
 
-    python benchmarks/diagnose_null.py [--days 20] [--seeds 5] [--power 10]
+    python validation/diagnose_null.py [--days 20] [--seeds 5] [--power 10]
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ error of its along-axis sinusoid term from either leg (the cross-track component
 wind error flips sign with the heading, and so does the term). Halves that split a day's
 legs share that error, understate the half-data noise and with it k.
 
-    python benchmarks/fit_noise.py RUN_DIR [RUN_DIR ...] [--splits 4] [--by day|flight]
+    python validation/fit_noise.py RUN_DIR [RUN_DIR ...] [--splits 4] [--by day|flight]
 
 Prints per run `run.<name>.poor_after_kt: stored reproduced half infinite` and over the
 runs `mean.<cell>_kt: mean se` for poor after and adjusted after (as fitted, with half

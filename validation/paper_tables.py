@@ -8,8 +8,8 @@ value, the cell's role (calibrated or predicted) and, for the cells the method i
 judges (the poor group's adjusted after cell and the improvement, total RMS), whether the
 mean lands within max(1.0 kn, 2 standard errors) of the paper.
 
-    python benchmarks/paper_tables.py RUN_DIR [RUN_DIR ...] [--markdown]
-    python benchmarks/paper_tables.py RUN_DIR ... --baseline BASE_DIR ...
+    python validation/paper_tables.py RUN_DIR [RUN_DIR ...] [--markdown]
+    python validation/paper_tables.py RUN_DIR ... --baseline BASE_DIR ...
 
 Prints `label: value` lines (`cell.<group>.<period>.<component>: mean sd se paper role`),
 `judged.<group>.<period>: pass|fail (|mean - paper| = x <= tol y)` and

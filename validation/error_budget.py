@@ -26,7 +26,7 @@ the poor group's after heading error (rms, deg) by octant of measured magnetic h
 with its table (`_table_deg`) and with the full static table (`_full_deg`), and the share
 of reports there.
 
-    python benchmarks/error_budget.py RUN_DIR [RUN_DIR ...]
+    python validation/error_budget.py RUN_DIR [RUN_DIR ...]
 
 Prints `label: mean sd` lines over the runs (one per campaign seed):
 `budget.<group>.<period>.<part>_kt`, `heading.<group>.<period>.<phase>_deg` (rms) and

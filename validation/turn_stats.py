@@ -18,7 +18,7 @@ deg): their rms, the rms track rate, and how far they are coordinated turning
 1 for pure turning, ~0 for roll that does not turn the aircraft); and the bank's
 autocorrelation at 1, 2, 5 and 10 s in straight stretches of >= 60 s (how long the weave lasts).
 
-    python benchmarks/turn_stats.py [--days 3] [--turbulence]
+    python validation/turn_stats.py [--days 3] [--turbulence]
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ go-around). Prints `label: value` lines: the share stabilised at 1,000 ft (withi
 on localizer and glide slope, Vref -5/+10 kt, sink <= 1,000 fpm), medians and worst
 cases of the figures, divergences by seed (none dropped silently).
 
-    python benchmarks/approaches.py [--n 50]
+    python validation/approaches.py [--n 50]
 """
 
 from __future__ import annotations

@@ -8,7 +8,7 @@ The aircraft's motion cancels in WAAS - INS (eq. 3), so each approach is its WAA
 (eq. 4) on 450 one-second epochs. Prints `label: value` lines per grid cell and writes the
 figure to --out (PNG).
 
-    python benchmarks/fits_noise_sweep.py [--n 40] [--out runs/fits_noise_sweep.png]
+    python validation/fits_noise_sweep.py [--n 40] [--out runs/fits_noise_sweep.png]
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ bootstrap-t intervals of the 8 table entries (lut_k = -d(z_k), the true table th
 deviation's values at the nodes): `coverage_lut_000: ...` and their range
 `coverage_lut_min/max`.
 
-    python benchmarks/heading_coverage.py [--reps 1000] [--n-boot 200] [--flights 40]
+    python validation/heading_coverage.py [--reps 1000] [--n-boot 200] [--flights 40]
 """
 
 from __future__ import annotations

@@ -11,7 +11,7 @@ Prints `label: value` lines: the median over legs of the circular standard devia
 (deg) of the true heading in the climb (before the first cruise sample) and the descent
 (after the last), both ways, and the legs flown.
 
-    python benchmarks/heading_spread.py [--days 3]
+    python validation/heading_spread.py [--days 3]
 """
 
 from __future__ import annotations

@@ -3,14 +3,14 @@ behind each calibration and prediction in the wind-paper campaigns' YAML comment
 
 For every seed: copies the campaign with `seed:` set and each `--set` applied, runs it
 (`aerotruth run COPY --size SIZE --out OUT/<tag>-<seed>`, one after the other, each using
-all cores), then prints the paper-table summary of the finished runs (benchmarks/
+all cores), then prints the paper-table summary of the finished runs (validation/
 paper_tables.py: mean, seed-to-seed sd, standard error, judged cells, calibration chi2).
 A seed whose run directory already holds metrics.json is not run again, so a grid can be
 stopped and resumed. Sensor-only variants re-use the flown truth from the truth store
 (seconds a seed); the first run of a seed flies it (minutes).
 
-    python benchmarks/seed_runs.py campaigns/penair_2010.yaml --seeds 2010-2014 --out runs/seeds
-    python benchmarks/seed_runs.py campaigns/penair_2010.yaml --seeds 2010-2014 --out runs/seeds \\
+    python validation/seed_runs.py campaigns/penair_2010.yaml --seeds 2010-2014 --out runs/seeds
+    python validation/seed_runs.py campaigns/penair_2010.yaml --seeds 2010-2014 --out runs/seeds \\
         --tag hi620 --set studies.heading_correction.sensors.fleets.penair.heading.poor_hard_iron_sigma_nT=620 \\
         --baseline-tag base
 

@@ -14,7 +14,7 @@ table and with the field-aware correction (pooled over aircraft), and `gain_kt`
 (constant minus field-aware) with its standard error over repetitions (generator) or over
 aircraft (run).
 
-    python benchmarks/field_aware_gain.py [--reps 5] [--obs FILE]
+    python validation/field_aware_gain.py [--reps 5] [--obs FILE]
 """
 
 from __future__ import annotations

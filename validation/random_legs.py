@@ -4,7 +4,7 @@ truth or as a counted, logged divergence with its seed; nothing fails silently.
 
 Prints one line per divergence and `label: value` totals:
 
-    python benchmarks/random_legs.py [--legs 200] [--workers 2] [--aircraft NAME] [--seed 2009]
+    python validation/random_legs.py [--legs 200] [--workers 2] [--aircraft NAME] [--seed 2009]
 """
 
 from __future__ import annotations

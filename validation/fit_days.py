@@ -14,7 +14,7 @@ Prints per fleet and k: `residual_deg.<fleet>.<k>d: median p90` over aircraft x
 repetitions (poor-class aircraft only: the ones that get tables), the legs those days
 hold, and `days_for.<fleet>.<x>deg:` the smallest k whose median residual is under x.
 
-    python benchmarks/fit_days.py RUN_DIR [--days 1 2 3 5 8] [--reps 20]
+    python validation/fit_days.py RUN_DIR [--days 1 2 3 5 8] [--reps 20]
 """
 
 from __future__ import annotations

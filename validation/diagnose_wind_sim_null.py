@@ -13,7 +13,7 @@ required. Power: the share of datasets in which a hidden wind-speed bias of the 
 analyses (analysis wind = (1 - k) x smoothed truth, k = 2, 5, 10 %) is ranked first as a
 reference bias (a bias along the wind).
 
-    python benchmarks/diagnose_wind_sim_null.py [--datasets 100] [--aircraft 12] [--days 5]
+    python validation/diagnose_wind_sim_null.py [--datasets 100] [--aircraft 12] [--days 5]
         [--campaign campaigns/mesaba_2009.yaml] [--power 10] [--figure FILE]
 
 Prints `label: value` lines.
