@@ -18,7 +18,9 @@ from pathlib import Path
 import aerotruth
 
 PACKAGE_ROOT = Path(aerotruth.__file__).resolve().parent
-RESULT_LIBRARIES = ("jsbsim", "numpy", "scipy", "pandas", "pyarrow", "ppigrf", "pyproj")
+# numba and llvmlite too: the wind method's compiled loops (analysis.wind.robust_fit,
+# fast_trig) use fastmath, whose results are fixed only per compiler build and processor
+RESULT_LIBRARIES = ("jsbsim", "numpy", "scipy", "pandas", "pyarrow", "ppigrf", "pyproj", "numba", "llvmlite")
 # Orchestration: how tasks are scheduled, stored and reported never changes a task's
 # numbers (the resolved configuration is digested separately), so these are not followed.
 ORCHESTRATION = frozenset({
@@ -134,9 +136,23 @@ def _named_data_files(module: Path) -> list[Path]:
     return out
 
 
+@lru_cache(maxsize=1)
+def cpu_name() -> str:
+    """The host processor's model name (/proc/cpuinfo on Linux, else the platform's word for
+    it): fastmath-compiled loops may round differently on another processor."""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.lower().startswith("model name"):
+                return line.split(":", 1)[1].strip()
+    except OSError:
+        pass
+    return platform.processor() or platform.machine() or "unknown"
+
+
 def library_versions(names: tuple[str, ...] = RESULT_LIBRARIES) -> dict[str, str]:
-    """Versions of Python and of the named installed packages (default: those that shape results)."""
-    out = {"python": platform.python_version()}
+    """Versions of Python and of the named installed packages (default: those that shape
+    results), and the processor's name (`cpu`)."""
+    out = {"python": platform.python_version(), "cpu": cpu_name()}
     for name in names:
         try:
             out[name] = metadata.version(name)

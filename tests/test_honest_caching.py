@@ -74,3 +74,27 @@ def test_edits_of_a_source_constant_or_an_xml_file_rerun_what_depends_on_them(tm
     after_xml, err = _run(tmp_path)
     assert _counts(err) == (1, 1, 1)  # the truth re-flies; the wind climatology does not depend on aircraft XML
     assert after_xml["wind_climatology.FL250.speed_mean_mps"] == edited["wind_climatology.FL250.speed_mean_mps"]
+
+
+def test_numba_version_and_processor_are_in_the_code_digest(monkeypatch):
+    """The wind method's compiled loops use fastmath: a stored result is reused only on the
+    same numba build and processor model."""
+    from importlib import metadata
+
+    from aerotruth import digests
+
+    source = "module:aerotruth.sim.studies.wind_reports"
+    digests.code_digest.cache_clear()
+    base = digests.code_digest(source)
+    real = metadata.version
+    monkeypatch.setattr(digests.metadata, "version", lambda n: "0.0.1" if n == "numba" else real(n))
+    digests.code_digest.cache_clear()
+    other_numba = digests.code_digest(source)
+    monkeypatch.setattr(digests.metadata, "version", real)
+    monkeypatch.setattr(digests, "cpu_name", lambda: "Some Other CPU @ 2.0GHz")
+    digests.code_digest.cache_clear()
+    other_cpu = digests.code_digest(source)
+    monkeypatch.undo()
+    digests.code_digest.cache_clear()
+    assert len({base, other_numba, other_cpu}) == 3
+    assert digests.code_digest(source) == base

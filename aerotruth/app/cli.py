@@ -6,7 +6,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import re
 import sys
+import typing
 from pathlib import Path
 
 import aerotruth
@@ -33,16 +35,35 @@ def _non_negative_float(text: str) -> float:
     return value
 
 
-def _waas_latency_s(text: str) -> float:
-    """A WAAS time-tag latency: seconds, within the FitsSpec's +-2 s."""
-    try:
-        value = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected seconds, got {text!r}") from None
-    if not -2.0 <= value <= 2.0:
-        raise argparse.ArgumentTypeError(f"expected -2 to 2 s (receiver output latencies are tens to hundreds of ms), "
-                                         f"got {value:g}")
-    return value
+def spec_value(model, field: str, unit: str = ""):
+    """An argparse type that takes a number as the pydantic `model`'s `field` does: its bounds
+    are declared once, in the model, and a refusal states them and what the field is."""
+    from pydantic import TypeAdapter, ValidationError
+
+    info = model.model_fields[field]
+    adapter = TypeAdapter(typing.Annotated[(info.annotation, *info.metadata)] if info.metadata else info.annotation)
+    bounds = {k: getattr(m, k) for m in info.metadata for k in ("ge", "gt", "le", "lt") if getattr(m, k, None) is not None}
+    lo = bounds.get("ge", bounds.get("gt"))
+    hi = bounds.get("le", bounds.get("lt"))
+    span = (f"{lo:g} to {hi:g}" if lo is not None and hi is not None else f"at least {lo:g}" if lo is not None
+            else f"at most {hi:g}" if hi is not None else "a number")
+    what = re.sub(r"\s*\([^()]*\)$", "", (info.description or "").split(":")[0])
+    what = f" ({what})" if what else ""
+    expected = f"expected {span}{' ' + unit if unit else ''}{what}"
+
+    def parse(text: str):
+        try:
+            number = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{expected}, got {text!r}") from None
+        if not math.isfinite(number):
+            raise argparse.ArgumentTypeError(f"{expected}, got {text!r}")
+        try:
+            return adapter.validate_python(number if info.annotation is float else text)
+        except ValidationError:
+            raise argparse.ArgumentTypeError(f"{expected}, got {text!r}") from None
+
+    return parse
 
 
 def _pass_height_ft(text: str) -> float:
@@ -236,6 +257,8 @@ def _add_campaign_commands(sub) -> None:
 
 
 def build_parser() -> argparse.ArgumentParser:
+    from aerotruth.analysis.fits.filter import FitsSpec
+
     p = argparse.ArgumentParser(prog="aerotruth", description=__doc__.split("\n\n")[0])
     p.add_argument("--version", action="version", version=f"aerotruth {aerotruth.__version__}")
     sub = p.add_subparsers(dest="command", required=True)
@@ -293,8 +316,8 @@ def build_parser() -> argparse.ArgumentParser:
                                       "requirement figure too.")
     fits.add_argument("log", help="approach log (CSV, .csv.gz or Parquet, docs/data-formats.md)")
     fits.add_argument("--out", required=True, help="output folder")
-    fits.add_argument("--ra-lever-arm", type=float, default=0.0, help="height of the log's reference point above the radar-altimeter antenna (m)")
-    fits.add_argument("--waas-latency", type=_waas_latency_s, default=0.0,
+    fits.add_argument("--ra-lever-arm", type=spec_value(FitsSpec, "ra_lever_arm_m", "m"), default=0.0, help="height of the log's reference point above the radar-altimeter antenna (m)")
+    fits.add_argument("--waas-latency", type=spec_value(FitsSpec, "waas_latency_s", "s"), default=0.0,
                       help="seconds by which the log's WAAS positions are stamped late (what `aerotruth diagnose` finds as "
                            "waas_latency); each epoch is put at its time minus this")
     fits.set_defaults(func=_cmd_fits)

@@ -6,7 +6,7 @@
     x_D'' = beta_D,                  phi_D' = eps_D
 
 beta: accelerometer error (bias + white), eps: gyro error (bias + white), phi: tilt,
-g = 9.80665 m/s^2, R = 6.371e6 m. Each horizontal channel is x'' = a + g phi,
+g = G0 = 9.80665 m/s^2, R = EARTH_RADIUS_M = 6,371,008.8 m (aerotruth.units, IUGG mean radius). Each horizontal channel is x'' = a + g phi,
 phi' = -x'/R + e (with a = beta_N, e = eps_E for north; a = beta_E, e = -eps_N for east,
 phi = -phi_N), whose exact solution with the Schuler frequency w = sqrt(g / R) is
 
@@ -38,9 +38,8 @@ import numpy as np
 from pydantic import Field
 
 from aerotruth.schema import Section
+from aerotruth.units import EARTH_RADIUS_M, G0
 
-G0 = 9.80665
-EARTH_RADIUS_M = 6.371e6
 MICRO_G = 1e-6 * G0
 DEG_PER_H = math.radians(1.0) / 3600.0
 

@@ -125,7 +125,7 @@ def inertial_vertical_error(t: np.ndarray, draw: InertialErrors) -> np.ndarray:
     model, aerotruth.analysis.fits.afis): x'' = w_v^2 x + beta, w_v^2 = 2 g / R, solved as eq. 4's
     horizontal channels are (closed form for the bias and initial errors, cumulative sums
     of the white noise against cosh, sinh)."""
-    from aerotruth.sensors.inertial_errors import EARTH_RADIUS_M, G0
+    from aerotruth.units import EARTH_RADIUS_M, G0
 
     t = np.asarray(t, float) - float(t[0])
     w = np.sqrt(2.0 * G0 / EARTH_RADIUS_M)

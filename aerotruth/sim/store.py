@@ -42,7 +42,8 @@ from aerotruth.sim.tasks import Task
 from aerotruth.sim.worker import META_TASK_ID, META_TASK_KEY
 
 METRIC_SIGNIFICANT_DIGITS = 10
-_VERSIONED = ("aerotruth", "numpy", "scipy", "pandas", "pyarrow", "pydantic", "jsbsim", "ppigrf", "dask", "distributed", "pyproj")
+_VERSIONED = ("aerotruth", "numpy", "scipy", "pandas", "pyarrow", "pydantic", "jsbsim", "ppigrf", "dask", "distributed", "pyproj",
+              "numba", "llvmlite")
 META_INPUT_DIGEST = b"aerotruth.input_digest"
 
 

@@ -26,7 +26,7 @@ from aerotruth.truth.steering import SteeringWander
 from aerotruth.truth.track import PHASES, TruthTrack
 from aerotruth.truth.turbulence import ChopGusts, TurbulencePatches
 from aerotruth.truth.weather import ISA_LAPSE, Atmosphere, UniformAtmosphere
-from aerotruth.units import DEG, FT, KT, NM
+from aerotruth.units import DEG, EARTH_RADIUS_M, FT, KT, NM
 
 DT = 0.01  # s: JSBSim step (100 Hz, a multiple of 50 Hz: IMU and 10 Hz samples fall on steps)
 RECORD_EVERY = 10  # steps: 10 Hz truth samples
@@ -287,8 +287,8 @@ class WindAhead:
         """Tick at sim time t (s) from geodetic lat/lon (deg), ellipsoidal height (m), the
         geoid undulation there (m) and NED velocity (m/s)."""
         dt = self._dt
-        lat1 = lat + vn * dt / 6371008.8 / DEG
-        lon1 = lon + ve * dt / (6371008.8 * math.cos(lat * DEG)) / DEG
+        lat1 = lat + vn * dt / EARTH_RADIUS_M / DEG
+        lon1 = lon + ve * dt / (EARTH_RADIUS_M * math.cos(lat * DEG)) / DEG
         u, v, w = (float(np.asarray(c).ravel()[0]) for c in
                    self._atmosphere.wind(lat1, lon1, h_m - vd * dt - undulation_m, self._t0_s + t + dt,
                                          ground_elevation_m=ground_elevation_m))

@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from aerotruth.geo import WGS84
-from aerotruth.units import EARTH_RADIUS_M
+from aerotruth.units import EARTH_RADIUS_M, G0
 
 WGS84_E2 = WGS84.es  # first eccentricity squared, 6.694380e-3 (pyproj's WGS-84; NIMA TR8350.2)
 
@@ -94,8 +94,7 @@ class GreatCircleLeg:
 def turn_anticipation_m(ground_speed_mps: float, course_change_deg: float, bank_deg: float) -> float:
     """Distance before a waypoint at which a coordinated turn of constant bank must start to
     roll out on the next leg: R tan(dpsi/2), R = V^2 / (g tan(bank))."""
-    g = 9.80665
-    radius = ground_speed_mps**2 / (g * math.tan(math.radians(bank_deg)))
+    radius = ground_speed_mps**2 / (G0 * math.tan(math.radians(bank_deg)))
     half = math.radians(min(abs(course_change_deg), 150.0)) / 2.0
     return float(radius * math.tan(half))
 

@@ -60,11 +60,10 @@ from aerotruth.truth.runway import RunwayFrame
 from aerotruth.truth.track import TruthTrack
 from aerotruth.truth.turbulence import TurbulencePatches
 from aerotruth.truth.weather import Atmosphere
-from aerotruth.units import DEG, FT, NM
+from aerotruth.units import DEG, FT, G0, NM
 
 RATE_HZ = 10
 RUN_TYPES = ("level_run", "arc", "crossing", "approach", "low_pass")
-G0 = 9.80665
 BANK_DEG = 25.0
 
 

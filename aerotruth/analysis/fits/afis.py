@@ -35,9 +35,8 @@ from pydantic import Field
 
 from aerotruth.analysis.kalman import Measurement, kalman_rts
 from aerotruth.schema import Section
+from aerotruth.units import EARTH_RADIUS_M, G0
 
-G0 = 9.80665
-EARTH_RADIUS_M = 6.371e6
 MICRO_G = 1e-6 * G0
 DEG_PER_H = math.radians(1.0) / 3600.0
 

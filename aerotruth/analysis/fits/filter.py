@@ -79,7 +79,8 @@ class FitsSpec(Section):
     jump_window_periods: int = Field(default=2, ge=1, description="jump steps fitted over +- this many periods")
     fix_window_s: float = Field(default=3.0, gt=0, description="RA/TVPS readings within this time of the threshold fix the bias")
     event_delay_s: float = Field(default=0.2, ge=0, description="mean delay of the pilot's event mark after the crossing")
-    ra_lever_arm_m: float = Field(default=0.0, description="height of the position reference point above the RA antenna")
+    ra_lever_arm_m: float = Field(default=0.0, ge=-10.0, le=10.0, description="height of the position reference point "
+                                  "above the RA antenna (m): within an airframe's height")
     grid_rate_hz: float = Field(default=8.0, gt=0, description="output grid (FITS paper section V: 8 Hz)")
     waas_latency_s: float = Field(default=0.0, ge=-2.0, le=2.0, description="WAAS positions stamped this late (s): the "
                                   "receiver's output latency left in its time tags; the FITS puts each epoch at its time "
