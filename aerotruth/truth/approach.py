@@ -36,8 +36,9 @@ import numpy as np
 
 from aerotruth.truth.airframes import Airframe, airframe, new_fdm
 from aerotruth.truth.airports import Runway, airport
-from aerotruth.truth.flight import (
+from aerotruth.truth.fdm import (
     DT,
+    GUIDE_EVERY,
     FPS,
     FlightDiverged,
     Recorder,
@@ -57,7 +58,6 @@ from aerotruth.units import DEG, FT, KT, NM
 
 RATE_HZ = 50
 STEPS_PER_SAMPLE = int(round(1.0 / (RATE_HZ * DT)))  # 2 at 100 Hz
-GUIDE_EVERY = 100  # steps: 1 Hz targets
 IN = 0.0254  # m per inch
 ALT_TO_VS_FPM_PER_FT = 4.0  # ap/gain/alt-to-vs of gains_saab340.xml
 PROFILES = ("afis", "go-around")

@@ -53,7 +53,7 @@ from aerotruth.truth.approach import (
     ils_setup,
     initial_conditions,
 )
-from aerotruth.truth.flight import FlightDiverged, params_digest, seed_repr
+from aerotruth.truth.fdm import FlightDiverged, params_digest, seed_repr
 from aerotruth.truth.guidance import GreatCircleLeg
 from aerotruth.truth.ils import IlsFacilitySpec
 from aerotruth.truth.runway import RunwayFrame
