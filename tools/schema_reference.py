@@ -22,12 +22,12 @@ import sys
 import textwrap
 import types
 import typing
+from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import annotated_types
 import yaml
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
@@ -75,9 +75,8 @@ class Root:
 @dataclass
 class Extension:
     """Models validated in place of a field whose declared type is loose (`dict[str, Any]`):
-    `roots` are documented at their own paths and listed in the field's description."""
+    `roots` are documented at their own paths and linked from the field's description."""
 
-    label: str
     roots: list[Root]
 
 
@@ -129,66 +128,72 @@ def _join(path: str, key: str) -> str:
 
 
 class Reference:
-    """The sections of the schema under `roots`, in the order they are documented:
-    each root, then depth first the models it uses (fields in declaration order)."""
+    """The sections of the schema under `roots`, in the order they are documented: each
+    root, then depth first the models it uses (fields in declaration order), then the
+    roots of its extensions. A model is documented at its root's path, else at the
+    shallowest path where it occurs (breadth first, the roots in order)."""
 
     def __init__(self, roots: list[Root], extensions: dict[tuple[type[BaseModel], str], Extension] | None = None):
         self.roots = roots
         self.extensions = extensions or {}
         self.docs: dict[type[BaseModel], _Doc] = {}
-        self.order: list[tuple[str, _Doc]] = []  # (group heading or "", doc)
+        self.order: list[tuple[str, _Doc]] = []  # (group heading or "", section)
+        every_root = list(roots) + [r for ext in self.extensions.values() for r in ext.roots]
         anchors: set[str] = set()
 
-        def claim(path: str, model: type[BaseModel]) -> _Doc:
+        def claim(path: str, model: type[BaseModel]) -> None:
             anchor = re.sub(r"[^a-z0-9_-]+", "-", model.__name__.lower())
             if anchor in anchors:
                 anchor = re.sub(r"[^a-z0-9_-]+", "-", f"{model.__module__}.{model.__name__}".lower())
             anchors.add(anchor)
-            doc = _Doc(path, model, anchor)
-            self.docs[model] = doc
-            return doc
+            self.docs[model] = _Doc(path, model, anchor)
 
-        all_roots = list(roots) + [r for ext in self.extensions.values() for r in ext.roots]
-        for r in all_roots:  # roots are documented at their own path even when used elsewhere first
+        for r in every_root:
             if r.model not in self.docs:
                 claim(r.path, r.model)
+        for r in every_root:
+            queue = deque([self.docs[r.model]] if self.docs[r.model].path == r.path else [])
+            while queue:
+                doc = queue.popleft()
+                for path, sub in self._uses(doc):
+                    if sub not in self.docs:
+                        claim(path, sub)
+                        queue.append(self.docs[sub])
 
-        def walk(doc: _Doc) -> None:
-            for name, info in doc.model.model_fields.items():
-                key = _key(name, info)
-                ext = self.extensions.get((doc.model, name))
-                if ext is not None:
+        emitted: set[type[BaseModel]] = set()
+
+        def emit(doc: _Doc, group: str) -> None:
+            emitted.add(doc.model)
+            self.order.append((group, doc))
+            for path, sub in self._uses(doc):
+                target = self.docs[sub]
+                if path not in target.uses:
+                    target.uses.append(path)
+                if target.path == path and sub not in emitted:
+                    emit(target, "")
+            for (model, _name), ext in self.extensions.items():
+                if model is doc.model:
                     for r in ext.roots:
-                        self.docs[r.model].uses.append(r.path) if r.path not in self.docs[r.model].uses else None
-                    continue
-                for suffix, sub in _models_in(info.annotation):
-                    path = _join(doc.path, key) + suffix
-                    new = sub not in self.docs
-                    target = claim(path, sub) if new else self.docs[sub]
-                    if path not in target.uses:
-                        target.uses.append(path)
-                    if new:
-                        self.order.append(("", target))
-                        walk(target)
-
-        done: set[type[BaseModel]] = set()
+                        visit(r)
 
         def visit(r: Root) -> None:
             doc = self.docs[r.model]
             if r.path not in doc.uses:
                 doc.uses.append(r.path)
-            if r.model in done:
-                return
-            done.add(r.model)
-            self.order.append((r.group, doc))
-            walk(doc)
-            for (model, _name), ext in self.extensions.items():
-                if model is r.model:
-                    for sub in ext.roots:
-                        visit(sub)
+            if doc.path == r.path and r.model not in emitted:
+                emit(doc, r.group)
 
         for r in roots:
             visit(r)
+
+    def _uses(self, doc: _Doc) -> list[tuple[str, type[BaseModel]]]:
+        """(YAML path, model) of every model the fields of `doc` contain (fields in
+        declaration order; an extended field's models are roots of their own)."""
+        out = []
+        for name, info in doc.model.model_fields.items():
+            if (doc.model, name) not in self.extensions:
+                out += [(_join(doc.path, yaml_key(name, info)) + suffix, sub) for suffix, sub in _models_in(info.annotation)]
+        return out
 
     # ------------------------------------------------------------------------- text
 
@@ -261,24 +266,19 @@ class Reference:
         rows = ["| key | type | default | description |", "|---|---|---|---|"]
         notes: list[str] = []
         for name, info in model.model_fields.items():
-            key = _key(name, info)
-            description = info.description or ""
+            key = yaml_key(name, info)
+            description = _escape(info.description or "")
             ext = self.extensions.get((model, name))
             if ext is not None:
-                refs = ", ".join(f"[`{r.path}`](#{self.docs[r.model].anchor})" for r in ext.roots)
-                description = (description + "; " if description else "") + f"{ext.label}: {refs}"
-                type_cell = self.type_text(info.annotation, info.metadata)
-            else:
-                type_cell = self.type_text(info.annotation, info.metadata)
-            cells = [f"`{key}`", _cell(type_cell), _cell(self.default_text(info))]
-            row = "| " + " | ".join(cells + [_cell(description, ext is not None)]) + " |"
+                keys = ", ".join(f"[`{r.path.rpartition('.')[2]}`](#{self.docs[r.model].anchor})" for r in ext.roots)
+                description = f"{description}; keys: {keys}" if description else f"keys: {keys}"
+            cells = [f"`{key}`", self.type_text(info.annotation, info.metadata), self.default_text(info)]
+            row = "| " + " | ".join(_cell(c) for c in cells + [description]) + " |"
             if len(row) > MAX_LINE:
-                notes.append(_wrap(f"`{key}`: " + _escape(description, links=ext is not None)))
-                row = "| " + " | ".join(cells + ["see below the table"]) + " |"
+                notes += ["", _wrap(f"`{key}`: {description}")]
+                row = "| " + " | ".join(_cell(c) for c in cells + ["(below the table)"]) + " |"
             rows.append(row)
-        out += rows
-        if notes:
-            out += [""] + [n for note in notes for n in ("", note)][1:]
+        out += rows + notes
         return "\n".join(out) + "\n"
 
     def render(self) -> str:
@@ -301,7 +301,7 @@ class Reference:
         return "\n".join(lines) + "\n"
 
 
-def _key(name: str, info: FieldInfo) -> str:
+def yaml_key(name: str, info: FieldInfo) -> str:
     """The YAML key of a field (its alias when it has one)."""
     alias = info.validation_alias if isinstance(info.validation_alias, str) else info.alias
     return alias or name
@@ -316,26 +316,27 @@ _BOUNDS = (("ge", ">="), ("gt", ">"), ("le", "<="), ("lt", "<"))
 
 
 def _constrained(text: str, constraints: list[Any], kind: Any) -> str:
-    """`text` with its constraints: bounds `>= 1, < 24`, lengths (`non-empty`), `matching`
-    a pattern, `finite`, `multiple of`; strictness is not shown."""
+    """`text` with its constraints: bounds (`>= 1, < 24`), lengths (`non-empty`), a
+    pattern (`matching`), `finite`, `multiple of`; strictness is not shown. `kind` is the
+    type constrained (lengths of a list count items, of a str characters)."""
+    flat: list[Any] = []
+    for c in constraints:  # Annotated[float, Field(...)] nests a FieldInfo with its own metadata
+        flat += c.metadata if isinstance(c, FieldInfo) else [c]
     bounds: list[str] = []
     extra: list[str] = []
-    for c in constraints:
+    unit = "item" if kind in (list, dict) else "character"
+    for c in flat:
         for attr, sign in _BOUNDS:
             v = getattr(c, attr, None)
-            if v is not None and isinstance(c, (annotated_types.BaseMetadata, FieldInfo)) or (
-                    v is not None and type(c).__name__ == "_PydanticGeneralMetadata"):
+            if v is not None:
                 bounds.append(f"{sign} {_number(v)}")
         lo, hi = getattr(c, "min_length", None), getattr(c, "max_length", None)
-        if lo is not None and hi is not None and lo == hi:
-            extra.append(f"length {lo}")
-        else:
-            if lo == 1:
-                extra.append("non-empty")
-            elif lo:
-                extra.append(f"length >= {lo}")
-            if hi is not None:
-                extra.append(f"length <= {hi}")
+        if lo == 1 and hi is None:
+            extra.append("non-empty")
+        elif lo:
+            extra.append(f"at least {lo} {unit}s")
+        if hi is not None:
+            extra.append(f"at most {hi} {unit}{'s' if hi != 1 else ''}")
         pattern = getattr(c, "pattern", None)
         if pattern is not None:
             extra.append(f"matching `{pattern if isinstance(pattern, str) else pattern.pattern}`")
@@ -401,25 +402,21 @@ def first_paragraph(model: type) -> str:
 _CODE = re.compile(r"(`+)(.+?)\1", re.S)
 
 
-def _escape(text: str, links: bool = False) -> str:
-    """Markdown-safe prose: `<`, `>`, `*` and (unless `links`) `[`, `]` outside code spans
-    are escaped, so that `runs/<name>` is not read as an HTML tag."""
+def _escape(text: str) -> str:
+    """Markdown-safe prose: `<` and `*` outside code spans are escaped, so that
+    `runs/<name>` is not read as an HTML tag nor `a * b * c` as emphasis."""
     out, pos = [], 0
-    specials = "<>*" if links else "<>*[]"
     for m in _CODE.finditer(text):
-        out.append(re.sub(f"([{re.escape(specials)}])", r"\\\1", text[pos:m.start()]))
+        out.append(re.sub(r"([<*])", r"\\\1", text[pos:m.start()]))
         out.append(m.group(0))
         pos = m.end()
-    out.append(re.sub(f"([{re.escape(specials)}])", r"\\\1", text[pos:]))
+    out.append(re.sub(r"([<*])", r"\\\1", text[pos:]))
     return "".join(out)
 
 
-def _cell(text: str, links: bool = True) -> str:
+def _cell(text: str) -> str:
     """A table cell: one line, pipes escaped (also in code spans, as GFM tables need)."""
-    text = " ".join(text.split())
-    if not links:
-        text = _escape(text)
-    return text.replace("|", "\\|")
+    return " ".join(text.split()).replace("|", "\\|")
 
 
 def _code_free(text: str) -> str:
@@ -436,20 +433,18 @@ def _wrap(text: str) -> str:
 def campaign_reference() -> Reference:
     """The reference of the campaign schema: the campaign's own sections, each registered
     study's section and the diagnose wind model."""
-    sys.path.insert(0, str(ROOT)) if str(ROOT) not in sys.path else None
+    if str(ROOT) not in sys.path:  # run as a script: tools/ is on the path, the package may not be
+        sys.path.insert(0, str(ROOT))
     from aerotruth.analysis.diagnose.wind_model import WindModelSpec
     from aerotruth.sim.campaign_file import Campaign
     from aerotruth.sim.studies import registry
 
     reg = registry()
     studies = [Root(f"studies.{name}", reg.get(name).Config) for name in sorted(reg)]
-    studies[0].group = "Studies"
-    diagnose = [Root("diagnose.wind", WindModelSpec, group="Diagnose")]
-    extensions = {
-        (Campaign, "studies"): Extension("one section per study", studies),
-        (Campaign, "diagnose"): Extension("models", diagnose),
-    }
-    return Reference([Root("", Campaign, group="Campaign")], extensions)
+    studies[0].group = "Study sections"
+    diagnose = [Root("diagnose.wind", WindModelSpec, group="Diagnose models")]
+    extensions = {(Campaign, "studies"): Extension(studies), (Campaign, "diagnose"): Extension(diagnose)}
+    return Reference([Root("", Campaign, group="Campaign file")], extensions)
 
 
 def generate(reference: Callable[[], Reference] = campaign_reference) -> str:

@@ -33,12 +33,12 @@ from pathlib import Path
 
 import pandas as pd
 
+from aerotruth.contracts import APPROACH_LOG_KEY, OBSERVATION_REQUIRED
 from aerotruth.errors import DataError
 from aerotruth.measured.tables import GZIP_MAGIC, read_csv_table
 
-OBSERVATION_COLUMNS = ("aircraft", "time", "lat", "lon", "pressure_altitude_ft", "wind_speed_kt", "wind_dir_deg",
-                       "ref_wind_speed_kt", "ref_wind_dir_deg")
-APPROACH_COLUMNS = ("approach", "time_s", "waas_x_m", "waas_y_m", "waas_z_m")
+OBSERVATION_COLUMNS = OBSERVATION_REQUIRED
+APPROACH_COLUMNS = APPROACH_LOG_KEY
 KINDS = ("observation_table", "approach_log", "modes_raw", "modes_track", "adsb_track", "qar")
 _EXPECTED = ("an observation table (CSV/Parquet with columns " + ", ".join(OBSERVATION_COLUMNS) + "), an approach log "
              "(CSV/Parquet with " + ", ".join(APPROACH_COLUMNS) + ", ...), Mode-S/ADS-B messages (JSONL with timestamp, df, "

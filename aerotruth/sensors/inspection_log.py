@@ -34,14 +34,14 @@ import numpy as np
 import pandas as pd
 from pydantic import Field, field_validator
 
+from aerotruth.contracts import APPROACH_LOG_WRITTEN
 from aerotruth.schema import Section
 from aerotruth.sensors.dgps import DgpsSpec
 from aerotruth.sensors.ins import InsSpec, ins_positions
 from aerotruth.sensors.ranging import EventButtonSpec, RadarAltimeterSpec, TvpsSpec
 from aerotruth.sensors.waas import WaasErrors, WaasSpec
 
-LOG_COLUMNS = ("approach", "time_s", "waas_x_m", "waas_y_m", "waas_z_m", "ins_x_m", "ins_y_m", "ins_z_m",
-               "dgps_x_m", "dgps_y_m", "dgps_z_m", "ra_m", "tvps_y_m", "event", "sv_change", "iono_update")
+LOG_COLUMNS = APPROACH_LOG_WRITTEN
 REFERENCE_POINT = "gnss"
 
 

@@ -38,8 +38,8 @@ from aerotruth.truth.airframes import Airframe, airframe, new_fdm
 from aerotruth.truth.airports import Runway, airport
 from aerotruth.truth.fdm import (
     DT,
-    GUIDE_EVERY,
     FPS,
+    GUIDE_EVERY,
     FlightDiverged,
     Recorder,
     WindAhead,

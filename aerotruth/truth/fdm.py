@@ -23,7 +23,6 @@ from aerotruth.truth.track import PHASES
 from aerotruth.truth.weather import ISA_LAPSE, Atmosphere
 from aerotruth.units import DEG, EARTH_RADIUS_M, FT
 
-
 DT = 0.01  # s: JSBSim step (100 Hz, a multiple of 50 Hz: IMU and 10 Hz samples fall on steps)
 
 

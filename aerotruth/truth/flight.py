@@ -18,8 +18,20 @@ import jsbsim
 import numpy as np
 
 from aerotruth.truth.airframes import Airframe, airframe, new_fdm
-from aerotruth.truth.fdm import (ATMOSPHERE_EVERY, DT, FPS, GUIDE_EVERY, RECORD_EVERY, FlightDiverged, Recorder, WindAhead,
-                                 params_digest, seed_repr, set_atmosphere, trim_or_settle)
+from aerotruth.truth.fdm import (
+    ATMOSPHERE_EVERY,
+    DT,
+    FPS,
+    GUIDE_EVERY,
+    RECORD_EVERY,
+    FlightDiverged,
+    Recorder,
+    WindAhead,
+    params_digest,
+    seed_repr,
+    set_atmosphere,
+    trim_or_settle,
+)
 from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, turn_anticipation_m
 from aerotruth.truth.steering import SteeringWander
 from aerotruth.truth.track import PHASES, TruthTrack

@@ -21,15 +21,10 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 from scipy.spatial.transform import Rotation
 
+from aerotruth.contracts import TRUTH_TRACK
 from aerotruth.units import KT, NM
 
-COLUMNS = (
-    "time_s", "lat_deg", "lon_deg", "h_ellipsoid_m", "pressure_altitude_m",
-    "vn_mps", "ve_mps", "vd_mps", "roll_rad", "pitch_rad", "heading_rad",
-    "tas_mps", "cas_mps", "alpha_rad", "beta_rad", "p_radps", "q_radps", "r_radps",
-    "wind_u_mps", "wind_v_mps", "wind_w_mps", "static_pressure_pa", "temperature_k",
-    "leg_index", "phase",
-)
+COLUMNS = TRUTH_TRACK
 PHASES = ("climb", "cruise", "descent", "approach")
 # Stored as float64: time (50 Hz samples over hours need < 1 ms) and position (float32
 # degrees are ~1 m coarse; float32 heights ~1 mm at 10 km, kept double with them; an

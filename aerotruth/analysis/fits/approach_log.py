@@ -33,11 +33,15 @@ import numpy as np
 import pandas as pd
 
 from aerotruth.analysis.fits.filter import FitsResult, FitsSpec, fits_approach
+from aerotruth.contracts import (
+    APPROACH_LOG_DGPS,
+    APPROACH_LOG_OPTIONAL_NUMERIC,
+    APPROACH_LOG_REQUIRED,
+)
 from aerotruth.errors import DataError
 
-REQUIRED = ("approach", "time_s", "waas_x_m", "waas_y_m", "waas_z_m", "ins_x_m", "ins_y_m", "ins_z_m",
-            "ra_m", "tvps_y_m", "event", "sv_change", "iono_update")
-DGPS = ("dgps_x_m", "dgps_y_m", "dgps_z_m")
+REQUIRED = APPROACH_LOG_REQUIRED
+DGPS = APPROACH_LOG_DGPS
 NUMERIC = REQUIRED[1:] + DGPS
 EVENT_CODES = ("thr", "end")
 # Ground-antenna positions when the log carries no runway geometry (runway frame): a
@@ -59,7 +63,7 @@ RA_MIN_M = -3.0
 # |median(WAAS z - RA - lever arm)| over the runway above this (m) is no WAAS bias (1-2 m
 # 95 %, a jump of a metre or two): RA in feet, or z not from the threshold elevation
 RA_WAAS_MAX_M = 10.0
-OPTIONAL_NUMERIC = ("ra_lever_arm_m", "tvps_lever_arm_m")
+OPTIONAL_NUMERIC = APPROACH_LOG_OPTIONAL_NUMERIC
 
 def event_codes(values: pd.Series, where: str) -> pd.Series:
     """The `event` column as codes: '' on ordinary rows, 'thr' or 'end' on marks, '1' for

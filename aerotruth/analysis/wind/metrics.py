@@ -54,12 +54,13 @@ from aerotruth.analysis.wind.heading_errors import (
     report_flights,
     running_count,
 )
+from aerotruth.contracts import OBSERVATION_WIND
 from aerotruth.sensors.tamdar import wind_components
 from aerotruth.units import DEG, KT
 
 AXES = ("air_track", "ground_track", "reported_heading")
 GROUPINGS = ("aircraft", "fleet", "phase", "ref_source", "altitude_band")
-_OBS_REQUIRED = ("aircraft", "time", "lat", "lon", "wind_speed_kt", "wind_dir_deg", "ref_wind_speed_kt", "ref_wind_dir_deg")
+_OBS_REQUIRED = OBSERVATION_WIND
 
 
 # the gates of the metrics' axis (module docstring): fixed limits, no minimum baseline

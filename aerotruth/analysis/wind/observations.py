@@ -11,11 +11,11 @@ import numpy as np
 import pandas as pd
 from numba import njit
 
+from aerotruth.contracts import OBSERVATION_OPTIONAL_NUMERIC, OBSERVATION_REQUIRED
 from aerotruth.errors import DataError
 
-REQUIRED_COLUMNS = ("aircraft", "time", "lat", "lon", "pressure_altitude_ft", "wind_speed_kt", "wind_dir_deg",
-                    "ref_wind_speed_kt", "ref_wind_dir_deg")
-OPTIONAL_NUMERIC = ("tas_kt", "heading_deg", "heading_mag_deg", "declination_deg", "roll_deg")
+REQUIRED_COLUMNS = OBSERVATION_REQUIRED
+OPTIONAL_NUMERIC = OBSERVATION_OPTIONAL_NUMERIC
 
 
 def _numeric(df: pd.DataFrame, col: str, source: str) -> np.ndarray:
