@@ -31,7 +31,6 @@ from typing import Any
 import yaml
 from pydantic import BaseModel
 from pydantic.fields import FieldInfo
-from pydantic_core import PydanticUndefined
 
 ROOT = Path(__file__).resolve().parent.parent
 OUTPUT = ROOT / "docs" / "campaign-schema.md"
@@ -112,15 +111,13 @@ def _models_in(tp: Any) -> list[tuple[str, type[BaseModel]]]:
     if _is_model(tp):
         return [("", tp)]
     origin, args = typing.get_origin(tp), typing.get_args(tp)
-    if origin is None:
+    if origin is None or origin is typing.Literal:
         return []
-    if _is_union(tp) or origin is typing.Literal:
-        return [m for a in args for m in _models_in(a)] if origin is not typing.Literal else []
-    if origin in (list, tuple, set, frozenset) or (isinstance(origin, type) and issubclass(origin, (list, tuple, set))):
-        return [("[]" + s, m) for a in args if a is not Ellipsis for s, m in _models_in(a)]
-    if origin is dict or (isinstance(origin, type) and issubclass(origin, dict)):
+    if origin is dict:
         return [(".<name>" + s, m) for s, m in _models_in(args[1])] if len(args) == 2 else []
-    return [m for a in args for m in _models_in(a)]
+    if origin in (list, tuple, set, frozenset):
+        return [("[]" + s, m) for a in args if a is not Ellipsis for s, m in _models_in(a)]
+    return [m for a in args for m in _models_in(a)]  # a union: each member's models
 
 
 def _join(path: str, key: str) -> str:
@@ -192,7 +189,8 @@ class Reference:
         out = []
         for name, info in doc.model.model_fields.items():
             if (doc.model, name) not in self.extensions:
-                out += [(_join(doc.path, yaml_key(name, info)) + suffix, sub) for suffix, sub in _models_in(info.annotation)]
+                path = _join(doc.path, yaml_key(name, info))
+                out += [(path + suffix, sub) for suffix, sub in _models_in(info.annotation)]
         return out
 
     # ------------------------------------------------------------------------- text
@@ -243,13 +241,11 @@ class Reference:
         else:
             value = info.default
         text = _yaml(value)
-        if len(text) > DEFAULT_WIDTH and isinstance(value, (list, tuple)) and value and all(isinstance(v, BaseModel) for v in value):
-            cls = type(value[0])
+        models = isinstance(value, (list, tuple)) and value and all(isinstance(v, BaseModel) for v in value)
+        if len(text) > DEFAULT_WIDTH and models:  # e.g. preset reference models: named, not spelled out
             names = [getattr(v, "name", None) for v in value]
-            text = f"{len(value)} × {cls.__name__}"
-            if all(isinstance(n, str) and n for n in names):
-                text += " (" + ", ".join(names) + ")"
-            return _code_free(text)
+            text = f"{len(value)} × {type(value[0]).__name__}"
+            return text + (" (" + ", ".join(names) + ")" if all(isinstance(n, str) and n for n in names) else "")
         return f"`{text}`"
 
     def section(self, doc: _Doc) -> str:
@@ -417,10 +413,6 @@ def _escape(text: str) -> str:
 def _cell(text: str) -> str:
     """A table cell: one line, pipes escaped (also in code spans, as GFM tables need)."""
     return " ".join(text.split()).replace("|", "\\|")
-
-
-def _code_free(text: str) -> str:
-    return text.replace("`", "")
 
 
 def _wrap(text: str) -> str:

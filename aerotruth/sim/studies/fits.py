@@ -114,12 +114,10 @@ def _channel_rms(appr: pd.DataFrame) -> dict[str, pd.Series]:
     return {"all": appr["resid_rms_m"], "horizontal": np.sqrt((x**2 + y**2) / 2.0), "vertical": z}
 
 
-class FitsStudy(Study):
-    """The `fits` study (see the module docstring)."""
-
-    name = "fits"
-    title = "WAAS-aided flight-inspection truth system (FITS paper)"
-    Config = FitsStudyConfig
+class ApproachStudy(Study):
+    """A study whose tasks are ILS approaches flown by the campaign's aircraft: one task per
+    (runway, day of its periods, approach of the day), the first `export_logs` of them
+    exporting their approach log. The fits and inspection studies are both."""
 
     def check(self, campaign: Campaign, refs: References) -> None:
         from aerotruth.truth.approach import find_runway
@@ -145,6 +143,14 @@ class FitsStudy(Study):
 
     def cost(self, task: Task) -> float:
         return 3.0
+
+
+class FitsStudy(ApproachStudy):
+    """The `fits` study (see the module docstring)."""
+
+    name = "fits"
+    title = "WAAS-aided flight-inspection truth system (FITS paper)"
+    Config = FitsStudyConfig
 
     def run(self, task: Task, ctx) -> pd.DataFrame:
         from aerotruth.analysis.fits.approach_log import run_approach

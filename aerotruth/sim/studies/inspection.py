@@ -39,7 +39,7 @@ from pydantic import Field, ValidationInfo, field_validator
 from aerotruth.analysis.fits.afis import AfisSpec
 from aerotruth.schema import Section
 from aerotruth.sim.studies import Figure, Summary
-from aerotruth.sim.studies.fits import FitsStudy, FitsStudyConfig, planned_approach
+from aerotruth.sim.studies.fits import ApproachStudy, FitsStudyConfig, planned_approach
 from aerotruth.sim.tasks import Task
 from aerotruth.truth.ils import TOLERANCES, IlsFacilitySpec
 from aerotruth.truth.mission import MissionRun
@@ -103,7 +103,7 @@ def _interp_rows(tq, t, values):
     return np.column_stack([np.interp(tq, t, values[:, i]) for i in range(values.shape[1])])
 
 
-class InspectionStudy(FitsStudy):
+class InspectionStudy(ApproachStudy):
     """The `inspection` study (see the module docstring)."""
 
     name = "inspection"
