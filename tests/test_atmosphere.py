@@ -413,3 +413,13 @@ def test_bad_construction_arguments_raise():
         WindFieldSpec(jet_speed_winter_ms=-1.0)
     with pytest.raises(ValueError, match="min_wavelength_m"):
         MesoscaleSpec(min_wavelength_m=5e6)
+
+
+def test_the_one_point_isa_form_equals_the_array_form_to_the_last_bit():
+    from aerotruth.truth.isa import H_BASE_M, isa_point, isa_pressure_pa, isa_temperature_k
+
+    rng = np.random.default_rng(7)
+    heights = np.r_[np.array(H_BASE_M[1:]), rng.uniform(-500.0, 30000.0, 200)]  # layer bases included
+    for h, dt, psl in zip(heights, rng.uniform(-30.0, 30.0, heights.size), rng.uniform(95000.0, 105000.0, heights.size)):
+        t, p = isa_point(h, dt, psl)
+        assert t == float(isa_temperature_k(h, dt)) and p == float(isa_pressure_pa(h, dt, psl))

@@ -119,7 +119,10 @@ def isa_pressure_pa(h_geopotential_m, delta_t_k=0.0, p_sea_level_pa=ISA_P0_PA):
 
 def isa_point(h_geopotential_m: float, delta_t_k: float = 0.0,
               p_sea_level_pa: float = ISA_P0_PA) -> tuple[float, float]:
-    """(temperature K, pressure Pa) of the ISA + delta_t column at one height; floats."""
+    """(temperature K, pressure Pa) of the ISA + delta_t column at one height; floats. The
+    one-point form of isa_temperature_k and isa_pressure_pa for the truth loop's per-step
+    calls, where numpy's per-call overhead made the array form ~150x slower on one point;
+    equal to it to the last bit (tests/test_atmosphere.py)."""
     h = float(h_geopotential_m)
     if not (H_BOTTOM_M <= h <= H_TOP_M):
         raise ValueError(f"altitude: geopotential height must be finite and within "
