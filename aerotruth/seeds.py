@@ -1,4 +1,4 @@
-"""Random streams named by what they are for (DESIGN.md, "Random streams").
+"""Random streams named by what they are for (docs/conventions.md, "Random streams").
 
 A stream is `SeedSequence(campaign_seed, spawn_key=words)` where `words` are 32-bit words
 of SHA-256 digests of names: a task's identity, then the consumer's name ("truth.plan",

@@ -24,7 +24,7 @@ from aerotruth.truth.airframes import quiet_jsbsim
 from aerotruth.units import DEG, FPM, FT, KG_PER_LB, KT
 
 AIRCRAFT_DIR = Path(aerotruth.truth.__file__).parent / "aircraft"
-DT = 0.01  # s, JSBSim step (DESIGN.md: a multiple of 50 Hz)
+DT = 0.01  # s, JSBSim step (docs/conventions.md, Rates: a multiple of 50 Hz)
 MTOW_KG = 13155.0  # Jane's
 EMPTY_KG = 8140.0  # operating empty (facts sheet), as in saab340.xml
 HP_W = 745.69987  # W per shaft horsepower

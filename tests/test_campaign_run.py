@@ -62,7 +62,7 @@ def test_metrics_hold_the_expected_keys_and_plausible_winds(reference):
     for fl in ("FL100", "FL250"):
         mean, rms = m[f"wind_climatology.{fl}.speed_mean_mps"], m[f"wind_climatology.{fl}.speed_rms_mps"]
         assert 0 < mean <= rms <= m[f"wind_climatology.{fl}.speed_max_mps"]
-    # the mean westerly grows with height towards the jet (truth atmosphere, DESIGN.md)
+    # the mean westerly grows with height towards the jet (truth atmosphere)
     assert m["wind_climatology.FL250.u_mean_mps"] > m["wind_climatology.FL100.u_mean_mps"] > 0
 
 

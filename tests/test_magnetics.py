@@ -81,7 +81,7 @@ def test_igrf_field_at_minneapolis_matches_hand_checked_ppigrf_value(mesaba_fiel
     assert c.horizontal_nT == pytest.approx(17378.9, abs=5.0)
     assert np.degrees(c.declination_rad) == pytest.approx(0.914, abs=0.02)
     assert np.degrees(c.inclination_rad) == pytest.approx(71.979, abs=0.02)
-    assert c.down_nT / c.horizontal_nT == pytest.approx(3.07, abs=0.01)  # DESIGN.md: Z/H ~ 3 over Minnesota
+    assert c.down_nT / c.horizontal_nT == pytest.approx(3.07, abs=0.01)  # Z/H ~ 3 over Minnesota (IGRF)
 
 
 @pytest.mark.parametrize("box", [((38.0, 50.0), (-100.0, -78.0)), ((54.0, 66.0), (-170.0, -140.0))],

@@ -4,8 +4,9 @@ from the pydantic models of the schema (their docstrings and Field descriptions)
 The schema is walked from `aerotruth.sim.campaign_file.Campaign`; the `studies:` sections
 are the `Config` of each registered study (`aerotruth.sim.studies.registry()`), the
 `diagnose: {wind: ...}` block is `WindModelSpec`. Nested models, lists and mappings of
-models, unions, Literal choices and Annotated constraints are followed; each model is
-documented once, under the first YAML path where it occurs, and linked from its other uses.
+models, unions, Literal choices and Annotated constraints are followed. Each model is
+documented once (at its root's path, else at the shallowest YAML path where it occurs),
+fields in declaration order, and linked from its other uses; the output is deterministic.
 
     python tools/schema_reference.py           # (re)write docs/campaign-schema.md
     python tools/schema_reference.py --check   # exit 1 if the file is out of date
@@ -454,7 +455,8 @@ def main(argv: list[str] | None = None) -> int:
     if args.check:
         current = args.output.read_text(encoding="utf-8") if args.output.is_file() else None
         if current != text:
-            print(f"{args.output}: out of date, regenerate with `python tools/schema_reference.py`", file=sys.stderr)
+            state = "out of date" if current is not None else "missing"
+            print(f"{args.output}: {state}, regenerate with `python tools/schema_reference.py`", file=sys.stderr)
             return 1
         return 0
     args.output.parent.mkdir(parents=True, exist_ok=True)

@@ -1,7 +1,7 @@
 """Measured data files: recognise what a file holds from its content and load it as a
 table, so that `diagnose` and the tests can take a user's data as it comes.
 
-Kinds (DESIGN.md data contracts and ../shared/real-data/README.md):
+Kinds (docs/data-formats.md and ../shared/real-data/README.md):
 
 * `observation_table` — aircraft reports (CSV or Parquet): aircraft, time, lat, lon,
   pressure_altitude_ft, wind_speed_kt, wind_dir_deg, ref_wind_speed_kt, ref_wind_dir_deg;

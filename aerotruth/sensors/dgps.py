@@ -1,5 +1,5 @@
 """DGPS reference positions for flight inspection (the DGPS-FIS, and the truth against
-which the FITS paper scored its flight tests): p_DGPS = p + o + n at 5 Hz (DESIGN.md),
+which the FITS paper scored its flight tests): p_DGPS = p + o + n at 5 Hz (docs/conventions.md),
 with n white (carrier-smoothed code DGPS over a short baseline: a few cm, stated) and o
 a constant offset from an error in the reference station's surveyed position (optional:
 the FITS paper suspects one in its own flight test, section V)."""
@@ -15,7 +15,7 @@ from aerotruth.schema import Section
 
 
 class DgpsSpec(Section):
-    rate_hz: float = Field(default=5.0, gt=0, description="output rate (DESIGN.md: 5 Hz)")
+    rate_hz: float = Field(default=5.0, gt=0, description="output rate (docs/conventions.md: 5 Hz)")
     sigma_horizontal_m: float = Field(default=0.05, ge=0, description="white noise per horizontal axis")
     sigma_vertical_m: float = Field(default=0.10, ge=0, description="white noise, vertical")
     survey_offset_m: tuple[float, float, float] = Field(default=(0.0, 0.0, 0.0), description="reference-station survey error, runway frame")

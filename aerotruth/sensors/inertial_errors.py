@@ -21,7 +21,7 @@ track costs a few array passes. The azimuth error phi_D does not enter eq. 4's p
 (no velocity coupling in the simplified model); it is not modelled.
 
 Grades (Table II, one-sided PSDs; white input of one-sided PSD S has the two-sided
-density S/2, DESIGN.md): tactical 500 ug, 1 deg/h, 2500 ug^2/Hz, 1e-6 (deg/s)^2/Hz;
+density S/2, docs/conventions.md): tactical 500 ug, 1 deg/h, 2500 ug^2/Hz, 1e-6 (deg/s)^2/Hz;
 automotive 30,000 ug, 100 deg/h, 5000 ug^2/Hz, 1e-4 (deg/s)^2/Hz. Biases are drawn per
 approach with these 1-sigma values per axis. Alignment: an automotive gyro cannot
 gyrocompass, so initial attitude comes from a transfer alignment to the aircraft's
@@ -53,10 +53,10 @@ class InertialGrade(Section):
     gyro_white_deg2_s2_hz: float = Field(ge=0, description="gyro white noise, one-sided PSD ((deg/s)^2/Hz)")
 
 
-INS_GRADES = {  # FITS paper Table II; navigation grade: DESIGN.md (the table lacks it)
+INS_GRADES = {  # FITS paper Table II; navigation grade: docs/conventions.md (the table lacks it)
     "tactical": InertialGrade(accel_bias_ug=500.0, gyro_bias_deg_h=1.0, accel_white_ug2_hz=2500.0, gyro_white_deg2_s2_hz=1e-6),
     "automotive": InertialGrade(accel_bias_ug=30000.0, gyro_bias_deg_h=100.0, accel_white_ug2_hz=5000.0, gyro_white_deg2_s2_hz=1e-4),
-    # ~25 ug and <= 0.01 deg/h (DESIGN.md, the AFIS class); noise: 10 ug/sqrt(Hz) and an
+    # ~25 ug and <= 0.01 deg/h (docs/conventions.md, INS grades: the AFIS class); noise: 10 ug/sqrt(Hz) and an
     # angle random walk of 0.002 deg/sqrt(h) ((0.002/60)^2 (deg/s)^2/Hz), typical figures
     # for a ring-laser-gyro navigator (Groves, 2nd ed., Table 4.1 class values) - stated
     # estimates, not a product's data sheet
@@ -68,7 +68,7 @@ INS_GRADES = {  # FITS paper Table II; navigation grade: DESIGN.md (the table la
 class InertialErrorSpec(Section):
     """INS grade and the initial errors of its alignment."""
 
-    grade: str = Field(default="tactical", description="tactical or automotive (FITS paper Table II), or navigation (DESIGN.md)")
+    grade: str = Field(default="tactical", description="tactical or automotive (FITS paper Table II), or navigation (docs/conventions.md)")
     initial_position_sigma_m: float = Field(default=0.0, ge=0, description="per axis, 1 sigma")
     initial_velocity_sigma_mps: float = Field(default=0.05, ge=0, description="per axis, 1 sigma")
     initial_tilt_sigma_urad: float = Field(default=500.0, ge=0, description="transfer-alignment tilt per axis, 1 sigma")

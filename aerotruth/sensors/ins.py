@@ -17,7 +17,7 @@ of two paths that share one error draw (aerotruth.sensors.inertial_errors):
   couplings eq. 4 drops (specific force x attitude error in turns and decelerations,
   the heading error's lever-arm effect).
 
-Alignment (stated, as DESIGN.md asks): an automotive gyro cannot gyrocompass (its 100
+Alignment (stated: docs/conventions.md, INS grades): an automotive gyro cannot gyrocompass (its 100
 deg/h bias is 7 times the Earth rate), so every grade is given a transfer alignment from
 the aircraft's attitude reference with the tilt error `initial_tilt_sigma_urad` (default
 500 urad = 0.03 deg per axis) and no azimuth error: heading comes from the aircraft's

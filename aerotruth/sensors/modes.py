@@ -1,4 +1,4 @@
-"""Mode-S as a sensor (DESIGN.md "Mode-S as a sensor"): what a ground receiver gets of an
+"""Mode-S as a sensor (docs/conventions.md, "Mode-S as a sensor"): what a ground receiver gets of an
 aircraft's state through enhanced-surveillance registers and ADS-B.
 
 Registers and their least significant bits (ICAO Doc 9871, the BDS 5,0 and 6,0 and ADS-B

@@ -1,7 +1,7 @@
 """Runway-relative sensors of a flight-inspection truth system: radar altimeter, TVPS and
 the pilot's event button (FITS paper section II and eq. 18).
 
-Positions are the runway-frame coordinates (DESIGN.md: origin at the threshold centre at
+Positions are the runway-frame coordinates (docs/conventions.md, Runway frame: origin at the threshold centre at
 runway elevation, x along the approach course, y left, z up; m) of each sensor's own
 point on the airframe (its antenna or camera), sampled at the times `t_s`.
 

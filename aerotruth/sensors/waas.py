@@ -1,7 +1,7 @@
 """Airborne WAAS position errors as the FITS paper describes them (section III-B, eq. 2).
 
 Measurement equation, per axis i (two horizontal axes h1, h2 and up), at the receiver's
-epochs t_k (1 Hz, DESIGN.md):
+epochs t_k (1 Hz, docs/conventions.md):
 
     z_waas(t_k) = P_T(t_k) + B_w(t_k) + N_w(t_k) + eta_w(t_k)              # FITS paper eq. 2
     B_w(t)      = b + sum_j J_j 1[t >= tau_j]                 bias, with jumps
@@ -9,7 +9,7 @@ epochs t_k (1 Hz, DESIGN.md):
     eta_w(t_k)  = g_k + w_k,  g_k = rho g_(k-1) + sigma_g sqrt(1 - rho^2) u_k,  rho = exp(-dt / tau)
 
 * b: a per-approach bias, sigma 0.45 m per horizontal axis and 0.8 m vertical. Table I
-  gives 95 % figures of 0.79-1.69 m horizontal (radial: 2.45 sigma, DESIGN.md) and
+  gives 95 % figures of 0.79-1.69 m horizontal (radial: 2.45 sigma, docs/conventions.md) and
   1.12-2.31 m vertical (1.96 sigma): 0.45 m -> 1.10 m and 0.8 m -> 1.57 m, mid-range.
 * Jumps J_j (sigma 1 m per axis) at Poisson times tau_j (one per 30 min): "the bias could
   jump if a satellite constellation changes and a new WAAS ionosphere correction message
@@ -27,7 +27,7 @@ epochs t_k (1 Hz, DESIGN.md):
   (sigma 0.03 m) per epoch (multipath, thermal noise, correction residuals, section III-B).
 
 The horizontal axes are statistically alike, so one draw serves any horizontal frame:
-with `frame="xyz"` (runway frame, DESIGN.md) h1 = x, h2 = y; with `frame="llh"` (WGS-84
+with `frame="xyz"` (runway frame, docs/conventions.md) h1 = x, h2 = y; with `frame="llh"` (WGS-84
 lat/lon in degrees, ellipsoidal height in m) h1 = east, h2 = north, converted to angles
 with the meridian and prime-vertical radii of curvature. SI units throughout.
 """

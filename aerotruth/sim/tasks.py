@@ -3,7 +3,7 @@
 A task is named by its *identity* (study name, its stage when it has one, plus a few
 key/value pairs such as fleet, aircraft and date). Its random stream is
 `SeedSequence(campaign_seed, spawn_key=k)` with `k` four 32-bit words of the sha256
-digest of the canonical JSON of the identity (DESIGN.md, "Random streams"); each consumer
+digest of the canonical JSON of the identity (docs/conventions.md, "Random streams"); each consumer
 inside the task draws from its own named child of that stream (`TaskContext.rng`).
 Results depend neither on the order of the task list nor on which worker runs it, and
 never on Python's per-process salted `hash()`.

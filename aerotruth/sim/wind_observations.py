@@ -2,7 +2,7 @@
 aircraft's heading system, air data and TAMDAR report generator, with the reference
 columns filled from each weather model's analysis (`docs/data-formats.md`).
 
-Which draw comes from which stream (DESIGN.md, "Random streams"), so that paired runs
+Which draw comes from which stream (docs/conventions.md, "Random streams"), so that paired runs
 share what they should:
 
 * an aircraft's sensors (flux valve hard/soft iron, mounting, its class; TAS bias and

@@ -9,7 +9,7 @@ sources are stated in ``aerotruth/truth/data/README.md``. Runtime only reads the
 
 Published elevations are above mean sea level (the geoid); GNSS and the truth use
 WGS-84 ellipsoidal heights. The one conversion between them is
-:func:`ellipsoidal_height_m` (h = H + N), used by every caller (DESIGN.md: "convert
+:func:`ellipsoidal_height_m` (h = H + N), used by every caller (docs/conventions.md, Heights and the geoid: "convert
 with the geoid undulation of each airport in one place").
 """
 

@@ -1,7 +1,7 @@
 """The ILS signal in space (the ground installation the aircraft flies: part of the world): localizer and glide-path deviations seen by the aircraft's receiver, from the true
 position of its antennas in the runway frame, with the facility's own errors.
 
-Runway frame (DESIGN.md): origin at the threshold centre at runway elevation, x along the
+Runway frame (docs/conventions.md): origin at the threshold centre at runway elevation, x along the
 approach course (an approaching aircraft has x < 0, the runway is 0 <= x <= length),
 y to the left, z up; metres.
 

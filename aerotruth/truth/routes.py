@@ -130,7 +130,7 @@ def choose_runway(apt: Airport, wind_uv: WindUV | None = None) -> Runway:
 
 
 def runway_frame_xy_m(runway: Runway, lat, lon):
-    """Horizontal runway-frame coordinates (m) of points (DESIGN.md runway frame: origin
+    """Horizontal runway-frame coordinates (m) of points (docs/conventions.md runway frame: origin
     at the threshold, x along the landing course, positive past the threshold, so an
     approaching aircraft has x < 0; y to the left). From the geodesic distance s and
     azimuth a from the threshold: x = s cos(a - c), y = -s sin(a - c); exact on the

@@ -1,6 +1,6 @@
 """The runway frame in three dimensions, through pyproj.
 
-DESIGN.md runway frame (right-handed): origin at the threshold centre at runway
+docs/conventions.md runway frame (right-handed): origin at the threshold centre at runway
 elevation, x along the approach course (towards and past the threshold: an approaching
 aircraft has x < 0, the runway is 0 <= x <= length), y to the left, z up. It is the
 local tangent plane at the threshold (PROJ's topocentric conversion of ECEF, EPSG 9837)

@@ -6,7 +6,7 @@ estimates them, and a Rauch-Tung-Striebel smoother carries the estimate back alo
 approach in reverse time ("the final position is estimated by filtering the measurements
 from the INS with the determined biases on the runway in reverse time").
 
-Error model, per axis of the (locally level) runway frame, short-term (DESIGN.md grades;
+Error model, per axis of the (locally level) runway frame, short-term (docs/conventions.md grades;
 errors are INS-indicated minus true):
 
     horizontal (x along, y cross):   dp' = dv
@@ -42,7 +42,7 @@ DEG_PER_H = math.radians(1.0) / 3600.0
 
 
 class AfisSpec(Section):
-    """Navigation-grade INS, barometer and initial uncertainty (DESIGN.md: ~25 ug, <= 0.01 deg/h)."""
+    """Navigation-grade INS, barometer and initial uncertainty (docs/conventions.md: ~25 ug, <= 0.01 deg/h)."""
 
     accel_bias_ug: float = Field(default=25.0, ge=0, description="accelerometer bias, 1 sigma")
     gyro_bias_deg_h: float = Field(default=0.01, ge=0, description="gyro bias, 1 sigma")

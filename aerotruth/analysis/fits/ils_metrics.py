@@ -11,7 +11,7 @@ position error at range R is
 
 with floors of 1 ft vertical and 2 ft horizontal (FITS paper: "the two accuracy
 requirements are limited to 1 ft and 2 ft in vertical and horizontal"). Positions are in
-the runway frame (DESIGN.md: x along the approach course, < 0 before the threshold;
+the runway frame (docs/conventions.md: x along the approach course, < 0 before the threshold;
 y left; z up; metres); the antenna positions come from the facility geometry
 (aerotruth.truth.ils.IlsFacility: localizer at x_L, glide path at (x_G, y_G)).
 """

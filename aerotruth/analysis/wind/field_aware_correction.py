@@ -2,7 +2,7 @@
 (section 7: "the magnetic deviation curve will vary over magnetic latitude for a constant
 hard iron effect").
 
-The deviation of a flux valve (aerotruth.sensors.magnetics, DESIGN.md) separates by its
+The deviation of a flux valve (aerotruth.sensors.magnetics) separates by its
 field dependence, z' the measured magnetic heading, H and Z the horizontal and vertical
 field at the report:
 
