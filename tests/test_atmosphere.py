@@ -420,6 +420,6 @@ def test_the_one_point_isa_form_equals_the_array_form_to_the_last_bit():
 
     rng = np.random.default_rng(7)
     heights = np.r_[np.array(H_BASE_M[1:]), rng.uniform(-500.0, 30000.0, 200)]  # layer bases included
-    for h, dt, psl in zip(heights, rng.uniform(-30.0, 30.0, heights.size), rng.uniform(95000.0, 105000.0, heights.size)):
-        t, p = isa_point(h, dt, psl)
-        assert t == float(isa_temperature_k(h, dt)) and p == float(isa_pressure_pa(h, dt, psl))
+    for h, dtk, psl in zip(heights, rng.uniform(-30.0, 30.0, heights.size), rng.uniform(95000.0, 105000.0, heights.size)):
+        t, p = isa_point(h, dtk, psl)
+        assert t == float(isa_temperature_k(h, dtk)) and p == float(isa_pressure_pa(h, dtk, psl))

@@ -19,7 +19,7 @@ What it does, per network airport (aerotruth.truth.airports.network_airport_code
   (the system of NGA's published grid and of WGS-84 GNSS heights), bilinear in the
   2.5' grid.
 
-Run: /work/venv/bin/python tools/build_airports.py [--out PATH]
+Run: python tools/build_airports.py [--out PATH] (after pip install -e ".[airportdata]")
 """
 
 from __future__ import annotations

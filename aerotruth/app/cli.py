@@ -222,7 +222,15 @@ def _add_campaign_commands(sub) -> None:
 
         return call
 
-    run = sub.add_parser("run", help="run a campaign (seeded Monte-Carlo) into a run directory")
+    run = sub.add_parser("run", help="run a campaign (seeded Monte-Carlo) into a run directory",
+                         description="Run (or resume) a seeded Monte-Carlo campaign into its run directory (default "
+                                     "runs/<name>; with --size NAME the campaign's `sizes: NAME:` overrides, into "
+                                     "runs/<name>-NAME): one table per task, the learned states, metrics.json, the "
+                                     "studies' tables and data exports, then the figures and RUN_DIR/report.md. Legs "
+                                     "and approaches come from the truth store and are flown only when missing; a "
+                                     "stored task result is reused only while the code, data and configuration it came "
+                                     "from are unchanged. Every random draw comes from a stream named by its task, so "
+                                     "the numbers do not depend on the executor or the number of workers.")
     run.add_argument("campaign", help="campaign YAML file")
     run.add_argument("--size", default=None, help="apply the campaign's `sizes: NAME:` overrides (e.g. reduced); runs/<name>-<size>")
     run.add_argument("--out", default=None, help="run directory (default runs/<campaign name>)")
@@ -233,20 +241,33 @@ def _add_campaign_commands(sub) -> None:
     run.add_argument("--no-report", action="store_true", help="skip figures and report")
     run.set_defaults(func=lazy("run_cli"))
 
-    val = sub.add_parser("validate", help="check a campaign YAML and expand its tasks")
+    val = sub.add_parser("validate", help="check a campaign YAML and expand its tasks",
+                         description="Check a campaign file against the schema of every study it names (a problem is "
+                                     "one line naming the YAML path and line), expand its tasks and print their count "
+                                     "per study and the configuration hash. Nothing is run or flown.")
     val.add_argument("campaign", help="campaign YAML file")
     val.add_argument("--size", default=None, help="validate with the campaign's `sizes: NAME:` overrides applied")
     val.set_defaults(func=lazy("validate_cli"))
 
-    fig = sub.add_parser("figures", help="draw the figures of a run directory")
+    fig = sub.add_parser("figures", help="draw the figures of a run directory",
+                         description="Draw the figures of a finished run into RUN_DIR/figures (PNG and PDF): each "
+                                     "study draws its own from its stored rows, tables and learned states; nothing is "
+                                     "recomputed.")
     fig.add_argument("run_dir", help="run directory written by `aerotruth run`")
     fig.set_defaults(func=lazy("figures_cli"))
 
-    rep = sub.add_parser("report", help="write RUN_DIR/report.md with figures and metric tables")
+    rep = sub.add_parser("report", help="write RUN_DIR/report.md with figures and metric tables",
+                         description="Write RUN_DIR/report.md for a finished run: the campaign (seed, configuration "
+                                     "hash, task counts, library versions), then per study its tables, its figures "
+                                     "(drawn anew: PNG embedded, PDF linked) and all its metrics.")
     rep.add_argument("run_dir", help="run directory written by `aerotruth run`")
     rep.set_defaults(func=lazy("report_cli"))
 
-    reg = sub.add_parser("regress", help="compare a run's metrics with a baseline (exit 1 if a metric moved)")
+    reg = sub.add_parser("regress", help="compare a run's metrics with a baseline (exit 1 if a metric moved)",
+                         description="Compare a run's metrics.json with a baseline JSON. A metric passes when "
+                                     "|got - value| <= abs + rel |value| (its own tolerances, else the baseline's "
+                                     "defaults); a baseline metric missing from the run fails. Exit status 1 and a "
+                                     "table of the metrics that moved; --write makes the baseline from the run instead.")
     reg.add_argument("run_dir", help="run directory written by `aerotruth run`")
     reg.add_argument("baseline", help="baseline JSON (metric values and tolerances)")
     reg.add_argument("--write", action="store_true", help="write the baseline from this run instead of checking")
@@ -264,8 +285,13 @@ def build_parser() -> argparse.ArgumentParser:
     sub = p.add_subparsers(dest="command", required=True)
 
     fly = sub.add_parser("fly", help="fly one leg with JSBSim and write its TruthTrack (Parquet)",
-                         description="Fly one leg. A campaign leg is re-flown bit for bit with the arguments in the "
-                                     "fly_command column of its truth row (seeds, region, cruise level, flight id).")
+                         description="Fly one route leg with JSBSim (the SAAB 340B unless --aircraft) through the "
+                                     "day's truth atmosphere and write its 10 Hz TruthTrack (Parquet, "
+                                     "docs/data-formats.md): runways chosen into the day's surface wind, a straight "
+                                     "climb-out, en-route fixes drawn from --seed (--direct leaves them out), cruise, "
+                                     "and a descent to a point on final 2,000 ft above the runway. A campaign leg is "
+                                     "re-flown bit for bit with the arguments in the fly_command column of its truth "
+                                     "row (seeds, region, cruise level, flight id).")
     fly.add_argument("--from", dest="origin", required=True, help="departure airport ICAO code")
     fly.add_argument("--to", dest="destination", required=True, help="arrival airport ICAO code")
     fly.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (departure 13:00 UTC) or ISO date-time of departure")
@@ -282,7 +308,13 @@ def build_parser() -> argparse.ArgumentParser:
     fly.set_defaults(func=_cmd_fly)
     _add_campaign_commands(sub)
 
-    fa = sub.add_parser("fly-approach", help="fly one ILS approach with JSBSim and write its 50 Hz TruthTrack (Parquet)")
+    fa = sub.add_parser("fly-approach", help="fly one ILS approach with JSBSim and write its 50 Hz TruthTrack (Parquet)",
+                        description="Fly one coupled ILS approach with JSBSim's SAAB 340B from 14 nm out: gear and "
+                                    "flaps 20 at glide-path capture, flaps 35 below 2,000 ft, Vref + 5 kt by 1,000 ft, "
+                                    "then the AFIS level pass over the runway (--pass-height-ft) or a go-around at "
+                                    "200 ft (--profile go-around). Writes a 50 Hz TruthTrack with the runway-frame "
+                                    "position and the IMU's velocity and angle increments (docs/data-formats.md). "
+                                    "--offset-nm and --intercept-deg start it off the centreline for a turn onto final.")
     fa.add_argument("--airport", required=True, help="airport ICAO code (the embedded airport table)")
     fa.add_argument("--runway", required=True, help="runway end landed on, e.g. 27")
     fa.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (start 15:00 UTC) or ISO date-time of the start")
@@ -302,18 +334,35 @@ def build_parser() -> argparse.ArgumentParser:
     fa.set_defaults(func=_cmd_fly_approach)
 
     dia = sub.add_parser("diagnose", help="show where measured data disagree with the simulation's sensor model, and why",
-                         description="Recognises the measured file from its content (Mode-S message logs and trajectories "
-                                     "today) and writes DIR/diagnosis.json and DIR/report.md with a figure.")
+                         description="Recognise a measured file from its content and tell where it disagrees with the "
+                                     "sensor model of the simulation (the campaign of --model), which effect explains "
+                                     "it, by how much, and what the extended model gains on data it was not fitted on. "
+                                     "Mode-S message logs and trajectories: heading offset, once-round heading "
+                                     "deviation, TAS scale, heading/track timing and compass slaving lag, from the "
+                                     "smoothness of the derived wind. Observation tables: the wind paper's deviation "
+                                     "model per aircraft against soft iron, hard-iron scaling with the horizontal "
+                                     "field, TAS scale, a stale declination model, a biased reference model, a "
+                                     "recalibration, a drifting offset and coarser report rounding, tested on 6-h "
+                                     "weather blocks. Approach logs: INS axes not in the runway frame, another WAAS "
+                                     "cyclic period, a DGPS survey offset, unflagged WAAS jumps, late WAAS time tags, "
+                                     "a TVPS sign or scale, a barometer loop's time constant and an INS beyond its "
+                                     "grade. Writes DIR/diagnosis.json, DIR/report.md and figures, and for Mode-S data "
+                                     "and observation tables with findings DIR/extended_model.yaml (the campaign with "
+                                     "the findings in its model).")
     dia.add_argument("measured", help="measured data file (Mode-S JSON/JSONL, observation table, approach log, ...)")
     dia.add_argument("--model", required=True, help="campaign YAML of the simulation the data are compared with")
     dia.add_argument("--out", required=True, help="output folder")
     dia.set_defaults(func=_cmd_diagnose)
 
     fits = sub.add_parser("fits", help="the WAAS-aided FITS (FITS paper) on an approach log -> DIR/trajectory.csv",
-                          description="Removes the 12-s cyclic WAAS noise through the INS (triangular zero-phase filter, "
-                                      "eqs. 7-17), fixes the bias at the threshold from radar altimeter and TVPS (eq. 18) "
-                                      "and writes the trajectory (eq. 19); with DGPS in the log, the errors and the "
-                                      "requirement figure too.")
+                          description="The WAAS-aided flight-inspection truth system (FITS paper) on an approach log "
+                                      "(docs/data-formats.md). The log is checked first (units from the physics; with "
+                                      "3 or more approaches, INS columns in the runway frame). Per approach it removes "
+                                      "the 12-s cyclic WAAS noise through the INS (triangular zero-phase filter, "
+                                      "eqs. 7-17), compensates the WAAS bias jumps the receiver flags, fixes the bias at "
+                                      "the threshold from radar altimeter and TVPS (eq. 18) and writes the trajectory "
+                                      "(eq. 19) at the WAAS epochs and on an 8 Hz grid, the cyclic noise and the biases; "
+                                      "with DGPS in the log, the errors against it and the requirement figure too.")
     fits.add_argument("log", help="approach log (CSV, .csv.gz or Parquet, docs/data-formats.md)")
     fits.add_argument("--out", required=True, help="output folder")
     fits.add_argument("--ra-lever-arm", type=spec_value(FitsSpec, "ra_lever_arm_m", "m"), default=0.0, help="height of the log's reference point above the radar-altimeter antenna (m)")
@@ -322,9 +371,21 @@ def build_parser() -> argparse.ArgumentParser:
                            "waas_latency); each epoch is put at its time minus this")
     fits.set_defaults(func=_cmd_fits)
 
-    heading = sub.add_parser("heading", help="the wind paper's heading-deviation method on your own reports")
+    heading = sub.add_parser("heading", help="the wind paper's heading-deviation method on your own reports",
+                             description="The wind paper's heading-deviation method on your own aircraft reports: "
+                                         "`fit` learns each aircraft's deviation and 8-point table from an observation "
+                                         "table, `apply` corrects the reports of another period with those tables.")
     hsub = heading.add_subparsers(dest="heading_command", required=True)
-    hfit = hsub.add_parser("fit", help="fit eq. 2 per aircraft from an observation table -> DIR/deviation.csv, figures, report")
+    hfit = hsub.add_parser("fit", help="fit eq. 2 per aircraft from an observation table -> DIR/deviation.csv, figures, report",
+                           description="The wind paper's method on an observation table (aircraft wind reports with "
+                                       "reference-model winds, docs/data-formats.md): ground tracks from three "
+                                       "adjacent reports, the heading error against each reference model (eqs. 3-4), "
+                                       "a robust flight-clustered fit of eq. 2 per aircraft (D, E only when a Wald test "
+                                       "keeps them; the offset alone when the headings cannot identify the sinusoid) "
+                                       "and its 8-point table. Writes DIR/deviation.csv (and deviation_mag.csv, fitted "
+                                       "on magnetic heading, when the table has heading_mag_deg or declination_deg), "
+                                       "flight-bootstrap intervals in deviation_ci.csv, a figure per aircraft and "
+                                       "DIR/report.md.")
     hfit.add_argument("obs", help="observation table (CSV, .csv.gz or Parquet, docs/data-formats.md)")
     hfit.add_argument("--out", required=True, help="output folder")
     hfit.add_argument("--bootstrap", type=int, default=200, metavar="N",
@@ -333,7 +394,15 @@ def build_parser() -> argparse.ArgumentParser:
     hfit.add_argument("--seed", type=int, default=0, help="seed of the bootstrap's resampling (default 0)")
     hfit.set_defaults(func=_cmd_heading_fit)
     happ = hsub.add_parser("apply", help="apply the tables of `heading fit` to the reports of another period -> "
-                           "DIR/corrected.*, apply.csv (before/after per aircraft), figure, report")
+                           "DIR/corrected.*, apply.csv (before/after per aircraft), figure, report",
+                           description="Apply the tables `aerotruth heading fit` learned to the reports of another "
+                                       "period, as the onboard table would have corrected them (eq. 1 with the air "
+                                       "vector turned by the table's correction; nothing is refitted). The reports must "
+                                       "not be corrected onboard already. Writes DIR/corrected.csv (or .parquet, as the "
+                                       "input) with each row's correction and corrected wind, DIR/apply.csv (per "
+                                       "aircraft the wind error against the references before and after: RMS, "
+                                       "longitudinal, transverse; in_sample where the dates overlap the fit's), a "
+                                       "before/after figure and DIR/report.md.")
     happ.add_argument("obs", help="observation table (CSV, .csv.gz or Parquet, docs/data-formats.md)")
     happ.add_argument("--tables", required=True, help="the deviation.csv (or deviation_mag.csv) of `aerotruth heading fit`")
     happ.add_argument("--out", required=True, help="output folder")

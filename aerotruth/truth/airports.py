@@ -129,7 +129,7 @@ def _network(name, operator, aircraft_type, spokes_by_hub, timezones) -> Network
     )
 
 
-# Networks flown 2009-2010 (../shared/saab340b-facts.md "Networks flown"). Mesaba's
+# Networks flown 2009-2010 (the airlines' published route maps of those years). Mesaba's
 # Minneapolis and Detroit spokes are those named there; the Memphis spokes are real
 # regional airports Northwest Airlink served from Memphis. Chautauqua's spokes are
 # real eastern airports 90-500 nm from each hub: plausible ERJ-145 legs, not a

@@ -51,7 +51,8 @@ BASE_OFFSET_NM = 5.0  # abeam the IF, inserted when the turn at the IF would exc
 
 # Cruise level by leg length (great-circle airport to airport): FL140 at <= 100 nm,
 # FL230 at 250 nm, FL250 (the SAAB 340B ceiling) from 350 nm; a SAAB 340B needs
-# ~20-25 min to reach FL250 (../shared/saab340b-facts.md), so short legs fly low.
+# ~20-25 min to reach FL250 (its published ~2,000 fpm initial climb at MTOW, falling with
+# height towards the 25,000 ft service ceiling), so short legs fly low.
 CRUISE_TABLE_NM = (100.0, 250.0, 350.0)
 CRUISE_TABLE_FT = (14000.0, 23000.0, 25000.0)
 CRUISE_FLOOR_FT = 14000.0
