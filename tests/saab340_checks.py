@@ -1,4 +1,4 @@
-"""Open-loop test manoeuvres for the SAAB 340B JSBSim model (issue 3 acceptance).
+"""Open-loop test manoeuvres for the SAAB 340B JSBSim model (its acceptance against published performance).
 
 Power is always a fixed lever setting; the only closed loops are small holds on the
 elevator (altitude, airspeed or flight-path angle) and on the ailerons (wings level)
@@ -441,7 +441,7 @@ def step_cost_us(fdm: jsbsim.FGFDMExec, steps: int = 5000) -> float:
     return (time.perf_counter() - t0) / steps * 1e6
 
 
-# Landing configuration checks (issue 8). Maximum landing weight 12,930 kg (SAAB 340B
+# Landing configuration checks. Maximum landing weight 12,930 kg (SAAB 340B
 # type certificate data); forward CG taken as 16 % MAC (est.: the forward limit of the
 # 340B loading envelope lies near 15-17 % MAC at landing weights).
 MLW_KG = 12930.0

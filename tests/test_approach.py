@@ -1,4 +1,4 @@
-"""ILS approach truth (issue 8): the 3-D runway frame, the coupled approach and its
+"""ILS approach truth: the 3-D runway frame, the coupled approach and its
 configuration schedule, the 50 Hz inertial truth closing on itself through an
 independent strapdown mechanization, and lever-arm positions against hand-worked cases."""
 

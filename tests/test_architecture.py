@@ -186,3 +186,13 @@ def test_the_offence_finder_catches_a_drawing_writing_module(tmp_path):
     assert sorted(_library_offences("aerotruth.analysis.bad", p)) == [
         "aerotruth.analysis.bad:1 imports matplotlib.pyplot", "aerotruth.analysis.bad:3 calls to_csv",
         "aerotruth.analysis.bad:4 opens a file for writing", "aerotruth.analysis.bad:6 opens a file for writing"]
+
+
+def test_the_public_import_paths_of_users_studies_still_work():
+    import aerotruth.config as public
+    from aerotruth.schema import Section
+    from aerotruth.sim.campaign_file import Campaign, load_campaign
+    from aerotruth.sim.studies import Study, Summary
+
+    assert public.Section is Section and public.Campaign is Campaign and public.load_campaign is load_campaign
+    assert issubclass(Campaign, Section) and Study.__module__ == "aerotruth.sim.studies" and Summary is not None

@@ -1,5 +1,5 @@
 """The JSBSim truth loop: flies legs, closes the wind triangle, holds its targets,
-is bit-reproducible and reports divergence (issue 'Foundation' acceptance)."""
+is bit-reproducible and reports divergence."""
 
 import dataclasses
 import hashlib

@@ -51,7 +51,7 @@ def test_injected_errors_are_recovered_through_the_truth_and_waas_systems(fixed)
     for sysname in ("truth", "waas/tactical", "dgps"):
         g = s.xs(sysname, level="system")
         assert np.allclose(g["alignment_true_m"], 3.0) and np.allclose(g["gp_angle_true_deg"], 0.05)
-        assert (g["alignment_err_m"].abs() < 1.0).all(), sysname  # the 1 m at the threshold
+        assert (g["alignment_err_m"].abs() < 1.0).all(), sysname  # 1 m at the threshold: an inspection's alignment resolution
         assert (g["gp_angle_err_deg"].abs() < 0.01).all(), sysname  # 0.01 deg
         assert (g["bend_rel_err"].abs() < 0.2).all(), sysname  # 20 %
         assert g["alignment_pass_est"].all() and g["gp_angle_pass_est"].all()  # 3 m and 0.05 deg pass Cat I

@@ -1,9 +1,9 @@
-"""Open-loop acceptance of the SAAB 340B JSBSim model (issue 3).
+"""Open-loop acceptance of the SAAB 340B JSBSim model.
 
 Every performance number comes from a fixed power lever; only the elevator (altitude,
 speed or flight-path hold) and the ailerons (wings level) are closed loops, and only
-where the criterion is a steady state. Expected ranges are the issue's acceptance
-figures, from published SAAB 340B performance (Jane's; shared/saab340b-facts.md).
+where the criterion is a steady state. Expected ranges are published SAAB 340B
+performance figures (Jane's-class specifications).
 
 Measured with this model (`python -m pytest tests/test_saab340.py -q -s` prints them):
 cruise 267.6 KTAS at FL150 and 256.7 KTAS at FL250 (12,000 kg, lever 0.85, 1,230 rpm);
@@ -147,7 +147,7 @@ def test_approach_flaps_35_gear_down_is_stable_on_3_degrees_at_115_135_kias():
 
 @pytest.mark.parametrize("mass_kg", [10500.0, 11500.0, 12930.0])
 def test_flaps_35_vref_and_approach_pitch_lie_in_the_published_bands(mass_kg):
-    """Issue 8: 1-g stall (idle, 1 kt/s, forward CG 16 % MAC), flaps 35 and gear down;
+    """1-g stall (idle, 1 kt/s, forward CG 16 % MAC), flaps 35 and gear down;
     Vref = 1.3 Vs must lie in the published 115-125 KIAS band at the maximum landing
     weight (and scale as sqrt(W) below it); the pitch attitude at Vref on a 3 deg path
     must lie in -1..+3 deg at every landing weight."""

@@ -1,4 +1,4 @@
-"""Prints the foundation issue's leg acceptance figures for MSP->DLH and ANC->DLG
+"""Prints the leg acceptance figures for MSP->DLH and ANC->DLG
 (cruise TAS error, cruise cross-track, arrival offset from the extended centreline,
 wind-triangle closure) for each aircraft, in the day's truth atmosphere.
 

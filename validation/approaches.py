@@ -1,4 +1,4 @@
-"""Issue-8 approach acceptance: N ILS approaches to runways of the three networks, in
+"""Approach acceptance: N ILS approaches to runways of the three networks, in
 the day's truth atmosphere with JSBSim turbulence, AFIS profile (every 5th a
 go-around). Prints `label: value` lines: the share stabilised at 1,000 ft (within 1 dot
 on localizer and glide slope, Vref -5/+10 kt, sink <= 1,000 fpm), medians and worst

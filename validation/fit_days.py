@@ -1,5 +1,5 @@
 """How many days of reports the heading-deviation fit needs for a given table accuracy, per
-fleet (the method issue's item 6c), measured on a heading_correction run's own simulated
+fleet, measured on a heading_correction run's own simulated
 reports, where the truth heading is known.
 
 For each k in --days, `--reps` times: draw k days of the run's fit period at random, fit

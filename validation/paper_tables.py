@@ -4,8 +4,7 @@ of several run directories of one campaign (one per campaign seed, e.g. made wit
 `aerotruth run campaigns/mesaba_2009.yaml --size reduced --out runs/m-<seed>` after setting
 `seed:`), and prints per cell the mean over the seeds, the seed-to-seed standard deviation
 (the reduced run's statistical precision), the standard error of the mean, the paper's
-value, the cell's role (calibrated or predicted) and, for the cells the method issue
-judges (the poor group's adjusted after cell and the improvement, total RMS), whether the
+value, the cell's role (calibrated or predicted) and, for the judged cells (the poor group's adjusted after cell and the improvement, total RMS), whether the
 mean lands within max(1.0 kn, 2 standard errors) of the paper.
 
     python validation/paper_tables.py RUN_DIR [RUN_DIR ...] [--markdown]

@@ -19,7 +19,7 @@ import pandas as pd
 from pydantic import Field, StrictBool
 
 from aerotruth import seeds
-from aerotruth.sim.campaign_file import Section
+from aerotruth.config import Section  # the public path a user's study imports (a re-export)
 from aerotruth.sim.fleet_days import FlightSelection, aircraft_days, check_flights, day_task
 from aerotruth.sim.studies import Study, Summary
 

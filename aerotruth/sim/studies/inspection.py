@@ -1,6 +1,6 @@
 """Inspection study: does each flight-inspection truth system recover an ILS's errors well
-enough to pass or fail the facility correctly? (The inspection issue; FITS paper
-sections I-II for AFIS and DGPS-FIS.)
+enough to pass or fail the facility correctly? (FITS paper sections I-II for AFIS and
+DGPS-FIS.)
 
 One task per approach, as in the `fits` study (same section fields, same truth from the
 store, same sensors and paired draws), plus the ILS facility and the baselines:

@@ -37,7 +37,7 @@ from aerotruth.sim.studies import Figure, Study, Summary
 from aerotruth.sim.tasks import Task
 from aerotruth.units import KT, NM
 
-# Foundation acceptance (issue 2): leg metric -> upper limit
+# Acceptance of a flown leg: leg metric -> upper limit
 ACCEPTANCE = {
     "cruise_tas_error_max_kt": 5.0,
     "cruise_xtrack_max_nm": 0.3,
