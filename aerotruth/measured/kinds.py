@@ -60,7 +60,7 @@ def real_data_dir() -> Path:
     env = os.environ.get("AEROTRUTH_REAL_DATA")
     if env:
         return Path(env)
-    return Path(__file__).resolve().parents[2] / "shared" / "real-data"
+    return Path(__file__).resolve().parents[3] / "shared" / "real-data"
 
 
 def _raw_bytes(path: Path) -> bytes:
