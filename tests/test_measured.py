@@ -127,3 +127,15 @@ def test_a_raw_log_without_a_register_diagnose_needs_names_it(tmp_path):
     (tmp_path / "m.jsonl").write_text("\n".join(json.dumps(m) for m in msgs))
     with pytest.raises(DataError, match=r"BDS 6,0 replies \(magnetic heading\): 50 of them, none with 'heading' decoded"):
         track_from_measured(load_measured(tmp_path / "m.jsonl"))
+
+
+def test_the_real_data_folder_is_the_one_beside_the_checkout(monkeypatch):
+    """Without $AEROTRUTH_REAL_DATA the folder is ../shared/real-data beside the repository
+    (where CI lays shared/): a wrong default would silently skip every real-data test."""
+    from pathlib import Path
+
+    monkeypatch.delenv("AEROTRUTH_REAL_DATA", raising=False)
+    repo = Path(__file__).resolve().parents[1]
+    assert real_data_dir() == repo.parent / "shared" / "real-data"
+    monkeypatch.setenv("AEROTRUTH_REAL_DATA", "/somewhere/else")
+    assert real_data_dir() == Path("/somewhere/else")
