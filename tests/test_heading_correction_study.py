@@ -208,6 +208,7 @@ def test_fit_figure_draws_the_fits_own_frame_and_gates(tmp_path):
     import matplotlib.pyplot as plt
 
     from aerotruth.analysis.wind.heading_errors import heading_errors
+    from aerotruth.app.figures import FigureFolder
     from aerotruth.sim.studies import Summary
 
     rng = np.random.default_rng(8)
@@ -221,7 +222,7 @@ def test_fit_figure_draws_the_fits_own_frame_and_gates(tmp_path):
     table = STUDY.fit("corrections", rows, section, np.random.default_rng(0))
     assert (table["gate_position_step_deg"] == 0.02).all() and (table["gate_max_roll_deg"] == 10.0).all()
     plt.close("all")
-    figs = STUDY.figures(rows, Summary({}, {}), {"corrections": table}, tmp_path)
+    figs = STUDY.figures(rows, Summary({}, {}), {"corrections": table}, FigureFolder(tmp_path))
     assert "heading_correction_fits" in [f.stem for f in figs]
     ax = plt.gcf().axes[0]
     poor = table.loc[table["group"] == "poor", "aircraft"].iloc[0]
