@@ -19,7 +19,6 @@ import jsbsim
 import numpy as np
 
 import aerotruth.truth
-
 from aerotruth.truth.airframes import quiet_jsbsim
 from aerotruth.units import DEG, FPM, FT, KG_PER_LB, KT
 

@@ -9,7 +9,15 @@ import math
 import numpy as np
 import pytest
 
-from aerotruth.analysis.fits.afis import DEG_PER_H, EARTH_RADIUS_M, G0, MICRO_G, AfisSpec, afis_trajectory, horizontal_model
+from aerotruth.analysis.fits.afis import (
+    DEG_PER_H,
+    EARTH_RADIUS_M,
+    G0,
+    MICRO_G,
+    AfisSpec,
+    afis_trajectory,
+    horizontal_model,
+)
 from aerotruth.analysis.kalman import kalman_rts
 
 QUIET = AfisSpec(accel_white_ug2_hz=0.0, gyro_white_deg2_s2_hz=0.0)
@@ -71,6 +79,7 @@ def _simulate_errors(t, spec, rng, runs, sub=5):
     return out, baro
 
 
+@pytest.mark.slow
 def test_smoothed_error_along_the_approach_matches_the_smoother_covariance():
     """Cross-track and vertical (what an ILS angle sees); the event marks fall exactly on
     epochs here, so the along-track axis, whose budget is the mark's timing, is not scored."""

@@ -5,7 +5,6 @@ independent strapdown mechanization, and lever-arm positions against hand-worked
 from __future__ import annotations
 
 import argparse
-
 import math
 import subprocess
 import sys
@@ -17,8 +16,7 @@ import pytest
 
 from aerotruth import geo
 from aerotruth.sensors import strapdown as sd
-from aerotruth.truth.approach import (approach_metrics, approach_spec, find_runway, fly_approach,
-                                      point_positions)
+from aerotruth.truth.approach import approach_metrics, approach_spec, find_runway, fly_approach, point_positions
 from aerotruth.truth.runway import RunwayFrame
 from aerotruth.truth.track import COLUMNS, TruthTrack
 from aerotruth.truth.weather import UniformAtmosphere
@@ -83,6 +81,7 @@ def test_lever_arm_positions_match_a_hand_worked_attitude():
     np.testing.assert_allclose(p["right"][1], [0.0, -math.cos(phi), -math.sin(phi)], atol=1e-9)
 
 
+@pytest.mark.slow
 def test_calm_approach_is_stabilised_and_passes_level_over_the_runway(calm_afis):
     df, meta = calm_afis.df, calm_afis.meta
     assert np.allclose(np.diff(df["time_s"]), 0.02, atol=1e-9)  # 50 Hz
@@ -107,6 +106,7 @@ def test_calm_approach_is_stabilised_and_passes_level_over_the_runway(calm_afis)
     assert np.abs(df["roll_rad"]).max() < 5 * DEG
 
 
+@pytest.mark.slow
 def test_inertial_truth_closes_through_an_independent_strapdown_mechanization(calm_afis, tmp_path):
     """A strapdown (aerotruth.sensors.strapdown, ECEF, J2 gravity) of the recorded dv,
     dtheta from the true state at 60 s reproduces the recorded position within 1 m and the
@@ -130,6 +130,7 @@ def test_inertial_truth_closes_through_an_independent_strapdown_mechanization(ca
     assert np.abs(att).max() < 0.01
 
 
+@pytest.mark.slow
 def test_the_imu_senses_gravity_and_the_earth_rate_in_steady_flight(calm_afis):
     """Independent physics: on the steady glide path the specific force is ~ -g along
     body z (so |dv| ~ g dt) and the gyros see the Earth's rotation plus the transport rate."""
@@ -140,6 +141,7 @@ def test_the_imu_senses_gravity_and_the_earth_rate_in_steady_flight(calm_afis):
     assert f[:, 2].mean() < -9.5
 
 
+@pytest.mark.slow
 def test_windy_turbulent_go_around_climbs_away_and_cleans_up(windy_go_around):
     df, meta = windy_go_around.df, windy_go_around.meta
     m = approach_metrics(windy_go_around)
@@ -175,6 +177,7 @@ def test_pass_height_is_checked_by_the_argument_parser(height, ok, capsys):
             _pass_height_ft(height)
 
 
+@pytest.mark.slow
 def test_fly_approach_command_line(tmp_path):
     out = tmp_path / "a.parquet"
     cmd = [sys.executable, "-m", "aerotruth", "fly-approach", "--airport", "KDLH", "--runway", "27", "--date",
@@ -188,6 +191,7 @@ def test_fly_approach_command_line(tmp_path):
     assert bad.returncode == 2 and "no runway '09L'" in bad.stderr and "Traceback" not in bad.stderr
 
 
+@pytest.mark.slow
 def test_turn_onto_final_captures_the_localizer_by_10_nm_with_an_airline_roll():
     """From 1.5 nm right of the centreline on a 30 deg intercept: on the localizer (within
     30 m) by 10 nm, bank within the 25 deg limit (+3 deg overshoot), roll rate at 1 Hz

@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 from aerotruth.app.cli import main
-from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.campaign import TaskFailed, run_campaign
+from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 
 TINY = """\
@@ -71,11 +71,13 @@ def test_two_local_workers_give_identical_metrics_bytes(reference, tmp_path):
     assert metrics_bytes(tmp_path / "r2") == metrics_bytes(reference)
 
 
+@pytest.mark.slow
 def test_dask_localcluster_gives_identical_metrics_bytes(reference, tmp_path):
     run_campaign(parse_campaign(TINY), ExecutorChoice("dask", workers=2), out=tmp_path / "rd", **QUIET)
     assert metrics_bytes(tmp_path / "rd") == metrics_bytes(reference)
 
 
+@pytest.mark.slow
 def test_sigkill_midway_then_resume_gives_identical_metrics(reference, tmp_path):
     (tmp_path / "tiny.yaml").write_text(TINY)
     out = tmp_path / "killed"
@@ -120,6 +122,7 @@ def test_finished_run_is_reused_entirely(reference):
     assert (s.reused, s.ran) == (N_TASKS, 0)
 
 
+@pytest.mark.slow
 def test_rerun_with_another_configuration_recomputes_what_it_changes(reference, tmp_path):
     out = tmp_path / "reconfigured"
     run_campaign(parse_campaign(TINY), LOCAL1, out=out, **QUIET)

@@ -9,10 +9,10 @@ import datetime as dt
 import numpy as np
 import pytest
 
-from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.campaign import expand, run_campaign
-from aerotruth.sim.executors import ExecutorChoice
+from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.context import TaskContext
+from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.store import RunStore
 from aerotruth.sim.studies.truth import STUDY as TRUTH
 from aerotruth.truth.airports import airport
@@ -42,6 +42,7 @@ def fixed_run(tmp_path_factory):
     return out
 
 
+@pytest.mark.slow
 def test_each_aircraft_day_flies_its_leg_within_the_foundation_acceptance(fixed_run):
     store = RunStore(fixed_run)
     rows = store.read_rows(expand(store.campaign()))
@@ -66,11 +67,13 @@ def test_each_aircraft_day_flies_its_leg_within_the_foundation_acceptance(fixed_
     assert m["truth.cruise_xtrack_max_nm.pass_fraction"] == 1.0
 
 
+@pytest.mark.slow
 def test_two_workers_give_identical_truth_metrics(fixed_run, tmp_path):
     run_campaign(parse_campaign(FIXED), ExecutorChoice("local", workers=2), out=tmp_path / "r2", **QUIET)
     assert (tmp_path / "r2" / "metrics.json").read_bytes() == (fixed_run / "metrics.json").read_bytes()
 
 
+@pytest.mark.slow
 def test_the_run_counts_the_legs_it_flew_not_what_another_campaign_adds_to_the_store_log(monkeypatch, tmp_path):
     """A campaign running beside this one appends its own flights to the shared store's
     flown.log; the summary counts only this run's."""
@@ -110,6 +113,7 @@ def test_schedule_day_keeps_the_first_legs_chained_in_time():
     assert len({leg.flight_seed for leg in legs}) == 3
 
 
+@pytest.mark.slow
 def test_diverged_leg_is_kept_by_name_with_its_seed_and_left_out_of_statistics(monkeypatch, tmp_path):
     import aerotruth.truth.flight as flight
     import aerotruth.truth.store as truth_store

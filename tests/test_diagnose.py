@@ -14,6 +14,7 @@ from aerotruth.app.cli import main
 from aerotruth.measured.kinds import real_data_dir
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("hidden, effect, param, size", [
     ({"A_deg": 1.5, "k": 0.0, "D_s": 0.0}, "heading_offset", "A_deg", 1.5),
     ({"A_deg": 0.0, "k": 0.0, "D_s": 2.0}, "heading_time_offset", "D_s", 2.0),
@@ -26,6 +27,7 @@ def test_a_hidden_effect_is_ranked_first_sized_within_25_percent_with_a_held_out
     assert findings[0].gain["held_out_after"] < findings[0].gain["held_out_before"]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("tau_s", [0.0, 30.0])
 def test_a_slaving_lag_of_the_compass_is_found_once_the_deviation_is_in_the_model(tau_s):
     """A slaved compass: 3.6-deg one-cycle deviation reaching the heading through a 30-s
@@ -100,6 +102,7 @@ def _day():
     return AircraftDay.for_campaign(7, "N1", dt.date(2009, 8, 15), legs=tuple(FixedLeg(*leg) for leg in legs))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("hidden, effect, param, size", [
     ({}, None, None, None),
     ({"table_error_deg": 4.0}, "heading_offset", "A_deg", 4.0),

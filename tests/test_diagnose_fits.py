@@ -4,11 +4,11 @@ first, sized within 25 % and give a positive held-out gain; nothing hidden, noth
 
 import json
 
+import approach_log_generator as gen
 import numpy as np
 import pandas as pd
 import pytest
 
-import approach_log_generator as gen
 from aerotruth.analysis.diagnose.fits import FitsModel, diagnose_log
 from aerotruth.app.cli import main
 
@@ -53,6 +53,7 @@ def test_a_tvps_of_the_other_sign_or_scale_is_named_not_taken_for_a_dgps_offset(
     assert ("opposite sign" in f.cause) == (scale < 0)
 
 
+@pytest.mark.slow
 def test_a_tvps_as_the_model_says_gives_no_finding_when_approaches_spread():
     n = sum(len(diagnose_log("log", gen.make_log(12, seed=s, jumps_per_s=0.0, threshold_y_sd_m=3.0)[0], FitsModel())[0])
             for s in range(120, 126))
@@ -114,11 +115,13 @@ def test_the_fits_command_refuses_an_ins_in_another_frame_naming_the_columns(tmp
     assert "z.csv: columns ins_x_m/ins_y_m/ins_z_m: ins_z_m has the opposite sign" in err and err.count("\n") == 1
 
 
+@pytest.mark.slow
 def test_nothing_hidden_nothing_found():
     n = sum(len(diagnose_log("log", gen.make_log(12, seed=s, jumps_per_s=0.0)[0], FitsModel())[0]) for s in range(100, 110))
     assert n == 0
 
 
+@pytest.mark.slow
 def test_a_baro_coupled_ins_as_the_model_says_gives_no_finding():
     for seed in (40, 41, 42):
         log, _ = gen.make_log(20, seed=seed, jumps_per_s=0.0, baro_loop_tau_s=30.0)
@@ -170,6 +173,7 @@ def test_an_approach_too_short_for_the_filter_is_one_line_naming_it(tmp_path, ca
     assert "log.csv: approach" in err and "expected at least 4T = 48" in err and err.count("\n") == 1
 
 
+@pytest.mark.slow
 def test_a_waas_latency_is_named_alone_and_the_fits_compensates_it(tmp_path):
     # uncompensated, a 0.2-s latency reads as a step of the WAAS bias in every approach's
     # level-off and a vertical DGPS offset; named, the other effects run on re-tagged epochs

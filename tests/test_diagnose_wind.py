@@ -18,10 +18,10 @@ import json
 from dataclasses import replace
 
 import numpy as np
+import obs_generator as gen
 import pandas as pd
 import pytest
 
-import obs_generator as gen
 from aerotruth.analysis.diagnose.wind import WindModelSpec, diagnose_wind, extended_spec, prepare
 from aerotruth.app.diagnose import write_wind_diagnosis
 from aerotruth.errors import DataError
@@ -50,6 +50,7 @@ def _first(findings, effect: str, truth: float, size=None):
     return f
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [1, 2])
 def test_nothing_hidden_nothing_found(seed):
     fleet, rng = _fleet(seed)
@@ -58,6 +59,7 @@ def test_nothing_hidden_nothing_found(seed):
     assert all(r["status"] == "fitted" for r in baseline["model_fit"].values())
 
 
+@pytest.mark.slow
 def test_soft_iron_2psi_half_degree():
     fleet, rng = _fleet(3)
     phases = rng.uniform(0, 2 * np.pi, len(fleet))
@@ -69,6 +71,7 @@ def test_soft_iron_2psi_half_degree():
         assert np.hypot(p["D_deg"], p["E_deg"]) == pytest.approx(0.5, abs=5 * p["D_se_deg"] + 0.1)
 
 
+@pytest.mark.slow
 def test_hard_iron_scaling_with_the_horizontal_field():
     fleet, rng = _fleet(4)
     fleet = [replace(a, h0_nT=17000.0) for a in fleet]  # B, C of hard iron: x 17,000 nT / H
@@ -79,6 +82,7 @@ def test_hard_iron_scaling_with_the_horizontal_field():
     _first(findings, "field_scaling", 1.0)
 
 
+@pytest.mark.slow
 def test_a_field_independent_deviation_against_a_hard_iron_model_is_named_as_less_field_dependent():
     """The converse: B, C the same at every field (the generator's default) against a model
     whose hard iron scales as 1/H (gamma 1): gamma is found near 0, and the cause says the
@@ -93,6 +97,7 @@ def test_a_field_independent_deviation_against_a_hard_iron_model_is_named_as_les
     assert "less than the model" in f.cause and "grows" not in f.cause, f.cause
 
 
+@pytest.mark.slow
 def test_tas_scale_one_percent():
     fleet, rng = _fleet(5)
     fleet = [replace(a, tas_scale=0.01) for a in fleet]
@@ -101,6 +106,7 @@ def test_tas_scale_one_percent():
     assert len(findings) == 1
 
 
+@pytest.mark.slow
 def test_stale_declination_five_years():
     fleet, rng = _fleet(6)
     obs = gen.generate(fleet, rng, flights=40, hub=ANCHORAGE, stale_declination_years=5.0)
@@ -108,6 +114,7 @@ def test_stale_declination_five_years():
     _first(findings, "stale_declination", 5.0)
 
 
+@pytest.mark.slow
 def test_reference_model_bias_along_the_wind():
     fleet, rng = _fleet(7)
     findings, _, _ = _diagnose(gen.generate(fleet, rng, flights=40, ref_bias_kt={"rr": 2.0}))
@@ -116,6 +123,7 @@ def test_reference_model_bias_along_the_wind():
     assert f.parameters["bias_kt"]["rr"]["form"] == "offset" and "in proportion" not in f.cause
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("scale", [0.10, -0.08])
 def test_reference_model_wind_scale_is_told_from_an_offset(scale):
     """A model whose wind is s times too strong (a common analysis error: jets too weak or
@@ -141,6 +149,7 @@ def test_reference_model_wind_scale_is_told_from_an_offset(scale):
     assert "reference_bias" not in [x.effect for x in diagnose_wind(d, ext)[0]]
 
 
+@pytest.mark.slow
 def test_recalibration_step_mid_period():
     fleet, rng = _fleet(8)
     fleet = [replace(a, a_step_deg=2.0) if i < 3 else a for i, a in enumerate(fleet)]
@@ -152,6 +161,7 @@ def test_recalibration_step_mid_period():
         assert s["step_deg"] == pytest.approx(2.0, rel=0.25)
 
 
+@pytest.mark.slow
 def test_offset_drifting_in_time_is_a_drift_not_a_step(tmp_path):
     # 0.3 deg/day over the ~8 days of 40 flights: ~2.4 deg from first to last; a step at the
     # middle would explain half of it (the recalibration's CUSUM also fires)
@@ -177,6 +187,7 @@ def test_offset_drifting_in_time_is_a_drift_not_a_step(tmp_path):
     assert f"{fleet[2].aircraft}: {x['rate_deg_per_day']:+.3f} ± {x['se_deg_per_day']:.3f} deg/day" in text
 
 
+@pytest.mark.slow
 def test_coarser_quantization():
     fleet, rng = _fleet(9)
     findings, _, _ = _diagnose(gen.generate(fleet, rng, flights=40, quant_deg=0.05))
@@ -185,6 +196,7 @@ def test_coarser_quantization():
     assert g["predicted_after_kt"] == pytest.approx(g["measured_kt"], rel=0.25)  # the coarser grid explains the track jitter
 
 
+@pytest.mark.slow
 def test_an_effect_outside_the_library_is_described_by_its_signature():
     fleet, rng = _fleet(10)
     findings, _, _ = _diagnose(gen.generate(fleet, rng, flights=40, alt_error_deg_per_kft=0.05))
@@ -274,6 +286,7 @@ def test_weather_blocks_keep_flights_whole_and_alternate_folds():
     assert fold.tolist() == [1, 1, 1, 0, 0, 0, 0, 0, 0]
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("seed", [21, 22, 23])
 def test_an_analysis_error_shared_by_the_fleet_is_not_a_reference_bias(seed):
     """The analysis is one field: every aircraft in the same hours sees the same wind-speed

@@ -7,6 +7,8 @@ import pytest
 
 from aerotruth.analysis.wind.field_aware_correction import FieldAwareDeviationFit, compare_on
 
+pytestmark = pytest.mark.slow  # every test here flies JSBSim or takes over 5 s
+
 H0 = 17000.0
 
 

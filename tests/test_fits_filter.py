@@ -4,19 +4,25 @@ Fig. 14 criterion on synthetic approaches from an independent generator
 
 from __future__ import annotations
 
+import json
 import math
 from pathlib import Path
 
-import json
-
+import approach_log_generator as gen
 import numpy as np
 import pandas as pd
 import pytest
 
-import approach_log_generator as gen
 from aerotruth.analysis.fits.filter import (
-    FitsSpec, cyclic_noise, fits_approach, frequency_response, highpass_taps, noise_floor_rms, triangular_lowpass,
-    waas_noiseless)
+    FitsSpec,
+    cyclic_noise,
+    fits_approach,
+    frequency_response,
+    highpass_taps,
+    noise_floor_rms,
+    triangular_lowpass,
+    waas_noiseless,
+)
 from aerotruth.app.fits import fits_main
 
 T = 12

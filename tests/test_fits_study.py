@@ -15,8 +15,8 @@ import pandas as pd
 import pytest
 
 from aerotruth.app.fits import fits_main
-from aerotruth.sim.campaign_file import ConfigError, parse_campaign
 from aerotruth.sim.campaign import run_campaign
+from aerotruth.sim.campaign_file import ConfigError, parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.truth.store import TruthStore
 
@@ -65,6 +65,7 @@ def run(tmp_path_factory):
     return out, *_run(campaign(INS, "    equivalence: [{a: tactical, b: automotive}, {a: tactical, b: late}]"), out)
 
 
+@pytest.mark.slow
 def test_cyclic_noise_residual_is_under_0_1_m_and_at_the_analytic_floor(run):
     _, m, rows = run
     floor = _floor()
@@ -78,6 +79,7 @@ def test_cyclic_noise_residual_is_under_0_1_m_and_at_the_analytic_floor(run):
     assert m["fits.late.resid_rms_m.z"] > 1.5 * floor or m["fits.late.resid_rms_m.x"] > 1.5 * floor
 
 
+@pytest.mark.slow
 def test_fits_error_is_at_the_ra_tvps_accuracy_and_meets_the_requirement(run):
     _, m, rows = run
     ep = rows[(rows["kind"] == "epoch") & (rows["ins"] == "tactical")]
@@ -89,6 +91,7 @@ def test_fits_error_is_at_the_ra_tvps_accuracy_and_meets_the_requirement(run):
     assert m["fits.tactical.share_meeting.cross.minimum"] == 1.0
 
 
+@pytest.mark.slow
 def test_ins_variants_are_paired_on_the_same_truth_and_waas_noise(run):
     _, m, rows = run
     ep = rows[rows["kind"] == "epoch"]
@@ -102,6 +105,7 @@ def test_ins_variants_are_paired_on_the_same_truth_and_waas_noise(run):
     assert m["fits.tost.tactical_vs_late.vertical.equivalent"] == 0.0
 
 
+@pytest.mark.slow
 def test_exported_log_runs_through_aerotruth_fits_with_its_runway_sidecar(run, tmp_path, capsys):
     out, m, rows = run
     log_path = out / "data" / "fits.approach_log.parquet"
@@ -128,6 +132,7 @@ def test_exported_log_runs_through_aerotruth_fits_with_its_runway_sidecar(run, t
     assert np.allclose(first["range_loc_m"], geo["loc_x_m"] - first["x_m"])
 
 
+@pytest.mark.slow
 def test_changing_a_sensor_never_reflies(run, tmp_path):
     store = TruthStore()
     before = store.flown_count()

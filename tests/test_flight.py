@@ -12,11 +12,11 @@ import pandas as pd
 import pytest
 
 from aerotruth.truth.airframes import airframe
-from aerotruth.truth.flight import FlightDiverged, fly_leg
 from aerotruth.truth.days import plan_in_weather
-from aerotruth.truth.weather import UniformAtmosphere
+from aerotruth.truth.flight import FlightDiverged, fly_leg
 from aerotruth.truth.routes import plan_leg
 from aerotruth.truth.track import TruthTrack, air_velocity_ned
+from aerotruth.truth.weather import UniformAtmosphere
 from aerotruth.units import FT, KT
 
 DEPARTURE = datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc)
@@ -34,6 +34,7 @@ def anc_dlg():
     return plan, fly_leg(plan, seed=2)
 
 
+@pytest.mark.slow
 def test_ground_minus_air_velocity_equals_a_known_constant_wind():
     # independent of the recorded wind columns: V_G - V_A from TAS, alpha, beta and attitude
     plan = plan_leg("KMSP", "KRST", DEPARTURE)
@@ -45,6 +46,7 @@ def test_ground_minus_air_velocity_equals_a_known_constant_wind():
     assert np.max(np.abs(drift_n + 10.0)) / KT < 0.5
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("leg", ["msp_dlh", "anc_dlg"])
 def test_leg_meets_foundation_acceptance(leg, request):
     plan, track = request.getfixturevalue(leg)
@@ -57,12 +59,14 @@ def test_leg_meets_foundation_acceptance(leg, request):
     assert np.all(np.diff(track.df["time_s"]) == pytest.approx(0.1))
 
 
+@pytest.mark.slow
 def test_truth_wind_varies_along_the_flight(msp_dlh):
     _, track = msp_dlh
     speed = np.hypot(track.df["wind_u_mps"], track.df["wind_v_mps"])
     assert speed.max() - speed.min() > 2.0  # shear with height and mesoscale structure, not a constant
 
 
+@pytest.mark.slow
 def test_altitude_capture_does_not_overshoot_the_cruise_level(msp_dlh):
     plan, track = msp_dlh
     climb_cruise = track.df["phase"].isin(["climb", "cruise"])
@@ -70,6 +74,7 @@ def test_altitude_capture_does_not_overshoot_the_cruise_level(msp_dlh):
     assert overshoot_ft < 100.0
 
 
+@pytest.mark.slow
 def test_flight_ends_near_2000_ft_above_the_arrival_runway(msp_dlh):
     plan, track = msp_dlh
     h_end = track.df["h_ellipsoid_m"].iloc[-1]
@@ -83,6 +88,7 @@ def _fly_subprocess(tmp_path, name):
     return out
 
 
+@pytest.mark.slow
 def test_same_inputs_give_bit_identical_truth_from_two_processes(tmp_path):
     a, b = _fly_subprocess(tmp_path, "a.parquet"), _fly_subprocess(tmp_path, "b.parquet")
     assert hashlib.sha256(a.read_bytes()).hexdigest() == hashlib.sha256(b.read_bytes()).hexdigest()
@@ -97,6 +103,7 @@ class _NaNAfter(UniformAtmosphere):
         return (u * np.nan, v, w) if t_s - 13 * 3600 > 60.0 else (u, v, w)
 
 
+@pytest.mark.slow
 def test_nan_in_the_state_ends_the_flight_with_reason_and_seed():
     plan = plan_leg("KMSP", "KRST", DEPARTURE)
     with pytest.raises(FlightDiverged) as err:
@@ -105,6 +112,7 @@ def test_nan_in_the_state_ends_the_flight_with_reason_and_seed():
     assert 60.0 < err.value.time_s < 70.0
 
 
+@pytest.mark.slow
 def test_attitude_limit_ends_the_flight():
     plan = plan_leg("KMSP", "KDLH", DEPARTURE)  # the climb-out turns towards Duluth
     stiff = dataclasses.replace(airframe(None), max_bank_deg=10.0)
@@ -113,6 +121,7 @@ def test_attitude_limit_ends_the_flight():
     assert err.value.seed == 3
 
 
+@pytest.mark.slow
 def test_turbulence_is_reproducible_per_seed_and_differs_between_seeds():
     plan = plan_leg("KMSP", "KRST", DEPARTURE)
     calm = UniformAtmosphere()
@@ -127,6 +136,7 @@ def test_turbulence_is_reproducible_per_seed_and_differs_between_seeds():
     assert s["wind_triangle_residual_max_kt"] < 0.5  # turbulence included in the recorded wind
 
 
+@pytest.mark.slow
 def test_flight_starts_at_the_scheduled_airspeed_without_sideslip_in_a_crosswind():
     plan = plan_leg("KMSP", "KRST", DEPARTURE)
     track = fly_leg(plan, seed=0, atmosphere=UniformAtmosphere(u_mps=-15.0, v_mps=12.0))
@@ -155,6 +165,7 @@ def test_fly_command_reports_bad_input_in_one_line(argv, expect, capsys, tmp_pat
     assert expect in err and "\n" not in err and "Traceback" not in err
 
 
+@pytest.mark.slow
 def test_running_out_of_fuel_ends_the_flight_with_that_reason():
     plan = plan_leg("KMSP", "KRST", DEPARTURE)
     dry = dataclasses.replace(airframe("737"), fuel_lbs=(60.0, 60.0, 0.0))
@@ -189,13 +200,14 @@ def test_negative_seed_is_refused_by_the_argument_parser(capsys):
     assert "argument --seed: expected a non-negative integer, got -1" in capsys.readouterr().err
 
 
+@pytest.mark.slow
 def test_fly_re_flies_a_campaign_leg_bit_for_bit_from_its_recorded_seeds(tmp_path):
     """A mesaba schedule leg (drawn hub, spoke, time and cruise level) re-flown alone by
     `aerotruth fly` with the fly_command of its truth row, in another process."""
     import shlex
 
-    from aerotruth.sim.campaign_file import parse_campaign
     from aerotruth.sim.campaign import run_campaign
+    from aerotruth.sim.campaign_file import parse_campaign
     from aerotruth.sim.executors import ExecutorChoice
     from aerotruth.truth.store import TruthStore
 

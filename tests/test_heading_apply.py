@@ -7,14 +7,14 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import obs_generator as gen
 import pandas as pd
 import pytest
 
-import obs_generator as gen
 from aerotruth.analysis.wind.apply import APPLY_COLUMNS, corrected_wind
+from aerotruth.app.cli import main
 from aerotruth.app.heading_apply import heading_apply_main
 from aerotruth.app.heading_fit import heading_fit_main
-from aerotruth.app.cli import main
 from aerotruth.errors import DataError
 
 TRUTHS = [gen.AircraftTruth("N401XJ", A=2.0, B=-3.0, C=1.5), gen.AircraftTruth("N402XJ", A=-1.0, B=1.0, C=2.5)]

@@ -9,10 +9,10 @@ import sys
 from pathlib import Path
 
 import numpy as np
+import obs_generator as gen
 import pandas as pd
 import pytest
 
-import obs_generator as gen
 from aerotruth.analysis.wind.heading_correction import TABLE_COLUMNS, FleetHeadingFit, HeadingDeviationFit
 from aerotruth.analysis.wind.heading_errors import GateSpec, heading_errors, towards_from_report
 from aerotruth.analysis.wind.observations import validate_observations
@@ -43,6 +43,7 @@ def _z_scores(row: pd.Series, truth: gen.AircraftTruth, terms: str) -> dict[str,
     return {t: (row[f"{t}_deg"] - getattr(truth, t)) / row[f"{t}_se_deg"] for t in terms}
 
 
+@pytest.mark.slow
 def test_heading_fit_recovers_each_aircrafts_deviation_within_three_standard_errors(fleet_run):
     truths, _, out = fleet_run
     table = pd.read_csv(out / "deviation_mag.csv").set_index("aircraft")  # the generator's frame: magnetic
@@ -62,6 +63,7 @@ def test_heading_fit_recovers_each_aircrafts_deviation_within_three_standard_err
     print(f"worst |z| {worst_z:.2f}, worst se {worst_se:.3f} deg")
 
 
+@pytest.mark.slow
 def test_bootstrap_intervals_of_the_table_entries_hold_the_true_table(fleet_run):
     """deviation_mag_ci.csv (the generator's frame): the 95 % intervals of the 8 table
     entries of the fitted aircraft hold the true table -d(z_k) about 95 % of the time."""
@@ -81,6 +83,7 @@ def test_bootstrap_intervals_of_the_table_entries_hold_the_true_table(fleet_run)
     assert len(hits) == 88 and np.mean(hits) >= 0.85  # 95 % expected; binomial sd 0.023
 
 
+@pytest.mark.slow
 def test_an_aircraft_flying_one_heading_gets_the_offset_only_never_a_sinusoid(fleet_run):
     truths, _, out = fleet_run
     one = next(a for a in truths if a.one_heading)
@@ -94,6 +97,7 @@ def test_an_aircraft_flying_one_heading_gets_the_offset_only_never_a_sinusoid(fl
         assert np.allclose(luts, -row["A_deg"])
 
 
+@pytest.mark.slow
 def test_deviation_csv_has_the_documented_columns_and_a_figure_per_aircraft(fleet_run):
     truths, _, out = fleet_run
     table = pd.read_csv(out / "deviation.csv")
@@ -107,6 +111,7 @@ def test_deviation_csv_has_the_documented_columns_and_a_figure_per_aircraft(flee
     assert "after the lookup tables" in report and "three-report ground-track gates" in report
 
 
+@pytest.mark.slow
 def test_true_heading_fit_equals_the_magnetic_one_turned_by_the_declination(fleet_run):
     """On true heading z = z' + delta the same curve has B, C turned by delta (the generator's
     declination, +1 deg at the hub, varies by a few degrees: a small blur)."""
@@ -125,6 +130,7 @@ def test_true_heading_fit_equals_the_magnetic_one_turned_by_the_declination(flee
         assert abs(r["C_deg"] - c_true) < 3 * r["C_se_deg"] + 0.05
 
 
+@pytest.mark.slow
 def test_correcting_the_reports_removes_the_transverse_wind_error(fleet_run):
     """The paper's signature (Tables II-IV): the transverse component falls, the longitudinal
     does not. Reference errors are 4 kt per component, so ~4 kt is the floor."""
@@ -148,6 +154,7 @@ def _cramer_rao(rows: pd.DataFrame, sigma_ms: float) -> np.ndarray:
     return np.linalg.inv(info) * np.degrees(1.0) ** 2
 
 
+@pytest.mark.slow
 def test_standard_errors_are_within_1_2_of_the_cramer_rao_bound():
     a = gen.AircraftTruth("N450XJ", A=1.5, B=-2.0, C=1.0, cruise_tas_kt=280.0)
     sigma_kt = 4.0
@@ -679,8 +686,9 @@ def test_step_noise_matches_rounding_by_monte_carlo_and_lets_a_straight_climb_th
     itself (random offsets of the track against the grid); then the gates: a straight
     departure climb reported every 10 s (1.6-km spans, where rounding alone bends the
     track by tens of degrees) passes, a 30-deg turn over 10-km segments does not."""
-    from aerotruth.analysis.wind.heading_errors import step_noise
     from pyproj import Geod
+
+    from aerotruth.analysis.wind.heading_errors import step_noise
 
     geod = Geod(ellps="WGS84")
     rng = np.random.default_rng(3)

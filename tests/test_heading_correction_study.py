@@ -4,14 +4,13 @@ wind paper's Table II, the selection of poor and control aircraft by before-peri
 and periods subsampled by every_days."""
 
 import numpy as np
+import obs_generator as gen
 import pandas as pd
 import pytest
 
-from aerotruth.sim.campaign_file import ConfigError, parse_campaign
 from aerotruth.sensors.tamdar import LookupTableCorrection, OffsetCorrection
-from aerotruth.sim.studies.heading_correction import (STUDY, HeadingCorrectionConfig, adjusted_table,
-                                                      uploaded_correction)
-import obs_generator as gen
+from aerotruth.sim.campaign_file import ConfigError, parse_campaign
+from aerotruth.sim.studies.heading_correction import STUDY, HeadingCorrectionConfig, adjusted_table, uploaded_correction
 
 
 def test_control_adjustment_reproduces_the_papers_table_ii_rows():

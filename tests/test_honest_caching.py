@@ -13,6 +13,8 @@ import subprocess
 import sys
 from pathlib import Path
 
+import pytest
+
 import aerotruth
 
 CAMPAIGN = """\
@@ -54,6 +56,7 @@ def _counts(stderr: str) -> tuple[int, int, int]:
     return tuple(int(x) for x in m.groups())
 
 
+@pytest.mark.slow
 def test_edits_of_a_source_constant_or_an_xml_file_rerun_what_depends_on_them(tmp_path):
     shutil.copytree(Path(aerotruth.__file__).parent, tmp_path / "pkg" / "aerotruth",
                     ignore=shutil.ignore_patterns("__pycache__"))

@@ -5,7 +5,12 @@ import math
 import numpy as np
 import pytest
 
-from aerotruth.analysis.fits.ils_metrics import approach_errors, approach_verdict, percentile_by_distance, required_error_m
+from aerotruth.analysis.fits.ils_metrics import (
+    approach_errors,
+    approach_verdict,
+    percentile_by_distance,
+    required_error_m,
+)
 from aerotruth.units import FT, NM
 
 

@@ -44,6 +44,7 @@ def _to_rwy(ned, course_deg):
     return np.column_stack([n * c + e * s, n * s - e * c, -d])
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("which", ["accelerometer", "gyro"])
 def test_strapdown_and_the_eq4_error_model_agree_on_the_straight_segment(calm, which):
     """Before glide-path capture (straight and level, 150 s) the strapdown's position
@@ -65,6 +66,7 @@ def test_strapdown_and_the_eq4_error_model_agree_on_the_straight_segment(calm, w
     assert scale.max() > 20.0  # a test of something: tens of metres of drift
 
 
+@pytest.mark.slow
 def test_they_part_where_the_aircraft_manoeuvres(calm):
     """Over the whole approach (capture, flaps, deceleration, level-off) eq. 4 with fixed NED
     biases misses what the attitude changes do to body-axis biases: the difference grows."""
@@ -80,6 +82,7 @@ def test_they_part_where_the_aircraft_manoeuvres(calm):
     assert rel.max() > 0.03
 
 
+@pytest.mark.slow
 def test_time_tag_error_delays_the_reported_position(calm):
     spec0 = InsSpec(grade="tactical", initial_velocity_sigma_mps=0.0, initial_tilt_sigma_urad=0.0)
     spec1 = spec0.model_copy(update={"time_tag_error_s": 0.5})
@@ -92,6 +95,7 @@ def test_time_tag_error_delays_the_reported_position(calm):
     assert np.median((p0 - p1)[far, 0] / gs[far]) == pytest.approx(0.5, abs=0.01)
 
 
+@pytest.mark.slow
 def test_error_model_path_is_the_true_point_plus_the_rotated_eq4_error(calm):
     spec = InsSpec(grade="automotive")
     p, draw = ins_positions(calm, spec, np.random.default_rng(4))

@@ -11,8 +11,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aerotruth.sim.campaign_file import ConfigError, parse_campaign
 from aerotruth.sim.campaign import run_campaign
+from aerotruth.sim.campaign_file import ConfigError, parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 
 
@@ -44,6 +44,7 @@ def fixed(tmp_path_factory):
     return _run(campaign(), tmp_path_factory.mktemp("insp") / "run")
 
 
+@pytest.mark.slow
 def test_injected_errors_are_recovered_through_the_truth_and_waas_systems(fixed):
     m, rows = fixed
     s = rows[rows["kind"] == "system"].set_index(["approach", "system"])
@@ -58,6 +59,7 @@ def test_injected_errors_are_recovered_through_the_truth_and_waas_systems(fixed)
     assert m["inspection.waas_tactical.alignment_err_p95_m"] < 1.0
 
 
+@pytest.mark.slow
 def test_afis_is_worse_far_from_the_runway(fixed):
     _, rows = fixed
     ep = rows[(rows["kind"] == "epoch") & (rows["system"] == "afis")]
@@ -67,6 +69,7 @@ def test_afis_is_worse_far_from_the_runway(fixed):
     assert far > 3 * near
 
 
+@pytest.mark.slow
 def test_drawn_facilities_span_twice_the_cat_i_tolerance_and_verdicts_are_counted(tmp_path):
     m, rows = _run(campaign("    facility_errors: uniform_2x_tolerance\n    approaches_per_day: 3"), tmp_path / "v")
     s = rows[(rows["kind"] == "system") & (rows["system"] == "truth")]
@@ -82,6 +85,7 @@ def test_a_bad_category_is_refused_naming_the_field():
         parse_campaign(campaign("    facility: {category: IV}"))
 
 
+@pytest.mark.slow
 def test_a_mission_is_scored_by_run_type_beside_a_real_track_found_from_the_campaign_folder(tmp_path):
     import gzip
     import shutil

@@ -17,8 +17,14 @@ import pandas as pd
 import ppigrf
 import pytest
 
-from aerotruth.sensors.magnetics import (FluxValve, FluxValveFleetSpec, FluxValveSpec, GeomagneticField,
-                                         HeadingSystem, slaved_heading)
+from aerotruth.sensors.magnetics import (
+    FluxValve,
+    FluxValveFleetSpec,
+    FluxValveSpec,
+    GeomagneticField,
+    HeadingSystem,
+    slaved_heading,
+)
 from aerotruth.units import DEG, G0
 
 DATE = dt.date(2009, 8, 15)

@@ -24,6 +24,7 @@ def mission():
     return fly_mission(spec, seed=3)
 
 
+@pytest.mark.slow
 def test_runs_are_flown_in_order_where_and_how_high_they_should_be(mission):
     df = mission.df
     flown = [int(k) for k in dict.fromkeys(df.loc[df["run"] >= 0, "run"])]

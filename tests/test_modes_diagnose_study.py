@@ -9,8 +9,8 @@ import math
 import pandas as pd
 import pytest
 
-from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.campaign import run_campaign
+from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.studies.modes_diagnose import hidden_effect_outcome
 
@@ -31,6 +31,7 @@ studies:
 """
 
 
+@pytest.mark.slow
 def test_hidden_heading_lag_is_found_in_the_campaign_and_truth_is_flown_once(tmp_path):
     s = run_campaign(parse_campaign(CAMPAIGN), ExecutorChoice("local", workers=2), out=tmp_path / "run",
                      progress=False, log=lambda m: None)

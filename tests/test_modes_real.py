@@ -7,8 +7,14 @@ import numpy as np
 import pytest
 
 from aerotruth.measured.kinds import load_measured, real_data_dir
-from aerotruth.sensors.modes import (ModeSSensor, ModeSSpec, avionics_from_raw, fit_reply_process, register_times,
-                                     unique_payload_intervals)
+from aerotruth.sensors.modes import (
+    ModeSSensor,
+    ModeSSpec,
+    avionics_from_raw,
+    fit_reply_process,
+    register_times,
+    unique_payload_intervals,
+)
 
 RAW = real_data_dir() / "full_flight_short.jsonl.gz"
 pytestmark = pytest.mark.skipif(not RAW.exists(), reason=f"raw Mode-S flight not found at {RAW} (set AEROTRUTH_REAL_DATA)")

@@ -11,7 +11,11 @@ relative holds that ten times over; the 0.02-deg quantization below moves 47 met
 
 from pathlib import Path
 
+import pytest
+
 from aerotruth.app.cli import main
+
+pytestmark = pytest.mark.slow  # every test here flies JSBSim or takes over 5 s
 
 ROOT = Path(__file__).resolve().parents[1]
 

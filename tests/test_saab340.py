@@ -25,8 +25,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-
 import saab340_checks as chk
+
 from aerotruth.units import DEG, FPM, FT, KG_PER_LB, KT, SLUG_FT2
 
 HP = chk.HP_W
@@ -36,6 +36,7 @@ def _report(label: str, value: float) -> None:
     print(f"{label}: {value:.2f}")
 
 
+@pytest.mark.slow
 def test_model_loads_from_the_package_layout_with_published_geometry_and_mass():
     fdm = chk.load_saab340()
     chk.start_airborne(fdm, 10000.0 * FT, tas_ms=220.0 * KT, mass_kg=chk.MTOW_KG, fuel_kg=chk.FUEL_CAPACITY_KG)
@@ -58,6 +59,7 @@ def test_model_loads_from_the_package_layout_with_published_geometry_and_mass():
     assert 0.15 < cg_mac < 0.35
 
 
+@pytest.mark.slow
 def test_flap_detents_and_gear_follow_their_commands_at_their_rates():
     fdm = chk.load_saab340()
     chk.start_airborne(fdm, 5000.0 * FT, cas_ms=160.0 * KT, gear_down=True, throttle=0.5)
@@ -83,6 +85,7 @@ def test_flap_detents_and_gear_follow_their_commands_at_their_rates():
     assert fdm["aero/coefficient/Cndr"] < 0.0  # nose left
 
 
+@pytest.mark.slow
 def test_engine_is_flat_rated_near_sea_level_and_lapses_to_900_1000_shp_at_fl250():
     power = {}
     for alt_ft in (0.0, 25000.0):
@@ -106,6 +109,7 @@ def test_engine_is_flat_rated_near_sea_level_and_lapses_to_900_1000_shp_at_fl250
     assert 900.0 < power[25000.0] < 1000.0
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("altitude_ft, lo_kt, hi_kt", [(15000.0, 250.0, 282.0), (25000.0, 240.0, 270.0)])
 def test_cruise_power_gives_the_published_true_airspeed(altitude_ft, lo_kt, hi_kt):
     r = chk.level_cruise(altitude_ft * FT, mass_kg=12000.0)
@@ -116,6 +120,7 @@ def test_cruise_power_gives_the_published_true_airspeed(altitude_ft, lo_kt, hi_k
     assert r.shaft_power_w < 1750.0 * HP
 
 
+@pytest.mark.slow
 def test_mtow_climb_at_maximum_continuous_power_exceeds_1500_fpm():
     r = chk.steady_climb(1000.0 * FT, 160.0 * KT, mass_kg=chk.MTOW_KG)
     _report("climb fpm MTOW", r.vertical_speed_ms / FPM)
@@ -124,6 +129,7 @@ def test_mtow_climb_at_maximum_continuous_power_exceeds_1500_fpm():
     assert r.vertical_speed_ms / FPM >= 1500.0
 
 
+@pytest.mark.slow
 def test_service_ceiling_at_mtow_lies_between_fl250_and_fl300():
     roc250, roc300, ceiling = chk.service_ceiling(25000.0 * FT, 30000.0 * FT, 160.0 * KT)
     _report("ROC fpm FL250", roc250 / FPM)
@@ -133,6 +139,7 @@ def test_service_ceiling_at_mtow_lies_between_fl250_and_fl300():
     assert roc300 / FPM < 100.0
 
 
+@pytest.mark.slow
 def test_approach_flaps_35_gear_down_is_stable_on_3_degrees_at_115_135_kias():
     r = chk.approach(chk.APPROACH_THROTTLE)
     s = r.steady
@@ -145,6 +152,7 @@ def test_approach_flaps_35_gear_down_is_stable_on_3_degrees_at_115_135_kias():
     assert s.shaft_power_w < 0.6 * 1750.0 * HP  # well below maximum continuous
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("mass_kg", [10500.0, 11500.0, 12930.0])
 def test_flaps_35_vref_and_approach_pitch_lie_in_the_published_bands(mass_kg):
     """1-g stall (idle, 1 kt/s, forward CG 16 % MAC), flaps 35 and gear down;
@@ -168,6 +176,7 @@ def test_flaps_35_vref_and_approach_pitch_lie_in_the_published_bands(mass_kg):
     assert vref == pytest.approx(vs_mlw * math.sqrt(mass_kg / chk.MLW_KG), rel=0.01)
 
 
+@pytest.mark.slow
 def test_forward_cg_raises_the_stall_speed():
     """More tail download at forward CG: Vs(16 % MAC) > Vs(30 % MAC), by ~1-2 %."""
     fwd = chk.stall_speed(cg_mac=0.16).stall_cas_ms
@@ -175,6 +184,7 @@ def test_forward_cg_raises_the_stall_speed():
     assert 1.005 < fwd / aft < 1.04
 
 
+@pytest.mark.slow
 def test_clean_stall_near_mtow_at_95_115_kcas_and_recovers():
     r = chk.clean_stall(mass_kg=13000.0)
     _report("stall KCAS", r.stall_cas_ms / KT)
@@ -193,6 +203,7 @@ def test_clean_stall_near_mtow_at_95_115_kcas_and_recovers():
     assert r.altitude_loss_m < 1500.0 * FT
 
 
+@pytest.mark.slow
 def test_elevator_doublet_short_period_is_damped():
     t, q = chk.doublet("elevator", amplitude=0.1)
     peak = np.max(np.abs(q[t < 3.0]))
@@ -207,6 +218,7 @@ def _half_cycle_peaks(t: np.ndarray, y: np.ndarray) -> np.ndarray:
     return np.abs(y[idx])
 
 
+@pytest.mark.slow
 def test_rudder_doublet_dutch_roll_is_damped():
     t, beta = chk.doublet("rudder", amplitude=0.2)
     peak = np.max(np.abs(beta[t < 5.0]))
@@ -222,6 +234,7 @@ def test_rudder_doublet_dutch_roll_is_damped():
     assert zeta > 0.05  # Level 1 minimum is 0.08 in cruise with yaw damper off; 0.05 absolute floor
 
 
+@pytest.mark.slow
 def test_spiral_mode_doubles_no_faster_than_20_s():
     doubling, t, anti = chk.spiral_doubling_time(5.0 * DEG)
     _report("spiral doubling s", doubling if math.isfinite(doubling) else 1e9)
@@ -229,6 +242,7 @@ def test_spiral_mode_doubles_no_faster_than_20_s():
     assert doubling > 20.0
 
 
+@pytest.mark.slow
 def test_aircraft_rests_on_its_three_gear_legs():
     fdm = chk.load_saab340()
     chk.set_mass(fdm, chk.MTOW_KG, chk.FUEL_CAPACITY_KG)

@@ -4,14 +4,14 @@ header's; through `aerotruth heading fit`, `fits`' log reader and `diagnose`'s l
 from __future__ import annotations
 
 import numpy as np
+import obs_generator as gen
 import pandas as pd
 import pytest
 
-import obs_generator as gen
-from aerotruth.app.heading_fit import heading_fit_main
-from aerotruth.measured.observations import read_observation_file, read_observation_table
 from aerotruth.analysis.wind.observations import validate_observations
+from aerotruth.app.heading_fit import heading_fit_main
 from aerotruth.measured.kinds import load_measured
+from aerotruth.measured.observations import read_observation_file, read_observation_table
 from aerotruth.measured.tables import csv_separator, read_csv_table
 
 
@@ -162,6 +162,7 @@ def test_a_gzip_compressed_csv_reads_as_the_plain_one(tmp_path):
 
 def test_a_gzip_compressed_approach_log_reads_as_the_plain_one(tmp_path):
     import approach_log_generator as alg
+
     from aerotruth.measured.approach_log import read_approach_log
 
     log, _ = alg.make_log(1, 5)

@@ -15,8 +15,14 @@ from aerotruth.analysis.wind.heading_errors import GATE_NAMES, ground_track, rep
 from aerotruth.analysis.wind.metrics import METRIC_GATES
 from aerotruth.ellipsoid import radii
 from aerotruth.sensors.air_data import AirDataSpec
-from aerotruth.sensors.tamdar import (LookupTableCorrection, OffsetCorrection, ReportSpec, generate_reports, quantize,
-                                      report_schedule)
+from aerotruth.sensors.tamdar import (
+    LookupTableCorrection,
+    OffsetCorrection,
+    ReportSpec,
+    generate_reports,
+    quantize,
+    report_schedule,
+)
 from aerotruth.truth.isa import pressure_altitude_m
 from aerotruth.units import DEG, KT
 

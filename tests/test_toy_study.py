@@ -10,10 +10,12 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.campaign import run_campaign
+from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.studies import load_study, source_for
+
+pytestmark = pytest.mark.slow  # every test here flies JSBSim or takes over 5 s
 
 STUDY_FILE = Path(__file__).parent / "studies" / "toy_offset.py"
 LEGS = '[{from: KMSP, to: KRST, departure_utc: "13:00"}]'

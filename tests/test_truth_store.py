@@ -80,6 +80,7 @@ def test_truth_key_changes_with_every_input_that_changes_a_flight():
     assert truth_key(_leg(plan=dataclasses.replace(_leg().plan, flight_id="X-1")), None, False) != base
 
 
+@pytest.mark.slow
 def test_store_flies_once_then_reads_what_it_returned(tmp_path, monkeypatch):
     store = TruthStore(tmp_path)
     first = store.leg(_leg())

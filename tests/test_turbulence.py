@@ -9,8 +9,8 @@ import pytest
 from aerotruth.truth.turbulence import (
     CHOP_SCALE_M,
     GUST_DT_S,
-    POE_OF_SEVERITY,
     PATCH_MEAN_M,
+    POE_OF_SEVERITY,
     ChopGusts,
     TurbulencePatches,
     chop_sigma_w,
@@ -148,6 +148,7 @@ def test_mil8785_intensity_matches_hand_worked_values():
     assert mil8785_intensity(1500.0, 20.0, 1) == pytest.approx((2.2, 2.2, 1375.0, 1375.0))
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("w20_kt", [0.0, 30.0])
 def test_approach_gusts_near_the_ground_follow_the_wind_at_20ft(w20_kt):
     """Below 1,000 ft above the runway (KDLH: 1,428 ft above sea level, where JSBSim's own

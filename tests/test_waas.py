@@ -10,7 +10,15 @@ import pytest
 
 from aerotruth.geo import enu
 from aerotruth.sensors.inertial_errors import (
-    DEG_PER_H, EARTH_RADIUS_M, G0, MICRO_G, INS_GRADES, InertialErrors, InertialErrorSpec, ins_error_ned)
+    DEG_PER_H,
+    EARTH_RADIUS_M,
+    G0,
+    INS_GRADES,
+    MICRO_G,
+    InertialErrors,
+    InertialErrorSpec,
+    ins_error_ned,
+)
 from aerotruth.sensors.waas import WaasErrors, WaasSpec
 
 

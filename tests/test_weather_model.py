@@ -141,6 +141,7 @@ def _fitted_scales(atm, spec, offsets, axis, n_real=24, n_pts=1500):
     return fits.mean(), fits.std(ddof=1) / math.sqrt(n_real)
 
 
+@pytest.mark.slow
 @pytest.mark.parametrize("axis, offsets, stated", [
     ("h", [0, 50e3, 100e3, 150e3, 200e3, 250e3, 300e3, 400e3], 150e3),
     ("z", [0, 500.0, 1000.0, 1500.0, 2000.0, 2500.0, 3500.0], 1500.0),

@@ -8,8 +8,14 @@ import pytest
 from pyproj import Geod
 
 from aerotruth.analysis.wind.heading_errors import GATE_NAMES, ground_track
-from aerotruth.analysis.wind.metrics import (METRIC_GATES, air_track_heading, longitudinal_transverse,
-                                             rms_vector_difference, wind_error_summary, wind_errors)
+from aerotruth.analysis.wind.metrics import (
+    METRIC_GATES,
+    air_track_heading,
+    longitudinal_transverse,
+    rms_vector_difference,
+    wind_error_summary,
+    wind_errors,
+)
 
 
 def _obs(aircraft, times, lats, lons, wind, ref, alt_ft=5000.0, phase="ascent", ref_source="RR") -> pd.DataFrame:

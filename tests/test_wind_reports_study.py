@@ -13,11 +13,11 @@ import pandas as pd
 import ppigrf
 import pytest
 
-from aerotruth.sim.campaign_file import ConfigError, parse_campaign
+from aerotruth.sensors.magnetics import FluxValveFleetSpec
 from aerotruth.sim.campaign import run_campaign
+from aerotruth.sim.campaign_file import ConfigError, parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.wind_observations import aircraft_heading
-from aerotruth.sensors.magnetics import FluxValveFleetSpec
 
 LEGS = '[{from: KMSP, to: KDLH, departure_utc: "13:00"}, {from: KDLH, to: KMSP, departure_utc: "14:30"}]'
 IDEAL_REFERENCE = ("{name: exact, grid_spacing_m: 1, effective_resolution_m: 1, analysis_interval_s: 10, "
@@ -78,6 +78,7 @@ def _straight_for(obs, rows, seconds: float) -> np.ndarray:
     return np.array(ok, dtype=bool)
 
 
+@pytest.mark.slow
 def test_ideal_sensors_report_the_truth_wind_and_a_sensor_change_reflies_nothing(tmp_path):
     s1, obs, m = _run(campaign(PERFECT_VALVE, NO_NOISE), tmp_path / "a")
     assert s1.legs_flown == 2 and m["wind_reports.legs_diverged"] == 0
