@@ -232,10 +232,12 @@ def _add_campaign_commands(sub) -> None:
                                      "from are unchanged. Every random draw comes from a stream named by its task, so "
                                      "the numbers do not depend on the executor or the number of workers.")
     run.add_argument("campaign", help="campaign YAML file")
-    run.add_argument("--size", default=None, help="apply the campaign's `sizes: NAME:` overrides (e.g. reduced); runs/<name>-<size>")
+    run.add_argument("--size", default=None,
+                     help="apply the campaign's `sizes: NAME:` overrides (e.g. reduced); runs/<name>-<size>")
     run.add_argument("--out", default=None, help="run directory (default runs/<campaign name>)")
     run.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: cores)")
-    run.add_argument("--executor", choices=["local", "dask"], default=None, help="executor (default: the YAML's, else local)")
+    run.add_argument("--executor", choices=["local", "dask"], default=None,
+                     help="executor (default: the YAML's, else local)")
     run.add_argument("--scheduler", default=None, help="Dask scheduler address (implies --executor dask)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.add_argument("--no-report", action="store_true", help="skip figures and report")
@@ -264,15 +266,17 @@ def _add_campaign_commands(sub) -> None:
     rep.set_defaults(func=lazy("report_cli"))
 
     reg = sub.add_parser("regress", help="compare a run's metrics with a baseline (exit 1 if a metric moved)",
-                         description="Compare a run's metrics.json with a baseline JSON. A metric passes when "
-                                     "|got - value| <= abs + rel |value| (its own tolerances, else the baseline's "
-                                     "defaults); a baseline metric missing from the run fails. Exit status 1 and a "
-                                     "table of the metrics that moved; --write makes the baseline from the run instead.")
+                         description="Compare a run's metrics.json with a baseline JSON. A metric passes when |got - "
+                                     "value| <= abs + rel |value| (its own tolerances, else the baseline's defaults); "
+                                     "a baseline metric missing from the run fails. Exit status 1 and a table of the "
+                                     "metrics that moved; --write makes the baseline from the run instead.")
     reg.add_argument("run_dir", help="run directory written by `aerotruth run`")
     reg.add_argument("baseline", help="baseline JSON (metric values and tolerances)")
     reg.add_argument("--write", action="store_true", help="write the baseline from this run instead of checking")
-    reg.add_argument("--abs-tol", type=_non_negative_float, default=0.0, help="with --write: absolute tolerance per metric")
-    reg.add_argument("--rel-tol", type=_non_negative_float, default=0.01, help="with --write: relative tolerance per metric")
+    reg.add_argument("--abs-tol", type=_non_negative_float, default=0.0,
+                     help="with --write: absolute tolerance per metric")
+    reg.add_argument("--rel-tol", type=_non_negative_float, default=0.01,
+                     help="with --write: relative tolerance per metric")
     reg.add_argument("--all", action="store_true", help="print every metric, not only those that moved")
     reg.set_defaults(func=lazy("regress_cli"))
 
@@ -294,46 +298,61 @@ def build_parser() -> argparse.ArgumentParser:
                                      "row (seeds, region, cruise level, flight id).")
     fly.add_argument("--from", dest="origin", required=True, help="departure airport ICAO code")
     fly.add_argument("--to", dest="destination", required=True, help="arrival airport ICAO code")
-    fly.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (departure 13:00 UTC) or ISO date-time of departure")
+    fly.add_argument("--date", required=True,
+                     help="UTC date YYYY-MM-DD (departure 13:00 UTC) or ISO date-time of departure")
     fly.add_argument("--seed", type=_non_negative_int, default=0,
                      help="flight seed (en-route fixes, turbulence); also the weather seed unless --weather-seed")
-    fly.add_argument("--weather-seed", type=_non_negative_int, default=None, help="seed of the day's truth atmosphere (default: --seed)")
+    fly.add_argument("--weather-seed", type=_non_negative_int, default=None,
+                     help="seed of the day's truth atmosphere (default: --seed)")
     fly.add_argument("--region", default=None, help="truth-atmosphere region (default: that of the departure airport)")
-    fly.add_argument("--cruise-fl", type=_positive_int, default=None, help="cruise flight level (default: by distance and direction)")
+    fly.add_argument("--cruise-fl", type=_positive_int, default=None,
+                     help="cruise flight level (default: by distance and direction)")
     fly.add_argument("--flight-id", default=None, help="flight id recorded in the track's metadata")
     fly.add_argument("--aircraft", default=None, help="aircraft type (default: the project default, saab340)")
-    fly.add_argument("--turbulence", action="store_true", help="a real flight's disturbances: MIL-F-8785C turbulence patches, light chop, steering wander")
-    fly.add_argument("--direct", action="store_true", help="no en-route fixes: direct from the climb-out to the arrival fix")
+    fly.add_argument("--turbulence", action="store_true",
+                     help="a real flight's disturbances: MIL-F-8785C turbulence patches, light chop, steering wander")
+    fly.add_argument("--direct", action="store_true",
+                     help="no en-route fixes: direct from the climb-out to the arrival fix")
     fly.add_argument("--out", required=True, help="output Parquet file")
     fly.set_defaults(func=_cmd_fly)
     _add_campaign_commands(sub)
 
-    fa = sub.add_parser("fly-approach", help="fly one ILS approach with JSBSim and write its 50 Hz TruthTrack (Parquet)",
+    fa = sub.add_parser("fly-approach",
+                        help="fly one ILS approach with JSBSim and write its 50 Hz TruthTrack (Parquet)",
                         description="Fly one coupled ILS approach with JSBSim's SAAB 340B from 14 nm out: gear and "
                                     "flaps 20 at glide-path capture, flaps 35 below 2,000 ft, Vref + 5 kt by 1,000 ft, "
-                                    "then the AFIS level pass over the runway (--pass-height-ft) or a go-around at "
-                                    "200 ft (--profile go-around). Writes a 50 Hz TruthTrack with the runway-frame "
+                                    "then the AFIS level pass over the runway (--pass-height-ft) or a go-around at 200 "
+                                    "ft (--profile go-around). Writes a 50 Hz TruthTrack with the runway-frame "
                                     "position and the IMU's velocity and angle increments (docs/data-formats.md). "
-                                    "--offset-nm and --intercept-deg start it off the centreline for a turn onto final.")
+                                    "--offset-nm and --intercept-deg start it off the centreline for a turn onto "
+                                    "final.")
     fa.add_argument("--airport", required=True, help="airport ICAO code (the embedded airport table)")
     fa.add_argument("--runway", required=True, help="runway end landed on, e.g. 27")
     fa.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (start 15:00 UTC) or ISO date-time of the start")
-    fa.add_argument("--seed", type=_non_negative_int, default=0, help="seed of the approach (weather and flight unless given)")
-    fa.add_argument("--weather-seed", type=_non_negative_int, default=None, help="seed of the day's truth atmosphere (default: --seed)")
-    fa.add_argument("--flight-seed", type=_non_negative_int, default=None, help="seed of the flight's own draws, e.g. turbulence (default: --seed)")
+    fa.add_argument("--seed", type=_non_negative_int, default=0,
+                    help="seed of the approach (weather and flight unless given)")
+    fa.add_argument("--weather-seed", type=_non_negative_int, default=None,
+                    help="seed of the day's truth atmosphere (default: --seed)")
+    fa.add_argument("--flight-seed", type=_non_negative_int, default=None,
+                    help="seed of the flight's own draws, e.g. turbulence (default: --seed)")
     fa.add_argument("--region", default=None, help="truth-atmosphere region (default: that of the airport)")
     fa.add_argument("--profile", choices=["afis", "go-around"], default="afis",
                     help="after the glide path: the AFIS level pass over the runway, or a go-around at 200 ft")
-    fa.add_argument("--pass-height-ft", type=_pass_height_ft, default=100.0, help="AFIS level-pass height above the runway (ft)")
+    fa.add_argument("--pass-height-ft", type=_pass_height_ft, default=100.0,
+                    help="AFIS level-pass height above the runway (ft)")
     fa.add_argument("--mass-kg", type=float, default=12000.0, help="landing mass (kg); Vref = 1.3 Vs scales with it")
-    fa.add_argument("--turbulence", action="store_true", help="MIL-F-8785C turbulence in patches, near the ground 0.1 x the wind at 20 ft")
+    fa.add_argument("--turbulence", action="store_true",
+                    help="MIL-F-8785C turbulence in patches, near the ground 0.1 x the wind at 20 ft")
     fa.add_argument("--calm", action="store_true", help="ISA, no wind (instead of the day's truth atmosphere)")
-    fa.add_argument("--offset-nm", type=float, default=0.0, help="start this far left (+) or right (-) of the centreline (nm) ...")
-    fa.add_argument("--intercept-deg", type=float, default=0.0, help="... on a heading this far off the course: a turn onto final")
+    fa.add_argument("--offset-nm", type=float, default=0.0,
+                    help="start this far left (+) or right (-) of the centreline (nm) ...")
+    fa.add_argument("--intercept-deg", type=float, default=0.0,
+                    help="... on a heading this far off the course: a turn onto final")
     fa.add_argument("--out", required=True, help="output Parquet file")
     fa.set_defaults(func=_cmd_fly_approach)
 
-    dia = sub.add_parser("diagnose", help="show where measured data disagree with the simulation's sensor model, and why",
+    dia = sub.add_parser("diagnose",
+                         help="show where measured data disagree with the simulation's sensor model, and why",
                          description="Recognise a measured file from its content and tell where it disagrees with the "
                                      "sensor model of the simulation (the campaign of --model), which effect explains "
                                      "it, by how much, and what the extended model gains on data it was not fitted on. "
@@ -358,17 +377,19 @@ def build_parser() -> argparse.ArgumentParser:
                           description="The WAAS-aided flight-inspection truth system (FITS paper) on an approach log "
                                       "(docs/data-formats.md). The log is checked first (units from the physics; with "
                                       "3 or more approaches, INS columns in the runway frame). Per approach it removes "
-                                      "the 12-s cyclic WAAS noise through the INS (triangular zero-phase filter, "
-                                      "eqs. 7-17), compensates the WAAS bias jumps the receiver flags, fixes the bias at "
+                                      "the 12-s cyclic WAAS noise through the INS (triangular zero-phase filter, eqs. "
+                                      "7-17), compensates the WAAS bias jumps the receiver flags, fixes the bias at "
                                       "the threshold from radar altimeter and TVPS (eq. 18) and writes the trajectory "
-                                      "(eq. 19) at the WAAS epochs and on an 8 Hz grid, the cyclic noise and the biases; "
-                                      "with DGPS in the log, the errors against it and the requirement figure too.")
+                                      "(eq. 19) at the WAAS epochs and on an 8 Hz grid, the cyclic noise and the "
+                                      "biases; with DGPS in the log, the errors against it and the requirement figure "
+                                      "too.")
     fits.add_argument("log", help="approach log (CSV, .csv.gz or Parquet, docs/data-formats.md)")
     fits.add_argument("--out", required=True, help="output folder")
-    fits.add_argument("--ra-lever-arm", type=spec_value(FitsSpec, "ra_lever_arm_m", "m"), default=0.0, help="height of the log's reference point above the radar-altimeter antenna (m)")
+    fits.add_argument("--ra-lever-arm", type=spec_value(FitsSpec, "ra_lever_arm_m", "m"), default=0.0,
+                      help="height of the log's reference point above the radar-altimeter antenna (m)")
     fits.add_argument("--waas-latency", type=spec_value(FitsSpec, "waas_latency_s", "s"), default=0.0,
-                      help="seconds by which the log's WAAS positions are stamped late (what `aerotruth diagnose` finds as "
-                           "waas_latency); each epoch is put at its time minus this")
+                      help="seconds by which the log's WAAS positions are stamped late (what `aerotruth diagnose` "
+                           "finds as waas_latency); each epoch is put at its time minus this")
     fits.set_defaults(func=_cmd_fits)
 
     heading = sub.add_parser("heading", help="the wind paper's heading-deviation method on your own reports",
@@ -376,11 +397,13 @@ def build_parser() -> argparse.ArgumentParser:
                                          "`fit` learns each aircraft's deviation and 8-point table from an observation "
                                          "table, `apply` corrects the reports of another period with those tables.")
     hsub = heading.add_subparsers(dest="heading_command", required=True)
-    hfit = hsub.add_parser("fit", help="fit eq. 2 per aircraft from an observation table -> DIR/deviation.csv, figures, report",
+    hfit = hsub.add_parser("fit",
+                           help="fit eq. 2 per aircraft from an observation table -> DIR/deviation.csv, figures, "
+                                "report",
                            description="The wind paper's method on an observation table (aircraft wind reports with "
                                        "reference-model winds, docs/data-formats.md): ground tracks from three "
-                                       "adjacent reports, the heading error against each reference model (eqs. 3-4), "
-                                       "a robust flight-clustered fit of eq. 2 per aircraft (D, E only when a Wald test "
+                                       "adjacent reports, the heading error against each reference model (eqs. 3-4), a "
+                                       "robust flight-clustered fit of eq. 2 per aircraft (D, E only when a Wald test "
                                        "keeps them; the offset alone when the headings cannot identify the sinusoid) "
                                        "and its 8-point table. Writes DIR/deviation.csv (and deviation_mag.csv, fitted "
                                        "on magnetic heading, when the table has heading_mag_deg or declination_deg), "
@@ -397,14 +420,15 @@ def build_parser() -> argparse.ArgumentParser:
                            "DIR/corrected.*, apply.csv (before/after per aircraft), figure, report",
                            description="Apply the tables `aerotruth heading fit` learned to the reports of another "
                                        "period, as the onboard table would have corrected them (eq. 1 with the air "
-                                       "vector turned by the table's correction; nothing is refitted). The reports must "
-                                       "not be corrected onboard already. Writes DIR/corrected.csv (or .parquet, as the "
-                                       "input) with each row's correction and corrected wind, DIR/apply.csv (per "
-                                       "aircraft the wind error against the references before and after: RMS, "
+                                       "vector turned by the table's correction; nothing is refitted). The reports "
+                                       "must not be corrected onboard already. Writes DIR/corrected.csv (or .parquet, "
+                                       "as the input) with each row's correction and corrected wind, DIR/apply.csv "
+                                       "(per aircraft the wind error against the references before and after: RMS, "
                                        "longitudinal, transverse; in_sample where the dates overlap the fit's), a "
                                        "before/after figure and DIR/report.md.")
     happ.add_argument("obs", help="observation table (CSV, .csv.gz or Parquet, docs/data-formats.md)")
-    happ.add_argument("--tables", required=True, help="the deviation.csv (or deviation_mag.csv) of `aerotruth heading fit`")
+    happ.add_argument("--tables", required=True,
+                      help="the deviation.csv (or deviation_mag.csv) of `aerotruth heading fit`")
     happ.add_argument("--out", required=True, help="output folder")
     happ.set_defaults(func=_cmd_heading_apply)
     return p
