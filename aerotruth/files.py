@@ -18,9 +18,9 @@ def _temporary_for(path: Path) -> Path:
     return path.with_name(f"{path.name}.{os.getpid()}.{uuid.uuid4().hex[:8]}{TMP_SUFFIX}")
 
 
-def atomic_write(path: str | Path, write: Callable[[Path], None]) -> None:
+def atomic_write(path: str | Path, write: Callable[[Path], object]) -> None:
     """Call `write(tmp_path)` and rename the result over `path`; the temporary is removed
-    if `write` fails."""
+    if `write` fails. Whatever `write` returns is ignored."""
     path = Path(path)
     tmp = _temporary_for(path)
     try:

@@ -127,6 +127,8 @@ def inertial_vertical_error(t: np.ndarray, draw: InertialErrors) -> np.ndarray:
     of the white noise against cosh, sinh)."""
     from aerotruth.units import EARTH_RADIUS_M, G0
 
+    # a drawn realization (InertialErrors.draw) carries the white noise and initial errors
+    assert draw.accel_white_mps2 is not None and draw.position0_m is not None and draw.velocity0_mps is not None
     t = np.asarray(t, float) - float(t[0])
     w = np.sqrt(2.0 * G0 / EARTH_RADIUS_M)
     dt = np.diff(t, append=t[-1])
@@ -146,6 +148,8 @@ def baro_inertial_error(t: np.ndarray, draw: InertialErrors, spec: InsSpec, rng:
     accelerometer vertical error from the draw (up = -down), barometer error drawn here."""
     from scipy.signal import lfilter
 
+    # a drawn realization (InertialErrors.draw) carries the white noise and initial errors
+    assert draw.accel_white_mps2 is not None and draw.position0_m is not None and draw.velocity0_mps is not None
     t = np.asarray(t, float)
     n = len(t)
     dt = np.diff(t, append=t[-1] + (t[-1] - t[-2]))
@@ -178,6 +182,8 @@ def strapdown_positions(track, draw: InertialErrors, point: str = "gnss") -> np.
     from aerotruth.truth.approach import point_positions
     from aerotruth.truth.runway import RunwayFrame
 
+    # a drawn realization (InertialErrors.draw) carries the white noise and initial errors
+    assert draw.accel_white_mps2 is not None and draw.gyro_white_radps is not None and draw.tilt0_rad is not None
     df, meta = track.df, track.meta
     frame = RunwayFrame(**meta["runway_frame"])
     t = df["time_s"].to_numpy(float)

@@ -30,6 +30,7 @@ import math
 from dataclasses import asdict, dataclass, field
 from datetime import date as Date
 from datetime import datetime, timezone
+from typing import TYPE_CHECKING, Any, Protocol
 
 import jsbsim
 import numpy as np
@@ -55,6 +56,9 @@ from aerotruth.truth.track import TruthTrack
 from aerotruth.truth.turbulence import Mil8785Gusts, TurbulencePatches
 from aerotruth.truth.weather import Atmosphere, UniformAtmosphere
 from aerotruth.units import DEG, FT, KT, NM
+
+if TYPE_CHECKING:
+    import pandas as pd
 
 RATE_HZ = 50
 STEPS_PER_SAMPLE = int(round(1.0 / (RATE_HZ * DT)))  # 2 at 100 Hz
@@ -235,7 +239,8 @@ class _Guide:
         self.events: dict[str, float] = {}
         self.z_level = gp.height_m(-spec.intercept_nm * NM, 0.0)
         pm = fdm.get_property_manager()
-        self._pm, self._nodes = pm, {}
+        self._pm = pm
+        self._nodes: dict[str, jsbsim.FGPropertyNode] = {}
 
     def _set(self, prop: str, value: float) -> None:
         node = self._nodes.get(prop)
@@ -357,7 +362,8 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
     steps_per_sample = int(round(1.0 / (rate_hz * DT)))
     if steps_per_sample % 2 or GUIDE_EVERY % steps_per_sample:
         raise ValueError(f"rate_hz: expected 50 Hz or a divisor of it that divides 1 Hz, got {rate_hz}")
-    rows, tags = [], []
+    rows: list[list[float]] = []
+    tags: list[tuple[int, int]] = []
     run = fdm.run
     path_m = 0.0
     gusts = None
@@ -477,7 +483,7 @@ def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = 
 
     seed_id = seed_repr(seed)
     cc, sc = math.cos(frame.course_deg * DEG), math.sin(frame.course_deg * DEG)
-    state = {"end_t": None}
+    state: dict[str, float | None] = {"end_t": None}
     t_limit = spec.start_nm * NM / (100 * KT) + spec.past_threshold_s + 300.0
 
     def step(t, x, y, z, h, vn, ve, vd, vc_kt) -> bool:
@@ -535,7 +541,18 @@ def dcm_body_to_ned(psi, theta, phi) -> np.ndarray:
     ], axis=-2)
 
 
-def point_positions(track: TruthTrack, points_m: dict[str, tuple[float, float, float]] | None = None):
+class TrackSamples(Protocol):
+    """What `point_positions` reads of a track: its samples and its meta (a TruthTrack, or
+    a subset of its rows with the same meta)."""
+
+    @property
+    def df(self) -> pd.DataFrame: ...
+
+    @property
+    def meta(self) -> dict[str, Any]: ...
+
+
+def point_positions(track: TrackSamples, points_m: dict[str, tuple[float, float, float]] | None = None):
     """Runway-frame positions (m) of named points of the airframe at every sample:
     p = p_cg + C_rwy<-ned C_ned<-body r_b, with r_b the point's offset from the CG in body
     axes (structural x aft, z up -> body x forward, z down). Returns {name: (n, 3)}."""

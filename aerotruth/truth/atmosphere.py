@@ -381,6 +381,11 @@ class TruthAtmosphere:
     def synoptic_wind(self, lat_deg, lon_deg, alt_m, t_s):
         """(u, v) m/s of the synoptic flow (mean flow + waves) in the free atmosphere (no
         boundary layer): u = -(1/R) dpsi/dlat, v = 1/(R cos lat) dpsi/dlon."""
+        # floats on the point path, arrays below it
+        lat: float | np.ndarray
+        lon: float | np.ndarray
+        z: float | np.ndarray
+        t: float | np.ndarray
         if _is_point(lat_deg, lon_deg, alt_m, t_s):
             lat, lon, z, t = self._check_point(lat_deg, lon_deg, alt_m, t_s)
             return self._synoptic_point(lat, lon, z, t)
@@ -455,6 +460,17 @@ class TruthAtmosphere:
     def wind(self, lat_deg, lon_deg, alt_m, t_s, ground_elevation_m=0.0):
         """Truth wind (u east, v north, w up; m/s; the direction the air moves towards) at
         geometric altitude alt_m above MSL; ground_elevation_m (MSL) sets the boundary layer."""
+        # floats on the point path, arrays below it
+        lat: float | np.ndarray
+        lon: float | np.ndarray
+        z: float | np.ndarray
+        t: float | np.ndarray
+        zg: float | np.ndarray
+        x: float | np.ndarray
+        y: float | np.ndarray
+        um: float | np.ndarray
+        vm: float | np.ndarray
+        wm: float | np.ndarray
         if _is_point(lat_deg, lon_deg, alt_m, t_s, ground_elevation_m):
             lat, lon, z, t = self._check_point(lat_deg, lon_deg, alt_m, t_s)
             zg = _point_float("ground_elevation_m", ground_elevation_m)
@@ -480,6 +496,13 @@ class TruthAtmosphere:
     def delta_t(self, lat_deg, lon_deg, t_s):
         """Column temperature offset from ISA (K) at (lat, lon, t): climate + offset +
         thermal-wind meridional gradient (saturating) + two moving large-scale anomalies."""
+        # floats on the point path, arrays below it
+        lat: float | np.ndarray
+        lon: float | np.ndarray
+        t: float | np.ndarray
+        x: float | np.ndarray
+        y: float | np.ndarray
+        out: float | np.ndarray
         ys = _DELTA_T_SATURATION_M
         base = self.delta_t_climate_k + self.delta_t_offset_k
         if _is_point(lat_deg, lon_deg, t_s):
@@ -498,6 +521,11 @@ class TruthAtmosphere:
 
     def sea_level_pressure(self, lat_deg, lon_deg, t_s):
         """Pressure at H = 0 (Pa): 101325 + offset + rho0 f0 psi(z = 0) (geostrophic)."""
+        # floats on the point path, arrays below it
+        lat: float | np.ndarray
+        lon: float | np.ndarray
+        t: float | np.ndarray
+        psi: float | np.ndarray
         if _is_point(lat_deg, lon_deg, t_s):
             lat, lon, t = self._check_point_2d(lat_deg, lon_deg, t_s)
             psi = self._surface_streamfunction_point(math.radians(lat), math.radians(lon), t)
@@ -517,6 +545,11 @@ class TruthAtmosphere:
 
     def temperature_and_pressure(self, lat_deg, lon_deg, alt_m, t_s):
         """(temperature K, static pressure Pa) in one call (the flight loop wants both)."""
+        # floats on the point path, arrays below it
+        lat: float | np.ndarray
+        lon: float | np.ndarray
+        z: float | np.ndarray
+        t: float | np.ndarray
         if _is_point(lat_deg, lon_deg, alt_m, t_s):
             lat, lon, z, t = self._check_point(lat_deg, lon_deg, alt_m, t_s)
             h = ISA_EARTH_RADIUS_M * z / (ISA_EARTH_RADIUS_M + z)  # geopotential height

@@ -72,6 +72,7 @@ class AircraftDay:
         rng = seeds.generator(seeds.child(seeds.seed_sequence(self.day_seed, ()), "plan"))
         out: list[PlannedLeg] = []
         if self.legs is None:
+            assert self.network is not None  # a day without fixed legs is flown on its network (the campaign check)
             region = NETWORK_REGION[self.network]
             atm = day_atmosphere(self.date, self.weather_seed, region)
             plans = day_schedule(self.network, self.date, rng, aircraft_id=self.aircraft, surface_wind=surface_wind_from(atm, self.date))

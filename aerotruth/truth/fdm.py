@@ -62,6 +62,14 @@ def params_digest(obj) -> str:
     return hashlib.sha256(json.dumps(obj, sort_keys=True, default=str).encode()).hexdigest()[:16]
 
 
+def property_node(pm: jsbsim.FGPropertyManager, path: str) -> jsbsim.FGPropertyNode:
+    """`pm.get_node(path)` of a property the model defines (JSBSim's own or the aircraft's
+    XML), which is never None."""
+    node = pm.get_node(path)
+    assert node is not None, f"JSBSim property {path} does not exist"
+    return node
+
+
 class Recorder:
     """Reads the truth properties through property nodes (faster than fdm[...])."""
 
@@ -97,7 +105,7 @@ class Recorder:
 
     def __init__(self, fdm: jsbsim.FGFDMExec):
         pm = fdm.get_property_manager()
-        self.getters = [pm.get_node(p).get_double_value for p, _ in self.PROPS]
+        self.getters = [property_node(pm, p).get_double_value for p, _ in self.PROPS]
         self.scale = np.array([s for _, s in self.PROPS])
         self.rows: list[list[float]] = []
         self.tags: list[tuple[int, int]] = []
@@ -107,7 +115,8 @@ class Recorder:
         df = pd.DataFrame(data, columns=list(self.COLUMNS))
         tag = np.asarray(tags, dtype=np.int64).reshape(-1, 2)
         df["leg_index"] = tag[:, 0].astype(np.int32)
-        df["phase"] = pd.Categorical.from_codes(tag[:, 1], categories=list(PHASES))
+        # pandas-stubs want an Index for `categories`; pandas takes any list-like
+        df["phase"] = pd.Categorical.from_codes(tag[:, 1], categories=list(PHASES))  # type: ignore[call-overload]
         return df
 
 

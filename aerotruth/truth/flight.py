@@ -28,6 +28,7 @@ from aerotruth.truth.fdm import (
     Recorder,
     WindAhead,
     params_digest,
+    property_node,
     seed_repr,
     set_atmosphere,
     trim_or_settle,
@@ -86,7 +87,7 @@ class _Guide:
         self.level_since: float | None = None
         self._phase_applied = -1
         pm = fdm.get_property_manager()
-        self._nodes = {}
+        self._nodes: dict[str, jsbsim.FGPropertyNode] = {}
         self._last: dict[str, float] = {}
         self._pm = pm
         self._set("ap/nav/mode", 1)
@@ -96,7 +97,7 @@ class _Guide:
         if self._last.get(prop) != value:
             node = self._nodes.get(prop)
             if node is None:
-                node = self._nodes[prop] = self._pm.get_node(prop)
+                node = self._nodes[prop] = property_node(self._pm, prop)
             node.set_double_value(float(value))
             self._last[prop] = value
 
@@ -253,17 +254,17 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
     run = fdm.run
     pm = fdm.get_property_manager()
     (g_lat, g_lon, g_h, g_palt, g_vn, g_ve, g_vd, g_t, g_vt, g_vc, g_phi, g_theta) = (
-        pm.get_node(p).get_double_value for p in (
+        property_node(pm, p).get_double_value for p in (
             "position/lat-geod-deg", "position/long-gc-deg", "position/geod-alt-ft", "atmosphere/pressure-altitude",
             "velocities/v-north-fps", "velocities/v-east-fps", "velocities/v-down-fps", "simulation/sim-time-sec",
             "velocities/vtrue-fps", "velocities/vc-fps", "attitude/phi-rad", "attitude/theta-rad"))
-    g_psi = pm.get_node("attitude/psi-rad").get_double_value
+    g_psi = property_node(pm, "attitude/psi-rad").get_double_value
     wind_ahead = WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * DT)
     max_bank, max_pitch, min_pitch = af.max_bank_deg * DEG, af.max_pitch_deg * DEG, af.min_pitch_deg * DEG
     floor_ft = (route.lowest_runway_ellipsoid_m - 150.0) / FT
     seed_id = seed_repr(seed)
     ticks = 0
-    g_fuel = pm.get_node("propulsion/total-fuel-lbs").get_double_value
+    g_fuel = property_node(pm, "propulsion/total-fuel-lbs").get_double_value
     fuel_floor_lbs = 0.01 * g_fuel()
 
     while True:
@@ -288,6 +289,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         ground = route.departure_elevation_msl_m if guide.phase < 2 else route.arrival_elevation_msl_m
         wind_ahead.update(t, lat, lon, h_ft * FT, route.undulation_m, vn, ve, vd, ground)
         if patches is not None:
+            assert chop is not None  # patches, chop and wander all exist iff turbulence
             if patches.due(path_m):
                 patches.update_from(path_m, atmosphere, lat, lon, ground, t0_s + t)
             if chop.due(path_m):
@@ -301,6 +303,7 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
             rows.append([g() for g in getters])
             tags.append(tag)
             if chop is not None:
+                assert wander is not None
                 chop.step(g_vt() * FPS, g_psi())
                 wander.step()
             for _ in range(RECORD_EVERY):

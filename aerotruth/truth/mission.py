@@ -35,7 +35,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 from datetime import datetime
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 from pydantic import Field
@@ -61,6 +61,9 @@ from aerotruth.truth.track import TruthTrack
 from aerotruth.truth.turbulence import TurbulencePatches
 from aerotruth.truth.weather import Atmosphere
 from aerotruth.units import DEG, FT, G0, NM
+
+if TYPE_CHECKING:
+    import jsbsim
 
 RATE_HZ = 10
 RUN_TYPES = ("level_run", "arc", "crossing", "approach", "low_pass")
@@ -132,7 +135,8 @@ class _MissionGuide:
         self.events: dict[str, list[float]] = {"run_start_s": [], "run_end_s": []}
         self.done = False
         pm = fdm.get_property_manager()
-        self._pm, self._nodes = pm, {}
+        self._pm = pm
+        self._nodes: dict[str, jsbsim.FGPropertyNode] = {}
         self.current_run = -1
         self.vmode = "level"
 

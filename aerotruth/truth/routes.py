@@ -26,7 +26,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, replace
 from datetime import date, datetime, time, timedelta, timezone
-from typing import Callable
+from typing import Callable, overload
 from zoneinfo import ZoneInfo
 
 import numpy as np
@@ -97,6 +97,12 @@ class Waypoint:
     lon: float
 
 
+@overload
+def _check_wind(wind_uv: None, name: str) -> None: ...
+@overload
+def _check_wind(wind_uv: WindUV, name: str) -> WindUV: ...
+@overload
+def _check_wind(wind_uv: object, name: str) -> WindUV | None: ...
 def _check_wind(wind_uv, name: str) -> WindUV | None:
     if wind_uv is None:
         return None
@@ -427,6 +433,7 @@ def hub_timezone(net: Network, hub: str) -> ZoneInfo:
 def hub_utc_offset_h(net: Network, hub: str, day: date) -> int:
     """Local time minus UTC (h) at a hub at local noon of a date (daylight time included)."""
     offset = datetime.combine(day, time(12, 0), tzinfo=hub_timezone(net, hub)).utcoffset()
+    assert offset is not None  # aware: a ZoneInfo always gives an offset
     return int(offset.total_seconds() // 3600)
 
 

@@ -124,7 +124,7 @@ class TruthTrack:
             "duration_s": float(df["time_s"].iloc[-1] - df["time_s"].iloc[0]),
             "wind_triangle_residual_max_kt": float(self.wind_triangle_residual_mps().max() / KT),
         }
-        gs = np.hypot(df["vn_mps"], df["ve_mps"]).to_numpy()
+        gs = np.asarray(np.hypot(df["vn_mps"], df["ve_mps"]))  # the Series' values, as .to_numpy() gave
         out["distance_nm"] = float(np.sum(gs[1:] * np.diff(df["time_s"].to_numpy())) / NM)
         cruise = self.phase_mask("cruise")
         target = self.meta.get("cruise_tas_kt")

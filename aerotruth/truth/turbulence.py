@@ -229,7 +229,9 @@ class Mil8785Gusts:
                                               "atmosphere/gust-down-fps")]
         self.p_node = pm.get_node("atmosphere/chop/p-rad_sec", True)
         self.x = [0.0, 0.0, 0.0, 0.0]  # u, v, w (ft/s), p (rad/s)
-        self._normals, self._i, self._coeff = [], 0, None
+        self._normals: list[float] = []
+        self._i = 0
+        self._coeff: list[tuple[float, float]] | None = None
 
     def step(self, dt_s: float, h_agl_m: float, tas_mps: float, psi_rad: float) -> None:
         """Advances the gusts by `dt_s` at `h_agl_m` above the ground, true airspeed

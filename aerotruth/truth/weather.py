@@ -4,13 +4,17 @@ realization for a network, and leg planning with runways into the day's surface 
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from datetime import datetime, timezone
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
 
 from aerotruth.truth.isa import geopotential_altitude_m, isa_pressure_pa
+
+if TYPE_CHECKING:
+    from aerotruth.truth.airports import Airport
 
 ISA_LAPSE = 0.0065  # K/m, ICAO standard atmosphere troposphere lapse rate (Doc 7488)
 
@@ -73,12 +77,12 @@ def truth_atmosphere_for(plan, seed, region: str | None = None):
     return TruthAtmosphere.for_day(plan.departure_utc.date(), seed, region or region_for_airport(plan.origin.icao))
 
 
-def surface_wind_from(atmosphere, day) -> "callable":
+def surface_wind_from(atmosphere, day) -> Callable[[Airport, datetime], tuple[float, float]]:
     """A routes.SurfaceWind: the truth 10 m wind (towards, m/s) at an airport and UTC time,
     used to choose runways into the wind."""
     day0 = datetime(day.year, day.month, day.day, tzinfo=timezone.utc)
 
-    def wind(apt, when: datetime) -> tuple[float, float]:
+    def wind(apt: Airport, when: datetime) -> tuple[float, float]:
         u, v, _ = atmosphere.wind(apt.lat, apt.lon, apt.elevation_m + 10.0, (when - day0).total_seconds(),
                                   ground_elevation_m=apt.elevation_m)
         return float(np.asarray(u)), float(np.asarray(v))

@@ -520,10 +520,10 @@ def _ins_bias_effect(aps: list[_Approach], model: FitsModel, rng_seed: int = 0) 
     rng = np.random.default_rng(rng_seed)
     est, null = [], []
     for ap in aps:
-        b = _drift_biases(ap.t_w, ap.ins_w - ap.dgps_w)
-        if not b:
+        b_ap = _drift_biases(ap.t_w, ap.ins_w - ap.dgps_w)
+        if not b_ap:
             continue
-        est.append(b)
+        est.append(b_ap)
         for _ in range(10):  # the model's own estimator spread on these epochs
             null.append(_drift_biases(ap.t_w, InertialErrors.draw(InertialErrorSpec(grade=model.grade), rng, ap.t_w).error_ned_m))
     if len(est) < 3:
@@ -641,7 +641,7 @@ def diagnose_log(path, df: pd.DataFrame, model: FitsModel) -> tuple[list[Finding
         findings.append(f)
         if f.effect == "cyclic_period":
             period = float(round(f.parameters["period_s"]["value"]))
-    baseline = {"approaches": len(aps), "dgps": dgps}
+    baseline: dict[str, int | bool | float] = {"approaches": len(aps), "dgps": dgps}
     if dgps:
         baseline["fits_minus_dgps_rms_m"] = _err_rms(aps, model.period_s, model.dgps_offset_m)
         m2 = dataclasses.replace(model, period_s=period)

@@ -67,7 +67,8 @@ from __future__ import annotations
 
 import datetime as dt
 import math
-from typing import Any
+from collections.abc import Callable
+from typing import Any, NotRequired, TypedDict
 
 import numpy as np
 
@@ -105,6 +106,21 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
 from aerotruth.analysis.least_squares import clustered_se
 from aerotruth.analysis.wind.heading_correction import heading_spread
 from aerotruth.units import DEG, KT
+
+
+class _Candidate(TypedDict):
+    """A library effect tried in a round of `diagnose_wind` (the quantization: no fit,
+    its test's result in `q`)."""
+
+    effect: str
+    p: float
+    held_out: tuple[float, float]
+    rel: float
+    fit: NotRequired[Fit]
+    dgamma: NotRequired[float]
+    log10_p: NotRequired[float]
+    q: NotRequired[dict[str, Any]]
+
 
 ALPHA_LIBRARY = 0.01
 ALPHA_SCREEN = 0.01
@@ -167,12 +183,13 @@ def _iso(t: float) -> str:
 def _parameters(eff: str, d: WindData, fit: Fit, dgamma: float, st: State) -> dict:
     parts = fit.coef(eff)
     r2d = 1 / DEG
+    per: dict[str, dict[str, Any]]  # per aircraft (per reference model): the effect's numbers and words
     if eff == "soft_iron":
         per = {d.names[b.aircraft]: {"D_deg": float(be[0] * r2d), "E_deg": float(be[1] * r2d),
                                      "D_se_deg": float(standard_errors(v)[0] * r2d), "E_se_deg": float(standard_errors(v)[1] * r2d)} for b, be, v in parts}
         a2 = np.mean([x["D_deg"] ** 2 + x["E_deg"] ** 2 for x in per.values()])
         s2 = np.mean([x["D_se_deg"] ** 2 + x["E_se_deg"] ** 2 for x in per.values()])
-        amp = math.sqrt(max(a2 - s2, 0.0))
+        amp = math.sqrt(max(float(a2 - s2), 0.0))
         return {"amplitude_deg": {"value": amp, "se": math.sqrt(s2 / max(len(per), 1)),
                                   "meaning": "RMS over aircraft of the 2z amplitude sqrt(D^2 + E^2), noise-debiased"},
                 "aircraft": per}
@@ -301,7 +318,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         fit0 = solve(current_blocks(d, st), y, clusters)
         fit_start = fit_start or fit0
         base = fold_fits(d, st, y, clusters) if testable else None  # for the candidates' held-out gains
-        cands = []
+        cands: list[_Candidate] = []
         for eff in CANDIDATES:
             if eff in st.entered or not testable:
                 continue
@@ -309,7 +326,12 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
             if not blocks:
                 continue
             fit1, dg = fit_with(d, st, y, clusters, eff, blocks)
-            p = min(b.p for b in blocks) if eff in SCANNED else block_p(fit1, eff, d)
+            if eff in SCANNED:
+                scanned = [b.p for b in blocks if b.p is not None]
+                assert len(scanned) == len(blocks)  # a scan's blocks each carry its p-value
+                p = min(scanned)
+            else:
+                p = block_p(fit1, eff, d)
             b_ho, a_ho = held_out(d, st, y, clusters, eff, base=base)
             cands.append({"effect": eff, "p": p, "held_out": (b_ho, a_ho), "fit": fit1, "dgamma": dg,
                           "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0})
@@ -327,9 +349,10 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         eff = best["effect"]
         if eff == "quantization":
             qq = best["q"]
-            params = {"lat_lon_step_deg": {"value": qq["step"], "se": 0.0, "model": spec.lat_lon_step_deg,
-                                           "meaning": "grid of the reported lat/lon"},
-                      "share_on_model_grid": qq["share_on_model_grid"]}
+            params: dict[str, Any] = {
+                "lat_lon_step_deg": {"value": qq["step"], "se": 0.0, "model": spec.lat_lon_step_deg,
+                                     "meaning": "grid of the reported lat/lon"},
+                "share_on_model_grid": qq["share_on_model_grid"]}
             evidence = {"test": "binomial: coordinates on the coarser grid vs the share the model's grid puts there",
                         "log10_p": qq["log10_p"], "alpha": level}
             gain = qq["gain"]
@@ -342,6 +365,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
             if eff == "stale_declination":
                 evidence["aliased_with_A"] = f"{100 * (1 - declination_identifiable(d)):.0f} % of the regressor is a per-aircraft constant"
             if eff == "reference_bias" and any(x["form"] == "scale" for x in params["bias_kt"].values()):
+                assert base is not None  # a library effect entered: the data were testable
                 evidence["forms_chosen"] = _forms_chosen(d, st, y, clusters, base, params["bias_kt"])
             gain = {"metric": f"RMS of the {ch} wind residual (kt)" if ch != "both" else "RMS of the wind residual vector components (kt)",
                     "before": rms_of_kt(fit0.resid, d.n, ch), "after": rms_of_kt(fit1.resid, d.n, ch),
@@ -361,6 +385,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     if testable:
         findings.extend(screen(d, st, y, clusters, plots))
     fit_end = solve(current_blocks(d, st), y, clusters)
+    assert fit_start is not None  # set in the first round (MAX_ROUNDS >= 1)
     free = {b.label[5:]: {"slope": float(be[0]), "se": float(standard_errors(v)[0]),
                           "unit": "deg per unit" if b.label.startswith("free:transverse") else "kt per unit"}
             for b, be, v in fit_end.coef("base", -1) if b.label.startswith("free:")}
@@ -493,13 +518,14 @@ def screen(d: WindData, st: State, y, clusters, plots: dict) -> list:
         cur = current_blocks(d, st)
         fit0 = solve(cur, y, clusters)
         base = fold_fits(d, st, y, clusters)
-        tests = [(ch, covs) for ch, covs in _screen_tests(d, st.spec) if f"{ch}:{'+'.join(covs)}" not in done]
+        untested = [(ch, covs) for ch, covs in _screen_tests(d, st.spec) if f"{ch}:{'+'.join(covs)}" not in done]
         m_tests = len(_screen_tests(d, st.spec)) + 2
         level = ALPHA_SCREEN / m_tests
         # (channel, covariates, key, p of the fit with the term): the Wald test on weather
         # blocks, for the periodogram's period times the M frequencies searched; the fleet
         # step by the sup-CUSUM of the block means
-        tests = [(ch, covs, f"{ch}:{'+'.join(covs)}", lambda f1: block_p(f1, "screen", d)) for ch, covs in tests]
+        tests: list[tuple[str, list[str], str, Callable[..., float]]] = [  # p_of(fit1): some bind defaults
+            (ch, covs, f"{ch}:{'+'.join(covs)}", lambda f1: block_p(f1, "screen", d)) for ch, covs in untested]
         per = _periodic(d, fit0)
         if per is not None and "periodic" not in done:
             period, M = per
@@ -528,7 +554,8 @@ def screen(d: WindData, st: State, y, clusters, plots: dict) -> list:
         for s, b in zip(sigs, beta):  # deg per unit (transverse), kt per unit (along): the columns' scaling
             s["slope"] = float(b)
         text = _signature_text(sigs, beta)
-        params = {"signature": text, "terms": [dict(s, se=float(e)) for s, e in zip(sigs, standard_errors(cov))]}
+        params: dict[str, Any] = {"signature": text,
+                                  "terms": [dict(s, se=float(e)) for s, e in zip(sigs, standard_errors(cov))]}
         params["size"] = float(beta[0]) if len(beta) == 1 else float(math.hypot(*beta[:2]))
         evidence = {"test": "cluster-robust Wald on 6-h weather blocks (screening)" if not key.startswith(("periodic", "fleet_step")) else
                     ("strongest period of the flight means' periodogram; cluster-robust Wald on weather blocks x M frequencies"

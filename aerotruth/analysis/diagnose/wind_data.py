@@ -52,7 +52,7 @@ class WindData:
     h_ratio: np.ndarray  # H0 / H
     sv_deg_yr: np.ndarray  # declination change per year (IGRF, 5 years before the data)
     roll: np.ndarray | None
-    phase: np.ndarray | None
+    phase: np.ndarray  # "ascent", "descent" or "level" per row
     turn_deg_s: np.ndarray
     climb_fpm: np.ndarray  # pressure-altitude rate from the previous report of the flight (0 at the first)
     cluster: np.ndarray  # weather block of the row's flight (the unit of every test)
@@ -203,7 +203,7 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         turn_rep = np.where(same, dz / dtr, 0.0)
         rate = np.where(same, da / dtr * 60.0, 0.0)
     ph_rep = np.where(rate > 300.0, "ascent", np.where(rate < -300.0, "descent", "level"))
-    back = per.index.get_indexer(rep)
+    back = per.index.get_indexer(pd.Index(rep))  # (what get_indexer makes of an array itself)
     turn, phase, climb = turn_rep[back], ph_rep[back], rate[back]
     roll = df["roll_deg"].to_numpy()[used] if "roll_deg" in df.columns else None
     first = _report_rows(df)

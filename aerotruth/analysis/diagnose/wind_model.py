@@ -6,6 +6,7 @@ aerotruth.analysis.diagnose.wind for the method."""
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -557,7 +558,8 @@ def cand_offset_drift(d: WindData, st: State, fit: Fit | None, rows: np.ndarray 
             for i, q in _selected(drift_scan(d, fit, rows)).items() if i not in st.drifts]
 
 
-CANDIDATES = {
+# (d, st, fit) -> blocks; recalibration and offset_drift take the training rows too
+CANDIDATES: dict[str, Callable[..., list[Block]]] = {
     "soft_iron": cand_soft_iron,
     "field_scaling": cand_field_scaling,
     "tas_scale": cand_tas_scale,

@@ -28,6 +28,7 @@ DEFAULT_RUNWAY where a log gives none (read by aerotruth.measured.approach_log).
 from __future__ import annotations
 
 from dataclasses import dataclass, replace
+from typing import TypeVar
 
 import numpy as np
 import pandas as pd
@@ -226,7 +227,10 @@ def at_times(t_rows: np.ndarray, rows: np.ndarray, t: np.ndarray) -> np.ndarray:
     return (1.0 - w) * rows[i - 1] + w * rows[i]
 
 
-def retagged(a: ApproachInputs, latency_s: float) -> ApproachInputs:
+_Inputs = TypeVar("_Inputs", bound="ApproachInputs")
+
+
+def retagged(a: _Inputs, latency_s: float) -> _Inputs:
     """The inputs with each WAAS epoch put at its time tag minus `latency_s` (a receiver
     that stamps its positions that late): the INS and the DGPS taken at the new times from
     their rows. The same inputs when the latency is 0."""

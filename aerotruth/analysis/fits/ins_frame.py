@@ -48,17 +48,17 @@ def loadings(aps: list):
     clustered by approach. An INS logging Q x the runway-frame position (Q orthogonal: an
     axis flipped, two swapped, axes turned) gives F = Q, each column shrunk by the WAAS
     noise w (m^2 / (m^2 + w^2), ~0.85 at m = 1 m of motion). `aps`: approach_log.ApproachInputs (t_w, waas, ins_w, flags)."""
-    xs, ys, grp = [], [], []
+    xs, ys, grps = [], [], []
     for i, ap in enumerate(aps):
         ok = _usable(ap)
         if ok.sum() < MIN_EPOCHS:
             continue
         xs.append(beyond_drift(ap.t_w[ok], ap.flags[ok], ap.waas[ok]))
         ys.append(beyond_drift(ap.t_w[ok], ap.flags[ok], ap.ins_w[ok]))
-        grp.append(np.full(ok.sum(), i))
+        grps.append(np.full(ok.sum(), i))
     if len(xs) < MIN_APPROACHES:
         return None
-    x, y, grp = np.vstack(xs), np.vstack(ys), np.concatenate(grp)
+    x, y, grp = np.vstack(xs), np.vstack(ys), np.concatenate(grps)
     xtx_inv = np.linalg.inv(x.T @ x)
     f = (xtx_inv @ x.T @ y).T
     r = y - x @ f.T

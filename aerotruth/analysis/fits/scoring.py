@@ -46,11 +46,11 @@ def epoch_rows(result: FitsResult, truth: pd.DataFrame, geometry: dict, waas_xyz
                              gp_y_m=geometry["gp_y_m"])
     k = np.arange(len(nl.t_s))
     more = {"edge": (k < 2 * T) | (k >= len(k) - 2 * T)}
-    for i, a in enumerate(AXES):
-        more[f"waas_err_{a}_m"] = waas_xyz[:, i] - p_true[:, i]
-        more[f"n_true_{a}_m"] = n_true[:, i]
-        more[f"n_hat_{a}_m"] = nl.n_hat[:, i]
-        more[f"resid_{a}_m"] = nl.n_hat[:, i] - n_true[:, i]
+    for j, a in enumerate(AXES):
+        more[f"waas_err_{a}_m"] = waas_xyz[:, j] - p_true[:, j]
+        more[f"n_true_{a}_m"] = n_true[:, j]
+        more[f"n_hat_{a}_m"] = nl.n_hat[:, j]
+        more[f"resid_{a}_m"] = nl.n_hat[:, j] - n_true[:, j]
     more["y_true_m"] = p_true[:, 1]
     more["z_true_m"] = p_true[:, 2]
     # one frame from the columns at once (inserting them one by one cost more than the arithmetic)

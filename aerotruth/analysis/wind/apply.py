@@ -80,7 +80,7 @@ def heading_apply(obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "obse
         fit = None if whole_fleet else fleet.fits_.get(name)
         b, a = wind_errors_before_after(scored[sel], corr[sel])
         t = obs["time_s"].to_numpy()[sel]
-        in_sample = ""
+        in_sample: str | bool = ""  # "" without a table or scored reports
         if fit is not None and len(t):
             lo, hi = pd.Timestamp(fit.valid_from_, tz="UTC"), pd.Timestamp(fit.valid_to_, tz="UTC") + pd.Timedelta(days=1)
             first, last = pd.Timestamp(t.min(), unit="s", tz="UTC"), pd.Timestamp(t.max(), unit="s", tz="UTC")

@@ -31,6 +31,7 @@ recomputed (`corrected_wind_error`).
 from __future__ import annotations
 
 import datetime as dt
+from typing import NotRequired, TypedDict
 
 import numpy as np
 import pandas as pd
@@ -39,6 +40,17 @@ from aerotruth.analysis.wind.heading_errors import GateSpec, heading_errors
 from aerotruth.analysis.wind.observations import validate_observations
 from aerotruth.analysis.wind.robust_fit import robust_fit
 from aerotruth.units import FT
+
+
+class AircraftFieldFit(TypedDict):
+    """One aircraft's entry of `FieldAwareDeviationFit.fits_`: refused ("beta" None) or
+    fitted (then also the standard errors and the scale factors' correlation)."""
+
+    status: str
+    terms: str
+    beta: np.ndarray | None
+    se: NotRequired[np.ndarray]
+    scale_correlation: NotRequired[float]
 
 
 def report_field(df: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
@@ -95,7 +107,7 @@ class FieldAwareDeviationFit:
         used = (rows["gate"].cat.codes.to_numpy() == 0) & np.isfinite(zdeg) & np.isfinite(h)
         self.h0_ = float(np.median(h[used])) if used.any() else float("nan")
         self.z0_ = float(np.median(zf[used])) if used.any() else float("nan")
-        self.fits_ = {}
+        self.fits_: dict[str, AircraftFieldFit] = {}
         tas = rows["tas_ms"].to_numpy()
         for ac in pd.unique(rows["aircraft"]):
             sel = used & (rows["aircraft"].to_numpy() == ac)
@@ -132,10 +144,14 @@ class FieldAwareDeviationFit:
         rows = []
         for ac, f in self.fits_.items():
             r = {"aircraft": ac, "status": f["status"], "terms": f["terms"], "H0_nT": self.h0_, "Z0_nT": self.z0_}
+            beta = f["beta"]
             for i, n in enumerate(names):
-                have = f["beta"] is not None and i < len(f["beta"])
-                r[f"{n}_deg"] = float(f["beta"][i]) if have else (0.0 if f["beta"] is not None else np.nan)
-                r[f"{n}_se_deg"] = float(f["se"][i]) if have else np.nan
+                if beta is not None and i < len(beta):
+                    r[f"{n}_deg"] = float(beta[i])
+                    r[f"{n}_se_deg"] = float(f["se"][i])
+                else:
+                    r[f"{n}_deg"] = 0.0 if beta is not None else np.nan
+                    r[f"{n}_se_deg"] = np.nan
             r["scale_correlation"] = f.get("scale_correlation", np.nan)
             rows.append(r)
         return pd.DataFrame(rows)

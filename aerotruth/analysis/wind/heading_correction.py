@@ -243,7 +243,7 @@ class HeadingDeviationFit:
         self.valid_from_ = _iso_date(times.min()) if len(times) else ""
         self.valid_to_ = _iso_date(times.max()) if len(times) else ""
         self.heading_frame_ = self.heading
-        self.consistency_ = {}
+        self.consistency_: dict[str, dict[str, float]] = {}
         self._XT = design_t(self._z, 5)
         gram = weighted_gram_t(self._XT, self._w)  # the headings' spreads from its sums
         self.coverage_ = float(_gram_axes(gram, 1)[0][0]) if self.n_used_ >= 3 else 0.0
@@ -365,6 +365,7 @@ class HeadingDeviationFit:
                 self.consistency_[f"{a}-{b}"] = {"p": p, "max_diff_deg": diff}
                 if worst is None or p < worst[1]:
                     worst = (f"{a} vs {b}", p, diff)
+        assert worst is not None  # two sources or more: one pair at least
         self.consistency_p_ = worst[1]
         self.consistency_max_diff_deg_ = worst[2]
         if worst[1] < self.consistency_level:
@@ -567,6 +568,7 @@ class FleetHeadingFit:
         h = np.asarray(heading_deg, dtype=float)
         names = list(self.fits_)
         luts = np.vstack([np.nan_to_num(np.asarray(f.lut_, dtype=float)) for f in self.fits_.values()] + [np.zeros(8)])
+        idx: np.ndarray
         if np.ndim(aircraft) == 0:
             idx = np.full(h.size, names.index(aircraft) if aircraft in names else -1)
         else:

@@ -155,8 +155,10 @@ def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, span
                                                                         t1, t2)))
     shape = args[0].shape
     out = np.empty((3, args[0].size))
-    _step_noise_all(*(np.ascontiguousarray(a).reshape(-1) for a in args), math.radians(step_deg) / math.sqrt(12.0), out)
-    return tuple(o.reshape(shape) for o in out)
+    f_sin, f_cos, f_se, f_sn, f_span, f_gs1, f_gs2, f_t1, f_t2 = (np.ascontiguousarray(a).reshape(-1) for a in args)
+    _step_noise_all(f_sin, f_cos, f_se, f_sn, f_span, f_gs1, f_gs2, f_t1, f_t2,
+                    math.radians(step_deg) / math.sqrt(12.0), out)
+    return out[0].reshape(shape), out[1].reshape(shape), out[2].reshape(shape)
 
 
 _radii = njit(cache=True, nogil=True, inline="always")(radii_from_sin)  # aerotruth.ellipsoid's, compiled
@@ -560,7 +562,9 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
         "report": rep_of_row, "time_s": t, "heading_deg": heading.take(rep_of_row),
         "heading_mag_deg": heading_mag.take(rep_of_row), "error_deg": d,
         "tas_ms": tas, "va_e": va_e, "va_n": va_n, "dw_e": dw_e, "dw_n": dw_n,
-        "gate": pd.Categorical.from_codes(row_gate, GATE_NAMES), "true_heading_input": true_input,
+        # pandas-stubs want an Index for `categories`; pandas takes any list-like
+        "gate": pd.Categorical.from_codes(row_gate, GATE_NAMES),  # type: ignore[call-overload]
+        "true_heading_input": true_input,
     })
     out.attrs.update(df.attrs)
     return out

@@ -169,7 +169,9 @@ def wind_error_summary(errors: pd.DataFrame, by: Sequence[str] = (), altitude_ba
                 raise ValueError("altitude_bands_ft: expected at least two ascending edges (ft) to group by altitude_band")
             edges = np.asarray(altitude_bands_ft, dtype=float)
             labels = [f"{lo:g}-{hi:g}" for lo, hi in zip(edges[:-1], edges[1:])]
-            df[b] = pd.cut(errors["pressure_altitude_ft"], edges, right=False, labels=labels)
+            # pandas-stubs take no ndarray `bins` with a Series; pandas takes any array-like
+            df[b] = pd.cut(errors["pressure_altitude_ft"], edges,  # type: ignore[call-overload]
+                           right=False, labels=labels)
         elif b not in errors.columns:
             raise ValueError(f"by: column {b!r} is not in the errors table")
         else:
@@ -259,8 +261,9 @@ def wind_errors_before_after(rows: pd.DataFrame, correction_deg: np.ndarray) -> 
     run -= 1  # each row's run
     sz, cz = sin_cos(z.take(first) * DEG)
     sc, cc = sin_cos(c.take(first) * DEG)
-    cols = [np.ascontiguousarray(rows[k].to_numpy(), dtype=float) for k in ("dw_e", "dw_n", "va_e", "va_n")]
-    tb, ab, ta, aa = _before_after_sums(*cols, sz, cz, sc, cc, run)
+    dw_e, dw_n, va_e, va_n = (np.ascontiguousarray(rows[k].to_numpy(), dtype=float)
+                              for k in ("dw_e", "dw_n", "va_e", "va_n"))
+    tb, ab, ta, aa = _before_after_sums(dw_e, dw_n, va_e, va_n, sz, cz, sc, cc, run)
     return _rms_parts(tb, ab, len(z)), _rms_parts(ta, aa, len(z))
 
 

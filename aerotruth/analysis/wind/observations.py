@@ -6,6 +6,7 @@ naming the table, the column and the data row."""
 from __future__ import annotations
 
 import math
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -135,7 +136,8 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
         raise DataError(f"{source}: missing column '{missing[0]}' (an observation table needs {', '.join(REQUIRED_COLUMNS)})")
     if len(obs) == 0:
         raise DataError(f"{source}: no rows")
-    out = {"aircraft": _labels(obs["aircraft"]), "time_s": _times(obs, source)}
+    # the columns: np.ndarray for numbers and times, pd.Categorical for labels
+    out: dict[str, Any] = {"aircraft": _labels(obs["aircraft"]), "time_s": _times(obs, source)}
     for c in REQUIRED_COLUMNS[2:] + tuple(c for c in OPTIONAL_NUMERIC if c in obs.columns):
         out[c] = _numeric(obs, c, source)
     keep = np.ones(len(obs), dtype=bool)  # rows with every required number (NaN: an empty cell, dropped)

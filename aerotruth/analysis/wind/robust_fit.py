@@ -145,13 +145,15 @@ MAX_TERMS = 5
 _FAST = {"reassoc", "contract"}  # not "nnan"/"ninf": cc is inf for least squares
 
 
-def _rows(XT: np.ndarray) -> tuple[np.ndarray, ...]:
+def _rows(XT: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """The k rows of a (k, n) design and 5 - k zero rows: the kernels' five columns."""
     k, n = XT.shape
     if k > MAX_TERMS:
         raise ValueError(f"design: at most {MAX_TERMS} terms, got {k}")
-    zero = np.zeros(n) if k < MAX_TERMS else None
-    return tuple(XT[a] if a < k else zero for a in range(MAX_TERMS))
+    rows = [XT[a] for a in range(k)]
+    if k < MAX_TERMS:
+        rows += [np.zeros(n)] * (MAX_TERMS - k)  # one zero row, shared
+    return rows[0], rows[1], rows[2], rows[3], rows[4]
 
 
 @njit(cache=True, nogil=True, fastmath=_FAST, error_model="numpy")
@@ -167,7 +169,7 @@ def _residuals(beta: np.ndarray, XT: np.ndarray, y: np.ndarray, sw: np.ndarray, 
     """r = sqrt(w) (y - X b) and ar = |r| into the given arrays, `sw` = sqrt(w)."""
     b = np.zeros(MAX_TERMS)
     b[:len(beta)] = beta
-    _residuals5(*b, *_rows(XT), y, sw, r, ar)
+    _residuals5(b[0], b[1], b[2], b[3], b[4], *_rows(XT), y, sw, r, ar)
 
 
 @njit(cache=True, nogil=True, fastmath=_FAST, error_model="numpy")
