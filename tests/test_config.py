@@ -179,7 +179,7 @@ def test_bounds_and_strict_integers():
     assert error_of(VALID.replace("name: t1", "name: my run")).startswith("name: expected a name of letters, digits")
 
 
-# ---- bugs met on the way (composable-studies issue): each failed before its fix
+# ---- composing studies: cases that each failed before the code handled them
 
 
 FIXED_LEG = VALID.replace("    max_legs_per_day: 2\n", "    legs:\n      - {from: kmsp, to: KRST, departure_utc: 13:00}\n")

@@ -15,7 +15,7 @@ section II) or a go-around at the decision altitude. Recording continues for
 Geometry is the runway frame (aerotruth.truth.runway) and the glide path of an ILS
 installation (aerotruth.truth.ils: glide-path mast at x_G = TCH / tan(theta) abeam
 the touchdown zone, offset to the side): the aircraft flies the facility's nominal
-beams; the facility errors an inspection measures are the inspection issue's.
+beams; the facility's errors are what an inspection measures.
 
 Recording is at 50 Hz: the 10 Hz route columns, plus the runway-frame position of the
 CG, the CG location, and the inertial truth of aircraft/systems/aerotruth_imu.xml as
@@ -580,7 +580,7 @@ def approach_spec(airport_icao: str, runway: str, day: Date | datetime, **kw) ->
 
 
 def approach_metrics(track: TruthTrack) -> dict[str, float]:
-    """The issue-8 acceptance figures of one approach: localizer and glide-slope
+    """The acceptance figures of one approach: localizer and glide-slope
     deviations (dots), speed against Vref and sink rate (5 s means) at 1,000 ft above the threshold;
     deviation RMS inside 1 nm; height, speed, pitch and roll at the threshold."""
     df, meta = track.df, track.meta

@@ -73,7 +73,8 @@ TOLERANCES = {
 
 
 class IlsFacilitySpec(Section):
-    """An ILS installation and its errors (defaults: the inspection issue's injected errors)."""
+    """An ILS installation and its errors (defaults: a 3 m alignment and a 0.05 deg path-angle error, inside the Cat I
+    tolerances: errors an inspection must measure)."""
 
     category: Literal["I", "II", "III"] = "I"
     glide_path_deg: float = Field(default=3.0, gt=1.0, lt=6.0, description="nominal glide-path angle theta")

@@ -27,7 +27,7 @@ bank error SIGMA is a track error SIGMA g tau / V = 0.30 SIGMA.
 Calibration (2 Mesaba aircraft-days, 13 legs, truth rounded to the recorder's steps,
 `python validation/turn_stats.py --days 2`), against the A320's wings-level bank rms 0.324
 deg and its share of 1-s roll changes of two or more steps above 10,000 ft, 5.5 % (the
-criterion of issue 8 is the p95 of that change, 0.70 deg/s). First explored as a track
+acceptance criterion is the p95 of that change, 0.70 deg/s). First explored as a track
 error (SIGMA_track below, in the track the loop steers to; bank-equivalent 3.3 x that at
 cruise):
 

@@ -1,4 +1,4 @@
-"""`aerotruth diagnose` on an approach log (the FITS side of the diagnose issue): where a
+"""`aerotruth diagnose` on an approach log (the FITS paper's side): where a
 flight's WAAS, INS and DGPS data disagree with the simulation's sensor model, why, and
 what the extended model gains on approaches it was not fitted on.
 

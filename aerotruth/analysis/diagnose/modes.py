@@ -63,7 +63,7 @@ ALPHA = 0.02  # family-wise over the candidates (Bonferroni): also a jackknife W
 # BIC counts 1-s samples of held registers as independent (it found 78 effects in 100 null days)
 MIN_HELD_OUT_GAIN = 0.0  # any drop of the held-out RMS (the dBIC carries the evidence; 1 % refused a true 2-deg offset on a 4-leg day)
 # identifiability: a heading effect is told from the wind only across turns; a one-cycle
-# deviation needs headings spread round the compass (the wind-method issue's refusal)
+# deviation needs headings spread round the compass (the wind method refuses it otherwise)
 MIN_OCTANTS = {"heading_offset": 2, "heading_deviation_1psi": 6, "tas_scale": 2, "heading_time_offset": 1,
                "heading_slaving_lag": 6}
 # a time offset between heading and track shows only while the heading changes: samples
@@ -86,7 +86,7 @@ SPEED_HALF_WINDOW_S = 10.0  # the wind is smooth in time at a level; climbing th
 # Here it is optional and off: turns are what identify a heading lag, and measured on
 # simulated Mesaba days the filter left the decaying sideslip after roll-out to alias into
 # a lag of -0.5 to -0.9 s and lost a hidden 2-s lag entirely; without it the SAAB's
-# sideslip spikes in its fast roll-ins (the truth-realism issue) read as a TAS scale.
+# sideslip spikes in its fast roll-ins read as a TAS scale.
 
 
 @dataclass
