@@ -11,7 +11,7 @@ import ast
 import hashlib
 import importlib.util
 import platform
-from functools import lru_cache
+from functools import cache, lru_cache
 from importlib import metadata
 from pathlib import Path
 
@@ -23,11 +23,22 @@ PACKAGE_ROOT = Path(aerotruth.__file__).resolve().parent
 RESULT_LIBRARIES = ("jsbsim", "numpy", "scipy", "pandas", "pyarrow", "ppigrf", "pyproj", "numba", "llvmlite")
 # Orchestration: how tasks are scheduled, stored and reported never changes a task's
 # numbers (the resolved configuration is digested separately), so these are not followed.
-ORCHESTRATION = frozenset({
-    "aerotruth.app.cli", "aerotruth.sim.campaign_file", "aerotruth.sim.campaign", "aerotruth.app.campaign_commands", "aerotruth.sim.executors",
-    "aerotruth.app.figures", "aerotruth.markdown", "aerotruth.app.regress", "aerotruth.app.report",
-    "aerotruth.sim.store", "aerotruth.sim.worker", "aerotruth.digests",
-})
+ORCHESTRATION = frozenset(
+    {
+        "aerotruth.app.cli",
+        "aerotruth.sim.campaign_file",
+        "aerotruth.sim.campaign",
+        "aerotruth.app.campaign_commands",
+        "aerotruth.sim.executors",
+        "aerotruth.app.figures",
+        "aerotruth.markdown",
+        "aerotruth.app.regress",
+        "aerotruth.app.report",
+        "aerotruth.sim.store",
+        "aerotruth.sim.worker",
+        "aerotruth.digests",
+    }
+)
 
 
 def _module_file(name: str, root: Path = PACKAGE_ROOT) -> Path | None:
@@ -56,7 +67,8 @@ def _module_name(path: Path, root: Path = PACKAGE_ROOT) -> str | None:
 def _is_type_checking(node: ast.AST) -> bool:
     return isinstance(node, ast.If) and (
         (isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING")
-        or (isinstance(node.test, ast.Attribute) and node.test.attr == "TYPE_CHECKING"))
+        or (isinstance(node.test, ast.Attribute) and node.test.attr == "TYPE_CHECKING")
+    )
 
 
 def _walk_runtime(tree: ast.AST):
@@ -121,7 +133,11 @@ def dependency_files(start: Path, root: Path = PACKAGE_ROOT) -> list[Path]:
 
 
 def _strings(path: Path) -> set[str]:
-    return {n.value for n in ast.walk(ast.parse(path.read_text(encoding="utf-8"))) if isinstance(n, ast.Constant) and isinstance(n.value, str)}
+    return {
+        n.value
+        for n in ast.walk(ast.parse(path.read_text(encoding="utf-8")))
+        if isinstance(n, ast.Constant) and isinstance(n.value, str)
+    }
 
 
 def _named_data_files(module: Path) -> list[Path]:
@@ -175,7 +191,7 @@ def source_file(source: str) -> Path:
     return Path(spec.origin)
 
 
-@lru_cache(maxsize=None)
+@cache
 def code_digest(source: str) -> str:
     """sha256 over the files a study's results depend on and the library versions."""
     h = hashlib.sha256()

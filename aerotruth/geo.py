@@ -53,15 +53,18 @@ def enu(lat_deg, lon_deg, h_m, lat0_deg: float, lon0_deg: float, h0_m: float):
     """East, north, up (m) of points relative to the origin (lat0, lon0, h0), all
     ellipsoidal: PROJ's topocentric conversion of the ECEF coordinates (EPSG 9837)."""
     t = _topocentric(float(lat0_deg), float(lon0_deg), float(h0_m))
-    e, n, u = t.transform(np.asarray(lon_deg, dtype=float), np.asarray(lat_deg, dtype=float), np.asarray(h_m, dtype=float))
+    e, n, u = t.transform(
+        np.asarray(lon_deg, dtype=float), np.asarray(lat_deg, dtype=float), np.asarray(h_m, dtype=float)
+    )
     return e, n, u
 
 
 def geodetic_from_enu(e_m, n_m, u_m, lat0_deg: float, lon0_deg: float, h0_m: float):
     """Inverse of :func:`enu`: geodetic lat, lon (deg) and ellipsoidal height (m)."""
     t = _topocentric(float(lat0_deg), float(lon0_deg), float(h0_m))
-    lon, lat, h = t.transform(np.asarray(e_m, dtype=float), np.asarray(n_m, dtype=float), np.asarray(u_m, dtype=float),
-                              direction="INVERSE")
+    lon, lat, h = t.transform(
+        np.asarray(e_m, dtype=float), np.asarray(n_m, dtype=float), np.asarray(u_m, dtype=float), direction="INVERSE"
+    )
     return lat, lon, h
 
 
@@ -80,7 +83,8 @@ def ecef_from_ned_matrix(lat_deg, lon_deg) -> np.ndarray:
 def _topocentric(lat0_deg: float, lon0_deg: float, h0_m: float) -> Transformer:
     return Transformer.from_pipeline(
         "+proj=pipeline +step +proj=unitconvert +xy_in=deg +xy_out=rad +step +proj=cart +ellps=WGS84 "
-        f"+step +proj=topocentric +ellps=WGS84 +lat_0={lat0_deg!r} +lon_0={lon0_deg!r} +h_0={h0_m!r}")
+        f"+step +proj=topocentric +ellps=WGS84 +lat_0={lat0_deg!r} +lon_0={lon0_deg!r} +h_0={h0_m!r}"
+    )
 
 
 def wrap180(angle_deg):

@@ -28,8 +28,8 @@ import tempfile
 import time
 from pathlib import Path
 
-from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.campaign import run_campaign
+from aerotruth.sim.campaign_file import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 
 WIND = """\
@@ -86,7 +86,9 @@ def mesaba(root: Path) -> None:
     warm = cold.model_copy(update={"studies": {"heading_correction": section.model_copy(update={"sensors": sensors})}})
     for label, campaign, out in (("cold", cold, "cold"), ("warm", warm, "warm")):
         t0 = time.perf_counter()
-        s = run_campaign(campaign, ExecutorChoice("local", workers=2), out=root / out, progress=False, log=lambda m: None)
+        s = run_campaign(
+            campaign, ExecutorChoice("local", workers=2), out=root / out, progress=False, log=lambda m: None
+        )
         print(f"mesaba_{label}: {time.perf_counter() - t0:.1f}")
         print(f"mesaba_legs_flown_{label}: {s.legs_flown}")
 

@@ -25,11 +25,11 @@ from pathlib import Path
 
 import numpy as np
 
-from aerotruth.analysis.fits.filter import FitsSpec, period_samples
 from aerotruth.analysis.fits.approach_log import run_approach
+from aerotruth.analysis.fits.filter import FitsSpec, period_samples
 from aerotruth.analysis.fits.scoring import approach_summary, epoch_rows, waas_at_epochs
-from aerotruth.sensors.inspection_log import InspectionSensors, approach_logs
 from aerotruth.sensors.ins import InsSpec
+from aerotruth.sensors.inspection_log import InspectionSensors, approach_logs
 from aerotruth.truth.approach import approach_spec, fly_approach
 from aerotruth.truth.track import TruthTrack
 

@@ -45,9 +45,9 @@ import obs_generator as gen  # noqa: E402
 
 from aerotruth.analysis.wind.heading_correction import FleetHeadingFit  # noqa: E402
 from aerotruth.analysis.wind.heading_errors import heading_errors  # noqa: E402
-from aerotruth.measured.observations import read_observation_file  # noqa: E402
-from aerotruth.analysis.wind.observations import validate_observations  # noqa: E402
 from aerotruth.analysis.wind.metrics import wind_errors_before_after  # noqa: E402
+from aerotruth.analysis.wind.observations import validate_observations  # noqa: E402
+from aerotruth.measured.observations import read_observation_file  # noqa: E402
 
 
 def table(copies: int) -> pd.DataFrame:
@@ -55,8 +55,9 @@ def table(copies: int) -> pd.DataFrame:
     fleet = gen.fleet(12, rng, tas_kt=(400.0, 460.0))
     parts, t0 = [], 1_249_084_800.0
     for c in range(copies):  # the same aircraft flying on, new flights and reference errors: a season
-        p = gen.generate(fleet, np.random.default_rng([2009, c]), spoke_km=(700.0, 1500.0), cruise_ft=(25000.0, 35000.0),
-                         t_start=t0)
+        p = gen.generate(
+            fleet, np.random.default_rng([2009, c]), spoke_km=(700.0, 1500.0), cruise_ft=(25000.0, 35000.0), t_start=t0
+        )
         t0 = p["time"].max() + 86400.0
         parts.append(p)
     # as a user's table arrives, read from a file (one Arrow chunk per string column, not the
@@ -98,12 +99,22 @@ def run(obs: pd.DataFrame) -> dict[str, float]:
     fleet = FleetHeadingFit().fit(rows)
     t3 = time.perf_counter()
     m = np.flatnonzero(rows["gate"].cat.codes.to_numpy() == 0)  # "used" (a gather by index: 5x a boolean mask's speed)
-    used = pd.DataFrame({c: rows[c].array.take(m) for c in ("aircraft", "heading_deg", "va_e", "va_n", "dw_e", "dw_n")},
-                        copy=False)  # only the columns the metrics read
-    before, after = wind_errors_before_after(used, fleet.correction(used["aircraft"].array, used["heading_deg"].to_numpy()))
+    used = pd.DataFrame(
+        {c: rows[c].array.take(m) for c in ("aircraft", "heading_deg", "va_e", "va_n", "dw_e", "dw_n")}, copy=False
+    )  # only the columns the metrics read
+    before, after = wind_errors_before_after(
+        used, fleet.correction(used["aircraft"].array, used["heading_deg"].to_numpy())
+    )
     t4 = time.perf_counter()
-    return {"validate_s": t1 - t0, "tracks_s": t2 - t1, "fit_s": t3 - t2, "metrics_s": t4 - t3, "total_s": t4 - t0,
-            "rms_before_kt": before["rms_kt"], "rms_after_kt": after["rms_kt"]}
+    return {
+        "validate_s": t1 - t0,
+        "tracks_s": t2 - t1,
+        "fit_s": t3 - t2,
+        "metrics_s": t4 - t3,
+        "total_s": t4 - t0,
+        "rms_before_kt": before["rms_kt"],
+        "rms_after_kt": after["rms_kt"],
+    }
 
 
 def main() -> None:

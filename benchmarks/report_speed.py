@@ -16,12 +16,11 @@ lookup along the track, valve measurement, slaved gyro), `samples`, `reports`.
 from __future__ import annotations
 
 import argparse
+import datetime as dt
 import time
 
 import numpy as np
 import pandas as pd
-
-import datetime as dt
 
 from aerotruth.ellipsoid import radii
 from aerotruth.sensors.air_data import AirDataSpec
@@ -58,15 +57,35 @@ def synthetic_track(hours: float, rng: np.random.Generator) -> pd.DataFrame:
     lon = -93.0 + np.degrees(np.cumsum(ve) * 0.1 / (n * np.cos(45.0 * DEG)))
     p = isa_pressure_pa(h_p)
     zeros = np.zeros(t.size)
-    return pd.DataFrame({
-        "time_s": t, "lat_deg": lat, "lon_deg": lon, "h_ellipsoid_m": h_p + 30.0,
-        "pressure_altitude_m": pressure_altitude_m(p), "vn_mps": vn, "ve_mps": ve, "vd_mps": vd,
-        "roll_rad": roll, "pitch_rad": zeros, "heading_rad": heading, "tas_mps": tas, "cas_mps": tas,
-        "alpha_rad": zeros, "beta_rad": beta, "p_radps": zeros, "q_radps": zeros, "r_radps": zeros,
-        "wind_u_mps": wind_u, "wind_v_mps": wind_v, "wind_w_mps": zeros, "static_pressure_pa": p,
-        "temperature_k": np.full(t.size, 250.0), "leg_index": np.zeros(t.size, dtype=np.int32),
-        "phase": pd.Categorical(phase, categories=["climb", "cruise", "descent", "approach"]),
-    })
+    return pd.DataFrame(
+        {
+            "time_s": t,
+            "lat_deg": lat,
+            "lon_deg": lon,
+            "h_ellipsoid_m": h_p + 30.0,
+            "pressure_altitude_m": pressure_altitude_m(p),
+            "vn_mps": vn,
+            "ve_mps": ve,
+            "vd_mps": vd,
+            "roll_rad": roll,
+            "pitch_rad": zeros,
+            "heading_rad": heading,
+            "tas_mps": tas,
+            "cas_mps": tas,
+            "alpha_rad": zeros,
+            "beta_rad": beta,
+            "p_radps": zeros,
+            "q_radps": zeros,
+            "r_radps": zeros,
+            "wind_u_mps": wind_u,
+            "wind_v_mps": wind_v,
+            "wind_w_mps": zeros,
+            "static_pressure_pa": p,
+            "temperature_k": np.full(t.size, 250.0),
+            "leg_index": np.zeros(t.size, dtype=np.int32),
+            "phase": pd.Categorical(phase, categories=["climb", "cruise", "descent", "approach"]),
+        }
+    )
 
 
 def main() -> None:
@@ -76,8 +95,9 @@ def main() -> None:
     args = ap.parse_args()
     rng = np.random.default_rng(340)
     truth = synthetic_track(args.hours, rng)
-    field = GeomagneticField.covering(truth["lat_deg"].to_numpy()[::100], truth["lon_deg"].to_numpy()[::100],
-                                      dt.date(2009, 8, 15))  # built once per day and region in a study
+    field = GeomagneticField.covering(
+        truth["lat_deg"].to_numpy()[::100], truth["lon_deg"].to_numpy()[::100], dt.date(2009, 8, 15)
+    )  # built once per day and region in a study
     system = HeadingSystem(FluxValveSpec(hard_iron_nT=(400.0, -250.0, 100.0), mounting_deg=1.0))
     spec = ReportSpec()
     lut = LookupTableCorrection(lut_deg=[-2.0, -1.5, -1.0, -1.5, -2.0, -2.5, -3.0, -2.5])
@@ -91,8 +111,16 @@ def main() -> None:
         cm = time.process_time()
         air = errors.apply(truth, rng)
         c1 = time.process_time()
-        reports = generate_reports(truth, heading["heading_rad"].to_numpy(), spec, ground_pressure_hpa=1013.0, air=air,
-                                   correction=lut, variation_rad=heading["declination_rad"].to_numpy(), aircraft="N340AT")
+        reports = generate_reports(
+            truth,
+            heading["heading_rad"].to_numpy(),
+            spec,
+            ground_pressure_hpa=1013.0,
+            air=air,
+            correction=lut,
+            variation_rad=heading["declination_rad"].to_numpy(),
+            aircraft="N340AT",
+        )
         c2 = time.process_time()
         if c2 - c0 < best_all:
             best_all, best_mag = c2 - c0, cm - c0

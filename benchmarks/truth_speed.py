@@ -20,12 +20,12 @@ from __future__ import annotations
 
 import argparse
 import time
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 from aerotruth.truth.airframes import airframe, new_fdm
 from aerotruth.truth.approach import approach_spec, fly_approach
-from aerotruth.truth.flight import DT, fly_leg
 from aerotruth.truth.days import plan_in_weather
+from aerotruth.truth.flight import DT, fly_leg
 
 
 def _cruise_ic(fdm) -> None:
@@ -69,7 +69,7 @@ def main() -> None:
     ap.add_argument("--to", dest="destination", default="KDLH")
     args = ap.parse_args()
     af = airframe(args.aircraft)
-    plan = plan_in_weather(args.origin, args.destination, datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc), weather_seed=1)
+    plan = plan_in_weather(args.origin, args.destination, datetime(2009, 8, 15, 13, 0, tzinfo=UTC), weather_seed=1)
 
     wrapped = new_fdm(af, DT)
     _cruise_ic(wrapped)
@@ -81,8 +81,10 @@ def main() -> None:
 
     bare, unwrapped, truth, rt, b737 = [], [], [], [], []
     # (approach spec, its us/step list, the bare loop's us/step over as many steps)
-    approaches = [(approach_spec("KDLH", "27", datetime(2009, 8, 15, 15, 0, tzinfo=timezone.utc), turbulence=turb), [], [])
-                  for turb in (False, True)]
+    approaches = [
+        (approach_spec("KDLH", "27", datetime(2009, 8, 15, 15, 0, tzinfo=UTC), turbulence=turb), [], [])
+        for turb in (False, True)
+    ]
     for _ in range(args.rounds):
         if af.name == "saab340":
             for spec, cost, cost_bare in approaches:
@@ -116,9 +118,10 @@ def main() -> None:
     print(f"shipped_737_us_per_step: {min(b737):.3f}")
     print(f"vs_737_step_ratio: {u / min(b737):.3f}")
     if af.name == "saab340":
-        for (spec, cost, cost_bare), label in zip(approaches, ("approach", "approach_turbulence")):
+        for (_spec, cost, cost_bare), label in zip(approaches, ("approach", "approach_turbulence"), strict=False):
             print(f"{label}_us_per_step: {min(cost):.3f}")
             print(f"{label}_ratio: {min(cost_bare) / min(cost):.3f}")
+
 
 if __name__ == "__main__":
     main()

@@ -26,8 +26,13 @@ G = 9.80665
 UG = 1e-6 * G
 
 
-def truth_xyz(t: np.ndarray, t_cross: float, rng: np.random.Generator | None, ph: np.ndarray | None = None,
-              y_offset_m: float = 0.0) -> np.ndarray:
+def truth_xyz(
+    t: np.ndarray,
+    t_cross: float,
+    rng: np.random.Generator | None,
+    ph: np.ndarray | None = None,
+    y_offset_m: float = 0.0,
+) -> np.ndarray:
     """The trajectory at times t; its wander phases `ph` drawn from rng when not given;
     `y_offset_m` a lateral offset of the whole track (where it crosses the threshold)."""
     x = SPEED * (t - t_cross)
@@ -39,11 +44,22 @@ def truth_xyz(t: np.ndarray, t_cross: float, rng: np.random.Generator | None, ph
     return np.column_stack([x, y, np.where(x < 0, z_app, z_pass)])
 
 
-def waas_errors(t: np.ndarray, rng: np.random.Generator, waveform: str = "sine", amplitude: float = 0.5,
-                modulation: float = 0.3, bias_sigma=(0.45, 0.45, 0.8), jumps_per_s: float = 1 / 1800.0,
-                jump_sigma: float = 1.0, gm_sigma: float = 0.05, gm_tau: float = 100.0,
-                white_sigma: float = 0.03, period_s: float = 12.0, second_period_s: float | None = None,
-                unflagged_jump: tuple[float, float] | None = None) -> dict[str, np.ndarray]:
+def waas_errors(
+    t: np.ndarray,
+    rng: np.random.Generator,
+    waveform: str = "sine",
+    amplitude: float = 0.5,
+    modulation: float = 0.3,
+    bias_sigma=(0.45, 0.45, 0.8),
+    jumps_per_s: float = 1 / 1800.0,
+    jump_sigma: float = 1.0,
+    gm_sigma: float = 0.05,
+    gm_tau: float = 100.0,
+    white_sigma: float = 0.03,
+    period_s: float = 12.0,
+    second_period_s: float | None = None,
+    unflagged_jump: tuple[float, float] | None = None,
+) -> dict[str, np.ndarray]:
     """Components (n, 3) at 1-Hz epochs t and the flags."""
     n = len(t)
     bias = np.asarray(bias_sigma) * rng.normal(size=3)
@@ -76,12 +92,19 @@ def waas_errors(t: np.ndarray, rng: np.random.Generator, waveform: str = "sine",
         (sv if rng.random() < 0.5 else iono)[k] = 1
     if unflagged_jump is not None:  # a step in the bias the receiver did not flag: (time from the start, m per axis)
         jumps[t - t[0] >= unflagged_jump[0]] += unflagged_jump[1]
-    return dict(bias=bias, cyclic=cyc, gm=gm, white=white, jumps=jumps, sv=sv, iono=iono,
-                total=bias + cyc + gm + white + jumps)
+    return dict(
+        bias=bias, cyclic=cyc, gm=gm, white=white, jumps=jumps, sv=sv, iono=iono, total=bias + cyc + gm + white + jumps
+    )
 
 
-def ins_errors(t: np.ndarray, rng: np.random.Generator, accel_bias_ug: float = 500.0, gyro_bias_deg_h: float = 1.0,
-               accel_psd_ug2_hz: float = 2500.0, gyro_psd_deg2_s2_hz: float = 1e-6) -> np.ndarray:
+def ins_errors(
+    t: np.ndarray,
+    rng: np.random.Generator,
+    accel_bias_ug: float = 500.0,
+    gyro_bias_deg_h: float = 1.0,
+    accel_psd_ug2_hz: float = 2500.0,
+    gyro_psd_deg2_s2_hz: float = 1e-6,
+) -> np.ndarray:
     """Position drift (n, 3) of a tactical INS over a short straight approach."""
     tt = t - t[0]
     dt = float(t[1] - t[0])
@@ -96,8 +119,14 @@ def ins_errors(t: np.ndarray, rng: np.random.Generator, accel_bias_ug: float = 5
     return drift + np.cumsum(np.cumsum(acc, axis=0) * dt, axis=0) * dt
 
 
-def baro_coupled_error(t: np.ndarray, rng: np.random.Generator, tau_s: float, gm_sigma: float = 1.0, gm_tau: float = 60.0,
-                       white_sigma: float = 0.3) -> np.ndarray:
+def baro_coupled_error(
+    t: np.ndarray,
+    rng: np.random.Generator,
+    tau_s: float,
+    gm_sigma: float = 1.0,
+    gm_tau: float = 60.0,
+    white_sigma: float = 0.3,
+) -> np.ndarray:
     """Height error of a baro-inertial INS: the barometer's error (Gauss-Markov + white per
     1-s reading, held) through the third-order loop's transfer function with a triple pole
     at -1/tau, (k1 s^2 + k2 s + k3) / (s + 1/tau)^3, integrated by scipy's lsim (the
@@ -120,10 +149,24 @@ def baro_coupled_error(t: np.ndarray, rng: np.random.Generator, tau_s: float, gm
     return y + held[0]
 
 
-def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before_s: float = 300.0, after_s: float = 60.0,
-                  waveform: str = "sine", lever_arm_m: float = 0.0, t0_s: float = 1000.0, numeric_event: bool = False,
-                  dgps_offset=(0.0, 0.0, 0.0), ins_bias_scale: float = 1.0, baro_loop_tau_s: float | None = None,
-                  waas_latency_s: float = 0.0, threshold_y_sd_m: float = 0.0, tvps_scale: float = 1.0, **waas_kw):
+def make_approach(
+    rng: np.random.Generator,
+    approach=0,
+    rate_hz: int = 5,
+    before_s: float = 300.0,
+    after_s: float = 60.0,
+    waveform: str = "sine",
+    lever_arm_m: float = 0.0,
+    t0_s: float = 1000.0,
+    numeric_event: bool = False,
+    dgps_offset=(0.0, 0.0, 0.0),
+    ins_bias_scale: float = 1.0,
+    baro_loop_tau_s: float | None = None,
+    waas_latency_s: float = 0.0,
+    threshold_y_sd_m: float = 0.0,
+    tvps_scale: float = 1.0,
+    **waas_kw,
+):
     """One approach: (log rows, truth rows). WAAS on the whole seconds, other sensors every
     row. Pilot marks as the contract has them: rows of their own at the press time, code
     'thr' at the threshold and 'end' at the stop end (numeric_event: the old 0/1 flag on
@@ -157,22 +200,54 @@ def make_approach(rng: np.random.Generator, approach=0, rate_hz: int = 5, before
         event[np.searchsorted(t, t_press)] = 1
     sv, iono = np.zeros(n, int), np.zeros(n, int)
     sv[w_rows], iono[w_rows] = w["sv"], w["iono"]
-    log = pd.DataFrame({"approach": approach, "time_s": t,
-                        "waas_x_m": waas[:, 0], "waas_y_m": waas[:, 1], "waas_z_m": waas[:, 2],
-                        "ins_x_m": ins[:, 0], "ins_y_m": ins[:, 1], "ins_z_m": ins[:, 2],
-                        "dgps_x_m": dgps[:, 0], "dgps_y_m": dgps[:, 1], "dgps_z_m": dgps[:, 2],
-                        "ra_m": ra, "tvps_y_m": tvps, "event": event, "sv_change": sv, "iono_update": iono})
+    log = pd.DataFrame(
+        {
+            "approach": approach,
+            "time_s": t,
+            "waas_x_m": waas[:, 0],
+            "waas_y_m": waas[:, 1],
+            "waas_z_m": waas[:, 2],
+            "ins_x_m": ins[:, 0],
+            "ins_y_m": ins[:, 1],
+            "ins_z_m": ins[:, 2],
+            "dgps_x_m": dgps[:, 0],
+            "dgps_y_m": dgps[:, 1],
+            "dgps_z_m": dgps[:, 2],
+            "ra_m": ra,
+            "tvps_y_m": tvps,
+            "event": event,
+            "sv_change": sv,
+            "iono_update": iono,
+        }
+    )
     if not numeric_event:
-        marks = pd.DataFrame({"approach": approach, "time_s": [t_press, t_end], "event": ["thr", "end"],
-                              "sv_change": 0, "iono_update": 0})
+        marks = pd.DataFrame(
+            {
+                "approach": approach,
+                "time_s": [t_press, t_end],
+                "event": ["thr", "end"],
+                "sv_change": 0,
+                "iono_update": 0,
+            }
+        )
         log["event"] = ""
         log = pd.concat([log, marks[marks["time_s"] <= t[-1]]], ignore_index=True).sort_values("time_s", kind="stable")
         log = log.reset_index(drop=True)
     cyc = np.full((n, 3), np.nan)
     cyc[w_rows] = w["cyclic"]
-    truth = pd.DataFrame({"approach": approach, "time_s": t, "x_m": p[:, 0], "y_m": p[:, 1], "z_m": p[:, 2],
-                          "cyclic_x_m": cyc[:, 0], "cyclic_y_m": cyc[:, 1], "cyclic_z_m": cyc[:, 2],
-                          "t_cross_s": t_cross})
+    truth = pd.DataFrame(
+        {
+            "approach": approach,
+            "time_s": t,
+            "x_m": p[:, 0],
+            "y_m": p[:, 1],
+            "z_m": p[:, 2],
+            "cyclic_x_m": cyc[:, 0],
+            "cyclic_y_m": cyc[:, 1],
+            "cyclic_z_m": cyc[:, 2],
+            "t_cross_s": t_cross,
+        }
+    )
     return log, truth
 
 

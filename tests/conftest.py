@@ -26,10 +26,21 @@ if os.environ.get("PYTEST_XDIST_WORKER"):
 
 # the longest files, in the order they should start (their summed test times on two
 # processes, 27 Nov 2026: 228, 112, 80, 70, 54, 52, 38, 29, 26, 24, 23, 23, 23 s)
-LONGEST_FIRST = ("test_quick_regression.py", "test_diagnose_wind.py", "test_diagnose.py", "test_flight.py",
-                 "test_toy_study.py", "test_honest_caching.py", "test_inspection_study.py", "test_campaign_truth.py",
-                 "test_diagnose_fits.py", "test_heading_correction.py", "test_campaign_run.py",
-                 "test_wind_reports_study.py", "test_dask_cluster.py")
+LONGEST_FIRST = (
+    "test_quick_regression.py",
+    "test_diagnose_wind.py",
+    "test_diagnose.py",
+    "test_flight.py",
+    "test_toy_study.py",
+    "test_honest_caching.py",
+    "test_inspection_study.py",
+    "test_campaign_truth.py",
+    "test_diagnose_fits.py",
+    "test_heading_correction.py",
+    "test_campaign_run.py",
+    "test_wind_reports_study.py",
+    "test_dask_cluster.py",
+)
 
 
 def pytest_collection_modifyitems(session, config, items):

@@ -87,11 +87,13 @@ class FieldGrid:
         self._north = RegularGridInterpolator((lats, lons, self.ALT_FT), bn[0])
 
     @classmethod
-    def over(cls, points: list[tuple[float, float]], t_epoch: float, margin_deg: float = 1.0) -> "FieldGrid":
+    def over(cls, points: list[tuple[float, float]], t_epoch: float, margin_deg: float = 1.0) -> FieldGrid:
         """A grid over the box of `points` (lat, lon) with a margin: a geodesic between two of
         them bulges < 0.3 deg poleward of their box at 900 km."""
         lat, lon = np.array(points).T
-        return cls((lat.min() - margin_deg, lat.max() + margin_deg), (lon.min() - margin_deg, lon.max() + margin_deg), t_epoch)
+        return cls(
+            (lat.min() - margin_deg, lat.max() + margin_deg), (lon.min() - margin_deg, lon.max() + margin_deg), t_epoch
+        )
 
     def _at(self, lat, lon, alt_ft) -> tuple[np.ndarray, np.ndarray]:
         pts = np.column_stack([lat, lon, np.clip(alt_ft, self.ALT_FT[0], self.ALT_FT[-1])])
@@ -106,8 +108,14 @@ class FieldGrid:
         return np.degrees(np.arctan2(be, bn))
 
 
-def fleet(n: int, rng: np.random.Generator, *, de_every: int = 3, one_heading_last: bool = True,
-          tas_kt: tuple[float, float] = (260.0, 300.0)) -> list[AircraftTruth]:
+def fleet(
+    n: int,
+    rng: np.random.Generator,
+    *,
+    de_every: int = 3,
+    one_heading_last: bool = True,
+    tas_kt: tuple[float, float] = (260.0, 300.0),
+) -> list[AircraftTruth]:
     """n aircraft: offsets U(-3, 3) deg, sinusoid amplitude U(0.5, 3) deg at a random phase;
     every `de_every`-th aircraft also has D, E of amplitude U(0.6, 1.2) deg; the last one
     (if asked) flies one heading only."""
@@ -118,8 +126,18 @@ def fleet(n: int, rng: np.random.Generator, *, de_every: int = 3, one_heading_la
         if de_every and i % de_every == 1:
             amp2, ph2 = rng.uniform(0.6, 1.2), rng.uniform(0, 2 * np.pi)
             d, e = amp2 * np.cos(ph2), amp2 * np.sin(ph2)
-        out.append(AircraftTruth(f"N{401 + i}XJ", float(rng.uniform(-3, 3)), float(amp * np.cos(ph)), float(amp * np.sin(ph)),
-                                 float(d), float(e), float(rng.uniform(*tas_kt)), one_heading_last and i == n - 1))
+        out.append(
+            AircraftTruth(
+                f"N{401 + i}XJ",
+                float(rng.uniform(-3, 3)),
+                float(amp * np.cos(ph)),
+                float(amp * np.sin(ph)),
+                float(d),
+                float(e),
+                float(rng.uniform(*tas_kt)),
+                one_heading_last and i == n - 1,
+            )
+        )
     return out
 
 
@@ -138,12 +156,19 @@ def _spokes(rng: np.random.Generator, km: tuple[float, float], n: int = 16, hub=
     bearings = (np.arange(n) * 360.0 / n + rng.uniform(0, 360.0 / n, n)) % 360.0
     dists = rng.uniform(km[0] * 1e3, km[1] * 1e3, n)
     lon, lat, _ = GEOD.fwd(np.full(n, hub[1]), np.full(n, hub[0]), bearings, dists)
-    return list(zip(lat, lon))
+    return list(zip(lat, lon, strict=False))
 
 
-def _fly(a: AircraftTruth, start: tuple[float, float], end: tuple[float, float], t0: float,
-         rng: np.random.Generator, cruise_ft_range: tuple[float, float],
-         wind_ms: tuple[float, float] = (5.0, 25.0), wind_from_deg: float | None = None) -> dict[str, np.ndarray]:
+def _fly(
+    a: AircraftTruth,
+    start: tuple[float, float],
+    end: tuple[float, float],
+    t0: float,
+    rng: np.random.Generator,
+    cruise_ft_range: tuple[float, float],
+    wind_ms: tuple[float, float] = (5.0, 25.0),
+    wind_from_deg: float | None = None,
+) -> dict[str, np.ndarray]:
     """5-s samples of one flight: time, position, altitude, truth wind (low-level speed drawn
     in `wind_ms`, from a random direction or `wind_from_deg`), V_G, true heading, TAS."""
     az0, _, dist = GEOD.inv(start[1], start[0], end[1], end[0])
@@ -162,8 +187,9 @@ def _fly(a: AircraftTruth, start: tuple[float, float], end: tuple[float, float],
         alt = np.minimum(np.minimum(t, total_s - t) * rate_fps, cruise_ft)
         alt = np.maximum(alt, 0.0)
         tas = tas_cruise * (0.6 + 0.4 * alt / cruise_ft)
-        wind = (w0[None, :] * (1.0 + 0.5 * alt[:, None] * FT_M / 6000.0)
-                + 2.0 * np.sin(2 * np.pi * t[:, None] / 2400.0 + osc_phase[None, :]))
+        wind = w0[None, :] * (1.0 + 0.5 * alt[:, None] * FT_M / 6000.0) + 2.0 * np.sin(
+            2 * np.pi * t[:, None] / 2400.0 + osc_phase[None, :]
+        )
         return t, alt, tas, wind
 
     total = 2 * t_climb + max(dist - 2 * t_climb * 0.8 * tas_cruise, 0.0) / tas_cruise
@@ -184,8 +210,17 @@ def _fly(a: AircraftTruth, start: tuple[float, float], end: tuple[float, float],
     va = vg - wind  # wind paper eq. 1, truth
     psi_true = np.degrees(np.arctan2(va[:, 0], va[:, 1])) % 360.0
     phase = np.where(t < t_climb, "ascent", np.where(t > t[-1] - t_climb, "descent", "level"))
-    return dict(time=t0 + t, lat=np.asarray(lat), lon=np.asarray(lon), alt_ft=alt, wind=wind, vg=vg,
-                psi_true=psi_true, tas=np.hypot(va[:, 0], va[:, 1]), phase=phase)
+    return dict(
+        time=t0 + t,
+        lat=np.asarray(lat),
+        lon=np.asarray(lon),
+        alt_ft=alt,
+        wind=wind,
+        vg=vg,
+        psi_true=psi_true,
+        tas=np.hypot(va[:, 0], va[:, 1]),
+        phase=phase,
+    )
 
 
 def _report_indices(alt_ft: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -224,15 +259,30 @@ def _from_dir(vec: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return speed, np.degrees(np.arctan2(-vec[:, 0], -vec[:, 1])) % 360.0
 
 
-def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: int = 40,
-             models: tuple[str, ...] = ("rr", "rtfdda"), ref_sigma_kt: float = 4.0, ref_tau_s: float = 1800.0,
-             quant_deg: float = 0.01, include_heading: bool = False, t_start: float = 1_249_084_800.0,
-             spoke_km: tuple[float, float] = (250.0, 650.0), cruise_ft: tuple[float, float] = (12000.0, 22000.0),
-             exact: bool = False, hub: tuple[float, float] = HUB, stale_declination_years: float = 0.0,
-             ref_bias_kt: dict[str, float] | None = None, ref_scale: dict[str, float] | None = None,
-             alt_error_deg_per_kft: float = 0.0,
-             shared_ref_sigma_kt: float = 0.0, shared_ref_tau_s: float = 3 * 3600.0,
-             wind_ms: tuple[float, float] = (5.0, 25.0), wind_from_deg: float | None = None) -> pd.DataFrame:
+def generate(
+    truths: list[AircraftTruth],
+    rng: np.random.Generator,
+    *,
+    flights: int = 40,
+    models: tuple[str, ...] = ("rr", "rtfdda"),
+    ref_sigma_kt: float = 4.0,
+    ref_tau_s: float = 1800.0,
+    quant_deg: float = 0.01,
+    include_heading: bool = False,
+    t_start: float = 1_249_084_800.0,
+    spoke_km: tuple[float, float] = (250.0, 650.0),
+    cruise_ft: tuple[float, float] = (12000.0, 22000.0),
+    exact: bool = False,
+    hub: tuple[float, float] = HUB,
+    stale_declination_years: float = 0.0,
+    ref_bias_kt: dict[str, float] | None = None,
+    ref_scale: dict[str, float] | None = None,
+    alt_error_deg_per_kft: float = 0.0,
+    shared_ref_sigma_kt: float = 0.0,
+    shared_ref_tau_s: float = 3 * 3600.0,
+    wind_ms: tuple[float, float] = (5.0, 25.0),
+    wind_from_deg: float | None = None,
+) -> pd.DataFrame:
     """An observation table: one row per (report, reference model). Defaults: a SAAB-340-like
     turboprop network; regional jets: spoke_km (400, 1000), cruise_ft (25000, 35000) and
     fleet(tas_kt=(400, 450)). exact=True: no onboard heading/TAS/GPS noise and no rounding of
@@ -241,9 +291,10 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
     Hidden effects beyond the deviation (for diagnose): `stale_declination_years` adds the
     declination change over that many years (IGRF via ppigrf: D(t - years) - D(t), t the
     dataset's start; FieldGrid) to the measured true heading; `ref_bias_kt` {model: b} adds
-    b kt along the true wind to that
-    model's analysis, `ref_scale` {model: s} s times the true wind (a model too strong by s); `alt_error_deg_per_kft` adds a heading error growing with pressure
-    altitude (an effect outside diagnose's library); AircraftTruth.tas_scale, a_step_deg and a_drift_deg_per_day.
+    b kt along the true wind to that model's analysis, `ref_scale` {model: s} s times the true
+    wind (a model too strong by s); `alt_error_deg_per_kft` adds a heading error growing with
+    pressure altitude (an effect outside diagnose's library); AircraftTruth.tas_scale,
+    a_step_deg and a_drift_deg_per_day.
 
     `wind_ms`: the range of each flight's low-level wind speed (m/s; it grows by half at
     6 km, plus a 2-m/s oscillation); `wind_from_deg`: every flight's wind from that direction
@@ -261,7 +312,10 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
     if stale_declination_years:
         stale = FieldGrid.over([hub, *spokes], t_start - stale_declination_years * 365.25 * 86400.0)
     grid = t_start + np.arange(0.0, 120 * 86400.0, 600.0)
-    shared = {m: _ou(grid, shared_ref_sigma_kt * KT_MS, shared_ref_tau_s, rng) if shared_ref_sigma_kt else None for m in models}
+    shared = {
+        m: _ou(grid, shared_ref_sigma_kt * KT_MS, shared_ref_tau_s, rng) if shared_ref_sigma_kt else None
+        for m in models
+    }
     cols: dict[str, list[np.ndarray]] = {}  # the table's columns, piece by piece (one DataFrame at the end)
     for a in truths:
         t0 = t_start + rng.uniform(0, 3600)
@@ -281,13 +335,17 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
             decl = declination(fl["lat"], fl["lon"])
             psi_m = psi_t.copy()
             h_nt = None if a.h0_nT is None else field.horizontal_nT(fl["lat"], fl["lon"], fl["alt_ft"])
-            step = (a.a_step_deg if f >= flights // 2 else 0.0) + a.a_drift_deg_per_day * (fl["time"] - t_start) / 86400.0
+            step = (a.a_step_deg if f >= flights // 2 else 0.0) + a.a_drift_deg_per_day * (
+                fl["time"] - t_start
+            ) / 86400.0
             for _ in range(8):  # fixed point of psi_m = psi_true + d(psi_m - decl)
                 psi_m = psi_t + a.deviation(psi_m - decl, h_nt) + step
             if stale_declination_years:
                 # what a receiver with a declination model `years` old adds to the true heading it reports
-                psi_m = psi_m + (stale.declination_deg(fl["lat"], fl["lon"], fl["alt_ft"])
-                                 - field.declination_deg(fl["lat"], fl["lon"], fl["alt_ft"]))
+                psi_m = psi_m + (
+                    stale.declination_deg(fl["lat"], fl["lon"], fl["alt_ft"])
+                    - field.declination_deg(fl["lat"], fl["lon"], fl["alt_ft"])
+                )
             if alt_error_deg_per_kft:
                 psi_m = psi_m + alt_error_deg_per_kft * fl["alt_ft"] / 1000.0
             noise = 0.0 if exact else 1.0
@@ -297,11 +355,18 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
             w_onboard = fl["vg"] + noise * rng.normal(0, 0.1, fl["vg"].shape) - va_m  # wind paper eq. 1 onboard
             k = _report_indices(fl["alt_ft"], fl["time"])
             spd, drc = _from_dir(w_onboard[k])
-            base = dict(aircraft=a.aircraft, time=fl["time"][k],
-                        lat=np.round(fl["lat"][k] / quant_deg) * quant_deg, lon=np.round(fl["lon"][k] / quant_deg) * quant_deg,
-                        pressure_altitude_ft=np.round(fl["alt_ft"][k], -1), wind_speed_kt=spd if exact else np.round(spd),
-                        wind_dir_deg=drc if exact else np.round(drc) % 360.0, roll_deg=np.round(rng.normal(0, 1.0, len(k)), 1),
-                        phase=fl["phase"][k], declination_deg=np.round(decl[k], 2))
+            base = dict(
+                aircraft=a.aircraft,
+                time=fl["time"][k],
+                lat=np.round(fl["lat"][k] / quant_deg) * quant_deg,
+                lon=np.round(fl["lon"][k] / quant_deg) * quant_deg,
+                pressure_altitude_ft=np.round(fl["alt_ft"][k], -1),
+                wind_speed_kt=spd if exact else np.round(spd),
+                wind_dir_deg=drc if exact else np.round(drc) % 360.0,
+                roll_deg=np.round(rng.normal(0, 1.0, len(k)), 1),
+                phase=fl["phase"][k],
+                declination_deg=np.round(decl[k], 2),
+            )
             if include_heading:
                 base["heading_deg"] = np.round(psi_m[k], 2)
                 base["tas_kt"] = np.round(tas_m[k] / KT_MS, 1)
@@ -310,8 +375,15 @@ def generate(truths: list[AircraftTruth], rng: np.random.Generator, *, flights: 
                 if shared[m] is not None:
                     err = err + np.interp(fl["time"][k], grid, shared[m][:, 0])[:, None] * along_unit(fl["wind"][k])
                 wk = fl["wind"][k]
-                rs, rd = _from_dir(wk * (1.0 + ref_scale.get(m, 0.0)) + err + ref_bias_kt.get(m, 0.0) * KT_MS * along_unit(wk))
-                piece = {**base, "ref_wind_speed_kt": np.round(rs, 2), "ref_wind_dir_deg": np.round(rd, 2), "ref_source": m}
+                rs, rd = _from_dir(
+                    wk * (1.0 + ref_scale.get(m, 0.0)) + err + ref_bias_kt.get(m, 0.0) * KT_MS * along_unit(wk)
+                )
+                piece = {
+                    **base,
+                    "ref_wind_speed_kt": np.round(rs, 2),
+                    "ref_wind_dir_deg": np.round(rd, 2),
+                    "ref_source": m,
+                }
                 for c, v in piece.items():
                     cols.setdefault(c, []).append(np.full(len(k), v, dtype=object) if np.isscalar(v) else v)
     return pd.DataFrame({c: np.concatenate(v) for c, v in cols.items()})

@@ -68,10 +68,21 @@ def set_mass(fdm: jsbsim.FGFDMExec, total_kg: float, fuel_kg: float) -> None:
     fdm["inertia/pointmass-weight-lbs[0]"] = pax_kg / KG_PER_LB
 
 
-def start_airborne(fdm: jsbsim.FGFDMExec, altitude_m: float, *, cas_ms: float | None = None,
-                   tas_ms: float | None = None, mass_kg: float = 12000.0, fuel_kg: float = 1760.0,
-                   flaps_deg: float = 0.0, gear_down: bool = False, throttle: float = 0.5,
-                   advance: float = 0.0, gamma_rad: float = 0.0, alpha_rad: float = 3.0 * DEG) -> None:
+def start_airborne(
+    fdm: jsbsim.FGFDMExec,
+    altitude_m: float,
+    *,
+    cas_ms: float | None = None,
+    tas_ms: float | None = None,
+    mass_kg: float = 12000.0,
+    fuel_kg: float = 1760.0,
+    flaps_deg: float = 0.0,
+    gear_down: bool = False,
+    throttle: float = 0.5,
+    advance: float = 0.0,
+    gamma_rad: float = 0.0,
+    alpha_rad: float = 3.0 * DEG,
+) -> None:
     """Initialise level (or on gamma) flight, engines running, fixed lever settings."""
     if (cas_ms is None) == (tas_ms is None):
         raise ValueError("start_airborne: give exactly one of cas_ms, tas_ms")
@@ -213,39 +224,84 @@ def _measure(fdm: jsbsim.FGFDMExec, holds: Holds, seconds: float) -> SteadyFligh
         holds.step()
         run()
         if k % 10 == 0:
-            samples.append((fdm.get_sim_time(), n.vt.get_double_value(), n.vc.get_double_value(),
-                            n.h.get_double_value(), n.hdot.get_double_value(), power.get_double_value(),
-                            n.alpha.get_double_value(), n.theta.get_double_value()))
+            samples.append(
+                (
+                    fdm.get_sim_time(),
+                    n.vt.get_double_value(),
+                    n.vc.get_double_value(),
+                    n.h.get_double_value(),
+                    n.hdot.get_double_value(),
+                    power.get_double_value(),
+                    n.alpha.get_double_value(),
+                    n.theta.get_double_value(),
+                )
+            )
     a = np.array(samples)
     t, vt = a[:, 0], a[:, 1] * FT
     vs = float(np.mean(a[:, 4])) * FT
     tas = float(np.mean(vt))
     return SteadyFlight(
-        tas_ms=tas, cas_ms=float(np.mean(a[:, 2])) * FT, altitude_m=float(np.mean(a[:, 3])) * FT,
-        vertical_speed_ms=vs, gamma_rad=math.asin(vs / tas), tas_drift_ms2=float(np.polyfit(t - t[0], vt, 1)[0]),
-        shaft_power_w=float(np.mean(a[:, 5])) * HP_W, alpha_rad=float(np.mean(a[:, 6])),
-        pitch_rad=float(np.mean(a[:, 7])))
+        tas_ms=tas,
+        cas_ms=float(np.mean(a[:, 2])) * FT,
+        altitude_m=float(np.mean(a[:, 3])) * FT,
+        vertical_speed_ms=vs,
+        gamma_rad=math.asin(vs / tas),
+        tas_drift_ms2=float(np.polyfit(t - t[0], vt, 1)[0]),
+        shaft_power_w=float(np.mean(a[:, 5])) * HP_W,
+        alpha_rad=float(np.mean(a[:, 6])),
+        pitch_rad=float(np.mean(a[:, 7])),
+    )
 
 
-def level_cruise(altitude_m: float, *, mass_kg: float = 12000.0, throttle: float = CRUISE_THROTTLE,
-                 start_tas_ms: float = 260.0 * KT, settle_s: float = 420.0, window_s: float = 60.0) -> SteadyFlight:
+def level_cruise(
+    altitude_m: float,
+    *,
+    mass_kg: float = 12000.0,
+    throttle: float = CRUISE_THROTTLE,
+    start_tas_ms: float = 260.0 * KT,
+    settle_s: float = 420.0,
+    window_s: float = 60.0,
+) -> SteadyFlight:
     """Steady level speed at a fixed power lever (1,230 rpm), altitude held on the elevator."""
     fdm = load_saab340()
     fuel = min(FUEL_CAPACITY_KG, 0.5 * (mass_kg - EMPTY_KG))
-    start_airborne(fdm, altitude_m, tas_ms=start_tas_ms, mass_kg=mass_kg, fuel_kg=fuel,
-                   throttle=throttle, advance=0.0, alpha_rad=2.0 * DEG)
+    start_airborne(
+        fdm,
+        altitude_m,
+        tas_ms=start_tas_ms,
+        mass_kg=mass_kg,
+        fuel_kg=fuel,
+        throttle=throttle,
+        advance=0.0,
+        alpha_rad=2.0 * DEG,
+    )
     holds = Holds(fdm, "altitude", altitude_m)
     _fly(fdm, holds, settle_s)
     return _measure(fdm, holds, window_s)
 
 
-def steady_climb(altitude_m: float, cas_ms: float, *, mass_kg: float = MTOW_KG, throttle: float = MCP_THROTTLE,
-                 settle_s: float = 60.0, window_s: float = 30.0) -> SteadyFlight:
+def steady_climb(
+    altitude_m: float,
+    cas_ms: float,
+    *,
+    mass_kg: float = MTOW_KG,
+    throttle: float = MCP_THROTTLE,
+    settle_s: float = 60.0,
+    window_s: float = 30.0,
+) -> SteadyFlight:
     """Climb at fixed power (1,384 rpm) and constant calibrated airspeed held on the elevator,
     started level at altitude_m; the result is averaged after the settling time."""
     fdm = load_saab340()
-    start_airborne(fdm, altitude_m, cas_ms=cas_ms, mass_kg=mass_kg, fuel_kg=FUEL_CAPACITY_KG,
-                   throttle=throttle, advance=1.0, alpha_rad=5.0 * DEG)
+    start_airborne(
+        fdm,
+        altitude_m,
+        cas_ms=cas_ms,
+        mass_kg=mass_kg,
+        fuel_kg=FUEL_CAPACITY_KG,
+        throttle=throttle,
+        advance=1.0,
+        alpha_rad=5.0 * DEG,
+    )
     holds = Holds(fdm, "speed", cas_ms)
     _fly(fdm, holds, settle_s)
     return _measure(fdm, holds, window_s)
@@ -272,15 +328,32 @@ class ApproachResult:
     cas_span_ms: float  # max - min calibrated airspeed in the window
 
 
-def approach(throttle: float, *, mass_kg: float = 12000.0, start_cas_ms: float = 125.0 * KT,
-             start_altitude_m: float = 3000.0 * FT, seconds: float = 150.0, window_s: float = 40.0) -> ApproachResult:
+def approach(
+    throttle: float,
+    *,
+    mass_kg: float = 12000.0,
+    start_cas_ms: float = 125.0 * KT,
+    start_altitude_m: float = 3000.0 * FT,
+    seconds: float = 150.0,
+    window_s: float = 40.0,
+) -> ApproachResult:
     """Flaps 35, gear down, 1,384 rpm, a fixed power lever; the elevator holds a 3 deg
     glide path (flight-path angle) and the speed settles where the power balances drag."""
     fdm = load_saab340()
     gamma = -3.0 * DEG
-    start_airborne(fdm, start_altitude_m, cas_ms=start_cas_ms, mass_kg=mass_kg, fuel_kg=800.0,
-                   flaps_deg=35.0, gear_down=True, throttle=throttle, advance=1.0, gamma_rad=gamma,
-                   alpha_rad=1.0 * DEG)
+    start_airborne(
+        fdm,
+        start_altitude_m,
+        cas_ms=start_cas_ms,
+        mass_kg=mass_kg,
+        fuel_kg=800.0,
+        flaps_deg=35.0,
+        gear_down=True,
+        throttle=throttle,
+        advance=1.0,
+        gamma_rad=gamma,
+        alpha_rad=1.0 * DEG,
+    )
     holds = Holds(fdm, "gamma", gamma)
     _fly(fdm, holds, seconds - window_s)
     n = holds.n
@@ -293,11 +366,16 @@ def approach(throttle: float, *, mass_kg: float = 12000.0, start_cas_ms: float =
         cas.append(n.vc.get_double_value() * FT)
         gam.append(math.asin(n.hdot.get_double_value() / vt))
     steady = SteadyFlight(
-        tas_ms=n.vt.get_double_value() * FT, cas_ms=float(np.mean(cas)), altitude_m=n.h.get_double_value() * FT,
-        vertical_speed_ms=n.hdot.get_double_value() * FT, gamma_rad=float(np.mean(gam)),
+        tas_ms=n.vt.get_double_value() * FT,
+        cas_ms=float(np.mean(cas)),
+        altitude_m=n.h.get_double_value() * FT,
+        vertical_speed_ms=n.hdot.get_double_value() * FT,
+        gamma_rad=float(np.mean(gam)),
         tas_drift_ms2=float(np.polyfit(np.arange(len(cas)) * 10 * DT, cas, 1)[0]),
         shaft_power_w=fdm["propulsion/engine/power-hp"] * HP_W,
-        alpha_rad=n.alpha.get_double_value(), pitch_rad=n.theta.get_double_value())
+        alpha_rad=n.alpha.get_double_value(),
+        pitch_rad=n.theta.get_double_value(),
+    )
     return ApproachResult(steady, float(np.max(np.abs(np.array(gam) - gamma))), float(np.ptp(cas)))
 
 
@@ -314,15 +392,28 @@ class StallResult:
     altitude_loss_m: float  # altitude from the stall to the lowest point in 30 s
 
 
-def clean_stall(*, mass_kg: float = 13000.0, altitude_m: float = 5000.0 * FT, throttle: float = STALL_THROTTLE,
-                stall_alpha_deg: float = 17.0) -> StallResult:
+def clean_stall(
+    *,
+    mass_kg: float = 13000.0,
+    altitude_m: float = 5000.0 * FT,
+    throttle: float = STALL_THROTTLE,
+    stall_alpha_deg: float = 17.0,
+) -> StallResult:
     """Clean, gear up, power lever near flight idle at 1,384 rpm (about 1 kt/s of
     deceleration); altitude held on the elevator until the wing stalls (angle of attack
     past `stall_alpha_deg`, beyond CLmax at 15 deg). Then the recovery: elevator back to
     its 140 kt trim, maximum continuous power."""
     fdm = load_saab340()
-    start_airborne(fdm, altitude_m, cas_ms=140.0 * KT, mass_kg=mass_kg, fuel_kg=2000.0,
-                   throttle=0.35, advance=1.0, alpha_rad=6.0 * DEG)
+    start_airborne(
+        fdm,
+        altitude_m,
+        cas_ms=140.0 * KT,
+        mass_kg=mass_kg,
+        fuel_kg=2000.0,
+        throttle=0.35,
+        advance=1.0,
+        alpha_rad=6.0 * DEG,
+    )
     holds = Holds(fdm, "altitude", altitude_m)
     _fly(fdm, holds, 20.0)
     trim_elevator = holds.n.elev.get_double_value()
@@ -363,16 +454,31 @@ def clean_stall(*, mass_kg: float = 13000.0, altitude_m: float = 5000.0 * FT, th
         if k == int(20.0 / DT):
             cas20 = n.vc.get_double_value() * FT
     return StallResult(
-        stall_cas_ms=v_at_clmax, cl_max=cl_max, decel_ms2=(130.0 * KT - v_at_clmax) / (t_clmax - t130),
-        altitude_loss_before_m=altitude_m - h_stall, alpha_after_5s_rad=alpha5, cas_gain_ms=cas20 - v_stall,
-        max_bank_rad=max_bank, max_yaw_rate_rad_s=max_r, altitude_loss_m=h_stall - h_min)
+        stall_cas_ms=v_at_clmax,
+        cl_max=cl_max,
+        decel_ms2=(130.0 * KT - v_at_clmax) / (t_clmax - t130),
+        altitude_loss_before_m=altitude_m - h_stall,
+        alpha_after_5s_rad=alpha5,
+        cas_gain_ms=cas20 - v_stall,
+        max_bank_rad=max_bank,
+        max_yaw_rate_rad_s=max_r,
+        altitude_loss_m=h_stall - h_min,
+    )
 
 
 def _trimmed_cruise(altitude_m: float = 15000.0 * FT, tas_ms: float = 268.0 * KT) -> tuple[jsbsim.FGFDMExec, Holds]:
     """Cruise at CRUISE_THROTTLE settled for 60 s under the altitude and wings-level holds."""
     fdm = load_saab340()
-    start_airborne(fdm, altitude_m, tas_ms=tas_ms, mass_kg=12000.0, fuel_kg=1760.0,
-                   throttle=CRUISE_THROTTLE, advance=0.0, alpha_rad=1.0 * DEG)
+    start_airborne(
+        fdm,
+        altitude_m,
+        tas_ms=tas_ms,
+        mass_kg=12000.0,
+        fuel_kg=1760.0,
+        throttle=CRUISE_THROTTLE,
+        advance=0.0,
+        alpha_rad=1.0 * DEG,
+    )
     holds = Holds(fdm, "altitude", altitude_m)
     _fly(fdm, holds, 60.0)
     return fdm, holds
@@ -471,9 +577,16 @@ class StallSpeed:
     cg_mac: float
 
 
-def stall_speed(*, flaps_deg: float = 35.0, gear_down: bool = True, mass_kg: float = MLW_KG,
-                cg_mac: float = 0.16, altitude_m: float = 3000.0 * FT, entry_rate_ms2: float = 1.0 * KT,
-                start_cas_ms: float = 125.0 * KT) -> StallSpeed:
+def stall_speed(
+    *,
+    flaps_deg: float = 35.0,
+    gear_down: bool = True,
+    mass_kg: float = MLW_KG,
+    cg_mac: float = 0.16,
+    altitude_m: float = 3000.0 * FT,
+    entry_rate_ms2: float = 1.0 * KT,
+    start_cas_ms: float = 125.0 * KT,
+) -> StallSpeed:
     """1-g stall speed: trimmed, power lever at flight idle (1,384 rpm), wings level, the
     elevator slowing the aircraft at `entry_rate_ms2` (1 kt/s: the certification entry
     rate, 14 CFR 25.103(c)) until the lift coefficient peaks. Vs is the calibrated
@@ -490,8 +603,18 @@ def _stall_once(flaps_deg, gear_down, mass_kg, cg_mac, altitude_m, entry_rate_ms
     fdm = load_saab340()
     set_mass(fdm, mass_kg, 800.0)
     set_cg(fdm, cg_mac)
-    start_airborne(fdm, altitude_m, cas_ms=start_cas_ms, mass_kg=mass_kg, fuel_kg=800.0, flaps_deg=flaps_deg,
-                   gear_down=gear_down, throttle=0.3, advance=1.0, alpha_rad=4.0 * DEG)
+    start_airborne(
+        fdm,
+        altitude_m,
+        cas_ms=start_cas_ms,
+        mass_kg=mass_kg,
+        fuel_kg=800.0,
+        flaps_deg=flaps_deg,
+        gear_down=gear_down,
+        throttle=0.3,
+        advance=1.0,
+        alpha_rad=4.0 * DEG,
+    )
     cg = (fdm["inertia/cg-x-in"] * 0.0254 - LEMAC_M) / MAC_M
     holds = Holds(fdm, "altitude", altitude_m)
     _fly(fdm, holds, 15.0)
@@ -518,17 +641,36 @@ def _stall_once(flaps_deg, gear_down, mass_kg, cg_mac, altitude_m, entry_rate_ms
     return StallSpeed(v_at, cl_max, decel, cg)
 
 
-def approach_attitude(cas_ms: float, *, mass_kg: float = MLW_KG, flaps_deg: float = 35.0, cg_mac: float = 0.16,
-                      gamma_rad: float = -3.0 * DEG, altitude_m: float = 3000.0 * FT, seconds: float = 120.0,
-                      window_s: float = 20.0) -> SteadyFlight:
+def approach_attitude(
+    cas_ms: float,
+    *,
+    mass_kg: float = MLW_KG,
+    flaps_deg: float = 35.0,
+    cg_mac: float = 0.16,
+    gamma_rad: float = -3.0 * DEG,
+    altitude_m: float = 3000.0 * FT,
+    seconds: float = 120.0,
+    window_s: float = 20.0,
+) -> SteadyFlight:
     """Steady approach at `cas_ms` on `gamma_rad`, flaps and gear down, 1,384 rpm: the
     elevator holds the flight path and a slow power-lever loop (an autothrottle) holds
     the speed, so pitch and alpha are what the airframe needs there."""
     fdm = load_saab340()
     set_mass(fdm, mass_kg, 800.0)
     set_cg(fdm, cg_mac)
-    start_airborne(fdm, altitude_m, cas_ms=cas_ms, mass_kg=mass_kg, fuel_kg=800.0, flaps_deg=flaps_deg,
-                   gear_down=True, throttle=APPROACH_THROTTLE, advance=1.0, gamma_rad=gamma_rad, alpha_rad=3.0 * DEG)
+    start_airborne(
+        fdm,
+        altitude_m,
+        cas_ms=cas_ms,
+        mass_kg=mass_kg,
+        fuel_kg=800.0,
+        flaps_deg=flaps_deg,
+        gear_down=True,
+        throttle=APPROACH_THROTTLE,
+        advance=1.0,
+        gamma_rad=gamma_rad,
+        alpha_rad=3.0 * DEG,
+    )
     holds = Holds(fdm, "gamma", gamma_rad)
     thr_node = [fdm.get_property_manager().get_node(f"fcs/throttle-cmd-norm[{i}]", False) for i in (0, 1)]
     thr_i = APPROACH_THROTTLE
@@ -543,13 +685,28 @@ def approach_attitude(cas_ms: float, *, mass_kg: float = MLW_KG, flaps_deg: floa
         holds.step()
         fdm.run()
         if k >= steps - int(round(window_s / DT)):
-            samples.append((fdm.get_sim_time(), holds.n.vt.get_double_value() * FT, holds.n.vc.get_double_value() * FT,
-                            holds.n.h.get_double_value() * FT, holds.n.hdot.get_double_value() * FT,
-                            fdm["propulsion/engine/power-hp"] * HP_W, holds.n.alpha.get_double_value(),
-                            holds.n.theta.get_double_value()))
+            samples.append(
+                (
+                    fdm.get_sim_time(),
+                    holds.n.vt.get_double_value() * FT,
+                    holds.n.vc.get_double_value() * FT,
+                    holds.n.h.get_double_value() * FT,
+                    holds.n.hdot.get_double_value() * FT,
+                    fdm["propulsion/engine/power-hp"] * HP_W,
+                    holds.n.alpha.get_double_value(),
+                    holds.n.theta.get_double_value(),
+                )
+            )
     a = np.array(samples)
     vs, tas = float(np.mean(a[:, 4])), float(np.mean(a[:, 1]))
-    return SteadyFlight(tas_ms=tas, cas_ms=float(np.mean(a[:, 2])), altitude_m=float(np.mean(a[:, 3])),
-                        vertical_speed_ms=vs, gamma_rad=math.asin(vs / tas),
-                        tas_drift_ms2=float(np.polyfit(a[:, 0], a[:, 1], 1)[0]), shaft_power_w=float(np.mean(a[:, 5])),
-                        alpha_rad=float(np.mean(a[:, 6])), pitch_rad=float(np.mean(a[:, 7])))
+    return SteadyFlight(
+        tas_ms=tas,
+        cas_ms=float(np.mean(a[:, 2])),
+        altitude_m=float(np.mean(a[:, 3])),
+        vertical_speed_ms=vs,
+        gamma_rad=math.asin(vs / tas),
+        tas_drift_ms2=float(np.polyfit(a[:, 0], a[:, 1], 1)[0]),
+        shaft_power_w=float(np.mean(a[:, 5])),
+        alpha_rad=float(np.mean(a[:, 6])),
+        pitch_rad=float(np.mean(a[:, 7])),
+    )

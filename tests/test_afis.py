@@ -32,10 +32,13 @@ def test_free_inertial_position_sigma_follows_the_closed_form_schuler_solution()
     _, P = kalman_rts(t, F, G, Qc, np.zeros(5), P0, {}, smooth=False)
     s = QUIET
     w = math.sqrt(G0 / EARTH_RADIUS_M)
-    var = (s.initial_position_m**2 + (s.initial_velocity_mps * np.sin(w * t) / w) ** 2
-           + (EARTH_RADIUS_M * s.initial_tilt_urad * 1e-6 * (1 - np.cos(w * t))) ** 2
-           + (s.accel_bias_ug * MICRO_G * (1 - np.cos(w * t)) / w**2) ** 2
-           + (EARTH_RADIUS_M * s.gyro_bias_deg_h * DEG_PER_H * (t - np.sin(w * t) / w)) ** 2)
+    var = (
+        s.initial_position_m**2
+        + (s.initial_velocity_mps * np.sin(w * t) / w) ** 2
+        + (EARTH_RADIUS_M * s.initial_tilt_urad * 1e-6 * (1 - np.cos(w * t))) ** 2
+        + (s.accel_bias_ug * MICRO_G * (1 - np.cos(w * t)) / w**2) ** 2
+        + (EARTH_RADIUS_M * s.gyro_bias_deg_h * DEG_PER_H * (t - np.sin(w * t) / w)) ** 2
+    )
     assert np.sqrt(P[:, 0, 0]) == pytest.approx(np.sqrt(var), rel=1e-6)
 
 
@@ -61,20 +64,33 @@ def _simulate_errors(t, spec, rng, runs, sub=5):
     qa = spec.accel_white_ug2_hz * MICRO_G**2 / 2
     qg = spec.gyro_white_deg2_s2_hz * math.radians(1) ** 2 / 2
     for axis in (0, 1):
-        p, v, psi = (rng.normal(0, s, runs) for s in (spec.initial_position_m, spec.initial_velocity_mps, spec.initial_tilt_urad * 1e-6))
-        ba, bg = rng.normal(0, spec.accel_bias_ug * MICRO_G, runs), rng.normal(0, spec.gyro_bias_deg_h * DEG_PER_H, runs)
+        p, v, psi = (
+            rng.normal(0, s, runs)
+            for s in (spec.initial_position_m, spec.initial_velocity_mps, spec.initial_tilt_urad * 1e-6)
+        )
+        ba, bg = (
+            rng.normal(0, spec.accel_bias_ug * MICRO_G, runs),
+            rng.normal(0, spec.gyro_bias_deg_h * DEG_PER_H, runs),
+        )
         for k in range(len(t)):
             out[:, k, axis] = p
             for _ in range(sub):
                 a = -G0 * psi + ba + math.sqrt(qa / dt) * rng.standard_normal(runs)
-                p, v, psi = p + v * dt, v + a * dt, psi + (v / EARTH_RADIUS_M + bg + math.sqrt(qg / dt) * rng.standard_normal(runs)) * dt
+                p, v, psi = (
+                    p + v * dt,
+                    v + a * dt,
+                    psi + (v / EARTH_RADIUS_M + bg + math.sqrt(qg / dt) * rng.standard_normal(runs)) * dt,
+                )
     h, vz = rng.normal(0, spec.initial_position_m, runs), rng.normal(0, spec.initial_velocity_mps, runs)
     baz, eb = rng.normal(0, spec.accel_bias_ug * MICRO_G, runs), rng.normal(0, spec.baro_sigma_m, runs)
     qb = 2 * spec.baro_sigma_m**2 / spec.baro_tau_s
     for k in range(len(t)):
         out[:, k, 2], baro[:, k] = h, eb
         for _ in range(sub):
-            h, vz = h + vz * dt, vz + (2 * G0 / EARTH_RADIUS_M * h + baz + math.sqrt(qa / dt) * rng.standard_normal(runs)) * dt
+            h, vz = (
+                h + vz * dt,
+                vz + (2 * G0 / EARTH_RADIUS_M * h + baz + math.sqrt(qa / dt) * rng.standard_normal(runs)) * dt,
+            )
             eb = eb - eb / spec.baro_tau_s * dt + math.sqrt(qb / dt) * rng.standard_normal(runs) * dt
     return out, baro
 
@@ -90,7 +106,7 @@ def test_smoothed_error_along_the_approach_matches_the_smoother_covariance():
     over = (truth[:, 0] >= 0) & (truth[:, 0] <= RUNWAY)
     ev = np.isin(truth[:, 0], (0.0, RUNWAY)).astype(int)
     errs, sigs = [], []
-    for ins_err, baro_err in zip(*_simulate_errors(t, spec, rng, runs)):
+    for ins_err, baro_err in zip(*_simulate_errors(t, spec, rng, runs), strict=False):
         baro = truth[:, 2] + baro_err + spec.baro_white_m * rng.standard_normal(len(t))
         ra = np.where(over, truth[:, 2] + spec.ra_sigma_m * rng.standard_normal(len(t)), np.nan)
         tv = np.where(over, truth[:, 1] + spec.tvps_sigma_m * rng.standard_normal(len(t)), np.nan)

@@ -66,12 +66,24 @@ def test_lever_arm_positions_match_a_hand_worked_attitude():
     f = RunwayFrame.of(rw)
     theta, phi = 10.0 * DEG, 30.0 * DEG
     row = {c: 0.0 for c in COLUMNS if c != "phase"}
-    row.update(lat_deg=f.lat0_deg, lon_deg=f.lon0_deg, h_ellipsoid_m=f.h0_m, heading_rad=math.radians(f.course_deg),
-               x_m=0.0, y_m=0.0, z_m=0.0, cg_x_m=8.5, cg_y_m=0.0, cg_z_m=-0.2)
+    row.update(
+        lat_deg=f.lat0_deg,
+        lon_deg=f.lon0_deg,
+        h_ellipsoid_m=f.h0_m,
+        heading_rad=math.radians(f.course_deg),
+        x_m=0.0,
+        y_m=0.0,
+        z_m=0.0,
+        cg_x_m=8.5,
+        cg_y_m=0.0,
+        cg_z_m=-0.2,
+    )
     df = pd.DataFrame([dict(row, pitch_rad=theta, roll_rad=0.0), dict(row, pitch_rad=0.0, roll_rad=phi)])
     df["phase"] = "approach"
-    meta = {"runway_frame": {"lat0_deg": f.lat0_deg, "lon0_deg": f.lon0_deg, "h0_m": f.h0_m, "course_deg": f.course_deg},
-            "points_structural_m": {"nose_top": [6.5, 0.0, 0.8], "right": [8.5, 1.0, -0.2]}}
+    meta = {
+        "runway_frame": {"lat0_deg": f.lat0_deg, "lon0_deg": f.lon0_deg, "h0_m": f.h0_m, "course_deg": f.course_deg},
+        "points_structural_m": {"nose_top": [6.5, 0.0, 0.8], "right": [8.5, 1.0, -0.2]},
+    }
     p = point_positions(TruthTrack(df, meta))
     # 2 m ahead of and 1 m above the CG, nose up 10 deg: r = 2 x_b - 1 z_b with
     # x_b = (cos t, 0, sin t), z_b (down) = (sin t, 0, -cos t) in (x along, y left, z up)
@@ -116,15 +128,25 @@ def test_inertial_truth_closes_through_an_independent_strapdown_mechanization(ca
     df = TruthTrack.read_parquet(path).df
     j0, n = 3000, 6000
     r = df.iloc[j0]
-    st = sd.NavState.from_geodetic(r.lat_deg, r.lon_deg, r.h_ellipsoid_m, np.array([r.vn_mps, r.ve_mps, r.vd_mps]),
-                                   r.roll_rad, r.pitch_rad, r.heading_rad)
+    st = sd.NavState.from_geodetic(
+        r.lat_deg,
+        r.lon_deg,
+        r.h_ellipsoid_m,
+        np.array([r.vn_mps, r.ve_mps, r.vd_mps]),
+        r.roll_rad,
+        r.pitch_rad,
+        r.heading_rad,
+    )
     cols_v, cols_t = ["dv_x_mps", "dv_y_mps", "dv_z_mps"], ["dtheta_x_rad", "dtheta_y_rad", "dtheta_z_rad"]
-    end = sd.propagate(st, df[cols_v].to_numpy(float)[j0 + 1:j0 + 1 + n], df[cols_t].to_numpy(float)[j0 + 1:j0 + 1 + n],
-                       0.02)[-1]
+    end = sd.propagate(
+        st, df[cols_v].to_numpy(float)[j0 + 1 : j0 + 1 + n], df[cols_t].to_numpy(float)[j0 + 1 : j0 + 1 + n], 0.02
+    )[-1]
     row = df.iloc[j0 + n]
     err = np.linalg.norm(end.r - np.array(geo.ecef(row.lat_deg, row.lon_deg, row.h_ellipsoid_m)))
     roll, pitch, yaw = end.euler()
-    att = np.degrees([roll - row.roll_rad, pitch - row.pitch_rad, (yaw - row.heading_rad + np.pi) % (2 * np.pi) - np.pi])
+    att = np.degrees(
+        [roll - row.roll_rad, pitch - row.pitch_rad, (yaw - row.heading_rad + np.pi) % (2 * np.pi) - np.pi]
+    )
     print(f"strapdown after 120 s: position {err:.3f} m, attitude {np.abs(att).max():.5f} deg")
     assert err < 1.0
     assert np.abs(att).max() < 0.01
@@ -154,7 +176,9 @@ def test_windy_turbulent_go_around_climbs_away_and_cleans_up(windy_go_around):
     assert m["recorded_past_threshold_s"] >= 100.0
     # the crab angle into the crosswind from the right: heading right of the course
     final = (df["x_m"] > -4 * NM) & (df["x_m"] < -1 * NM)
-    crab = np.degrees(np.angle(np.exp(1j * (df.loc[final, "heading_rad"] - math.radians(meta["runway_frame"]["course_deg"])))))
+    crab = np.degrees(
+        np.angle(np.exp(1j * (df.loc[final, "heading_rad"] - math.radians(meta["runway_frame"]["course_deg"]))))
+    )
     assert 2.0 < crab.mean() < 8.0
 
 
@@ -180,8 +204,22 @@ def test_pass_height_is_checked_by_the_argument_parser(height, ok, capsys):
 @pytest.mark.slow
 def test_fly_approach_command_line(tmp_path):
     out = tmp_path / "a.parquet"
-    cmd = [sys.executable, "-m", "aerotruth", "fly-approach", "--airport", "KDLH", "--runway", "27", "--date",
-           "2009-08-15", "--seed", "1", "--out", str(out)]
+    cmd = [
+        sys.executable,
+        "-m",
+        "aerotruth",
+        "fly-approach",
+        "--airport",
+        "KDLH",
+        "--runway",
+        "27",
+        "--date",
+        "2009-08-15",
+        "--seed",
+        "1",
+        "--out",
+        str(out),
+    ]
     r = subprocess.run(cmd, capture_output=True, text=True)
     assert r.returncode == 0, r.stderr
     t = TruthTrack.read_parquet(out)

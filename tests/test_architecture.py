@@ -90,12 +90,17 @@ def graph() -> dict[str, set[str]]:
 
 
 def test_the_walker_sees_lazy_imports_and_skips_type_checking_blocks(tmp_path):
-    src = ("from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from aerotruth.sim.campaign_file import Campaign\n"
-           "def f():\n    from aerotruth.units import KT\n    import aerotruth.geo\n")
+    src = (
+        "from typing import TYPE_CHECKING\nif TYPE_CHECKING:\n    from aerotruth.sim.campaign_file import Campaign\n"
+        "def f():\n    from aerotruth.units import KT\n    import aerotruth.geo\n"
+    )
     tree = ast.parse(src)
     seen = [n for n in _runtime_nodes(tree) if isinstance(n, (ast.Import, ast.ImportFrom))]
-    assert sorted(ast.unparse(n) for n in seen) == ["from aerotruth.units import KT", "from typing import TYPE_CHECKING",
-                                                    "import aerotruth.geo"]
+    assert sorted(ast.unparse(n) for n in seen) == [
+        "from aerotruth.units import KT",
+        "from typing import TYPE_CHECKING",
+        "import aerotruth.geo",
+    ]
     assert layer("aerotruth.units") == "leaf" and layer("aerotruth.analysis.wind.robust_fit") == "analysis"
     assert layer("aerotruth.truth") == "truth" and layer("aerotruth.config") == "app"
 
@@ -143,15 +148,29 @@ def test_layers_import_only_downwards():
 
 
 def test_no_private_name_is_imported_across_modules():
-    private = [f"{m}:{line} takes {name} from {target}" for m in sorted(MODULES)
-               for target, name, line in imports(m)
-               if name and name.startswith("_") and not name.startswith("__") and _owner(target) != m]
+    private = [
+        f"{m}:{line} takes {name} from {target}"
+        for m in sorted(MODULES)
+        for target, name, line in imports(m)
+        if name and name.startswith("_") and not name.startswith("__") and _owner(target) != m
+    ]
     assert private == []
 
 
 FORBIDDEN = ("matplotlib", "argparse")
-WRITE_CALLS = ("write_text", "write_bytes", "to_csv", "to_parquet", "savefig", "atomic_write", "atomic_write_text",
-               "atomic_write_bytes", "mkdir", "write_table", "to_json")
+WRITE_CALLS = (
+    "write_text",
+    "write_bytes",
+    "to_csv",
+    "to_parquet",
+    "savefig",
+    "atomic_write",
+    "atomic_write_text",
+    "atomic_write_bytes",
+    "mkdir",
+    "write_table",
+    "to_json",
+)
 
 
 def _library_offences(name: str, path: Path) -> list[str]:
@@ -167,8 +186,10 @@ def _library_offences(name: str, path: Path) -> list[str]:
             called = f.attr if isinstance(f, ast.Attribute) else f.id if isinstance(f, ast.Name) else ""
             if called in WRITE_CALLS:
                 out.append(f"{name}:{node.lineno} calls {called}")
-            if called == "open" and any(isinstance(a, ast.Constant) and isinstance(a.value, str) and set(a.value) & set("wax+")
-                                        for a in list(node.args[1:2]) + [k.value for k in node.keywords if k.arg == "mode"]):
+            if called == "open" and any(
+                isinstance(a, ast.Constant) and isinstance(a.value, str) and set(a.value) & set("wax+")
+                for a in list(node.args[1:2]) + [k.value for k in node.keywords if k.arg == "mode"]
+            ):
                 out.append(f"{name}:{node.lineno} opens a file for writing")
     return out
 
@@ -181,11 +202,16 @@ def test_library_layers_neither_draw_nor_parse_arguments_nor_write_files(layer_n
 
 def test_the_offence_finder_catches_a_drawing_writing_module(tmp_path):
     p = tmp_path / "bad.py"
-    p.write_text("import matplotlib.pyplot as plt\ndef f(df, path):\n    df.to_csv(path)\n    with open(path, 'w') as fh:\n"
-                 "        fh.write('x')\n    open(path, mode='ab')\n    open(path)\n")
+    p.write_text(
+        "import matplotlib.pyplot as plt\ndef f(df, path):\n    df.to_csv(path)\n    with open(path, 'w') as fh:\n"
+        "        fh.write('x')\n    open(path, mode='ab')\n    open(path)\n"
+    )
     assert sorted(_library_offences("aerotruth.analysis.bad", p)) == [
-        "aerotruth.analysis.bad:1 imports matplotlib.pyplot", "aerotruth.analysis.bad:3 calls to_csv",
-        "aerotruth.analysis.bad:4 opens a file for writing", "aerotruth.analysis.bad:6 opens a file for writing"]
+        "aerotruth.analysis.bad:1 imports matplotlib.pyplot",
+        "aerotruth.analysis.bad:3 calls to_csv",
+        "aerotruth.analysis.bad:4 opens a file for writing",
+        "aerotruth.analysis.bad:6 opens a file for writing",
+    ]
 
 
 def test_the_public_import_paths_of_users_studies_still_work():

@@ -68,8 +68,9 @@ def test_mesoscale_horizontal_wind_is_non_divergent_in_its_plane():
 
 
 def _zonal_mean_u(atm, alts):
-    lat, lon = np.meshgrid(np.linspace(atm.lat0 - 6, atm.lat0 + 6, 13),
-                           np.linspace(atm.lon0 - 15, atm.lon0 + 15, 31), indexing="ij")
+    lat, lon = np.meshgrid(
+        np.linspace(atm.lat0 - 6, atm.lat0 + 6, 13), np.linspace(atm.lon0 - 15, atm.lon0 + 15, 31), indexing="ij"
+    )
     u = atm.wind(lat, lon, np.asarray(alts, dtype=float)[:, None, None], 43200.0)[0]
     return u.mean(axis=(1, 2))
 
@@ -78,9 +79,15 @@ def _zonal_mean_u(atm, alts):
 # (campaigns/wind_climatology.yaml): its zonal wind (m/s) averaged like _zonal_mean_u (the
 # region centre +- 6 deg latitude, +- 15 deg longitude) at 00 and 12 UTC, quiet time.
 HWM14_U_10500M = {  # (date, region): u at 10.5 km
-    (WINTER, "upper_midwest"): 27.9, (dt.date(2009, 4, 15), "upper_midwest"): 21.5, (SUMMER, "upper_midwest"): 15.0,
-    (WINTER, "alaska"): 6.4, (dt.date(2009, 4, 15), "alaska"): 9.1, (SUMMER, "alaska"): 11.4,
-    (WINTER, "eastern_us"): 30.7, (dt.date(2009, 4, 15), "eastern_us"): 24.0, (SUMMER, "eastern_us"): 12.3,
+    (WINTER, "upper_midwest"): 27.9,
+    (dt.date(2009, 4, 15), "upper_midwest"): 21.5,
+    (SUMMER, "upper_midwest"): 15.0,
+    (WINTER, "alaska"): 6.4,
+    (dt.date(2009, 4, 15), "alaska"): 9.1,
+    (SUMMER, "alaska"): 11.4,
+    (WINTER, "eastern_us"): 30.7,
+    (dt.date(2009, 4, 15), "eastern_us"): 24.0,
+    (SUMMER, "eastern_us"): 12.3,
 }
 HWM14_SHEAR_1_10KM = {WINTER: 2.46, dt.date(2009, 4, 15): 2.03, SUMMER: 1.24}  # upper_midwest, m/s per km
 
@@ -92,7 +99,7 @@ def test_zonal_mean_wind_increases_to_a_jet_at_10_to_12_km_and_decreases_above(d
     for seed in range(4):  # four days: a single day's waves may turn the box's mean flow easterly
         profiles.append(_zonal_mean_u(_atm(date, seed), alts))
     mean = np.mean(profiles, axis=0)
-    at = dict(zip(alts.tolist(), mean))
+    at = dict(zip(alts.tolist(), mean, strict=False))
     assert at[1500.0] < at[4000.0] < at[7000.0] < mean.max()
     assert at[20000.0] < at[16000.0] < mean.max()
     assert 9500.0 <= alts[np.argmax(mean)] <= 12000.0
@@ -168,7 +175,7 @@ def _log_binned_slope(k, power, lam_lo, lam_hi, nbins=6):
     (the field is a sum of discrete modes, so raw periodogram bins are often near zero)."""
     edges = np.geomspace(1 / lam_hi, 1 / lam_lo, nbins + 1)
     kk, pp = [], []
-    for a, b in zip(edges[:-1], edges[1:]):
+    for a, b in zip(edges[:-1], edges[1:], strict=False):
         m = (k >= a) & (k < b)
         if m.any():
             kk.append(k[m].mean())
@@ -196,8 +203,7 @@ def test_mesoscale_spectrum_follows_nastrom_gage_slopes():
 def test_nastrom_gage_fit_turns_from_k3_to_k53_near_500_km():
     def local_slope(lam):
         k = 2 * np.pi / lam
-        return (np.log(nastrom_gage_spectrum(k * 1.01)) - np.log(nastrom_gage_spectrum(k / 1.01))) / (
-            2 * np.log(1.01))
+        return (np.log(nastrom_gage_spectrum(k * 1.01)) - np.log(nastrom_gage_spectrum(k / 1.01))) / (2 * np.log(1.01))
 
     assert local_slope(3.0e6) < -2.8
     assert local_slope(2.0e4) > -1.75
@@ -237,8 +243,10 @@ def test_mesoscale_field_decorrelates_over_a_vertical_scale_of_1_5_km():
         u0 = f.wind_xy(x, y, 5000.0, 0.0)[0]
         for dz in pairs:
             pairs[dz].append((u0, f.wind_xy(x, y, 5000.0 + dz, 0.0)[0]))
-    corr = {dz: np.corrcoef(np.concatenate([a for a, _ in p]), np.concatenate([b for _, b in p]))[0, 1]
-            for dz, p in pairs.items()}
+    corr = {
+        dz: np.corrcoef(np.concatenate([a for a, _ in p]), np.concatenate([b for _, b in p]))[0, 1]
+        for dz, p in pairs.items()
+    }
     assert corr[0.0] == pytest.approx(1.0)
     assert corr[1500.0] == pytest.approx(math.exp(-0.5), abs=0.12)  # Gaussian, Lz = 1.5 km
     assert abs(corr[5000.0]) < 0.15
@@ -258,17 +266,30 @@ def test_mesoscale_field_moves_with_the_steering_wind_and_slowly_decorrelates():
 
 # --- thermodynamics -------------------------------------------------------------------
 def _standard_atm():
-    return _atm(SUMMER, 1, n_waves=0, surface_geostrophic_ms=0.0, sea_level_pressure_sd_pa=0.0,
-                delta_t_at_40n_k=0.0, delta_t_per_deg_lat_k=0.0, delta_t_seasonal_k=0.0,
-                delta_t_synoptic_k=0.0, delta_t_offset_sd_k=0.0, delta_t_thermal_wind=False)
+    return _atm(
+        SUMMER,
+        1,
+        n_waves=0,
+        surface_geostrophic_ms=0.0,
+        sea_level_pressure_sd_pa=0.0,
+        delta_t_at_40n_k=0.0,
+        delta_t_per_deg_lat_k=0.0,
+        delta_t_seasonal_k=0.0,
+        delta_t_synoptic_k=0.0,
+        delta_t_offset_sd_k=0.0,
+        delta_t_thermal_wind=False,
+    )
 
 
-@pytest.mark.parametrize("h_geopotential, p_hand, t_hand", [
-    (0.0, 101325.0, 288.15),
-    (5000.0, 54020.0, 255.65),  # ICAO Doc 7488 table
-    (11000.0, 22632.0, 216.65),
-    (20000.0, 5474.9, 216.65),
-])
+@pytest.mark.parametrize(
+    "h_geopotential, p_hand, t_hand",
+    [
+        (0.0, 101325.0, 288.15),
+        (5000.0, 54020.0, 255.65),  # ICAO Doc 7488 table
+        (11000.0, 22632.0, 216.65),
+        (20000.0, 5474.9, 216.65),
+    ],
+)
 def test_standard_day_reproduces_the_icao_table(h_geopotential, p_hand, t_hand):
     atm = _standard_atm()
     assert atm.delta_t(45.0, -90.0, 100.0) == 0.0
@@ -329,8 +350,7 @@ def _sample(atm):
     alt = np.linspace(0.0, 12000.0, 37)
     t = np.linspace(0.0, 86400.0, 37)
     u, v, w = atm.wind(lat, lon, alt, t)
-    return np.concatenate([u, v, w, atm.static_pressure(lat, lon, alt, t),
-                           atm.temperature(lat, lon, alt, t)])
+    return np.concatenate([u, v, w, atm.static_pressure(lat, lon, alt, t), atm.temperature(lat, lon, alt, t)])
 
 
 def test_same_date_seed_region_gives_bit_identical_fields():
@@ -354,9 +374,14 @@ def test_fields_are_identical_in_a_fresh_process():
         "from tests.test_atmosphere import _sample, _atm, SUMMER\n"
         "print(hashlib.sha256(_sample(_atm(SUMMER, 11)).tobytes()).hexdigest())\n"
     )
-    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True,
-                         cwd=str(__import__("pathlib").Path(__file__).parents[1]),
-                         env={"PYTHONHASHSEED": "123", "PATH": ""})
+    out = subprocess.run(
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        check=True,
+        cwd=str(__import__("pathlib").Path(__file__).parents[1]),
+        env={"PYTHONHASHSEED": "123", "PATH": ""},
+    )
     assert out.stdout.strip() == hashlib.sha256(_sample(_atm(SUMMER, 11)).tobytes()).hexdigest()
 
 
@@ -370,8 +395,7 @@ def test_scalar_and_array_calls_agree():
     tp = atm.temperature_and_pressure(lat, lon, alt, t)
     tpa = atm.temperature_and_pressure(np.array([lat]), lon, alt, t)
     assert np.allclose(tp, [tpa[0][0], tpa[1][0]], rtol=1e-12)
-    assert atm.delta_t(lat, lon, t) == pytest.approx(float(atm.delta_t(np.array([lat]), lon, t)[0]),
-                                                     rel=1e-12)
+    assert atm.delta_t(lat, lon, t) == pytest.approx(float(atm.delta_t(np.array([lat]), lon, t)[0]), rel=1e-12)
     su = atm.synoptic_wind(lat, lon, alt, t)
     sa = atm.synoptic_wind(np.array([lat]), lon, alt, t)
     assert np.allclose(su, [sa[0][0], sa[1][0]], rtol=1e-12)
@@ -392,13 +416,16 @@ def test_other_regions_have_mean_westerlies(region):
     assert np.mean(u) > 3.0
 
 
-@pytest.mark.parametrize("call, message", [
-    (lambda a: a.wind(float("nan"), -90.0, 1000.0, 0.0), "lat_deg"),
-    (lambda a: a.wind(95.0, -90.0, 1000.0, 0.0), "lat_deg"),
-    (lambda a: a.wind(np.array([45.0, 46.0]), -90.0, np.array([1e3, 6e4]), 0.0), "alt_m"),
-    (lambda a: a.static_pressure(45.0, -90.0, 1000.0, np.inf), "t_s"),
-    (lambda a: pressure_altitude_m(-5.0), "p_pa"),
-])
+@pytest.mark.parametrize(
+    "call, message",
+    [
+        (lambda a: a.wind(float("nan"), -90.0, 1000.0, 0.0), "lat_deg"),
+        (lambda a: a.wind(95.0, -90.0, 1000.0, 0.0), "lat_deg"),
+        (lambda a: a.wind(np.array([45.0, 46.0]), -90.0, np.array([1e3, 6e4]), 0.0), "alt_m"),
+        (lambda a: a.static_pressure(45.0, -90.0, 1000.0, np.inf), "t_s"),
+        (lambda a: pressure_altitude_m(-5.0), "p_pa"),
+    ],
+)
 def test_bad_inputs_raise_one_clear_error(call, message):
     with pytest.raises(ValueError, match=message):
         call(_atm())
@@ -420,6 +447,8 @@ def test_the_one_point_isa_form_equals_the_array_form_to_the_last_bit():
 
     rng = np.random.default_rng(7)
     heights = np.r_[np.array(H_BASE_M[1:]), rng.uniform(-500.0, 30000.0, 200)]  # layer bases included
-    for h, dtk, psl in zip(heights, rng.uniform(-30.0, 30.0, heights.size), rng.uniform(95000.0, 105000.0, heights.size)):
+    for h, dtk, psl in zip(
+        heights, rng.uniform(-30.0, 30.0, heights.size), rng.uniform(95000.0, 105000.0, heights.size), strict=False
+    ):
         t, p = isa_point(h, dtk, psl)
         assert t == float(isa_temperature_k(h, dtk)) and p == float(isa_pressure_pa(h, dtk, psl))

@@ -81,8 +81,22 @@ def test_dask_localcluster_gives_identical_metrics_bytes(reference, tmp_path):
 def test_sigkill_midway_then_resume_gives_identical_metrics(reference, tmp_path):
     (tmp_path / "tiny.yaml").write_text(TINY)
     out = tmp_path / "killed"
-    cmd = [sys.executable, "-m", "aerotruth.app.cli", "run", "tiny.yaml", "--workers", "1", "--out", str(out), "--no-report", "--quiet"]
-    proc = subprocess.Popen(cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+    cmd = [
+        sys.executable,
+        "-m",
+        "aerotruth.app.cli",
+        "run",
+        "tiny.yaml",
+        "--workers",
+        "1",
+        "--out",
+        str(out),
+        "--no-report",
+        "--quiet",
+    ]
+    proc = subprocess.Popen(
+        cmd, cwd=tmp_path, start_new_session=True, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE
+    )
     deadline = time.monotonic() + 60
     while len(list((out / "tasks").glob("*.parquet"))) < 2:
         assert proc.poll() is None, proc.stderr.read().decode()
@@ -133,8 +147,12 @@ def test_rerun_with_another_configuration_recomputes_what_it_changes(reference, 
     run_campaign(parse_campaign(TINY.replace("seed: 11", "seed: 12")), LOCAL1, out=fresh, **QUIET)
     assert metrics_bytes(out) == metrics_bytes(fresh) != metrics_bytes(reference)
     # one period day fewer: nothing reruns, the dropped day's tables leave the run directory
-    s = run_campaign(parse_campaign(TINY.replace("seed: 11", "seed: 12").replace("end: 2009-08-17", "end: 2009-08-16")),
-                     LOCAL1, out=out, **QUIET)
+    s = run_campaign(
+        parse_campaign(TINY.replace("seed: 11", "seed: 12").replace("end: 2009-08-17", "end: 2009-08-16")),
+        LOCAL1,
+        out=out,
+        **QUIET,
+    )
     assert (s.n_tasks, s.ran) == (N_TASKS - 2, 0)
     assert len(list((out / "tasks").glob("*.parquet"))) == N_TASKS - 2
 
@@ -183,7 +201,10 @@ def test_report_embeds_figures_and_the_metric_table(reference, capsys):
 
 def test_figures_of_an_unfinished_run_is_one_line(tmp_path, capsys):
     assert main(["figures", str(tmp_path)]) == 2
-    assert capsys.readouterr().err.strip() == f"aerotruth figures: {tmp_path} is not a run directory (no config.resolved.yaml)"
+    assert (
+        capsys.readouterr().err.strip()
+        == f"aerotruth figures: {tmp_path} is not a run directory (no config.resolved.yaml)"
+    )
 
 
 def test_scheduler_with_local_executor_is_one_line(tmp_path, capsys):

@@ -51,7 +51,9 @@ def test_stream_is_the_same_in_another_process_with_another_hash_seed():
     outs = set()
     for hash_seed in ("1", "2"):
         env = dict(os.environ, PYTHONHASHSEED=hash_seed)
-        outs.add(subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout)
+        outs.add(
+            subprocess.run([sys.executable, "-c", code], env=env, capture_output=True, text=True, check=True).stdout
+        )
     t = Task("wind_climatology", IDENT)
     assert outs == {f"{t.rng(42).random()!r} {t.id}\n"}
 

@@ -87,7 +87,9 @@ def test_the_run_counts_the_legs_it_flew_not_what_another_campaign_adds_to_the_s
         log.parent.mkdir(parents=True, exist_ok=True)
         with open(log, "a", encoding="utf-8") as f:
             for k in range(3):
-                f.write(json.dumps({"key": f"other{k}", "flight_id": "X", "what": "flown", "seconds": 1.0, "pid": 1}) + "\n")
+                f.write(
+                    json.dumps({"key": f"other{k}", "flight_id": "X", "what": "flown", "seconds": 1.0, "pid": 1}) + "\n"
+                )
         return prepare(self, *args, **kwargs)
 
     monkeypatch.setattr(RunStore, "prepare", prepare_while_another_campaign_flies)
@@ -104,7 +106,7 @@ def test_schedule_day_keeps_the_first_legs_chained_in_time():
     legs = task.params["day"].plans()
     assert len(legs) == 3
     plans = [leg.plan for leg in legs]
-    for a, b in zip(plans, plans[1:]):
+    for a, b in zip(plans, plans[1:], strict=False):
         assert a.destination.icao == b.origin.icao
         assert b.departure_utc >= a.departure_utc + dt.timedelta(seconds=a.block_time_s)
     assert all(p.departure_utc.date() == dt.date(2009, 8, 15) for p in plans)
@@ -128,14 +130,20 @@ def test_diverged_leg_is_kept_by_name_with_its_seed_and_left_out_of_statistics(m
 
     real_fly_leg = flight.fly_leg
     monkeypatch.setattr(truth_store, "fly_leg", fake_fly_leg)
-    text = FIXED.replace("  - {from: KMSP, to: KRST, departure_utc: \"13:00\"}",
-                         "  - {from: KMSP, to: KRST, departure_utc: \"13:00\"}\n      - {from: KRST, to: KMSP, departure_utc: \"15:00\"}")
+    text = FIXED.replace(
+        '  - {from: KMSP, to: KRST, departure_utc: "13:00"}',
+        '  - {from: KMSP, to: KRST, departure_utc: "13:00"}\n      - {from: KRST, to: KMSP, departure_utc: "15:00"}',
+    )
     campaign = parse_campaign(text)
     task = expand(campaign)[0]
     rows = TRUTH.run(task, TaskContext(task, 7, str(tmp_path / "store")))
     assert list(rows["diverged"]) == [False, True]
     bad = rows.iloc[1]
-    assert bad["seed"] == calls[1] and bad["diverge_reason"].startswith("attitude limit") and bad["diverge_time_s"] == 812.5
+    assert (
+        bad["seed"] == calls[1]
+        and bad["diverge_reason"].startswith("attitude limit")
+        and bad["diverge_time_s"] == 812.5
+    )
     assert np.isnan(bad["distance_nm"])
     rows.insert(0, "task_id", task.id)
     summary = TRUTH.summarize(rows, {}, campaign.section("truth"))
@@ -153,8 +161,13 @@ def test_unknown_aircraft_type_is_one_line_from_validate(tmp_path, capsys):
     from aerotruth.app.cli import main
 
     path = tmp_path / "c.yaml"
-    path.write_text(FIXED.replace("{name: f, aircraft: [N1, N2]}", "{name: f, aircraft_type: concorde, aircraft: [N1]}"))
+    path.write_text(
+        FIXED.replace("{name: f, aircraft: [N1, N2]}", "{name: f, aircraft_type: concorde, aircraft: [N1]}")
+    )
     assert main(["validate", str(path)]) == 2
     err = capsys.readouterr().err.strip()
-    assert err == f'aerotruth validate: {path}: fleets[0].aircraft_type: expected an aircraft type (737, saab340), got "concorde" (line 4)'
+    assert (
+        err == f"aerotruth validate: {path}: fleets[0].aircraft_type: "
+        'expected an aircraft type (737, saab340), got "concorde" (line 4)'
+    )
     assert "\n" not in err

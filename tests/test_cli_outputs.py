@@ -12,13 +12,16 @@ from aerotruth.app.cli import main
 ROOT = Path(__file__).resolve().parents[1]
 
 
-@pytest.mark.parametrize("argv", [
-    ["run", str(ROOT / "campaigns/quick.yaml"), "--out", "{file}"],
-    ["fits", "{log}", "--out", "{file}"],
-    ["diagnose", "{log}", "--model", str(ROOT / "campaigns/quick.yaml"), "--out", "{file}"],
-    ["heading", "fit", "{obs}", "--out", "{file}"],
-    ["heading", "apply", "{obs}", "--tables", "{obs}", "--out", "{file}"],
-])
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["run", str(ROOT / "campaigns/quick.yaml"), "--out", "{file}"],
+        ["fits", "{log}", "--out", "{file}"],
+        ["diagnose", "{log}", "--model", str(ROOT / "campaigns/quick.yaml"), "--out", "{file}"],
+        ["heading", "fit", "{obs}", "--out", "{file}"],
+        ["heading", "apply", "{obs}", "--tables", "{obs}", "--out", "{file}"],
+    ],
+)
 def test_a_file_given_as_the_output_folder_is_one_line(tmp_path, capsys, argv):
     file = tmp_path / "taken"
     file.write_text("not a folder")

@@ -73,13 +73,18 @@ def test_resolved_yaml_reads_back_to_the_same_campaign_and_hash():
 
 def test_config_hash_ignores_executor_and_outputs_but_not_seed():
     base = parse_campaign(VALID).config_hash()
-    assert parse_campaign(VALID + "executor: {kind: dask, workers: 3}\noutputs: {report: false}\n").config_hash() == base
+    assert (
+        parse_campaign(VALID + "executor: {kind: dask, workers: 3}\noutputs: {report: false}\n").config_hash() == base
+    )
     assert parse_campaign(VALID.replace("seed: 5", "seed: 6")).config_hash() != base
 
 
 def test_wrong_type_names_path_value_and_line():
     text = VALID.replace("flight_levels: [100, 200]", "flight_levels: [100, abc]")
-    assert error_of(text) == f'studies.wind_climatology.flight_levels[1]: expected an integer, got "abc" (line {line_of(text, "flight_levels")})'
+    assert (
+        error_of(text) == 'studies.wind_climatology.flight_levels[1]: expected an integer, got "abc" '
+        f"(line {line_of(text, 'flight_levels')})"
+    )
 
 
 def test_wrong_type_of_a_string_field():
@@ -103,17 +108,25 @@ def test_missing_required_field_points_at_its_parent():
 
 def test_bad_date_is_reported_by_path_not_by_the_yaml_parser():
     text = VALID.replace("2009-08-16", "2009-02-30")
-    assert error_of(text) == f'periods[0].dates[1]: expected a date YYYY-MM-DD, got "2009-02-30" (line {line_of(text, "2009-02-30")})'
+    assert (
+        error_of(text)
+        == f'periods[0].dates[1]: expected a date YYYY-MM-DD, got "2009-02-30" (line {line_of(text, "2009-02-30")})'
+    )
 
 
 def test_end_before_start_is_an_error():
     text = VALID.replace("end: 2009-09-03", "end: 2009-08-03")
-    assert error_of(text) == f"periods[1]: end 2009-08-03 is before start 2009-09-01 (line {line_of(text, 'name: sep')})"
+    assert (
+        error_of(text) == f"periods[1]: end 2009-08-03 is before start 2009-09-01 (line {line_of(text, 'name: sep')})"
+    )
 
 
 def test_empty_fleet_is_an_error():
     text = VALID.replace("aircraft: [N672PA]", "aircraft: []")
-    assert error_of(text) == f"fleets[1].aircraft: expected at least one aircraft, got an empty list (line {line_of(text, 'aircraft: []')})"
+    assert (
+        error_of(text) == "fleets[1].aircraft: expected at least one aircraft, got an empty list "
+        f"(line {line_of(text, 'aircraft: []')})"
+    )
 
 
 def test_repeated_aircraft_in_a_fleet_is_an_error():
@@ -123,21 +136,28 @@ def test_repeated_aircraft_in_a_fleet_is_an_error():
 
 def test_literal_choice_lists_the_options():
     text = VALID + "executor: {kind: ray}\n"
-    assert error_of(text) == f"executor.kind: expected one of 'local' or 'dask', got \"ray\" (line {line_of(text, 'ray')})"
+    assert (
+        error_of(text) == f"executor.kind: expected one of 'local' or 'dask', got \"ray\" (line {line_of(text, 'ray')})"
+    )
 
 
 def test_reference_to_undefined_period_names_the_defined_ones():
     text = VALID.replace("    periods: [sep]", "    periods: [october]")
     assert error_of(text) == (
-        f'studies.wind_climatology.periods[0]: expected the name of one of the periods (aug, sep), got "october" (line {line_of(text, "october")})'
+        'studies.wind_climatology.periods[0]: expected the name of one of the periods (aug, sep), got "october" '
+        f"(line {line_of(text, 'october')})"
     )
 
 
 def test_unknown_network_and_airport_are_errors():
     text = VALID.replace("network: mesaba", "network: lufthansa")
-    assert error_of(text).startswith('fleets[0].network: expected a route network (chautauqua, mesaba, penair), got "lufthansa"')
+    assert error_of(text).startswith(
+        'fleets[0].network: expected a route network (chautauqua, mesaba, penair), got "lufthansa"'
+    )
     text = VALID.replace("    max_legs_per_day: 2\n", "    legs: [{from: KMSP, to: ZZZZ}]\n")
-    assert error_of(text).startswith('studies.truth.legs[0].to: expected the ICAO code of an airport in the embedded table, got "ZZZZ"')
+    assert error_of(text).startswith(
+        'studies.truth.legs[0].to: expected the ICAO code of an airport in the embedded table, got "ZZZZ"'
+    )
 
 
 def test_schedule_needs_a_network():
@@ -154,7 +174,7 @@ def test_no_study_and_yaml_syntax_errors():
     text = VALID[: VALID.index("studies:")] + "studies: {}\n"
     assert error_of(text).startswith(f"studies: expected at least one study ({BUILTIN})")
     assert error_of("name: [unclosed\n").startswith("not valid YAML:")
-    assert error_of("- just\n- a list\n") == 'expected a mapping of campaign fields at the top level, got a list of 2'
+    assert error_of("- just\n- a list\n") == "expected a mapping of campaign fields at the top level, got a list of 2"
 
 
 def test_cli_validate_prints_one_line_and_exits_2(tmp_path, capsys):
@@ -175,14 +195,17 @@ def test_bounds_and_strict_integers():
     assert error_of(VALID.replace("seed: 5", "seed: -3")) == "seed: expected a number >= 0, got -3 (line 2)"
     assert error_of(VALID.replace("seed: 5", "seed: yes")) == "seed: expected an integer, got true (line 2)"
     assert error_of(VALID.replace("max_legs_per_day: 2", "max_legs_per_day: 2.5")).startswith(
-        "studies.truth.max_legs_per_day: expected an integer, got 2.5")
+        "studies.truth.max_legs_per_day: expected an integer, got 2.5"
+    )
     assert error_of(VALID.replace("name: t1", "name: my run")).startswith("name: expected a name of letters, digits")
 
 
 # ---- composing studies: cases that each failed before the code handled them
 
 
-FIXED_LEG = VALID.replace("    max_legs_per_day: 2\n", "    legs:\n      - {from: kmsp, to: KRST, departure_utc: 13:00}\n")
+FIXED_LEG = VALID.replace(
+    "    max_legs_per_day: 2\n", "    legs:\n      - {from: kmsp, to: KRST, departure_utc: 13:00}\n"
+)
 
 
 def test_unquoted_departure_time_is_13_00_not_the_sexagesimal_number_780():
@@ -192,7 +215,10 @@ def test_unquoted_departure_time_is_13_00_not_the_sexagesimal_number_780():
 
 def test_a_number_where_a_time_belongs_is_refused_with_its_line():
     text = FIXED_LEG.replace("departure_utc: 13:00", "departure_utc: 780")
-    assert error_of(text) == f"studies.truth.legs[0].departure_utc: expected a time HH:MM, got the number 780 (line {line_of(text, '780')})"
+    assert (
+        error_of(text) == "studies.truth.legs[0].departure_utc: expected a time HH:MM, got the number 780 "
+        f"(line {line_of(text, '780')})"
+    )
 
 
 def test_lowercase_icao_codes_are_taken_as_upper_case_like_fly_does():
@@ -210,8 +236,10 @@ def test_validate_of_a_path_below_a_file_is_one_line(tmp_path, capsys):
 
 def test_an_unknown_study_names_the_available_ones_and_its_line():
     text = VALID + "  sensors_of_the_future: {}\n"
-    assert error_of(text) == (f"studies.sensors_of_the_future: unknown study (available: {BUILTIN}) "
-                              f"(line {line_of(text, 'sensors_of_the_future')})")
+    assert error_of(text) == (
+        f"studies.sensors_of_the_future: unknown study (available: {BUILTIN}) "
+        f"(line {line_of(text, 'sensors_of_the_future')})"
+    )
 
 
 def test_a_study_module_file_that_does_not_exist_is_named():
@@ -219,7 +247,9 @@ def test_a_study_module_file_that_does_not_exist_is_named():
     assert error_of(text).startswith("study_modules[0]: expected a study module file")
 
 
-SIZED = VALID + """sizes:
+SIZED = (
+    VALID
+    + """sizes:
   reduced:
     fleets:
       - {name: north, network: mesaba, aircraft: [N401XJ]}
@@ -228,6 +258,7 @@ SIZED = VALID + """sizes:
       - {name: aug, dates: [2009-08-15]}
       - {name: sep, start: 2009-09-01, end: 2009-09-03, every_days: 2}
 """
+)
 
 
 def test_a_named_size_overrides_fields_and_renames_the_campaign():

@@ -26,19 +26,51 @@ def cluster(tmp_path):
     """Scheduler + two single-thread worker processes; yields the scheduler address."""
     sched_file = tmp_path / "scheduler.json"
     dask = [sys.executable, "-m", "dask"]
-    procs = [subprocess.Popen(dask + ["scheduler", "--host", "127.0.0.1", "--port", "0", "--no-dashboard",
-                                      "--scheduler-file", str(sched_file)],
-                              stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)]
+    procs = [
+        subprocess.Popen(
+            dask
+            + [
+                "scheduler",
+                "--host",
+                "127.0.0.1",
+                "--port",
+                "0",
+                "--no-dashboard",
+                "--scheduler-file",
+                str(sched_file),
+            ],
+            stdout=subprocess.DEVNULL,
+            stderr=subprocess.DEVNULL,
+        )
+    ]
     try:
         deadline = time.monotonic() + 60
         while not sched_file.exists():
             assert time.monotonic() < deadline and procs[0].poll() is None, "dask scheduler did not start"
             time.sleep(0.1)
         for name in ("w1", "w2"):
-            procs.append(subprocess.Popen(dask + ["worker", "--scheduler-file", str(sched_file), "--nthreads", "1",
-                                                  "--nworkers", "1", "--no-dashboard", "--name", name,
-                                                  "--host", "127.0.0.1"],
-                                          stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=tmp_path))
+            procs.append(
+                subprocess.Popen(
+                    dask
+                    + [
+                        "worker",
+                        "--scheduler-file",
+                        str(sched_file),
+                        "--nthreads",
+                        "1",
+                        "--nworkers",
+                        "1",
+                        "--no-dashboard",
+                        "--name",
+                        name,
+                        "--host",
+                        "127.0.0.1",
+                    ],
+                    stdout=subprocess.DEVNULL,
+                    stderr=subprocess.DEVNULL,
+                    cwd=tmp_path,
+                )
+            )
         from distributed import Client
 
         with Client(scheduler_file=str(sched_file), timeout="30s") as client:
@@ -60,7 +92,12 @@ def test_scheduler_and_two_worker_processes_run_the_campaign_identically(cluster
     run_campaign(parse_campaign(TINY), ExecutorChoice("local", workers=1), out=local, **QUIET)
     (tmp_path / "tiny.yaml").write_text(TINY)
     remote = tmp_path / "remote"
-    assert main(["run", str(tmp_path / "tiny.yaml"), "--scheduler", cluster, "--out", str(remote), "--quiet", "--no-report"]) == 0
+    assert (
+        main(
+            ["run", str(tmp_path / "tiny.yaml"), "--scheduler", cluster, "--out", str(remote), "--quiet", "--no-report"]
+        )
+        == 0
+    )
     assert f"dask scheduler {cluster}" in capsys.readouterr().err
     assert (remote / "metrics.json").read_bytes() == (local / "metrics.json").read_bytes()
     assert json.loads((remote / "metrics.json").read_text())["tasks"] == {"wind_climatology": N_TASKS}

@@ -15,11 +15,14 @@ from aerotruth.measured.kinds import real_data_dir
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("hidden, effect, param, size", [
-    ({"A_deg": 1.5, "k": 0.0, "D_s": 0.0}, "heading_offset", "A_deg", 1.5),
-    ({"A_deg": 0.0, "k": 0.0, "D_s": 2.0}, "heading_time_offset", "D_s", 2.0),
-    ({"A_deg": 0.0, "k": 0.01, "D_s": 0.0}, "tas_scale", "k", 0.01),
-])
+@pytest.mark.parametrize(
+    "hidden, effect, param, size",
+    [
+        ({"A_deg": 1.5, "k": 0.0, "D_s": 0.0}, "heading_offset", "A_deg", 1.5),
+        ({"A_deg": 0.0, "k": 0.0, "D_s": 2.0}, "heading_time_offset", "D_s", 2.0),
+        ({"A_deg": 0.0, "k": 0.01, "D_s": 0.0}, "tas_scale", "k", 0.01),
+    ],
+)
 def test_a_hidden_effect_is_ranked_first_sized_within_25_percent_with_a_held_out_gain(hidden, effect, param, size):
     findings, _ = diagnose_track(synthetic(**hidden, seed=5))
     assert findings and findings[0].effect == effect
@@ -52,11 +55,21 @@ def test_nothing_hidden_gives_no_finding():
 def test_cli_writes_the_contract_files_and_refuses_unknown_data(tmp_path, capsys):
     df = synthetic(A_deg=1.5, k=0.0, D_s=0.0, seed=2, hours=1.0)
     kt = 0.514444
-    recs = [{"timestamp": 1.6e12 + 1000 * t, "latitude": 45.0, "longitude": 0.0, "altitude": 20000.0, "vertical_rate": 0.0,
-             # as the registers send them: heading to 90/512 deg, TAS to 2 kt
-             "heading": float(np.round((np.degrees(h) % 360) / (90 / 512)) * (90 / 512)), "TAS": float(np.round(v / kt / 2) * 2), "track": float(np.degrees(np.arctan2(ve, vn)) % 360),
-             "groundspeed": float(np.hypot(vn, ve) / kt)}
-            for t, h, v, vn, ve in df[["time_s", "heading_rad", "tas_mps", "vn_mps", "ve_mps"]].itertuples(index=False)]
+    recs = [
+        {
+            "timestamp": 1.6e12 + 1000 * t,
+            "latitude": 45.0,
+            "longitude": 0.0,
+            "altitude": 20000.0,
+            "vertical_rate": 0.0,
+            # as the registers send them: heading to 90/512 deg, TAS to 2 kt
+            "heading": float(np.round((np.degrees(h) % 360) / (90 / 512)) * (90 / 512)),
+            "TAS": float(np.round(v / kt / 2) * 2),
+            "track": float(np.degrees(np.arctan2(ve, vn)) % 360),
+            "groundspeed": float(np.hypot(vn, ve) / kt),
+        }
+        for t, h, v, vn, ve in df[["time_s", "heading_rad", "tas_mps", "vn_mps", "ve_mps"]].itertuples(index=False)
+    ]
     data = tmp_path / "flight.json"
     data.write_text(json.dumps(recs))
     out = tmp_path / "diag"
@@ -69,7 +82,9 @@ def test_cli_writes_the_contract_files_and_refuses_unknown_data(tmp_path, capsys
     from aerotruth.sim.campaign_file import load_campaign
 
     extended = load_campaign(out / "extended_model.yaml")  # a valid campaign carrying the found effect
-    assert extended.section("modes_diagnose").table_error_deg == pytest.approx(f["parameters"]["A_deg"]["value"], abs=1e-3)
+    assert extended.section("modes_diagnose").table_error_deg == pytest.approx(
+        f["parameters"]["A_deg"]["value"], abs=1e-3
+    )
     bad = tmp_path / "x.json"
     bad.write_text('[{"a": 1}]')
     capsys.readouterr()
@@ -77,10 +92,24 @@ def test_cli_writes_the_contract_files_and_refuses_unknown_data(tmp_path, capsys
     assert capsys.readouterr().err.startswith(f"aerotruth diagnose: {bad}: JSON records with keys a; expected")
 
 
-@pytest.mark.skipif(not (real_data_dir() / "zero_gravity.json.gz").exists(), reason=f"real data not found at {real_data_dir()}")
+@pytest.mark.skipif(
+    not (real_data_dir() / "zero_gravity.json.gz").exists(), reason=f"real data not found at {real_data_dir()}"
+)
 def test_the_a310_heading_is_offset_as_a_stale_variation_table_would_make_it(tmp_path):
     out = tmp_path / "a310"
-    assert main(["diagnose", str(real_data_dir() / "zero_gravity.json.gz"), "--model", "campaigns/quick.yaml", "--out", str(out)]) == 0
+    assert (
+        main(
+            [
+                "diagnose",
+                str(real_data_dir() / "zero_gravity.json.gz"),
+                "--model",
+                "campaigns/quick.yaml",
+                "--out",
+                str(out),
+            ]
+        )
+        == 0
+    )
     doc = json.loads((out / "diagnosis.json").read_text())
     first = doc["findings"][0]
     assert first["effect"] == "heading_offset" and -3.5 < first["parameters"]["A_deg"]["value"] < -2.0
@@ -88,6 +117,7 @@ def test_the_a310_heading_is_offset_as_a_stale_variation_table_would_make_it(tmp
 
 
 # ---- hidden in simulated data: JSBSim truth -> Mode-S sensor -> decoded trajectory -> diagnose
+
 
 def _day():
     import datetime as dt
@@ -97,17 +127,26 @@ def _day():
     # six legs on three axes: a heading offset is seen only through heading changes within
     # a wind's correlation time, and the jackknife over four legs found 2 deg in 1 of 5
     # sensor seeds (p 0.01-0.1 against the 0.005 level); six legs find 4 deg in 5 of 5
-    legs = (("KMSP", "KDLH", "13:00"), ("KDLH", "KMSP", "14:30"), ("KMSP", "KRST", "16:00"), ("KRST", "KMSP", "17:15"),
-            ("KMSP", "KFSD", "18:30"), ("KFSD", "KMSP", "20:00"))
+    legs = (
+        ("KMSP", "KDLH", "13:00"),
+        ("KDLH", "KMSP", "14:30"),
+        ("KMSP", "KRST", "16:00"),
+        ("KRST", "KMSP", "17:15"),
+        ("KMSP", "KFSD", "18:30"),
+        ("KFSD", "KMSP", "20:00"),
+    )
     return AircraftDay.for_campaign(7, "N1", dt.date(2009, 8, 15), legs=tuple(FixedLeg(*leg) for leg in legs))
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("hidden, effect, param, size", [
-    ({}, None, None, None),
-    ({"table_error_deg": 4.0}, "heading_offset", "A_deg", 4.0),
-    ({"heading_lag_s": 2.0}, "heading_time_offset", "D_s", 2.0),
-])
+@pytest.mark.parametrize(
+    "hidden, effect, param, size",
+    [
+        ({}, None, None, None),
+        ({"table_error_deg": 4.0}, "heading_offset", "A_deg", 4.0),
+        ({"heading_lag_s": 2.0}, "heading_time_offset", "D_s", 2.0),
+    ],
+)
 def test_effects_hidden_in_a_simulated_mode_s_day_are_found_and_nothing_else(hidden, effect, param, size):
     from aerotruth.measured.modes import track_from_measured
     from aerotruth.sim.modes_data import simulated_modes_day

@@ -47,7 +47,9 @@ def test_a_tvps_of_the_other_sign_or_scale_is_named_not_taken_for_a_dgps_offset(
     findings, _ = diagnose_log("log", log, FitsModel())
     assert [f.effect for f in findings] == ["tvps_scale"], [f.effect for f in findings]
     f = findings[0]
-    assert f.parameters["slope"]["value"] == pytest.approx(1.0 - 1.0 / scale, abs=4 * f.parameters["slope"]["se"] + 0.005)
+    assert f.parameters["slope"]["value"] == pytest.approx(
+        1.0 - 1.0 / scale, abs=4 * f.parameters["slope"]["se"] + 0.005
+    )
     assert f.parameters["tvps_scale"]["value"] == pytest.approx(scale, rel=0.05)
     assert f.gain["held_out_after"] < 0.1 < f.gain["held_out_before"]  # m: back to the FITS's own noise
     assert ("opposite sign" in f.cause) == (scale < 0)
@@ -55,15 +57,20 @@ def test_a_tvps_of_the_other_sign_or_scale_is_named_not_taken_for_a_dgps_offset(
 
 @pytest.mark.slow
 def test_a_tvps_as_the_model_says_gives_no_finding_when_approaches_spread():
-    n = sum(len(diagnose_log("log", gen.make_log(12, seed=s, jumps_per_s=0.0, threshold_y_sd_m=3.0)[0], FitsModel())[0])
-            for s in range(120, 126))
+    n = sum(
+        len(diagnose_log("log", gen.make_log(12, seed=s, jumps_per_s=0.0, threshold_y_sd_m=3.0)[0], FitsModel())[0])
+        for s in range(120, 126)
+    )
     assert n == 0
 
 
 FRAMES = {  # INS columns as logged -> the signed permutation P with INS = P r (r the runway frame)
     "y of the other sign": (lambda g: g.assign(ins_y_m=-g["ins_y_m"]), [[1, 0, 0], [0, -1, 0], [0, 0, 1]]),
     "z down": (lambda g: g.assign(ins_z_m=-g["ins_z_m"]), [[1, 0, 0], [0, 1, 0], [0, 0, -1]]),
-    "x and y swapped": (lambda g: g.assign(ins_x_m=g["ins_y_m"], ins_y_m=g["ins_x_m"]), [[0, 1, 0], [1, 0, 0], [0, 0, 1]]),
+    "x and y swapped": (
+        lambda g: g.assign(ins_x_m=g["ins_y_m"], ins_y_m=g["ins_x_m"]),
+        [[0, 1, 0], [1, 0, 0], [0, 0, 1]],
+    ),
 }
 
 
@@ -117,7 +124,9 @@ def test_the_fits_command_refuses_an_ins_in_another_frame_naming_the_columns(tmp
 
 @pytest.mark.slow
 def test_nothing_hidden_nothing_found():
-    n = sum(len(diagnose_log("log", gen.make_log(12, seed=s, jumps_per_s=0.0)[0], FitsModel())[0]) for s in range(100, 110))
+    n = sum(
+        len(diagnose_log("log", gen.make_log(12, seed=s, jumps_per_s=0.0)[0], FitsModel())[0]) for s in range(100, 110)
+    )
     assert n == 0
 
 
@@ -168,7 +177,10 @@ def test_an_approach_too_short_for_the_filter_is_one_line_naming_it(tmp_path, ca
     t_thr = log.loc[a & (log["event"] == "thr"), "time_s"].iloc[0]
     log = log[~a | (log["time_s"] - t_thr).abs().lt(12.0)]  # ~24 WAAS epochs: the filter needs 4T = 48
     log.to_csv(tmp_path / "log.csv", index=False)
-    assert main(["diagnose", str(tmp_path / "log.csv"), "--model", "campaigns/quick.yaml", "--out", str(tmp_path / "d")]) == 2
+    assert (
+        main(["diagnose", str(tmp_path / "log.csv"), "--model", "campaigns/quick.yaml", "--out", str(tmp_path / "d")])
+        == 2
+    )
     err = capsys.readouterr().err
     assert "log.csv: approach" in err and "expected at least 4T = 48" in err and err.count("\n") == 1
 
@@ -190,5 +202,10 @@ def test_a_waas_latency_is_named_alone_and_the_fits_compensates_it(tmp_path):
         assert main(["fits", str(tmp_path / f"{name}.csv"), "--out", str(tmp_path / f"{name}{len(opts)}"), *opts]) == 0
         e = pd.read_csv(tmp_path / f"{name}{len(opts)}" / "errors.csv")
         return float(np.sqrt(np.mean(e["vertical_m"] ** 2)))
-    late, fixed, truth = vertical_rms("late"), vertical_rms("late", "--waas-latency", f"{tau['value']:.3f}"), vertical_rms("ref")
+
+    late, fixed, truth = (
+        vertical_rms("late"),
+        vertical_rms("late", "--waas-latency", f"{tau['value']:.3f}"),
+        vertical_rms("ref"),
+    )
     assert late > 2.5 * truth and fixed < 1.15 * truth, (late, fixed, truth)

@@ -63,10 +63,12 @@ def test_nothing_hidden_nothing_found(seed):
 def test_soft_iron_2psi_half_degree():
     fleet, rng = _fleet(3)
     phases = rng.uniform(0, 2 * np.pi, len(fleet))
-    fleet = [replace(a, D=0.5 * np.cos(p), E=0.5 * np.sin(p)) for a, p in zip(fleet, phases)]
+    fleet = [replace(a, D=0.5 * np.cos(p), E=0.5 * np.sin(p)) for a, p in zip(fleet, phases, strict=False)]
     findings, _, _ = _diagnose(gen.generate(fleet, rng, flights=40))
     f = _first(findings, "soft_iron", 0.5)
-    for a in fleet:  # per aircraft D, E against the hidden ones (measured-heading index: the generator's z' = psi_m - decl)
+    for (
+        a
+    ) in fleet:  # per aircraft D, E against the hidden ones (measured-heading index: the generator's z' = psi_m - decl)
         p = f.parameters["aircraft"][a.aircraft]
         assert np.hypot(p["D_deg"], p["E_deg"]) == pytest.approx(0.5, abs=5 * p["D_se_deg"] + 0.1)
 
@@ -142,7 +144,10 @@ def test_reference_model_wind_scale_is_told_from_an_offset(scale):
     # flights at least as well as the library's offset form (the truth is a scale)
     fc = f.evidence["forms_chosen"]
     assert fc["forms"]["rr"] == "scale" and fc["p_value"] < f.evidence["alpha"], fc
-    assert fc["held_out_after"] < fc["held_out_before"] and fc["held_out_after"] <= f.gain["held_out_after"], (fc, f.gain)
+    assert fc["held_out_after"] < fc["held_out_before"] and fc["held_out_after"] <= f.gain["held_out_after"], (
+        fc,
+        f.gain,
+    )
     # the extended model carries the scale; with it the reference's error is not found again
     ext = extended_spec(WindModelSpec(), findings, d, st)
     assert ext.reference_scale["rr"] == rr["scale"]["value"] and "rr" not in ext.reference_bias_kt
@@ -193,7 +198,9 @@ def test_coarser_quantization():
     findings, _, _ = _diagnose(gen.generate(fleet, rng, flights=40, quant_deg=0.05))
     f = _first(findings, "quantization", 0.05)
     g = f.gain
-    assert g["predicted_after_kt"] == pytest.approx(g["measured_kt"], rel=0.25)  # the coarser grid explains the track jitter
+    assert g["predicted_after_kt"] == pytest.approx(
+        g["measured_kt"], rel=0.25
+    )  # the coarser grid explains the track jitter
 
 
 @pytest.mark.slow
@@ -210,8 +217,18 @@ def test_an_effect_outside_the_library_is_described_by_its_signature():
 def test_thirty_aircraft_on_one_or_two_headings_get_their_offset_and_no_harmonics():
     rng = np.random.default_rng(11)
     offsets = rng.uniform(-3, 3, 30)
-    fleet = [gen.AircraftTruth(f"N{500 + i}", float(offsets[i]), 0.0, 0.0, cruise_tas_kt=280.0,
-                               one_heading=i % 2 == 0, spoke=None if i % 2 == 0 else i % 16) for i in range(30)]
+    fleet = [
+        gen.AircraftTruth(
+            f"N{500 + i}",
+            float(offsets[i]),
+            0.0,
+            0.0,
+            cruise_tas_kt=280.0,
+            one_heading=i % 2 == 0,
+            spoke=None if i % 2 == 0 else i % 16,
+        )
+        for i in range(30)
+    ]
     findings, baseline, _ = _diagnose(gen.generate(fleet, rng, flights=10))
     assert findings == [], [f.effect for f in findings]
     fits = baseline["model_fit"]
@@ -231,7 +248,11 @@ def test_row_order_does_not_matter_and_bad_tables_say_why():
     with pytest.raises(DataError, match="missing column 'ref_wind_dir_deg'"):
         prepare(obs.drop(columns=["ref_wind_dir_deg"]))
     with pytest.raises(DataError, match="wind_dir_deg.*radians"):
-        prepare(obs.assign(wind_dir_deg=np.radians(obs["wind_dir_deg"]), ref_wind_dir_deg=np.radians(obs["ref_wind_dir_deg"])))
+        prepare(
+            obs.assign(
+                wind_dir_deg=np.radians(obs["wind_dir_deg"]), ref_wind_dir_deg=np.radians(obs["ref_wind_dir_deg"])
+            )
+        )
     with pytest.raises(DataError, match="pass the ground-track gates"):
         prepare(obs.iloc[:10])
 
@@ -244,7 +265,9 @@ def test_units_are_guessed_from_the_physics_and_refused_with_the_unit_named():
     obs = gen.generate(fleet, rng, flights=16, include_heading=True)
     prepare(obs)  # knots: accepted
     prepare(obs.assign(tas_kt=obs["tas_kt"] * 1.03))  # a 3 % scale error is an effect to find, not a unit
-    with pytest.raises(DataError, match=r"'tas_kt' is 0\.51\dx the airspeed of the wind triangle .*in m/s\? expected knots"):
+    with pytest.raises(
+        DataError, match=r"'tas_kt' is 0\.51\dx the airspeed of the wind triangle .*in m/s\? expected knots"
+    ):
         prepare(obs.assign(tas_kt=obs["tas_kt"] / 1.943844))
     with pytest.raises(DataError, match=r"'tas_kt' is 1\.8\d\dx .*in km/h\? expected knots"):
         prepare(obs.assign(tas_kt=obs["tas_kt"] * 1.852))
@@ -263,13 +286,23 @@ def test_rows_left_out_are_counted_in_the_report_and_on_the_command_line(tmp_pat
     obs.loc[empty, "wind_speed_kt"] = np.nan
     obs = pd.concat([obs, obs.iloc[5:12]], ignore_index=True)  # 7 repeated rows (none of them empty)
     obs.to_csv(tmp_path / "obs.csv", index=False)
-    assert main(["diagnose", str(tmp_path / "obs.csv"), "--model", "campaigns/quick.yaml", "--out", str(tmp_path / "d")]) == 0
+    assert (
+        main(["diagnose", str(tmp_path / "obs.csv"), "--model", "campaigns/quick.yaml", "--out", str(tmp_path / "d")])
+        == 0
+    )
     line = capsys.readouterr().out
     assert f"({int(empty.sum())} rows with an empty required cell, 7 repeated rows left out)" in line
     data = json.loads((tmp_path / "d" / "diagnosis.json").read_text())["baseline"]["data"]
-    assert (data["rows_read"], data["rows_dropped_empty"], data["rows_dropped_duplicate"]) == (n + 7, int(empty.sum()), 7)
+    assert (data["rows_read"], data["rows_dropped_empty"], data["rows_dropped_duplicate"]) == (
+        n + 7,
+        int(empty.sum()),
+        7,
+    )
     assert sum(data["row_gates"].values()) == n - int(empty.sum())
-    assert f"Read {n + 7} rows: {int(empty.sum())} with an empty required cell and 7 repeating" in (tmp_path / "d" / "report.md").read_text()
+    assert (
+        f"Read {n + 7} rows: {int(empty.sum())} with an empty required cell and 7 repeating"
+        in (tmp_path / "d" / "report.md").read_text()
+    )
 
 
 def test_weather_blocks_keep_flights_whole_and_alternate_folds():
@@ -315,10 +348,15 @@ def test_the_model_of_a_campaigns_sensors_states_what_they_put_in_reports():
     c = load_campaign(root / "mesaba_2009.yaml")
     study = c.studies["heading_correction"]
     fs = study.sensors.fleets["mesaba"]
-    fs2 = fs.model_copy(update={"heading": fs.heading.model_copy(update={"soft_iron_sigma": 0.0}),
-                                "air_data": fs.air_data.model_copy(update={"tas_bias_sigma_kt": 0.0})})
-    c.studies["heading_correction"] = study.model_copy(update={"sensors": study.sensors.model_copy(
-        update={"fleets": {"mesaba": fs2}})})
+    fs2 = fs.model_copy(
+        update={
+            "heading": fs.heading.model_copy(update={"soft_iron_sigma": 0.0}),
+            "air_data": fs.air_data.model_copy(update={"tas_bias_sigma_kt": 0.0}),
+        }
+    )
+    c.studies["heading_correction"] = study.model_copy(
+        update={"sensors": study.sensors.model_copy(update={"fleets": {"mesaba": fs2}})}
+    )
     spec2 = wind_model_from_campaign(c)
     assert (spec2.deviation_terms, spec2.field_scaling, spec2.tas_bias) == (3, 1.0, False)
     # a campaign's own diagnose section wins

@@ -38,12 +38,29 @@ def test_a_sinusoidal_heading_error_is_removed_by_the_full_static_table():
             ws, wd = _from_vector(oe, on)
             rs, rd = _from_vector(re_, rn)
             ts, td = _from_vector(te, tn)
-            rows.append(pd.DataFrame({
-                "aircraft": ac, "group": group, "stage": stage, "ref_source": "rr", "roll_deg": 0.0,
-                "wind_speed_kt": ws, "wind_dir_deg": wd, "ref_wind_speed_kt": rs, "ref_wind_dir_deg": rd,
-                "truth_wind_speed_kt": ts, "truth_wind_dir_deg": td, "tas_kt": tas,
-                "heading_deg": meas % 360, "truth_heading_deg": true_hdg, "heading_mag_deg": (mag + dpsi) % 360,
-                "ref_e": re_ - te, "ref_n": rn - tn}))
+            rows.append(
+                pd.DataFrame(
+                    {
+                        "aircraft": ac,
+                        "group": group,
+                        "stage": stage,
+                        "ref_source": "rr",
+                        "roll_deg": 0.0,
+                        "wind_speed_kt": ws,
+                        "wind_dir_deg": wd,
+                        "ref_wind_speed_kt": rs,
+                        "ref_wind_dir_deg": rd,
+                        "truth_wind_speed_kt": ts,
+                        "truth_wind_dir_deg": td,
+                        "tas_kt": tas,
+                        "heading_deg": meas % 360,
+                        "truth_heading_deg": true_hdg,
+                        "heading_mag_deg": (mag + dpsi) % 360,
+                        "ref_e": re_ - te,
+                        "ref_n": rn - tn,
+                    }
+                )
+            )
     obs = pd.concat(rows, ignore_index=True)
     out = error_budget.table_bounds(obs, error_budget.winds(obs))
     pa = (obs["group"] == "poor") & (obs["stage"] == "after")

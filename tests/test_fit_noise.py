@@ -24,21 +24,34 @@ def test_undoing_one_table_and_applying_another_equals_reporting_with_the_other(
     z = np.arange(0, 360, 45.0)
     old = np.tile(-(1.0 + 4.0 * np.sin(np.radians(z)) - 3.0 * np.cos(np.radians(z))), (n, 1))
     new = np.tile(-(0.5 + 3.5 * np.sin(np.radians(z))), (n, 1))
+
     # by hand: linear interpolation round the circle at the magnetic heading, or the mean
     def applied(lut, psi):
         m = (psi - var) % 360.0
-        at = np.array([np.interp(x, np.r_[z, 360.0], np.r_[row, row[0]]) for x, row in zip(m, lut)])
+        at = np.array([np.interp(x, np.r_[z, 360.0], np.r_[row, row[0]]) for x, row in zip(m, lut, strict=False)])
         return np.where(true_input, lut.mean(axis=1), at)
+
     psi_c = psi_u + applied(old, psi_u)
 
     def tables(lut):  # the study's learned corrections: one magnetic-heading aircraft, one true-heading one
-        return pd.DataFrame([{"aircraft": ac, "group": "poor", "status": "fitted", "heading_input": hi,
-                              **dict(zip(LUT_COLUMNS, lut[0]))} for ac, hi in (("M", "magnetic"), ("T", "true"))])
+        return pd.DataFrame(
+            [
+                {
+                    "aircraft": ac,
+                    "group": "poor",
+                    "status": "fitted",
+                    "heading_input": hi,
+                    **dict(zip(LUT_COLUMNS, lut[0], strict=False)),
+                }
+                for ac, hi in (("M", "magnetic"), ("T", "true"))
+            ]
+        )
 
     aircraft = np.where(true_input, "T", "M")
     assert fit_noise.uncorrected_heading(psi_c, tables(old), aircraft, var) == pytest.approx(psi_u, abs=1e-9)
-    assert (fit_noise.onboard_correction(tables(new), aircraft, psi_u, var)
-            == pytest.approx(applied(new, psi_u), abs=1e-9))
+    assert fit_noise.onboard_correction(tables(new), aircraft, psi_u, var) == pytest.approx(
+        applied(new, psi_u), abs=1e-9
+    )
     psi_n = psi_u + applied(new, psi_u)
     # the wind reported with heading psi: V_G - V_A(psi), V_G from a truth wind and the true heading
     tas, ve, vn = rng.uniform(180, 260, n), rng.normal(0, 20, n), rng.normal(0, 20, n)
@@ -62,6 +75,6 @@ def test_half_splits_keep_each_unit_whole_and_halve_each_aircraft():
     for first in fit_noise.half_splits(ac, day, np.random.default_rng(3), 5):
         for a, n_units in (("A", 5), ("B", 4)):
             k = ac == a
-            in_first = {d for d, f in zip(day[k], first[k]) if f}
+            in_first = {d for d, f in zip(day[k], first[k], strict=False) if f}
             assert all(first[k][day[k] == d].all() or not first[k][day[k] == d].any() for d in set(day[k]))
             assert len(in_first) == n_units // 2

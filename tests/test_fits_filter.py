@@ -118,8 +118,8 @@ def run_monte_carlo(waveform: str, n_approaches: int = 100, seed: int = 11):
 @pytest.mark.parametrize("waveform", ["sine", "stepped"])
 def test_cyclic_noise_residual_is_under_0_1_m_90_percent_of_the_time_and_at_the_noise_floor(waveform):
     r, jumps = run_monte_carlo(waveform)
-    inner = r[:, 2 * T:-2 * T]
-    edges = np.concatenate([r[:, :2 * T], r[:, -2 * T:]], axis=1)
+    inner = r[:, 2 * T : -2 * T]
+    edges = np.concatenate([r[:, : 2 * T], r[:, -2 * T :]], axis=1)
     floor = noise_floor_rms(T, 0.03, 0.05, 100.0)
     frac_in, rms_in = (np.abs(inner) < 0.1).mean(axis=(0, 1)), np.sqrt((inner**2).mean(axis=(0, 1)))
     frac_ed, rms_ed = (np.abs(edges) < 0.1).mean(axis=(0, 1)), np.sqrt((edges**2).mean(axis=(0, 1)))
@@ -166,6 +166,7 @@ def test_threshold_fix_recovers_the_bias_from_ra_tvps_and_the_event_mark():
 
 # --- fits_main on logs from the independent generator ---------------------------------
 
+
 def write(df: pd.DataFrame, path: Path) -> str:
     if path.suffix == ".parquet":
         df.to_parquet(path, index=False)
@@ -183,7 +184,11 @@ def test_fits_main_on_a_generated_log_gives_the_cyclic_noise_residual_and_the_tr
     assert len(traj) == log["waas_x_m"].notna().sum()
     noise = pd.read_csv(out / "cyclic_noise.csv").merge(truth, on=["approach", "time_s"])
     r = noise[["n_x_m", "n_y_m", "n_z_m"]].to_numpy() - noise[["cyclic_x_m", "cyclic_y_m", "cyclic_z_m"]].to_numpy()
-    inner = noise.groupby("approach").cumcount().between(2 * T, noise.groupby("approach")["time_s"].transform("size") - 2 * T - 1)
+    inner = (
+        noise.groupby("approach")
+        .cumcount()
+        .between(2 * T, noise.groupby("approach")["time_s"].transform("size") - 2 * T - 1)
+    )
     frac = (np.abs(r[inner.to_numpy()]) < 0.1).mean(axis=0)
     print(f"\nfits_main: inner |r| < 0.1 m {np.round(frac, 4)}, jumps {pd.read_csv(out / 'bias.csv')['jumps'].sum()}")
     assert np.all(frac >= 0.90)
@@ -202,7 +207,9 @@ def test_fits_main_on_a_1_hz_csv_log_without_dgps(tmp_path):
     log = log.drop(columns=["dgps_x_m", "dgps_y_m", "dgps_z_m"])
     out = tmp_path / "o"
     assert fits_main(write(log, tmp_path / "log.csv"), str(out)) == 0
-    assert len(pd.read_csv(out / "trajectory.csv")) == log["waas_x_m"].notna().sum() and not (out / "errors.csv").exists()
+    assert (
+        len(pd.read_csv(out / "trajectory.csv")) == log["waas_x_m"].notna().sum() and not (out / "errors.csv").exists()
+    )
 
 
 def test_fits_main_says_what_it_wrote_and_how_the_approaches_scored(tmp_path, capsys):
@@ -212,10 +219,16 @@ def test_fits_main_says_what_it_wrote_and_how_the_approaches_scored(tmp_path, ca
     lines = capsys.readouterr().out.strip().splitlines()
     traj, errors = pd.read_csv(out / "trajectory.csv"), pd.read_csv(out / "errors.csv")
     jumps = int(pd.read_csv(out / "bias.csv")["jumps"].sum())
-    assert lines[0] == f"{tmp_path / 'log.csv'}: 2 approaches, {len(traj)} WAAS epochs, {jumps} flagged bias jumps compensated -> {out / 'trajectory.csv'}"
+    assert (
+        lines[0]
+        == f"{tmp_path / 'log.csv'}: 2 approaches, {len(traj)} WAAS epochs, {jumps} flagged bias jumps compensated "
+        f"-> {out / 'trajectory.csv'}"
+    )
     inside = errors[errors["distance_to_threshold_m"].between(0.0, 10 * 1852.0)]
-    assert lines[2].startswith(f"FITS - DGPS, threshold to 10 nm: cross-track RMS {np.sqrt(np.mean(inside['cross_m'] ** 2)):.2f} m, "
-                               f"vertical RMS {np.sqrt(np.mean(inside['vertical_m'] ** 2)):.2f} m; approaches meeting desired")
+    assert lines[2].startswith(
+        f"FITS - DGPS, threshold to 10 nm: cross-track RMS {np.sqrt(np.mean(inside['cross_m'] ** 2)):.2f} m, "
+        f"vertical RMS {np.sqrt(np.mean(inside['vertical_m'] ** 2)):.2f} m; approaches meeting desired"
+    )
     # the generator's FITS errors are a few cm: every epoch within 10 nm meets both requirements
     assert "cross 2/2 vertical 2/2, minimum (0.05 deg) cross 2/2 vertical 2/2" in lines[2]
 
@@ -223,7 +236,14 @@ def test_fits_main_says_what_it_wrote_and_how_the_approaches_scored(tmp_path, ca
 def test_legacy_numeric_marks_and_a_runway_sidecar_are_read(tmp_path, capsys):
     log, truth = gen.make_log(2, seed=24, numeric_event=True)
     path = write(log, tmp_path / "log.csv")
-    geometry = {"length_m": 2500.0, "loc_x_m": 2800.0, "gp_x_m": 290.0, "gp_y_m": 130.0, "glide_path_deg": 3.0, "tch_m": 15.0}
+    geometry = {
+        "length_m": 2500.0,
+        "loc_x_m": 2800.0,
+        "gp_x_m": 290.0,
+        "gp_y_m": 130.0,
+        "glide_path_deg": 3.0,
+        "tch_m": 15.0,
+    }
     (tmp_path / "log.csv.runway.json").write_text(json.dumps(geometry))
     assert fits_main(path, str(tmp_path / "o")) == 0
     assert "log.csv.runway.json" in capsys.readouterr().out
@@ -233,27 +253,36 @@ def test_legacy_numeric_marks_and_a_runway_sidecar_are_read(tmp_path, capsys):
     assert len(bias) == 2 and np.isfinite(bias[["bias_x_m", "bias_y_m", "bias_z_m"]].to_numpy()).all()
 
 
-@pytest.mark.parametrize("breakage, message", [
-    ("no_ra", r"approach 2.*ra_m.*threshold"),
-    ("no_tvps", r"approach 2.*tvps_y_m.*threshold"),
-    ("unsorted", r"approach 2.*time_s.*increase strictly \(data row \d+: \d+(\.\d+)? after \d+(\.\d+)?\)"),
-    ("gap", r"approach 2.*gap of 3\.2 s"),
-    ("waas_gap", r"approach 2.*waas_\*.*gap"),
-    ("missing_column", r"missing column 'iono_update'"),
-    ("no_event", r"approach 2.*'event'"),
-    ("text", r"column 'ra_m' data row 6: expected a number"),
-    ("empty", r"log\.csv: no rows"),
-    ("bad_event", r"column 'event': expected empty, 'thr' or 'end'"),
-    # units guessed from the aircraft's speed: the generator flies 65 m/s
-    ("km", r"approach 1: columns waas_x_m/waas_y_m: the aircraft moves at 0\.06\d+ m/s .*metres\?"),
-    ("feet", r"approach 1: columns waas_x_m/waas_y_m: the aircraft moves at 21\d m/s .*metres\?"),
-    ("negative_ra", r"approach 1: column 'ra_m' data row \d+: -1\d\.\d+ m; .*cannot be below -3 m"),
-    ("ins_hole", r"approach 2: columns ins_\*: data row \d+ \(t = \d+(\.\d+)? s\): the INS position must be finite"),
-    ("text_lever", r"column 'ra_lever_arm_m' data row 1: expected a number, got 'about 2 m'"),
-    ("ra_feet", r"approach 1: column 'ra_m': the WAAS height is -\d\d\.\d m off the radar altimeter's .*in feet"),
-    # the last fix repeated on the rows between epochs (5 Hz rows: 4 in 5 repeat)
-    ("held_waas", r"approach 1: columns waas_\*: the WAAS position repeats unchanged on 80 % of its rows .*NaN between"),
-])
+@pytest.mark.parametrize(
+    "breakage, message",
+    [
+        ("no_ra", r"approach 2.*ra_m.*threshold"),
+        ("no_tvps", r"approach 2.*tvps_y_m.*threshold"),
+        ("unsorted", r"approach 2.*time_s.*increase strictly \(data row \d+: \d+(\.\d+)? after \d+(\.\d+)?\)"),
+        ("gap", r"approach 2.*gap of 3\.2 s"),
+        ("waas_gap", r"approach 2.*waas_\*.*gap"),
+        ("missing_column", r"missing column 'iono_update'"),
+        ("no_event", r"approach 2.*'event'"),
+        ("text", r"column 'ra_m' data row 6: expected a number"),
+        ("empty", r"log\.csv: no rows"),
+        ("bad_event", r"column 'event': expected empty, 'thr' or 'end'"),
+        # units guessed from the aircraft's speed: the generator flies 65 m/s
+        ("km", r"approach 1: columns waas_x_m/waas_y_m: the aircraft moves at 0\.06\d+ m/s .*metres\?"),
+        ("feet", r"approach 1: columns waas_x_m/waas_y_m: the aircraft moves at 21\d m/s .*metres\?"),
+        ("negative_ra", r"approach 1: column 'ra_m' data row \d+: -1\d\.\d+ m; .*cannot be below -3 m"),
+        (
+            "ins_hole",
+            r"approach 2: columns ins_\*: data row \d+ \(t = \d+(\.\d+)? s\): the INS position must be finite",
+        ),
+        ("text_lever", r"column 'ra_lever_arm_m' data row 1: expected a number, got 'about 2 m'"),
+        ("ra_feet", r"approach 1: column 'ra_m': the WAAS height is -\d\d\.\d m off the radar altimeter's .*in feet"),
+        # the last fix repeated on the rows between epochs (5 Hz rows: 4 in 5 repeat)
+        (
+            "held_waas",
+            r"approach 1: columns waas_\*: the WAAS position repeats unchanged on 80 % of its rows .*NaN between",
+        ),
+    ],
+)
 def test_fits_main_refuses_a_broken_log_with_one_line_naming_the_column(tmp_path, breakage, message):
     log, _ = gen.make_log(2, seed=23)
     two = log["approach"] == 2
@@ -302,12 +331,15 @@ def test_fits_main_refuses_a_broken_log_with_one_line_naming_the_column(tmp_path
     assert not (tmp_path / "out" / "trajectory.csv").exists()
 
 
-@pytest.mark.parametrize("sidecar, message", [
-    ({"lenght_m": 2500.0}, r"unknown key 'lenght_m'; did you mean 'length_m'\?"),
-    ({"length_m": -5.0}, r"key 'length_m': -5 outside \[500, 6000\]"),
-    ({"glide_path_deg": "steep"}, r"key 'glide_path_deg': expected a number, got 'steep'"),
-    ({"approaches": {"99": {"length_m": 2500.0}}}, r"no runway geometry for approach 1 \(it has 99\)"),
-])
+@pytest.mark.parametrize(
+    "sidecar, message",
+    [
+        ({"lenght_m": 2500.0}, r"unknown key 'lenght_m'; did you mean 'length_m'\?"),
+        ({"length_m": -5.0}, r"key 'length_m': -5 outside \[500, 6000\]"),
+        ({"glide_path_deg": "steep"}, r"key 'glide_path_deg': expected a number, got 'steep'"),
+        ({"approaches": {"99": {"length_m": 2500.0}}}, r"no runway geometry for approach 1 \(it has 99\)"),
+    ],
+)
 def test_a_runway_sidecar_that_would_silently_misplace_the_antennas_is_one_line(tmp_path, sidecar, message):
     log, _ = gen.make_log(2, seed=24)
     path = write(log, tmp_path / "log.csv")
@@ -330,7 +362,9 @@ def test_a_parquet_logs_runway_metadata_that_is_not_json_is_one_line(tmp_path):
 
     log, _ = gen.make_log(2, seed=24)
     t = pa.Table.from_pandas(log)
-    pq.write_table(t.replace_schema_metadata({**(t.schema.metadata or {}), b"runway": b"{not json"}), tmp_path / "log.parquet")
+    pq.write_table(
+        t.replace_schema_metadata({**(t.schema.metadata or {}), b"runway": b"{not json"}), tmp_path / "log.parquet"
+    )
     with pytest.raises(ValueError, match=r"log\.parquet \(metadata key 'runway'\): not JSON") as err:
         fits_main(str(tmp_path / "log.parquet"), str(tmp_path / "o"))
     assert "\n" not in str(err.value)

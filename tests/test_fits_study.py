@@ -110,9 +110,24 @@ def test_exported_log_runs_through_aerotruth_fits_with_its_runway_sidecar(run, t
     out, m, rows = run
     log_path = out / "data" / "fits.approach_log.parquet"
     log = pd.read_parquet(log_path)
-    assert list(log.columns[:16]) == ["approach", "time_s", "waas_x_m", "waas_y_m", "waas_z_m", "ins_x_m", "ins_y_m",
-                                      "ins_z_m", "dgps_x_m", "dgps_y_m", "dgps_z_m", "ra_m", "tvps_y_m", "event",
-                                      "sv_change", "iono_update"]
+    assert list(log.columns[:16]) == [
+        "approach",
+        "time_s",
+        "waas_x_m",
+        "waas_y_m",
+        "waas_z_m",
+        "ins_x_m",
+        "ins_y_m",
+        "ins_z_m",
+        "dgps_x_m",
+        "dgps_y_m",
+        "dgps_z_m",
+        "ra_m",
+        "tvps_y_m",
+        "event",
+        "sv_change",
+        "iono_update",
+    ]
     assert set(log["event"]) == {"", "thr", "end"}
     side = json.loads((out / "data" / "fits.approach_log.runway.json").read_text())
     assert set(side["approaches"]) == set(log["approach"])

@@ -5,7 +5,7 @@ import dataclasses
 import hashlib
 import subprocess
 import sys
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import numpy as np
 import pandas as pd
@@ -19,7 +19,7 @@ from aerotruth.truth.track import TruthTrack, air_velocity_ned
 from aerotruth.truth.weather import UniformAtmosphere
 from aerotruth.units import FT, KT
 
-DEPARTURE = datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc)
+DEPARTURE = datetime(2009, 8, 15, 13, 0, tzinfo=UTC)
 
 
 @pytest.fixture(scope="module")
@@ -83,8 +83,26 @@ def test_flight_ends_near_2000_ft_above_the_arrival_runway(msp_dlh):
 
 def _fly_subprocess(tmp_path, name):
     out = tmp_path / name
-    subprocess.run([sys.executable, "-m", "aerotruth.app.cli", "fly", "--from", "KMSP", "--to", "KRST",
-                    "--date", "2009-08-15", "--seed", "7", "--out", str(out)], check=True, capture_output=True)
+    subprocess.run(
+        [
+            sys.executable,
+            "-m",
+            "aerotruth.app.cli",
+            "fly",
+            "--from",
+            "KMSP",
+            "--to",
+            "KRST",
+            "--date",
+            "2009-08-15",
+            "--seed",
+            "7",
+            "--out",
+            str(out),
+        ],
+        check=True,
+        capture_output=True,
+    )
     return out
 
 
@@ -147,15 +165,24 @@ def test_flight_starts_at_the_scheduled_airspeed_without_sideslip_in_a_crosswind
     assert (course - plan.initial_course_deg + 180.0) % 360.0 - 180.0 == pytest.approx(0.0, abs=0.5)
 
 
-@pytest.mark.parametrize("argv, expect", [
-    (["--from", "KMSP", "--to", "ZZZZ"], "ZZZZ"),
-    (["--from", "KMSP", "--to", "KDLH", "--date", "2009-13-01"], "--date"),
-    (["--from", "KMSP", "--to", "KDLH", "--aircraft", "a380"], "unknown aircraft 'a380'"),
-    (["--from", "KMSP", "--to", "KDLH", "--out", "/no/such/folder/f.parquet"], "--out"),
-    # above the type's ceiling: refused before planning (a 600-nm leg would otherwise try FL900)
-    (["--from", "KMSP", "--to", "KMEM", "--cruise-fl", "300"], "--cruise-fl: FL300 is above the saab340's ceiling, FL250"),
-    (["--from", "KMSP", "--to", "KMEM", "--cruise-fl", "450", "--aircraft", "737"], "above the 737's ceiling, FL410"),
-])
+@pytest.mark.parametrize(
+    "argv, expect",
+    [
+        (["--from", "KMSP", "--to", "ZZZZ"], "ZZZZ"),
+        (["--from", "KMSP", "--to", "KDLH", "--date", "2009-13-01"], "--date"),
+        (["--from", "KMSP", "--to", "KDLH", "--aircraft", "a380"], "unknown aircraft 'a380'"),
+        (["--from", "KMSP", "--to", "KDLH", "--out", "/no/such/folder/f.parquet"], "--out"),
+        # above the type's ceiling: refused before planning (a 600-nm leg would otherwise try FL900)
+        (
+            ["--from", "KMSP", "--to", "KMEM", "--cruise-fl", "300"],
+            "--cruise-fl: FL300 is above the saab340's ceiling, FL250",
+        ),
+        (
+            ["--from", "KMSP", "--to", "KMEM", "--cruise-fl", "450", "--aircraft", "737"],
+            "above the 737's ceiling, FL410",
+        ),
+    ],
+)
 def test_fly_command_reports_bad_input_in_one_line(argv, expect, capsys, tmp_path):
     from aerotruth.app.cli import main
 
@@ -186,7 +213,9 @@ def test_fly_refuses_a_folder_as_out_before_flying(tmp_path, capsys):
 def test_fly_refuses_another_formats_file_name_before_flying(tmp_path, capsys):
     from aerotruth.app.cli import main
 
-    assert main(["fly", "--from", "KMSP", "--to", "KRST", "--date", "2009-08-15", "--out", str(tmp_path / "f.csv")]) == 2
+    assert (
+        main(["fly", "--from", "KMSP", "--to", "KRST", "--date", "2009-08-15", "--out", str(tmp_path / "f.csv")]) == 2
+    )
     assert "expected a .parquet file name, got 'f.csv'" in capsys.readouterr().err
     assert not list(tmp_path.glob("*"))
 
@@ -211,9 +240,18 @@ def test_fly_re_flies_a_campaign_leg_bit_for_bit_from_its_recorded_seeds(tmp_pat
     from aerotruth.sim.executors import ExecutorChoice
     from aerotruth.truth.store import TruthStore
 
-    text = ("name: refly\nseed: 17\nfleets:\n  - {name: m, network: mesaba, aircraft: [N9]}\n"
-            "periods:\n  - {name: d, dates: [2009-08-15]}\nstudies:\n  truth: {fleets: [m], periods: [d], max_legs_per_day: 1}\n")
-    run_campaign(parse_campaign(text), ExecutorChoice("local", workers=1), out=tmp_path / "run", progress=False, log=lambda m: None)
+    text = (
+        "name: refly\nseed: 17\nfleets:\n  - {name: m, network: mesaba, aircraft: [N9]}\n"
+        "periods:\n  - {name: d, dates: [2009-08-15]}\n"
+        "studies:\n  truth: {fleets: [m], periods: [d], max_legs_per_day: 1}\n"
+    )
+    run_campaign(
+        parse_campaign(text),
+        ExecutorChoice("local", workers=1),
+        out=tmp_path / "run",
+        progress=False,
+        log=lambda m: None,
+    )
     (row,) = pd.read_parquet(next((tmp_path / "run" / "tasks").glob("truth--*.parquet"))).to_dict("records")
     args = shlex.split(row["fly_command"])[1:] + ["--out", str(tmp_path / "again.parquet")]
     subprocess.run([sys.executable, "-m", "aerotruth.app.cli", *args], check=True, capture_output=True)
@@ -224,4 +262,7 @@ def test_fly_re_flies_a_campaign_leg_bit_for_bit_from_its_recorded_seeds(tmp_pat
     assert list(again.df.columns) == list(original.df.columns)
     for c in original.df.columns:
         assert again.df[c].equals(original.df[c]), c
-    assert again.df.drop(columns=["phase"]).to_numpy().tobytes() == original.df.drop(columns=["phase"]).to_numpy().tobytes()
+    assert (
+        again.df.drop(columns=["phase"]).to_numpy().tobytes()
+        == original.df.drop(columns=["phase"]).to_numpy().tobytes()
+    )

@@ -24,7 +24,7 @@ def test_a_small_step_north_is_the_meridional_radius_times_the_latitude_change()
     s = m * math.radians(dlat)
     assert float(e) == pytest.approx(0.0, abs=1e-6)
     assert float(n) == pytest.approx(s, rel=1e-5)
-    assert float(u) == pytest.approx(-s**2 / (2 * m), rel=1e-2)  # the ellipsoid falls away below the plane
+    assert float(u) == pytest.approx(-(s**2) / (2 * m), rel=1e-2)  # the ellipsoid falls away below the plane
 
 
 def test_arrays_broadcast():

@@ -37,11 +37,13 @@ def test_scalar_twin_matches_vectorized_geometry():
 
 def test_turn_anticipation_is_radius_times_tan_half_angle():
     # V = 100 m/s, bank 20 deg: R = V^2 / (g tan 20) = 2801.6 m; 90 deg turn -> R tan 45 = R
-    assert turn_anticipation_m(100.0, 90.0, 20.0) == pytest.approx(100.0**2 / (9.80665 * math.tan(math.radians(20))), rel=1e-12)
+    assert turn_anticipation_m(100.0, 90.0, 20.0) == pytest.approx(
+        100.0**2 / (9.80665 * math.tan(math.radians(20))), rel=1e-12
+    )
     assert turn_anticipation_m(100.0, -90.0, 20.0) == turn_anticipation_m(100.0, 90.0, 20.0)
     assert turn_anticipation_m(100.0, 0.0, 20.0) == 0.0
 
 
 def test_coincident_leg_ends_are_rejected():
     with pytest.raises(ValueError, match="coincide"):
-        GreatCircleLeg("x", 45.0, -93.0, 45.0, -93.0).normal
+        _ = GreatCircleLeg("x", 45.0, -93.0, 45.0, -93.0).normal

@@ -85,37 +85,94 @@ def test_magnetic_tables_need_a_magnetic_heading_and_bad_tables_are_one_line(per
     with pytest.raises(DataError, match="magnetic heading"):
         heading_apply_main(str(tmp_path / "no_dec.csv"), str(d / "fitted" / "deviation_mag.csv"), str(tmp_path / "o1"))
     pd.read_csv(d / "fitted" / "deviation.csv").drop(columns=["lut_090_deg"]).to_csv(tmp_path / "cut.csv", index=False)
-    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "cut.csv"),
-                 "--out", str(tmp_path / "o2")]) == 2
+    assert (
+        main(
+            [
+                "heading",
+                "apply",
+                str(d / "later.csv"),
+                "--tables",
+                str(tmp_path / "cut.csv"),
+                "--out",
+                str(tmp_path / "o2"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip()
     assert "cut.csv" in err and "lut_090_deg" in err and len(err.splitlines()) == 1
     dev = pd.read_csv(d / "fitted" / "deviation.csv").astype({"lut_135_deg": object})
     dev.loc[1, "lut_135_deg"] = "unknown"
     dev.to_csv(tmp_path / "text.csv", index=False)
-    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "text.csv"),
-                 "--out", str(tmp_path / "o3")]) == 2
+    assert (
+        main(
+            [
+                "heading",
+                "apply",
+                str(d / "later.csv"),
+                "--tables",
+                str(tmp_path / "text.csv"),
+                "--out",
+                str(tmp_path / "o3"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip()
-    assert err.endswith("text.csv: table: aircraft 'N402XJ', column 'lut_135_deg': expected a number, got 'unknown'"), err
+    assert err.endswith("text.csv: table: aircraft 'N402XJ', column 'lut_135_deg': expected a number, got 'unknown'"), (
+        err
+    )
     dev.loc[1, "lut_135_deg"] = "n/a"  # read as empty: a fitted table without one of its corrections
     dev.to_csv(tmp_path / "empty.csv", index=False)
-    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "empty.csv"),
-                 "--out", str(tmp_path / "o4")]) == 2
+    assert (
+        main(
+            [
+                "heading",
+                "apply",
+                str(d / "later.csv"),
+                "--tables",
+                str(tmp_path / "empty.csv"),
+                "--out",
+                str(tmp_path / "o4"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip()
-    assert err.endswith("empty.csv: table: aircraft 'N402XJ' (fitted), column 'lut_135_deg': empty; a table that "
-                        "is not refused needs all eight corrections"), err
+    assert err.endswith(
+        "empty.csv: table: aircraft 'N402XJ' (fitted), column 'lut_135_deg': empty; a table that "
+        "is not refused needs all eight corrections"
+    ), err
 
 
 def test_fit_and_apply_say_what_they_wrote_in_one_line(periods, tmp_path, capsys):
     d = periods
     assert main(["heading", "fit", str(d / "fit.csv"), "--out", str(tmp_path / "f"), "--bootstrap", "0"]) == 0
-    assert capsys.readouterr().out.strip() == f"{d / 'fit.csv'}: 2 aircraft: 2 fitted, 0 offset_only, 0 refused -> {tmp_path / 'f' / 'deviation.csv'}"
-    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "f" / "deviation.csv"),
-                 "--out", str(tmp_path / "a")]) == 0
+    assert (
+        capsys.readouterr().out.strip()
+        == f"{d / 'fit.csv'}: 2 aircraft: 2 fitted, 0 offset_only, 0 refused -> {tmp_path / 'f' / 'deviation.csv'}"
+    )
+    assert (
+        main(
+            [
+                "heading",
+                "apply",
+                str(d / "later.csv"),
+                "--tables",
+                str(tmp_path / "f" / "deviation.csv"),
+                "--out",
+                str(tmp_path / "a"),
+            ]
+        )
+        == 0
+    )
     every = pd.read_csv(tmp_path / "a" / "apply.csv").set_index("aircraft").loc["all"]
     assert capsys.readouterr().out.strip() == (
         f"{d / 'later.csv'}: 2 aircraft, {int(every['n_scored'])} scored (report, reference) rows; wind RMS "
-        f"{every['rms_before_kt']:.2f} -> {every['rms_after_kt']:.2f} kt with the tables of {tmp_path / 'f' / 'deviation.csv'} "
-        f"-> {tmp_path / 'a' / 'apply.csv'}")
+        f"{every['rms_before_kt']:.2f} -> {every['rms_after_kt']:.2f} kt "
+        f"with the tables of {tmp_path / 'f' / 'deviation.csv'} "
+        f"-> {tmp_path / 'a' / 'apply.csv'}"
+    )
     assert every["rms_after_kt"] < every["rms_before_kt"]
 
 
@@ -139,8 +196,12 @@ def test_magnetic_tables_are_read_at_the_magnetic_heading(periods, tmp_path):
     heading_apply_main(str(d / "later.csv"), str(d / "fitted" / "deviation.csv"), str(tmp_path / "true"))
     true_rows = pd.read_csv(tmp_path / "true" / "corrected.csv", dtype={"aircraft": str})
     both = rows["corrected"] & true_rows["corrected"]
-    diff = (true_rows.loc[both, "table_heading_deg"] - rows.loc[both, "table_heading_deg"]
-            - rows.loc[both, "declination_deg"] + 180) % 360 - 180
+    diff = (
+        true_rows.loc[both, "table_heading_deg"]
+        - rows.loc[both, "table_heading_deg"]
+        - rows.loc[both, "declination_deg"]
+        + 180
+    ) % 360 - 180
     assert both.sum() > 1000 and np.abs(diff).max() < 1e-6
 
 
@@ -148,8 +209,20 @@ def test_reports_that_pass_no_gate_are_one_line(periods, tmp_path, capsys):
     # every report its own aircraft: no three-report track anywhere
     later = pd.read_csv(periods / "later.csv")
     later.assign(aircraft=[f"X{i}" for i in range(len(later))]).to_csv(tmp_path / "scattered.csv", index=False)
-    assert main(["heading", "apply", str(tmp_path / "scattered.csv"), "--tables", str(periods / "fitted" / "deviation.csv"),
-                 "--out", str(tmp_path / "o")]) == 2
+    assert (
+        main(
+            [
+                "heading",
+                "apply",
+                str(tmp_path / "scattered.csv"),
+                "--tables",
+                str(periods / "fitted" / "deviation.csv"),
+                "--out",
+                str(tmp_path / "o"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip()
     assert "no report passes the ground-track gates" in err and len(err.splitlines()) == 1
 
@@ -163,11 +236,19 @@ def test_an_aircraft_named_all_keeps_its_own_row_before_the_fleets(periods, tmp_
         t.loc[t["aircraft"] == "N401XJ", "aircraft"] = "all"
         t.to_csv(tmp_path / f, index=False)
     assert heading_fit_main(str(tmp_path / "fit.csv"), str(tmp_path / "fitted")) == 0
-    assert heading_apply_main(str(tmp_path / "later.csv"), str(tmp_path / "fitted" / "deviation.csv"),
-                              str(tmp_path / "out")) == 0
+    assert (
+        heading_apply_main(
+            str(tmp_path / "later.csv"), str(tmp_path / "fitted" / "deviation.csv"), str(tmp_path / "out")
+        )
+        == 0
+    )
     assert heading_apply_main(str(d / "later.csv"), str(d / "fitted" / "deviation.csv"), str(tmp_path / "ref")) == 0
     renamed, ref = pd.read_csv(tmp_path / "out" / "apply.csv"), pd.read_csv(tmp_path / "ref" / "apply.csv")
-    assert list(renamed["aircraft"]) == ["all", "N402XJ", "all"] and list(ref["aircraft"]) == ["N401XJ", "N402XJ", "all"]
+    assert list(renamed["aircraft"]) == ["all", "N402XJ", "all"] and list(ref["aircraft"]) == [
+        "N401XJ",
+        "N402XJ",
+        "all",
+    ]
     cols = ["status", "n_scored", "rms_before_kt", "rms_after_kt", "valid_from", "valid_to"]
     pd.testing.assert_frame_equal(renamed[cols], ref[cols])
     assert renamed["n_scored"].iloc[-1] == renamed["n_scored"].iloc[:-1].sum()
@@ -178,12 +259,36 @@ def test_a_table_correction_beyond_any_accepted_heading_error_is_refused(periods
     dev = pd.read_csv(d / "fitted" / "deviation.csv")
     dev.loc[0, "lut_045_deg"] = 45.0  # the method drops |psi - psi'| > 30 deg as a gross error
     dev.to_csv(tmp_path / "big.csv", index=False)
-    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "big.csv"),
-                 "--out", str(tmp_path / "o")]) == 2
+    assert (
+        main(
+            [
+                "heading",
+                "apply",
+                str(d / "later.csv"),
+                "--tables",
+                str(tmp_path / "big.csv"),
+                "--out",
+                str(tmp_path / "o"),
+            ]
+        )
+        == 2
+    )
     err = capsys.readouterr().err.strip()
     assert "big.csv" in err and "'N401XJ'" in err and "lut_045_deg" in err and "45 deg" in err, err
     assert len(err.splitlines()) == 1
     dev.loc[0, "lut_045_deg"] = -29.5  # large but possible: applied
     dev.to_csv(tmp_path / "large.csv", index=False)
-    assert main(["heading", "apply", str(d / "later.csv"), "--tables", str(tmp_path / "large.csv"),
-                 "--out", str(tmp_path / "o2")]) == 0
+    assert (
+        main(
+            [
+                "heading",
+                "apply",
+                str(d / "later.csv"),
+                "--tables",
+                str(tmp_path / "large.csv"),
+                "--out",
+                str(tmp_path / "o2"),
+            ]
+        )
+        == 0
+    )

@@ -18,9 +18,11 @@ from aerotruth.analysis.wind.heading_errors import GateSpec, heading_errors, tow
 from aerotruth.analysis.wind.observations import validate_observations
 from aerotruth.app.heading_fit import heading_fit_main
 
-REQUIRED_HEAD = ("aircraft, status, reason, n_used, A_deg, B_deg, C_deg, D_deg, E_deg, A_se_deg, B_se_deg, C_se_deg, "
-                 "D_se_deg, E_se_deg, lut_000_deg, lut_045_deg, lut_090_deg, lut_135_deg, lut_180_deg, lut_225_deg, "
-                 "lut_270_deg, lut_315_deg, valid_from, valid_to").split(", ")
+REQUIRED_HEAD = (
+    "aircraft, status, reason, n_used, A_deg, B_deg, C_deg, D_deg, E_deg, A_se_deg, B_se_deg, C_se_deg, "
+    "D_se_deg, E_se_deg, lut_000_deg, lut_045_deg, lut_090_deg, lut_135_deg, lut_180_deg, lut_225_deg, "
+    "lut_270_deg, lut_315_deg, valid_from, valid_to"
+).split(", ")
 
 
 @pytest.fixture(scope="module")
@@ -32,7 +34,9 @@ def fleet_run(tmp_path_factory):
     legs and three models; SAAB-like legs of 250-650 km with two models give ~0.11.)"""
     rng = np.random.default_rng(1)
     truths = gen.fleet(12, rng, tas_kt=(430.0, 480.0))
-    obs = gen.generate(truths, rng, models=("rr", "rtfdda", "nam"), spoke_km=(1000.0, 1800.0), cruise_ft=(25000.0, 35000.0))
+    obs = gen.generate(
+        truths, rng, models=("rr", "rtfdda", "nam"), spoke_km=(1000.0, 1800.0), cruise_ft=(25000.0, 35000.0)
+    )
     d = tmp_path_factory.mktemp("heading")
     obs.to_parquet(d / "obs.parquet")
     assert heading_fit_main(str(d / "obs.parquet"), str(d / "out")) == 0
@@ -59,7 +63,10 @@ def test_heading_fit_recovers_each_aircrafts_deviation_within_three_standard_err
         worst_z = max(worst_z, *map(abs, z.values()))
         worst_se = max(worst_se, *(row[f"{t}_se_deg"] for t in row["terms"]))
         assert all(abs(v) <= 3.0 for v in z.values()), (a.aircraft, z)
-        assert all(row[f"{t}_se_deg"] <= 0.07 for t in row["terms"]), (a.aircraft, row[[f"{t}_se_deg" for t in "ABCDE"]])
+        assert all(row[f"{t}_se_deg"] <= 0.07 for t in row["terms"]), (
+            a.aircraft,
+            row[[f"{t}_se_deg" for t in "ABCDE"]],
+        )
     print(f"worst |z| {worst_z:.2f}, worst se {worst_se:.3f} deg")
 
 
@@ -197,7 +204,9 @@ def test_reference_model_with_a_wind_bias_is_flagged_by_the_consistency_check():
     obs.loc[rr, "ref_wind_dir_deg"] = np.degrees(np.arctan2(-u, -v)) % 360
     fit = HeadingDeviationFit(terms="sinusoid", heading="magnetic").fit(obs)
     assert "disagree" in fit.reason_ and fit.consistency_p_ < 1e-4
-    clean = HeadingDeviationFit(terms="sinusoid", heading="magnetic").fit(gen.generate([a], np.random.default_rng(11), flights=20))
+    clean = HeadingDeviationFit(terms="sinusoid", heading="magnetic").fit(
+        gen.generate([a], np.random.default_rng(11), flights=20)
+    )
     assert "agree" in clean.reason_ and "disagree" not in clean.reason_
 
 
@@ -238,10 +247,14 @@ def test_one_route_flown_both_ways_fixes_the_sinusoid_along_its_axis_only():
         # within 3 standard errors of the table there (A and the along-axis s), plus 0.05 deg
         # for the short-span reports whose heading axis comes from rounded positions
         # (errors in variables flatten the sinusoid by ~exp(-sd^2 / 2))
-        se_h = np.hypot(fit.se_["A"], np.hypot(fit.se_["B"] * np.sin(np.radians(h)), fit.se_["C"] * np.cos(np.radians(h))))
+        se_h = np.hypot(
+            fit.se_["A"], np.hypot(fit.se_["B"] * np.sin(np.radians(h)), fit.se_["C"] * np.cos(np.radians(h)))
+        )
         assert abs(float(fit.correction(h)) + float(a.deviation(h))) < 3 * se_h + 0.05
     offset = HeadingDeviationFit(heading="magnetic", terms="offset").fit(obs)
-    assert abs(float(offset.correction(np.degrees(za))) + float(a.deviation(np.degrees(za)))) > 0.7 * abs(s_true)  # what an offset misses
+    assert abs(float(offset.correction(np.degrees(za))) + float(a.deviation(np.degrees(za)))) > 0.7 * abs(
+        s_true
+    )  # what an offset misses
 
 
 def test_heading_error_equals_the_deviation_on_noise_free_reports():
@@ -265,10 +278,23 @@ def test_reported_wind_from_the_west_blows_towards_the_east():
 def test_lookup_table_correction_is_piecewise_linear_round_the_circle():
     """A = 1, C = 2: d(0) = 3, d(45) = 1 + sqrt 2, d(315) = 1 + sqrt 2; corrections are -d."""
     row = {c: 0.0 for c in TABLE_COLUMNS}
-    row.update(aircraft="X", status="fitted", reason="", n_used=100, A_deg=1.0, C_deg=2.0, valid_from="2009-01-01",
-               valid_to="2009-02-01", A_se_deg=0.1, B_se_deg=0.1, C_se_deg=0.1, D_se_deg=np.nan, E_se_deg=np.nan)
+    row.update(
+        aircraft="X",
+        status="fitted",
+        reason="",
+        n_used=100,
+        A_deg=1.0,
+        C_deg=2.0,
+        valid_from="2009-01-01",
+        valid_to="2009-02-01",
+        A_se_deg=0.1,
+        B_se_deg=0.1,
+        C_se_deg=0.1,
+        D_se_deg=np.nan,
+        E_se_deg=np.nan,
+    )
     z = np.radians(np.arange(0, 360, 45))
-    for c, val in zip([c for c in TABLE_COLUMNS if c.startswith("lut_")], -(1 + 2 * np.cos(z))):
+    for c, val in zip([c for c in TABLE_COLUMNS if c.startswith("lut_")], -(1 + 2 * np.cos(z)), strict=False):
         row[c] = val
     fit = HeadingDeviationFit.from_table(pd.DataFrame([row]))
     s2 = np.sqrt(2)
@@ -335,19 +361,34 @@ def test_rows_are_ordered_as_a_full_sort_by_aircraft_time_and_model():
         assert np.array_equal(got[keep[got]], want[keep[want]])
 
 
-@pytest.mark.parametrize("mutate, words", [
-    (lambda df: df.drop(columns="wind_dir_deg"), ["obs.csv", "missing column 'wind_dir_deg'"]),
-    (lambda df: df.assign(ref_wind_speed_kt=df["ref_wind_speed_kt"].astype(object).where(df.index != 3, "calm")),
-     ["obs.csv", "column 'ref_wind_speed_kt'", "data row 4", "'calm'"]),
-    (lambda df: df.assign(time=df["time"].astype(object).where(df.index != 2, "yesterday")), ["obs.csv", "column 'time'", "'yesterday'"]),
-    (lambda df: df.assign(lat=df["lat"].where(df.index != 0, 123.0)), ["obs.csv", "column 'lat'", "outside"]),
-    (lambda df: df.assign(time=(df["time"] * 1000).astype("int64")),  # epoch milliseconds
-     ["obs.csv", "column 'time'", "data row 1", "epoch seconds (milliseconds?)"]),
-    # one report whose second reference model's row carries another reported wind
-    (lambda df: df.assign(wind_speed_kt=df["wind_speed_kt"].where(
-        ~((df["time"] == df["time"].iloc[5]) & (df["ref_source"] != df["ref_source"].iloc[5])), 99.0)),
-     ["obs.csv", "column 'wind_speed_kt'", "rows of one report", "N510XJ", "99"]),
-])
+@pytest.mark.parametrize(
+    "mutate, words",
+    [
+        (lambda df: df.drop(columns="wind_dir_deg"), ["obs.csv", "missing column 'wind_dir_deg'"]),
+        (
+            lambda df: df.assign(ref_wind_speed_kt=df["ref_wind_speed_kt"].astype(object).where(df.index != 3, "calm")),
+            ["obs.csv", "column 'ref_wind_speed_kt'", "data row 4", "'calm'"],
+        ),
+        (
+            lambda df: df.assign(time=df["time"].astype(object).where(df.index != 2, "yesterday")),
+            ["obs.csv", "column 'time'", "'yesterday'"],
+        ),
+        (lambda df: df.assign(lat=df["lat"].where(df.index != 0, 123.0)), ["obs.csv", "column 'lat'", "outside"]),
+        (
+            lambda df: df.assign(time=(df["time"] * 1000).astype("int64")),  # epoch milliseconds
+            ["obs.csv", "column 'time'", "data row 1", "epoch seconds (milliseconds?)"],
+        ),
+        # one report whose second reference model's row carries another reported wind
+        (
+            lambda df: df.assign(
+                wind_speed_kt=df["wind_speed_kt"].where(
+                    ~((df["time"] == df["time"].iloc[5]) & (df["ref_source"] != df["ref_source"].iloc[5])), 99.0
+                )
+            ),
+            ["obs.csv", "column 'wind_speed_kt'", "rows of one report", "N510XJ", "99"],
+        ),
+    ],
+)
 def test_bad_observation_tables_raise_one_line_naming_file_and_column(tmp_path, mutate, words):
     obs = gen.generate([gen.AircraftTruth("N510XJ", A=0.0, B=0.0, C=0.0)], np.random.default_rng(16), flights=2)
     mutate(obs).to_csv(tmp_path / "obs.csv", index=False)
@@ -357,12 +398,15 @@ def test_bad_observation_tables_raise_one_line_naming_file_and_column(tmp_path, 
     assert "\n" not in msg and all(w in msg for w in words), msg
 
 
-@pytest.mark.parametrize("columns, factor, words", [
-    (("wind_speed_kt", "ref_wind_speed_kt"), 1852 / 3600, ["column 'wind_speed_kt'", "in m/s? expected knots"]),
-    (("wind_speed_kt", "ref_wind_speed_kt"), 1.852, ["column 'wind_speed_kt'", "in km/h? expected knots"]),
-    (("ref_wind_speed_kt",), 1852 / 3600, ["column 'ref_wind_speed_kt'", "in m/s? expected knots"]),
-    (("wind_speed_kt",), 1.852, ["column 'wind_speed_kt'", "in km/h? expected knots"]),
-])
+@pytest.mark.parametrize(
+    "columns, factor, words",
+    [
+        (("wind_speed_kt", "ref_wind_speed_kt"), 1852 / 3600, ["column 'wind_speed_kt'", "in m/s? expected knots"]),
+        (("wind_speed_kt", "ref_wind_speed_kt"), 1.852, ["column 'wind_speed_kt'", "in km/h? expected knots"]),
+        (("ref_wind_speed_kt",), 1852 / 3600, ["column 'ref_wind_speed_kt'", "in m/s? expected knots"]),
+        (("wind_speed_kt",), 1.852, ["column 'wind_speed_kt'", "in km/h? expected knots"]),
+    ],
+)
 def test_wind_speeds_in_another_unit_are_named_not_fitted(tmp_path, columns, factor, words):
     """Winds written in m/s or km/h under the _kt names: a reported wind so written makes the
     wind triangle's airspeed follow the along-track wind (slope (1 - f) / f: +0.94 in m/s,
@@ -388,26 +432,39 @@ def _turned(obs: pd.DataFrame, col: str, f, source: str | None = None) -> pd.Dat
     return obs
 
 
-@pytest.mark.parametrize("mutate, words", [
-    (lambda o: _turned(o, "wind_dir_deg", lambda d: (d + 180) % 360), ["column 'wind_dir_deg'", "blows to?"]),
-    (lambda o: _turned(o, "ref_wind_dir_deg", lambda d: (d + 180) % 360, "rtfdda"),
-     ["column 'ref_wind_dir_deg' (reference 'rtfdda')", "as if the reference wind were -", "blows to?"]),
-    (lambda o: _turned(o, "ref_wind_speed_kt", lambda v: v * 1852 / 3600, "rtfdda"),
-     ["column 'ref_wind_speed_kt' (reference 'rtfdda')", "in m/s?"]),
-    (lambda o: _turned(o, "ref_wind_dir_deg", lambda d: (90 - d) % 360),
-     ["'ref_wind_dir_deg'", "does not follow the wind", "direction convention"]),
-    (lambda o: _turned(o, "wind_dir_deg", np.radians), ["column 'wind_dir_deg'", "in radians? expected degrees"]),
-    (lambda o: _turned(o, "heading_deg", np.radians), ["column 'heading_deg'", "N514XJ", "in radians?"]),
-    (lambda o: _turned(o, "heading_deg", lambda h: (h + 90) % 360), ["column 'heading_deg'", "N514XJ", "median of"]),
-])
+@pytest.mark.parametrize(
+    "mutate, words",
+    [
+        (lambda o: _turned(o, "wind_dir_deg", lambda d: (d + 180) % 360), ["column 'wind_dir_deg'", "blows to?"]),
+        (
+            lambda o: _turned(o, "ref_wind_dir_deg", lambda d: (d + 180) % 360, "rtfdda"),
+            ["column 'ref_wind_dir_deg' (reference 'rtfdda')", "as if the reference wind were -", "blows to?"],
+        ),
+        (
+            lambda o: _turned(o, "ref_wind_speed_kt", lambda v: v * 1852 / 3600, "rtfdda"),
+            ["column 'ref_wind_speed_kt' (reference 'rtfdda')", "in m/s?"],
+        ),
+        (
+            lambda o: _turned(o, "ref_wind_dir_deg", lambda d: (90 - d) % 360),
+            ["'ref_wind_dir_deg'", "does not follow the wind", "direction convention"],
+        ),
+        (lambda o: _turned(o, "wind_dir_deg", np.radians), ["column 'wind_dir_deg'", "in radians? expected degrees"]),
+        (lambda o: _turned(o, "heading_deg", np.radians), ["column 'heading_deg'", "N514XJ", "in radians?"]),
+        (
+            lambda o: _turned(o, "heading_deg", lambda h: (h + 90) % 360),
+            ["column 'heading_deg'", "N514XJ", "median of"],
+        ),
+    ],
+)
 def test_wind_and_heading_conventions_are_named_not_fitted(tmp_path, mutate, words):
     """A wind direction written where the wind blows to (the reported wind's: the triangle's
     airspeed then follows the along-track wind at slope -2; a reference's: the airspeed it
     implies, at slope +2), a reference in m/s on one model only, a mirrored (mathematical) direction, and
     angles in radians: each refused in one line naming the column (and the reference), where
     the fit would have run on them and returned a wrong deviation."""
-    obs = gen.generate([gen.AircraftTruth("N514XJ", A=1.0, B=3.0, C=-2.0)], np.random.default_rng(19), flights=12,
-                       include_heading=True)
+    obs = gen.generate(
+        [gen.AircraftTruth("N514XJ", A=1.0, B=3.0, C=-2.0)], np.random.default_rng(19), flights=12, include_heading=True
+    )
     obs.to_csv(tmp_path / "ok.csv", index=False)
     heading_fit_main(str(tmp_path / "ok.csv"), str(tmp_path / "out_ok"), n_boot=0)  # as generated: fitted
     mutate(obs).to_csv(tmp_path / "obs.csv", index=False)
@@ -424,8 +481,9 @@ def test_light_prevailing_wind_and_a_large_deviation_are_not_taken_for_a_unit_er
     comparing the wind vectors would call a table in knots "not following the wind". The
     check compares airspeeds, which a heading error does not change: fitted, C recovered."""
     a = gen.AircraftTruth("N518XJ", A=1.0, B=0.0, C=8.0)
-    obs = gen.generate([a], np.random.default_rng([21, 0]), flights=150, wind_ms=(2.0, 3.0), wind_from_deg=270.0,
-                       models=("rr",))
+    obs = gen.generate(
+        [a], np.random.default_rng([21, 0]), flights=150, wind_ms=(2.0, 3.0), wind_from_deg=270.0, models=("rr",)
+    )
     te, tn = towards_from_report(obs["wind_speed_kt"], obs["wind_dir_deg"])
     re_, rn = towards_from_report(obs["ref_wind_speed_kt"], obs["ref_wind_dir_deg"])
     assert float(np.sum(te * re_ + tn * rn)) < 0  # the case: the two winds disagree on average
@@ -436,8 +494,9 @@ def test_light_prevailing_wind_and_a_large_deviation_are_not_taken_for_a_unit_er
 def test_a_heading_column_offset_from_the_air_vector_is_said(tmp_path, capsys):
     """`heading_deg` 30 deg from the heading the reported wind was computed with (and not
     minus the declination): fitted, with a warning naming the aircraft and the offset."""
-    obs = gen.generate([gen.AircraftTruth("N515XJ", A=1.0, B=3.0, C=-2.0)], np.random.default_rng(20), flights=12,
-                       include_heading=True)
+    obs = gen.generate(
+        [gen.AircraftTruth("N515XJ", A=1.0, B=3.0, C=-2.0)], np.random.default_rng(20), flights=12, include_heading=True
+    )
     _turned(obs, "heading_deg", lambda h: (h + 30) % 360).to_csv(tmp_path / "obs.csv", index=False)
     heading_fit_main(str(tmp_path / "obs.csv"), str(tmp_path / "out"), n_boot=0)
     err = capsys.readouterr().err
@@ -454,13 +513,16 @@ def test_a_magnetic_heading_in_the_true_heading_column_is_said(tmp_path, capsys)
 
     import ppigrf
 
-    obs = gen.generate([gen.AircraftTruth("N513XJ", A=1.0, B=2.0, C=-1.0)], np.random.default_rng(18), flights=12,
-                       hub=(61.17, -150.0))
+    obs = gen.generate(
+        [gen.AircraftTruth("N513XJ", A=1.0, B=2.0, C=-1.0)], np.random.default_rng(18), flights=12, hub=(61.17, -150.0)
+    )
     v = validate_observations(obs)
     rows = heading_errors(v)  # one row per validated row, same order
     true_h = np.degrees(np.arctan2(rows["va_e"].to_numpy(), rows["va_n"].to_numpy())) % 360
     when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(v["time_s"].median()))
-    be, bn, _ = ppigrf.igrf(v["lon"].to_numpy(), v["lat"].to_numpy(), v["pressure_altitude_ft"].to_numpy() * 0.3048e-3, when)
+    be, bn, _ = ppigrf.igrf(
+        v["lon"].to_numpy(), v["lat"].to_numpy(), v["pressure_altitude_ft"].to_numpy() * 0.3048e-3, when
+    )
     decl = np.degrees(np.arctan2(np.ravel(be), np.ravel(bn)))
     assert decl.min() > 10
     table = v.drop(columns=["time_s"]).assign(time=v["time_s"])
@@ -490,6 +552,7 @@ def test_estimator_parameters_are_checked():
 
 def _huber_by_irls_and_newton(XT, y, w, monkeypatch):
     import aerotruth.analysis.wind.robust_fit as rf
+
     newton = rf.huber_t(XT, y, w, True, 1.345)[:2]
     monkeypatch.setattr(rf, "_NEWTON_STEPS", 0)  # IRLS steps only: another algorithm, the same estimator
     irls = rf.huber_t(XT, y, w, True, 1.345)[:2]
@@ -501,8 +564,15 @@ def test_newton_huber_steps_reach_the_irls_fixed_point(monkeypatch):
     the IRLS one (both iterate to 1e-5 deg), scale included."""
     rng = np.random.default_rng(7)
     z = rng.uniform(0.0, 360.0, 4000)
-    X = np.column_stack([np.ones_like(z), np.sin(np.radians(z)), np.cos(np.radians(z)),
-                         np.sin(np.radians(2 * z)), np.cos(np.radians(2 * z))])
+    X = np.column_stack(
+        [
+            np.ones_like(z),
+            np.sin(np.radians(z)),
+            np.cos(np.radians(z)),
+            np.sin(np.radians(2 * z)),
+            np.cos(np.radians(2 * z)),
+        ]
+    )
     y = X @ np.array([1.5, -2.0, 0.7, 0.3, -0.2]) + rng.standard_t(2, len(z))
     y[rng.random(len(z)) < 0.1] += 25.0
     w = rng.uniform(0.6, 1.4, len(z))
@@ -565,8 +635,11 @@ def test_the_fits_median_is_numpys_with_any_guess():
 
     rng = np.random.default_rng(3)
     for n in (1, 2, 12799, 12800, 12801, 90000):
-        for x in (np.abs(rng.standard_t(2, n)), np.abs(rng.standard_normal(n)) * (rng.random(n) < 0.5),
-                  np.sort(rng.random(n))):
+        for x in (
+            np.abs(rng.standard_t(2, n)),
+            np.abs(rng.standard_normal(n)) * (rng.random(n) < 0.5),
+            np.sort(rng.random(n)),
+        ):
             want = np.median(x)
             for guess in (np.nan, want, 1.04 * want, 3.0 * want + 1.0, 0.0):
                 assert rf._median(x, np.empty(n), guess) == want
@@ -642,7 +715,7 @@ def test_wind_errors_before_after_against_a_hand_rotation():
     def comps(e, n, hd):
         lon = e * np.sin(np.radians(hd)) + n * np.cos(np.radians(hd))
         tr = e * np.cos(np.radians(hd)) - n * np.sin(np.radians(hd))
-        r = lambda x: np.sqrt(np.mean(x ** 2)) / KT  # noqa: E731
+        r = lambda x: np.sqrt(np.mean(x**2)) / KT  # noqa: E731
         return r(np.hypot(e, n)), r(lon), r(tr)
 
     # corrected heading h + c: V_A' = TAS (sin(h + c), cos(h + c)); wind' = wind + V_A - V_A'
@@ -660,17 +733,32 @@ def test_text_labels_are_read_the_same_whatever_their_storage(storage):
     aircraft, time and reference (labels in order of first appearance): by hand, for text
     held as Python objects, Arrow strings (one chunk, or several as a concatenation leaves
     them) or pandas' Python strings."""
-    rows = {"aircraft": [" N2", "N1", "N1 ", "N2", "N1"], "time": [5.0, 9.0, 1.0, 2.0, 1.0],
-            "ref_source": ["rr", "rr", "", "rr", "rr"]}
+    rows = {
+        "aircraft": [" N2", "N1", "N1 ", "N2", "N1"],
+        "time": [5.0, 9.0, 1.0, 2.0, 1.0],
+        "ref_source": ["rr", "rr", "", "rr", "rr"],
+    }
     n = len(rows["time"])
-    obs = pd.DataFrame({**rows, "lat": 45.0, "lon": -93.0, "pressure_altitude_ft": 9000.0, "wind_speed_kt": 20.0,
-                        "wind_dir_deg": 270.0, "ref_wind_speed_kt": 18.0, "ref_wind_dir_deg": 265.0}, index=range(n))
+    obs = pd.DataFrame(
+        {
+            **rows,
+            "lat": 45.0,
+            "lon": -93.0,
+            "pressure_altitude_ft": 9000.0,
+            "wind_speed_kt": 20.0,
+            "wind_dir_deg": 270.0,
+            "ref_wind_speed_kt": 18.0,
+            "ref_wind_dir_deg": 265.0,
+        },
+        index=range(n),
+    )
     for c in ("aircraft", "ref_source"):
         if storage == "arrow":
             obs[c] = obs[c].astype("string[pyarrow]")
         elif storage == "arrow-chunks":
-            obs[c] = pd.concat([obs[c][:2].astype("string[pyarrow]"), obs[c][2:].astype("string[pyarrow]")],
-                               ignore_index=True)
+            obs[c] = pd.concat(
+                [obs[c][:2].astype("string[pyarrow]"), obs[c][2:].astype("string[pyarrow]")], ignore_index=True
+            )
         elif storage == "python":
             obs[c] = obs[c].astype("string[python]")
     df = validate_observations(obs)
@@ -710,8 +798,17 @@ def test_step_noise_matches_rounding_by_monte_carlo_and_lets_a_straight_climb_th
         dsp.append((d2 - d1) / dt / gs)
         dvg.append(dspan / (2 * dt) / gs - 1.0)
         e, n = np.sin(np.radians(course)) * 2 * gs * dt, np.cos(np.radians(course)) * 2 * gs * dt
-        c, sp, r = step_noise(np.array([np.radians(la1)]), np.array([e]), np.array([n]), np.array([np.hypot(e, n)]),
-                              np.array([gs]), np.array([gs]), np.array([dt]), np.array([dt]), 0.01)
+        c, sp, r = step_noise(
+            np.array([np.radians(la1)]),
+            np.array([e]),
+            np.array([n]),
+            np.array([np.hypot(e, n)]),
+            np.array([gs]),
+            np.array([gs]),
+            np.array([dt]),
+            np.array([dt]),
+            0.01,
+        )
         var_c.append(c[0] ** 2)
         var_s.append(sp[0] ** 2)
         var_v.append(r[0] ** 2)
@@ -732,10 +829,20 @@ def test_step_noise_matches_rounding_by_monte_carlo_and_lets_a_straight_climb_th
                 lo, la, _ = geod.fwd(lo, la, crs, v * step_s)
                 t += step_s
         wind = [(t_, 10.0, 270.0) for t_, _, _ in rows]
-        return pd.DataFrame({"aircraft": "N1", "time": [r[0] + 1.27e9 for r in rows], "lat": [r[1] for r in rows],
-                             "lon": [r[2] for r in rows], "wind_speed_kt": [w[1] for w in wind],
-                             "wind_dir_deg": [w[2] for w in wind], "ref_wind_speed_kt": 10.0, "ref_wind_dir_deg": 270.0,
-                             "roll_deg": 0.0, "pressure_altitude_ft": 5000.0})
+        return pd.DataFrame(
+            {
+                "aircraft": "N1",
+                "time": [r[0] + 1.27e9 for r in rows],
+                "lat": [r[1] for r in rows],
+                "lon": [r[2] for r in rows],
+                "wind_speed_kt": [w[1] for w in wind],
+                "wind_dir_deg": [w[2] for w in wind],
+                "ref_wind_speed_kt": 10.0,
+                "ref_wind_dir_deg": 270.0,
+                "roll_deg": 0.0,
+                "pressure_altitude_ft": 5000.0,
+            }
+        )
 
     climb = heading_errors(track([(330.0, 80.0, 120.0)], 10.0))
     interior = climb.iloc[1:-1]
@@ -751,7 +858,9 @@ def test_bootstrap_leaves_out_resamples_that_cannot_be_fitted(monkeypatch):
     import aerotruth.analysis.wind.heading_correction as hc
 
     a = gen.AircraftTruth("N480XJ", A=1.0, B=2.0, C=-1.0, cruise_tas_kt=280.0)
-    fit = HeadingDeviationFit(terms="sinusoid", heading="magnetic").fit(gen.generate([a], np.random.default_rng(2), flights=12))
+    fit = HeadingDeviationFit(terms="sinusoid", heading="magnetic").fit(
+        gen.generate([a], np.random.default_rng(2), flights=12)
+    )
     clean = fit.bootstrap(100, np.random.default_rng(0))
     real, calls = hc.robust_fit_t, [0]
 
@@ -761,6 +870,7 @@ def test_bootstrap_leaves_out_resamples_that_cannot_be_fitted(monkeypatch):
             if calls[0] % n == 0:
                 raise np.linalg.LinAlgError("singular")
             return real(*args, **kw)
+
         return fit_or_fail
 
     monkeypatch.setattr(hc, "robust_fit_t", failing_every(25))  # 4 of 100 left out

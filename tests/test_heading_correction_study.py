@@ -15,34 +15,78 @@ from aerotruth.sim.studies.heading_correction import STUDY, HeadingCorrectionCon
 
 def test_control_adjustment_reproduces_the_papers_table_ii_rows():
     # wind paper Table II: the measured cells; the adjusted and improvement rows follow by subtraction
-    cells = pd.DataFrame([
-        {"group": "poor", "period": "before", "n": 165846, "rms_kt": 10.8, "longitudinal_rms_kt": 5.4, "transverse_rms_kt": 9.8},
-        {"group": "poor", "period": "after", "n": 142971, "rms_kt": 9.0, "longitudinal_rms_kt": 5.5, "transverse_rms_kt": 6.8},
-        {"group": "control", "period": "before", "n": 143248, "rms_kt": 8.8, "longitudinal_rms_kt": 5.4, "transverse_rms_kt": 7.1},
-        {"group": "control", "period": "after", "n": 132887, "rms_kt": 9.4, "longitudinal_rms_kt": 5.8, "transverse_rms_kt": 7.6},
-    ])
+    cells = pd.DataFrame(
+        [
+            {
+                "group": "poor",
+                "period": "before",
+                "n": 165846,
+                "rms_kt": 10.8,
+                "longitudinal_rms_kt": 5.4,
+                "transverse_rms_kt": 9.8,
+            },
+            {
+                "group": "poor",
+                "period": "after",
+                "n": 142971,
+                "rms_kt": 9.0,
+                "longitudinal_rms_kt": 5.5,
+                "transverse_rms_kt": 6.8,
+            },
+            {
+                "group": "control",
+                "period": "before",
+                "n": 143248,
+                "rms_kt": 8.8,
+                "longitudinal_rms_kt": 5.4,
+                "transverse_rms_kt": 7.1,
+            },
+            {
+                "group": "control",
+                "period": "after",
+                "n": 132887,
+                "rms_kt": 9.4,
+                "longitudinal_rms_kt": 5.8,
+                "transverse_rms_kt": 7.6,
+            },
+        ]
+    )
     t = adjusted_table(cells).set_index(["group", "period"])
     cols = ["rms_kt", "longitudinal_rms_kt", "transverse_rms_kt"]
     assert t.loc[("poor", "after_adjusted"), cols].tolist() == pytest.approx([8.4, 5.1, 6.3])
     assert t.loc[("poor", "improvement"), cols].tolist() == pytest.approx([2.4, 0.3, 3.5])
     assert t.loc[("control", "change"), cols].tolist() == pytest.approx([0.6, 0.4, 0.5])
     # with the paired twin (the poor group's after reports without tables) the table's own effect
-    twin = {"group": "poor", "period": "after_untreated", "n": 142971, "rms_kt": 11.0, "longitudinal_rms_kt": 5.6,
-            "transverse_rms_kt": 9.9}
+    twin = {
+        "group": "poor",
+        "period": "after_untreated",
+        "n": 142971,
+        "rms_kt": 11.0,
+        "longitudinal_rms_kt": 5.6,
+        "transverse_rms_kt": 9.9,
+    }
     t = adjusted_table(pd.concat([cells, pd.DataFrame([twin])], ignore_index=True)).set_index(["group", "period"])
     assert t.loc[("poor", "table_effect"), cols].tolist() == pytest.approx([2.0, 0.1, 3.1])
     assert t.loc[("poor", "improvement"), cols].tolist() == pytest.approx([2.4, 0.3, 3.5])
 
 
 def _section(poor=2, control=1, **kw):
-    return HeadingCorrectionConfig(fleets=["f"], periods={"fit": "a", "before": "b", "after": "c"},
-                                   selection={"poor": poor, "control": control}, **kw)
+    return HeadingCorrectionConfig(
+        fleets=["f"],
+        periods={"fit": "a", "before": "b", "after": "c"},
+        selection={"poor": poor, "control": control},
+        **kw,
+    )
 
 
 def test_fit_selects_by_before_rms_and_learns_each_aircrafts_table():
     rng = np.random.default_rng(5)
-    truths = [gen.AircraftTruth("N1", 0.0, 0.3, 0.0), gen.AircraftTruth("N2", 2.0, 3.0, -2.0),
-              gen.AircraftTruth("N3", -1.0, 0.5, 0.5), gen.AircraftTruth("N4", 3.0, -2.5, 2.0)]
+    truths = [
+        gen.AircraftTruth("N1", 0.0, 0.3, 0.0),
+        gen.AircraftTruth("N2", 2.0, 3.0, -2.0),
+        gen.AircraftTruth("N3", -1.0, 0.5, 0.5),
+        gen.AircraftTruth("N4", 3.0, -2.5, 2.0),
+    ]
     fit = gen.generate(truths, rng, flights=30)
     before = gen.generate(truths, rng, flights=10, t_start=1_250_294_400.0)
     common = {"fleet": "f", "heading_input": "magnetic", "heading_class": "x", "trigger": "pressure"}
@@ -54,8 +98,9 @@ def test_fit_selects_by_before_rms_and_learns_each_aircrafts_table():
     b = before[before["roll_deg"].abs() <= 10]
     u = lambda s, d: -s * np.sin(np.radians(d))  # noqa: E731
     v = lambda s, d: -s * np.cos(np.radians(d))  # noqa: E731
-    e2 = ((u(b.wind_speed_kt, b.wind_dir_deg) - u(b.ref_wind_speed_kt, b.ref_wind_dir_deg)) ** 2
-          + (v(b.wind_speed_kt, b.wind_dir_deg) - v(b.ref_wind_speed_kt, b.ref_wind_dir_deg)) ** 2)
+    e2 = (u(b.wind_speed_kt, b.wind_dir_deg) - u(b.ref_wind_speed_kt, b.ref_wind_dir_deg)) ** 2 + (
+        v(b.wind_speed_kt, b.wind_dir_deg) - v(b.ref_wind_speed_kt, b.ref_wind_dir_deg)
+    ) ** 2
     by_hand = np.sqrt(e2.groupby(b["aircraft"]).mean()).sort_values()
     t = table.set_index("aircraft")
     assert t["before_rms_kt"].reindex(by_hand.index).to_numpy() == pytest.approx(by_hand.to_numpy(), rel=1e-9)
@@ -73,35 +118,53 @@ def test_selection_by_transverse_ranks_the_heading_not_the_airspeed():
     # 3-deg sinusoid (~15 kt across track). By total RMS N2 is the worst; by the transverse
     # component (the heading's share, wind paper section 6) N3 is, and N2 sits with N1 (clean).
     rng = np.random.default_rng(11)
-    truths = [gen.AircraftTruth("N1", 0.0, 0.0, 0.0), gen.AircraftTruth("N2", 0.0, 0.0, 0.0, tas_scale=0.06),
-              gen.AircraftTruth("N3", 0.0, 3.0, 0.0)]
+    truths = [
+        gen.AircraftTruth("N1", 0.0, 0.0, 0.0),
+        gen.AircraftTruth("N2", 0.0, 0.0, 0.0, tas_scale=0.06),
+        gen.AircraftTruth("N3", 0.0, 3.0, 0.0),
+    ]
     fit = gen.generate(truths, rng, flights=20)
     before = gen.generate(truths, rng, flights=10, t_start=1_250_294_400.0)
     common = {"fleet": "f", "heading_input": "magnetic", "heading_class": "x", "trigger": "pressure"}
     rows = pd.concat([fit.assign(stage="fit", **common), before.assign(stage="before", **common)], ignore_index=True)
     rows.insert(0, "task_id", "t")
-    by_total = STUDY.fit("corrections", rows, _section(poor=1, control=1), np.random.default_rng(0)).set_index("aircraft")
+    by_total = STUDY.fit("corrections", rows, _section(poor=1, control=1), np.random.default_rng(0)).set_index(
+        "aircraft"
+    )
     assert by_total["before_rms_kt"].idxmax() == "N2"
     assert list(by_total.index[by_total["group"] == "poor"]) == ["N2"]
     section = _section(poor=1, control=1)
     section = section.model_copy(update={"selection": section.selection.model_copy(update={"by": "transverse"})})
     by_transverse = STUDY.fit("corrections", rows, section, np.random.default_rng(0)).set_index("aircraft")
     assert list(by_transverse.index[by_transverse["group"] == "poor"]) == ["N3"]
-    assert by_transverse.loc["N2", "before_transverse_rms_kt"] < 0.6 * by_transverse.loc["N3", "before_transverse_rms_kt"]
+    assert (
+        by_transverse.loc["N2", "before_transverse_rms_kt"] < 0.6 * by_transverse.loc["N3", "before_transverse_rms_kt"]
+    )
     assert list(by_transverse.index[by_transverse["group"] == "control"]) != ["N3"]
     with pytest.raises(Exception, match="total|transverse"):
-        HeadingCorrectionConfig(fleets=["f"], periods={"fit": "a", "before": "b", "after": "c"},
-                                selection={"poor": 1, "control": 1, "by": "longitudinal"})
+        HeadingCorrectionConfig(
+            fleets=["f"],
+            periods={"fit": "a", "before": "b", "after": "c"},
+            selection={"poor": 1, "control": 1, "by": "longitudinal"},
+        )
 
 
 def test_what_is_uploaded():
     lut = {f"lut_{h:03d}_deg": float(h) / 100 for h in range(0, 360, 45)}
-    table = pd.DataFrame([
-        {"aircraft": "P1", "group": "poor", "status": "fitted", "heading_input": "magnetic", **lut},
-        {"aircraft": "P2", "group": "poor", "status": "offset_only", "heading_input": "true", **{k: -2.0 for k in lut}},
-        {"aircraft": "P3", "group": "poor", "status": "refused", "heading_input": "magnetic", **lut},
-        {"aircraft": "C1", "group": "control", "status": "fitted", "heading_input": "magnetic", **lut},
-    ])
+    table = pd.DataFrame(
+        [
+            {"aircraft": "P1", "group": "poor", "status": "fitted", "heading_input": "magnetic", **lut},
+            {
+                "aircraft": "P2",
+                "group": "poor",
+                "status": "offset_only",
+                "heading_input": "true",
+                **{k: -2.0 for k in lut},
+            },
+            {"aircraft": "P3", "group": "poor", "status": "refused", "heading_input": "magnetic", **lut},
+            {"aircraft": "C1", "group": "control", "status": "fitted", "heading_input": "magnetic", **lut},
+        ]
+    )
     c = uploaded_correction(table, "P1")
     assert isinstance(c, LookupTableCorrection) and c.lut_deg == pytest.approx(list(lut.values()))
     c = uploaded_correction(table, "P2")
@@ -134,20 +197,31 @@ def test_every_days_subsamples_a_period_and_the_selection_must_fit_the_fleet():
         parse_campaign(PERIODS.replace("control: 1", "control: 2"))
     with pytest.raises(ConfigError, match=r"every_days subsamples start/end periods"):
         parse_campaign(PERIODS.replace("dates: [2009-08-15]}", "dates: [2009-08-15], every_days: 2}"))
-    with pytest.raises(ConfigError, match=r"studies\.heading_correction\.periods\.after: expected the name of one of the periods"):
+    with pytest.raises(
+        ConfigError, match=r"studies\.heading_correction\.periods\.after: expected the name of one of the periods"
+    ):
         parse_campaign(PERIODS.replace("after: c}", "after: z}"))
 
 
 def test_published_cells_sit_beside_the_simulated_ones_with_their_role():
     from aerotruth.sim.studies.heading_correction import PaperTable, versus_paper
 
-    sim = pd.DataFrame([{"group": "poor", "period": "before", "rms_kt": 11.0, "longitudinal_rms_kt": 5.0, "transverse_rms_kt": 9.0}])
-    paper = PaperTable(source="Table II", cells=[
-        {"group": "poor", "period": "before", "rms_kt": 10.8, "longitudinal_rms_kt": 5.4, "role": "calibrated"},
-        {"group": "poor", "period": "after", "rms_kt": 9.0, "role": "predicted"}])
+    sim = pd.DataFrame(
+        [{"group": "poor", "period": "before", "rms_kt": 11.0, "longitudinal_rms_kt": 5.0, "transverse_rms_kt": 9.0}]
+    )
+    paper = PaperTable(
+        source="Table II",
+        cells=[
+            {"group": "poor", "period": "before", "rms_kt": 10.8, "longitudinal_rms_kt": 5.4, "role": "calibrated"},
+            {"group": "poor", "period": "after", "rms_kt": 9.0, "role": "predicted"},
+        ],
+    )
     t = versus_paper(sim, paper)
-    assert t[["component", "paper_kt", "role"]].values.tolist() == [["total", 10.8, "calibrated"], ["longitudinal", 5.4, "calibrated"],
-                                                                    ["total", 9.0, "predicted"]]
+    assert t[["component", "paper_kt", "role"]].values.tolist() == [
+        ["total", 10.8, "calibrated"],
+        ["longitudinal", 5.4, "calibrated"],
+        ["total", 9.0, "predicted"],
+    ]
     assert t["difference_kt"].iloc[:2].tolist() == pytest.approx([0.2, -0.4]) and np.isnan(t["simulated_kt"].iloc[2])
 
 
@@ -166,19 +240,24 @@ def test_rms_by_altitude_and_the_trustworthy_days_by_hand():
         o["date"] = pd.to_datetime(o["time"], unit="s").dt.date.astype(str)
         o["group"] = np.where(o["aircraft"] == "N2", "poor", "control")
         scored[stage] = o
-    table = pd.DataFrame([{"group": "control", "period": "change", "rms_kt": 0.5, "longitudinal_rms_kt": 0.2,
-                           "transverse_rms_kt": 0.4}])
+    table = pd.DataFrame(
+        [{"group": "control", "period": "change", "rms_kt": 0.5, "longitudinal_rms_kt": 0.2, "transverse_rms_kt": 0.4}]
+    )
     alt = rms_by_altitude(scored, table)
 
     def e(o):
         u = lambda s, d: -s * np.sin(np.radians(d))  # noqa: E731
         v = lambda s, d: -s * np.cos(np.radians(d))  # noqa: E731
-        return np.hypot(u(o.wind_speed_kt, o.wind_dir_deg) - u(o.ref_wind_speed_kt, o.ref_wind_dir_deg),
-                        v(o.wind_speed_kt, o.wind_dir_deg) - v(o.ref_wind_speed_kt, o.ref_wind_dir_deg))
+        return np.hypot(
+            u(o.wind_speed_kt, o.wind_dir_deg) - u(o.ref_wind_speed_kt, o.ref_wind_dir_deg),
+            v(o.wind_speed_kt, o.wind_dir_deg) - v(o.ref_wind_speed_kt, o.ref_wind_dir_deg),
+        )
 
     b = scored["before"]
     band = (b["group"] == "poor") & (b["pressure_altitude_ft"] >= 10000) & (b["pressure_altitude_ft"] < 15000)
-    row = alt[(alt.group == "poor") & (alt.period == "before") & (alt.phase == "all") & (alt.altitude_band == "10000-15000")]
+    row = alt[
+        (alt.group == "poor") & (alt.period == "before") & (alt.phase == "all") & (alt.altitude_band == "10000-15000")
+    ]
     assert row["n"].iloc[0] == band.sum()
     assert row["rms_kt"].iloc[0] == pytest.approx(float(np.sqrt(np.mean(e(b[band]) ** 2))), rel=1e-9)
     after = alt[(alt.group == "poor") & (alt.period == "after")].set_index(["phase", "altitude_band"])

@@ -40,12 +40,28 @@ studies:
 
 def _run(tmp: Path) -> tuple[dict, str]:
     env = dict(os.environ, PYTHONPATH=str(tmp / "pkg"), AEROTRUTH_CACHE=str(tmp / "cache"))
-    cmd = [sys.executable, "-m", "aerotruth.app.cli", "run", str(tmp / "c.yaml"), "--out", str(tmp / "run"),
-           "--workers", "1", "--quiet", "--no-report"]
+    cmd = [
+        sys.executable,
+        "-m",
+        "aerotruth.app.cli",
+        "run",
+        str(tmp / "c.yaml"),
+        "--out",
+        str(tmp / "run"),
+        "--workers",
+        "1",
+        "--quiet",
+        "--no-report",
+    ]
     p = subprocess.run(cmd, env=env, capture_output=True, text=True, cwd=tmp)
     assert p.returncode == 0, p.stderr
-    where = subprocess.run([sys.executable, "-c", "import aerotruth; print(aerotruth.__file__)"], env=env,
-                           capture_output=True, text=True, cwd=tmp).stdout
+    where = subprocess.run(
+        [sys.executable, "-c", "import aerotruth; print(aerotruth.__file__)"],
+        env=env,
+        capture_output=True,
+        text=True,
+        cwd=tmp,
+    ).stdout
     assert where.startswith(str(tmp / "pkg")), where  # the copy runs, not the installed tree
     metrics = json.loads((tmp / "run" / "metrics.json").read_text())["metrics"]
     return metrics, p.stderr
@@ -58,8 +74,9 @@ def _counts(stderr: str) -> tuple[int, int, int]:
 
 @pytest.mark.slow
 def test_edits_of_a_source_constant_or_an_xml_file_rerun_what_depends_on_them(tmp_path):
-    shutil.copytree(Path(aerotruth.__file__).parent, tmp_path / "pkg" / "aerotruth",
-                    ignore=shutil.ignore_patterns("__pycache__"))
+    shutil.copytree(
+        Path(aerotruth.__file__).parent, tmp_path / "pkg" / "aerotruth", ignore=shutil.ignore_patterns("__pycache__")
+    )
     (tmp_path / "c.yaml").write_text(CAMPAIGN)
     first, err = _run(tmp_path)
     assert _counts(err) == (0, 2, 1)

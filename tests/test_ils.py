@@ -11,8 +11,14 @@ LENGTH = 3000.0
 
 
 def facility(**kw):
-    base = dict(alignment_m=0.0, loc_sensitivity_rel=0.0, gp_angle_error_deg=0.0, bend_amplitude_deg=0.0,
-                loc_noise_ddm=0.0, gs_noise_ddm=0.0)
+    base = dict(
+        alignment_m=0.0,
+        loc_sensitivity_rel=0.0,
+        gp_angle_error_deg=0.0,
+        bend_amplitude_deg=0.0,
+        loc_noise_ddm=0.0,
+        gs_noise_ddm=0.0,
+    )
     return IlsFacilitySpec(**{**base, **kw}).draw(np.random.default_rng(1), LENGTH)
 
 
@@ -31,11 +37,15 @@ def test_localizer_sensitivity_at_the_threshold_is_0_00145_ddm_per_metre():
 def test_alignment_error_moves_the_course_by_its_displacement_at_the_threshold():
     f = facility(alignment_m=3.0)
     assert float(f.localizer_ddm(0.0, 3.0)) == pytest.approx(0.0, abs=1e-12)  # the course passes 3 m left
-    assert float(f.localizer_ddm(0.0, 0.0)) == pytest.approx(-3.0 * 0.00145, rel=1e-3)  # centreline reads right of course
+    assert float(f.localizer_ddm(0.0, 0.0)) == pytest.approx(
+        -3.0 * 0.00145, rel=1e-3
+    )  # centreline reads right of course
 
 
 def test_sensitivity_error_scales_the_ddm():
-    assert float(facility(loc_sensitivity_rel=0.10).localizer_ddm(0.0, 40.0)) == pytest.approx(1.1 * 40 * 0.00145, rel=1e-3)
+    assert float(facility(loc_sensitivity_rel=0.10).localizer_ddm(0.0, 40.0)) == pytest.approx(
+        1.1 * 40 * 0.00145, rel=1e-3
+    )
 
 
 def test_on_the_nominal_path_the_glide_slope_reads_zero_and_tch_is_15_m():
@@ -69,11 +79,17 @@ def test_bends_have_the_stated_amplitude_and_the_nominal_facility_has_none():
 def test_microamps_and_the_annex_10_tolerances():
     assert float(ddm_to_microamps(0.155, "loc")) == pytest.approx(150.0)
     assert float(ddm_to_microamps(0.0875, "gs")) == pytest.approx(75.0)  # one dot
-    assert (TOLERANCES["I"]["alignment_m"], TOLERANCES["II"]["alignment_m"], TOLERANCES["III"]["alignment_m"]) == (10.5, 7.5, 3.0)
+    assert (TOLERANCES["I"]["alignment_m"], TOLERANCES["II"]["alignment_m"], TOLERANCES["III"]["alignment_m"]) == (
+        10.5,
+        7.5,
+        3.0,
+    )
 
 
 def test_receiver_noise_has_the_stated_sigma():
-    f = IlsFacilitySpec(loc_noise_ddm=0.001, gs_noise_ddm=0.002, bend_amplitude_deg=0.0).draw(np.random.default_rng(2), LENGTH)
+    f = IlsFacilitySpec(loc_noise_ddm=0.001, gs_noise_ddm=0.002, bend_amplitude_deg=0.0).draw(
+        np.random.default_rng(2), LENGTH
+    )
     n = 200_000
     loc, gs = f.measure(np.full(n, -5000.0), np.zeros(n), np.full(n, 262.0), np.random.default_rng(3))
     assert np.std(loc) == pytest.approx(0.001, rel=0.01) and np.std(gs) == pytest.approx(0.002, rel=0.01)

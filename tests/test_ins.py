@@ -30,10 +30,23 @@ def _draw(track, b_a_body, b_g_body, seconds):
     t = df["time_s"].to_numpy(float)
     n = len(t)
     z3 = np.zeros(3)
-    draw = InertialErrors(t, np.asarray(b_a_body, float), np.asarray(b_g_body, float), np.zeros((n, 3)),
-                          np.zeros((n, 3)), np.zeros((n, 3)), z3, z3, np.zeros(2))
+    draw = InertialErrors(
+        t,
+        np.asarray(b_a_body, float),
+        np.asarray(b_g_body, float),
+        np.zeros((n, 3)),
+        np.zeros((n, 3)),
+        np.zeros((n, 3)),
+        z3,
+        z3,
+        np.zeros(2),
+    )
     seg = t <= seconds
-    c_nb = Rotation.from_euler("ZYX", np.column_stack([df["heading_rad"], df["pitch_rad"], df["roll_rad"]])[seg]).mean().as_matrix()
+    c_nb = (
+        Rotation.from_euler("ZYX", np.column_stack([df["heading_rad"], df["pitch_rad"], df["roll_rad"]])[seg])
+        .mean()
+        .as_matrix()
+    )
     model = ins_error_ned(t[seg], c_nb @ draw.accel_bias_mps2, -(c_nb @ draw.gyro_bias_radps))  # eq. 4 sign convention
     return draw, model, seg
 
@@ -56,12 +69,16 @@ def test_strapdown_and_the_eq4_error_model_agree_on_the_straight_segment(calm, w
     draw, model, seg = _draw(calm, b_a, b_g, 150.0)
     clean, _, _ = _draw(calm, np.zeros(3), np.zeros(3), 150.0)
     course = calm.meta["runway_frame"]["course_deg"]
-    sd_err = strapdown_positions(calm, draw)[seg] - strapdown_positions(calm, clean)[seg]  # the recording's own closure cancels
+    sd_err = (
+        strapdown_positions(calm, draw)[seg] - strapdown_positions(calm, clean)[seg]
+    )  # the recording's own closure cancels
     md_err = _to_rwy(model, course)
     scale = np.abs(md_err).max(axis=0)
     dev = np.abs(sd_err - md_err).max(axis=0)
-    print(f"\n{which}: eq. 4 error at 150 s {np.round(md_err[-1], 2)} m, strapdown {np.round(sd_err[-1], 2)} m, "
-          f"max difference {np.round(dev, 3)} m")
+    print(
+        f"\n{which}: eq. 4 error at 150 s {np.round(md_err[-1], 2)} m, strapdown {np.round(sd_err[-1], 2)} m, "
+        f"max difference {np.round(dev, 3)} m"
+    )
     assert dev.max() <= 0.03 * scale.max()
     assert scale.max() > 20.0  # a test of something: tens of metres of drift
 
@@ -75,7 +92,11 @@ def test_they_part_where_the_aircraft_manoeuvres(calm):
     clean, _, _ = _draw(calm, np.zeros(3), np.zeros(3), 1e9)
     t = calm.df["time_s"].to_numpy(float)
     sd_err = strapdown_positions(calm, draw) - strapdown_positions(calm, clean)
-    c_nb0 = Rotation.from_euler("ZYX", calm.df[["heading_rad", "pitch_rad", "roll_rad"]].to_numpy()[:7500]).mean().as_matrix()
+    c_nb0 = (
+        Rotation.from_euler("ZYX", calm.df[["heading_rad", "pitch_rad", "roll_rad"]].to_numpy()[:7500])
+        .mean()
+        .as_matrix()
+    )
     md_err = _to_rwy(ins_error_ned(t, c_nb0 @ b_a, np.zeros(3)), calm.meta["runway_frame"]["course_deg"])
     rel = np.abs(sd_err[-1] - md_err[-1]) / np.abs(md_err[-1])
     print(f"\nwhole approach ({t[-1]:.0f} s): eq. 4 {np.round(md_err[-1], 1)} m, strapdown {np.round(sd_err[-1], 1)} m")
@@ -116,10 +137,17 @@ def test_baro_inertial_loop_follows_the_barometer_through_its_third_order_transf
     t = np.arange(0.0, 1500.0, dt_s)
     n = len(t)
     z3 = np.zeros(3)
-    spec = InsSpec(grade="navigation", vertical="baro", baro_loop_time_constant_s=tau, baro_gm_sigma_m=0.0,
-                   baro_white_sigma_m=0.0, baro_rate_hz=1.0 / dt_s)
-    bias = InertialErrors(t, np.array([0.0, 0.0, 2e-3]), z3, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), z3, z3,
-                          np.zeros(2))
+    spec = InsSpec(
+        grade="navigation",
+        vertical="baro",
+        baro_loop_time_constant_s=tau,
+        baro_gm_sigma_m=0.0,
+        baro_white_sigma_m=0.0,
+        baro_rate_hz=1.0 / dt_s,
+    )
+    bias = InertialErrors(
+        t, np.array([0.0, 0.0, 2e-3]), z3, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), z3, z3, np.zeros(2)
+    )
     up = baro_inertial_error(t, bias, spec, np.random.default_rng(0))
     assert abs(up[-1]) < 1e-3 and np.abs(up).max() > 0.3  # drifted, then learned the bias
     # a barometer sinusoid: patch the draw's barometer by a generator that yields it
@@ -128,7 +156,7 @@ def test_baro_inertial_loop_follows_the_barometer_through_its_third_order_transf
         w = 2 * np.pi / period
 
         class Sine:
-            def standard_normal(self, m):  # GM part off (sigma 0): the white part carries the sine
+            def standard_normal(self, m, w=w):  # GM part off (sigma 0): the white part carries the sine
                 return np.sin(w * np.arange(m) * dt_s)
 
         s2 = spec.model_copy(update={"baro_white_sigma_m": 1.0})
@@ -152,8 +180,9 @@ def test_inertial_vertical_channel_grows_as_cosh_with_the_gravity_gradient():
     n = len(t)
     z3 = np.zeros(3)
     beta = 25 * MICRO_G
-    draw = InertialErrors(t, np.array([0.0, 0.0, beta]), z3, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), z3, z3,
-                          np.zeros(2))
+    draw = InertialErrors(
+        t, np.array([0.0, 0.0, beta]), z3, np.zeros((n, 3)), np.zeros((n, 3)), np.zeros((n, 3)), z3, z3, np.zeros(2)
+    )
     x = inertial_vertical_error(t, draw)
     w2 = 2 * G0 / EARTH_RADIUS_M
     xs, vs, out = 0.0, 0.0, []

@@ -24,7 +24,9 @@ def test_injected_alignment_angle_and_bends_are_recovered_with_a_perfect_truth_s
     f = IlsFacilitySpec(loc_noise_ddm=0.0, gs_noise_ddm=0.0).draw(np.random.default_rng(4), LENGTH)
     p = approach(f)
     loc, gs = f.measure(p[:, 0], p[:, 1], p[:, 2], np.random.default_rng(0))
-    est = inspect_approach(p, p, loc, gs, f, loc_sensitivity_rel=f.spec.loc_sensitivity_rel)  # measured on crossing runs
+    est = inspect_approach(
+        p, p, loc, gs, f, loc_sensitivity_rel=f.spec.loc_sensitivity_rel
+    )  # measured on crossing runs
     # alignment: 3 m, seen through 0.02-deg bends over the last 1,050 m (the window averages
     # part of a bend cycle: within the bend's displacement there, 0.02 deg x 3.85 km = 1.3 m)
     assert est["alignment_m"] == pytest.approx(3.0, abs=1.4)
@@ -33,15 +35,18 @@ def test_injected_alignment_angle_and_bends_are_recovered_with_a_perfect_truth_s
 
 
 def test_without_bends_the_alignment_is_exact():
-    f = IlsFacilitySpec(alignment_m=-4.0, loc_sensitivity_rel=0.0, bend_amplitude_deg=0.0, loc_noise_ddm=0.0, gs_noise_ddm=0.0).draw(np.random.default_rng(4), LENGTH)
+    f = IlsFacilitySpec(
+        alignment_m=-4.0, loc_sensitivity_rel=0.0, bend_amplitude_deg=0.0, loc_noise_ddm=0.0, gs_noise_ddm=0.0
+    ).draw(np.random.default_rng(4), LENGTH)
     p = approach(f)
     loc, gs = f.measure(p[:, 0], p[:, 1], p[:, 2], np.random.default_rng(0))
     assert inspect_approach(p, p, loc, gs, f)["alignment_m"] == pytest.approx(-4.0, abs=1e-4)
 
 
 def test_a_truth_system_error_shows_up_as_the_angle_it_subtends():
-    f = IlsFacilitySpec(alignment_m=0.0, gp_angle_error_deg=0.0, bend_amplitude_deg=0.0, loc_noise_ddm=0.0,
-                        gs_noise_ddm=0.0).draw(np.random.default_rng(4), LENGTH)
+    f = IlsFacilitySpec(
+        alignment_m=0.0, gp_angle_error_deg=0.0, bend_amplitude_deg=0.0, loc_noise_ddm=0.0, gs_noise_ddm=0.0
+    ).draw(np.random.default_rng(4), LENGTH)
     p = approach(f)
     loc, gs = f.measure(p[:, 0], p[:, 1], p[:, 2], np.random.default_rng(0))
     biased = p + [0.0, 1.0, 0.5]  # the truth system reports 1 m left and 0.5 m high

@@ -35,7 +35,9 @@ studies:
 def _run(text, out):
     run_campaign(parse_campaign(text), ExecutorChoice("local", workers=2), out=out, progress=False, log=lambda m: None)
     metrics = json.loads((out / "metrics.json").read_text())["metrics"]
-    rows = pd.concat([pd.read_parquet(p) for p in sorted((out / "tasks").glob("inspection--*.parquet"))], ignore_index=True)
+    rows = pd.concat(
+        [pd.read_parquet(p) for p in sorted((out / "tasks").glob("inspection--*.parquet"))], ignore_index=True
+    )
     return metrics, rows
 
 
@@ -52,7 +54,9 @@ def test_injected_errors_are_recovered_through_the_truth_and_waas_systems(fixed)
     for sysname in ("truth", "waas/tactical", "dgps"):
         g = s.xs(sysname, level="system")
         assert np.allclose(g["alignment_true_m"], 3.0) and np.allclose(g["gp_angle_true_deg"], 0.05)
-        assert (g["alignment_err_m"].abs() < 1.0).all(), sysname  # 1 m at the threshold: an inspection's alignment resolution
+        assert (g["alignment_err_m"].abs() < 1.0).all(), (
+            sysname
+        )  # 1 m at the threshold: an inspection's alignment resolution
         assert (g["gp_angle_err_deg"].abs() < 0.01).all(), sysname  # 0.01 deg
         assert (g["bend_rel_err"].abs() < 0.2).all(), sysname  # 20 %
         assert g["alignment_pass_est"].all() and g["gp_angle_pass_est"].all()  # 3 m and 0.05 deg pass Cat I
@@ -92,8 +96,18 @@ def test_a_mission_is_scored_by_run_type_beside_a_real_track_found_from_the_camp
 
     from aerotruth.sim.campaign_file import load_campaign
 
-    real = [{"timestamp": 1000 * k, "altitude": 2200 if k % 400 < 200 else 1300, "groundspeed": 160,
-             "vertical_rate": 0, "track": 90 if k % 400 < 200 else 270, "latitude": 50.0, "longitude": 4.0} for k in range(1, 1200)]
+    real = [
+        {
+            "timestamp": 1000 * k,
+            "altitude": 2200 if k % 400 < 200 else 1300,
+            "groundspeed": 160,
+            "vertical_rate": 0,
+            "track": 90 if k % 400 < 200 else 270,
+            "latitude": 50.0,
+            "longitude": 4.0,
+        }
+        for k in range(1, 1200)
+    ]
     (tmp_path / "data").mkdir()
     with gzip.open(tmp_path / "data" / "cal.json.gz", "wt") as f:
         json.dump(real, f)
@@ -105,7 +119,9 @@ def test_a_mission_is_scored_by_run_type_beside_a_real_track_found_from_the_camp
       compare_with: [data/cal.json.gz]
       runs:
         - {type: low_pass, from_nm: 9, height_ft: 1800}
-        - {type: crossing, height_ft: 1300, at_nm: 5}""").replace("periods: [d]", "periods: [d]\n    approaches_per_day: 1")
+        - {type: crossing, height_ft: 1300, at_nm: 5}""").replace(
+        "periods: [d]", "periods: [d]\n    approaches_per_day: 1"
+    )
     (tmp_path / "c.yaml").write_text(text)
     c = load_campaign(tmp_path / "c.yaml")
     assert c.studies["inspection"].mission.compare_with[0] == str((tmp_path / "data" / "cal.json.gz").resolve())

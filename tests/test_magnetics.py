@@ -68,11 +68,20 @@ def _turning_track(n: int = 36000, rate_hz: float = 10.0, tas: float = 130.0, ba
     dt_s = 1.0 / rate_hz
     north = np.concatenate(([0.0], np.cumsum(vn[:-1]) * dt_s))
     east = np.concatenate(([0.0], np.cumsum(ve[:-1]) * dt_s))
-    return pd.DataFrame({
-        "time_s": t, "lat_deg": 44.9 + north / 111_000.0, "lon_deg": -93.3 + east / (111_000.0 * math.cos(44.9 * DEG)),
-        "h_ellipsoid_m": np.full(n, 3000.0), "vn_mps": vn, "ve_mps": ve, "vd_mps": np.zeros(n),
-        "roll_rad": roll, "pitch_rad": np.zeros(n), "heading_rad": np.mod(psi, 2 * np.pi),
-    })
+    return pd.DataFrame(
+        {
+            "time_s": t,
+            "lat_deg": 44.9 + north / 111_000.0,
+            "lon_deg": -93.3 + east / (111_000.0 * math.cos(44.9 * DEG)),
+            "h_ellipsoid_m": np.full(n, 3000.0),
+            "vn_mps": vn,
+            "ve_mps": ve,
+            "vd_mps": np.zeros(n),
+            "roll_rad": roll,
+            "pitch_rad": np.zeros(n),
+            "heading_rad": np.mod(psi, 2 * np.pi),
+        }
+    )
 
 
 # ----------------------------------------------------------------------------- IGRF field
@@ -90,8 +99,9 @@ def test_igrf_field_at_minneapolis_matches_hand_checked_ppigrf_value(mesaba_fiel
     assert c.down_nT / c.horizontal_nT == pytest.approx(3.07, abs=0.01)  # Z/H ~ 3 over Minnesota (IGRF)
 
 
-@pytest.mark.parametrize("box", [((38.0, 50.0), (-100.0, -78.0)), ((54.0, 66.0), (-170.0, -140.0))],
-                         ids=["mesaba", "penair"])
+@pytest.mark.parametrize(
+    "box", [((38.0, 50.0), (-100.0, -78.0)), ((54.0, 66.0), (-170.0, -140.0))], ids=["mesaba", "penair"]
+)
 def test_grid_field_is_within_5nT_and_0p02deg_of_direct_ppigrf_over_a_region(box):
     field = GeomagneticField(DATE, *box, h_m=(-500.0, 12000.0))
     rng = np.random.default_rng(7)
@@ -123,7 +133,8 @@ def test_field_covering_a_track_holds_its_points_and_builds_other_dates_once():
     df = _turning_track(n=6000)
     field = GeomagneticField.covering(df["lat_deg"], df["lon_deg"], DATE, margin_deg=0.25)
     assert field.lat_deg[0] == pytest.approx(df["lat_deg"].min() - 0.25) and field.lon_deg[1] == pytest.approx(
-        df["lon_deg"].max() + 0.25)
+        df["lon_deg"].max() + 0.25
+    )
     be, bn, bu = (a[0] for a in ppigrf.igrf(-93.3, 44.9, 3.0, dt.datetime(2009, 8, 15)))
     assert np.max(np.abs(field.at(44.9, -93.3, 3000.0).ned_nT() - [bn, be, -bu])) < 5.0
     assert field.for_date(dt.date(2004, 8, 15)) is field.for_date(dt.date(2004, 8, 15))
@@ -162,7 +173,9 @@ def test_hard_iron_deviation_scales_with_inverse_horizontal_field():
         assert max(abs(a_), abs(d_), abs(e_)) < 1e-6  # < 6e-5 deg: only odd harmonics (asin of a sinusoid)
         assert b_ == pytest.approx(-pq[0] / h, rel=2e-3) and c_ == pytest.approx(-pq[1] / h, rel=2e-3)
         b_times_h.append((b_ * h, c_ * h))
-        print(f"\nH = {ratio:.2f} H_c: peak-to-peak {pp:.3f} deg, B {np.degrees(b_):.3f} deg, C {np.degrees(c_):.3f} deg")
+        print(
+            f"\nH = {ratio:.2f} H_c: peak-to-peak {pp:.3f} deg, B {np.degrees(b_):.3f} deg, C {np.degrees(c_):.3f} deg"
+        )
     assert np.allclose(b_times_h, b_times_h[0], rtol=1e-3)
 
 
@@ -247,7 +260,9 @@ def test_steady_climb_attitude_does_not_disturb_the_pendulous_valve():
 
 def test_forward_acceleration_on_east_heading_shows_a_turn_towards_north():
     valve = FluxValve(FluxValveSpec())
-    z_meas = valve.heading_mag(np.array([17400.0, 0.0, 3 * 17400.0]), 0.0, 0.0, 90 * DEG, np.array([0.0, 0.1 * G0, 0.0]))
+    z_meas = valve.heading_mag(
+        np.array([17400.0, 0.0, 3 * 17400.0]), 0.0, 0.0, 90 * DEG, np.array([0.0, 0.1 * G0, 0.0])
+    )
     # beta = atan(0.1), sin beta = 0.099504: z' = 90 - atan(3 * 0.099504) = 73.379 deg
     assert np.degrees(z_meas) == pytest.approx(73.379, abs=2e-3)
 
@@ -272,15 +287,20 @@ def test_saturating_slaving_ramps_at_its_rate_limit_then_decays_with_tau():
     t = np.arange(9000) * 0.1
     psi = np.full(t.size, 1.0)
     valve = np.where(t >= 100.0, 1.0 + 10 * DEG, 1.0)
-    out = slaved_heading(t, valve, psi, np.zeros(t.size), tau_s=60.0, cutout_bank_rad=10 * DEG,
-                         rate_max_rad_s=2 * DEG / 60.0)
+    out = slaved_heading(
+        t, valve, psi, np.zeros(t.size), tau_s=60.0, cutout_bank_rad=10 * DEG, rate_max_rad_s=2 * DEG / 60.0
+    )
     dt_ = t - 100.0
-    expected = np.where(dt_ < 0, 0.0, np.where(dt_ < 240.0, 2.0 * dt_ / 60.0, 10.0 - 2.0 * np.exp(-(dt_ - 240.0) / 60.0)))
+    expected = np.where(
+        dt_ < 0, 0.0, np.where(dt_ < 240.0, 2.0 * dt_ / 60.0, 10.0 - 2.0 * np.exp(-(dt_ - 240.0) / 60.0))
+    )
     assert np.max(np.abs(np.degrees(out - 1.0) - expected)) < 0.01  # 0.1-s steps round the corner
     # below the limit it is the linear loop exactly
     small = np.where(t >= 100.0, 1.0 + 1.5 * DEG, 1.0)
     lin = slaved_heading(t, small, psi, np.zeros(t.size), tau_s=60.0, cutout_bank_rad=10 * DEG)
-    sat = slaved_heading(t, small, psi, np.zeros(t.size), tau_s=60.0, cutout_bank_rad=10 * DEG, rate_max_rad_s=2 * DEG / 60.0)
+    sat = slaved_heading(
+        t, small, psi, np.zeros(t.size), tau_s=60.0, cutout_bank_rad=10 * DEG, rate_max_rad_s=2 * DEG / 60.0
+    )
     assert np.max(np.abs(lin - sat)) < 1e-12
 
 
@@ -342,8 +362,9 @@ def test_gyro_starts_from_the_power_up_reading_not_the_first_sample():
     t = np.arange(600) * 0.1
     psi = np.full(t.size, 1.0)
     valve = np.where(t < 1.0, 1.0 + 30 * DEG, 1.0 + 2 * DEG)
-    out = slaved_heading(t, valve, psi, np.zeros(t.size), tau_s=60.0, cutout_bank_rad=10 * DEG,
-                         initial_valve_rad=1.0 + 2 * DEG)
+    out = slaved_heading(
+        t, valve, psi, np.zeros(t.size), tau_s=60.0, cutout_bank_rad=10 * DEG, initial_valve_rad=1.0 + 2 * DEG
+    )
     assert np.degrees(out[0] - 1.0) == pytest.approx(2.0, abs=1e-9)
     # 1 s of +28 deg excess moves it by ~28 / 60 deg, then it holds at 2 deg + that decaying
     assert np.degrees(out[10] - 1.0) == pytest.approx(2.0 + 28.0 * (1 - math.exp(-1.0 / 60.0)), abs=1e-3)
@@ -388,10 +409,20 @@ def test_system_heading_error_on_settled_straight_legs_is_the_hard_iron_deviatio
     n = psi.size
     vn, ve = tas * np.cos(psi), tas * np.sin(psi)
     north, east = np.cumsum(vn) / rate, np.cumsum(ve) / rate
-    df = pd.DataFrame({"time_s": np.arange(n) / rate, "lat_deg": 44.9 + north / 111_000.0,
-                       "lon_deg": -93.3 + east / (111_000.0 * math.cos(44.9 * DEG)), "h_ellipsoid_m": np.full(n, 3000.0),
-                       "vn_mps": vn, "ve_mps": ve, "vd_mps": np.zeros(n), "roll_rad": np.zeros(n),
-                       "pitch_rad": np.zeros(n), "heading_rad": psi})
+    df = pd.DataFrame(
+        {
+            "time_s": np.arange(n) / rate,
+            "lat_deg": 44.9 + north / 111_000.0,
+            "lon_deg": -93.3 + east / (111_000.0 * math.cos(44.9 * DEG)),
+            "h_ellipsoid_m": np.full(n, 3000.0),
+            "vn_mps": vn,
+            "ve_mps": ve,
+            "vd_mps": np.zeros(n),
+            "roll_rad": np.zeros(n),
+            "pitch_rad": np.zeros(n),
+            "heading_rad": psi,
+        }
+    )
     p_nt = (400.0, -250.0, 300.0)
     field = GeomagneticField.covering(df["lat_deg"], df["lon_deg"], DATE)
     out = HeadingSystem(FluxValveSpec(hard_iron_nT=p_nt)).apply(df, field)
@@ -405,12 +436,18 @@ def test_system_heading_error_on_settled_straight_legs_is_the_hard_iron_deviatio
         be, bn, _ = (a[0] for a in ppigrf.igrf(lon, lat, 3.0, dt.datetime(2009, 8, 15)))
         dec[name] = np.arctan2(be, bn)
         psi_mag = psi[j] - dec[name]
-        z_meas = np.angle(np.hypot(be, bn) * np.exp(1j * psi_mag) + (p_nt[0] - 1j * p_nt[1]))  # w = H e^{i psi} + P - iQ
+        z_meas = np.angle(
+            np.hypot(be, bn) * np.exp(1j * psi_mag) + (p_nt[0] - 1j * p_nt[1])
+        )  # w = H e^{i psi} + P - iQ
         dev[name] = _wrap(z_meas - psi_mag)
     expected = np.degrees(dev["lagged"] + dec["now"] - dec["lagged"])
     error = np.degrees(_wrap(out["heading_rad"].to_numpy()[k] - psi[k]))
-    print("\nsettled heading error by leg (deg):", np.round(error, 3), "of which slaving lag:",
-          np.round(np.degrees(dec["now"] - dec["lagged"] + dev["lagged"] - dev["now"]), 3))
+    print(
+        "\nsettled heading error by leg (deg):",
+        np.round(error, 3),
+        "of which slaving lag:",
+        np.round(np.degrees(dec["now"] - dec["lagged"] + dev["lagged"] - dev["now"]), 3),
+    )
     np.testing.assert_allclose(error, expected, atol=0.005)
     assert np.ptp(error) > 2.0
 
@@ -420,8 +457,13 @@ def test_heading_system_on_an_hour_of_10hz_track(mesaba_field):
     spec = FluxValveFleetSpec(poor_fraction=1.0).draw(np.random.default_rng(3))
     system = HeadingSystem(spec)
     out = system.apply(df, mesaba_field)
-    assert len(out) == len(df) and list(out.columns) == ["heading_mag_rad", "heading_rad", "valve_heading_mag_rad",
-                                                         "declination_rad", "slaving"]
+    assert len(out) == len(df) and list(out.columns) == [
+        "heading_mag_rad",
+        "heading_rad",
+        "valve_heading_mag_rad",
+        "declination_rad",
+        "slaving",
+    ]
     assert not out["slaving"][df["roll_rad"] > 10 * DEG].any()
     runs = []
     for _ in range(5):
@@ -435,8 +477,14 @@ def test_heading_system_on_an_hour_of_10hz_track(mesaba_field):
 
 
 def test_fleet_draw_matches_the_stated_distributions():
-    fleet = FluxValveFleetSpec(poor_fraction=0.3, poor_hard_iron_sigma_nT=500.0, healthy_hard_iron_sigma_nT=100.0,
-                               soft_iron_sigma=0.004, mounting_sigma_deg=1.5, slaving_tau_s=90.0)
+    fleet = FluxValveFleetSpec(
+        poor_fraction=0.3,
+        poor_hard_iron_sigma_nT=500.0,
+        healthy_hard_iron_sigma_nT=100.0,
+        soft_iron_sigma=0.004,
+        mounting_sigma_deg=1.5,
+        slaving_tau_s=90.0,
+    )
     rng = np.random.default_rng(11)
     specs = [fleet.draw(rng) for _ in range(4000)]
     p = np.array([s.hard_iron_nT for s in specs])
@@ -478,15 +526,18 @@ def test_poor_count_fixes_the_fleet_composition_and_keeps_each_valve_draw():
         poor_valves(ids, 8, np.random.default_rng(0))
     # a class decided for the fleet consumes the aircraft's stream as the fraction does: the
     # valve is the fraction's draw of that class (unit normals scaled by the class's sigma)
-    spec = FluxValveFleetSpec(poor_fraction=0.5, poor_count=4, poor_hard_iron_sigma_nT=800.0,
-                              healthy_hard_iron_sigma_nT=100.0)
+    spec = FluxValveFleetSpec(
+        poor_fraction=0.5, poor_count=4, poor_hard_iron_sigma_nT=800.0, healthy_hard_iron_sigma_nT=100.0
+    )
     for seed in range(20):
         cls_p, v_p = spec.draw_with_class(np.random.default_rng(seed), poor=True)
         cls_h, v_h = spec.draw_with_class(np.random.default_rng(seed), poor=False)
         assert (cls_p, cls_h) == ("poor", "healthy")
         assert np.allclose(np.array(v_p.hard_iron_nT) / 800.0, np.array(v_h.hard_iron_nT) / 100.0)
         assert v_p.soft_iron == v_h.soft_iron and v_p.mounting_deg == v_h.mounting_deg
-        by_fraction = FluxValveFleetSpec(poor_fraction=1.0, poor_hard_iron_sigma_nT=800.0).draw(np.random.default_rng(seed))
+        by_fraction = FluxValveFleetSpec(poor_fraction=1.0, poor_hard_iron_sigma_nT=800.0).draw(
+            np.random.default_rng(seed)
+        )
         assert v_p.hard_iron_nT == by_fraction.hard_iron_nT
 
 
@@ -518,4 +569,6 @@ def test_slaving_filter_is_exact_across_a_branch_change_and_after_a_swing():
     x[8030:] += 2 * np.pi
     got, ref = _slaving_filter(x, alpha, 0.0), _slaving_exact(x, alpha, 0.0)
     assert np.max(np.abs(got - ref)) < 1e-3  # block wrapping only near the null
-    assert np.max(np.abs(got[9000:] - ref[9000:] - (got[8999] - ref[8999]) * (1 - alpha) ** np.arange(1, 11001))) < 1e-12
+    assert (
+        np.max(np.abs(got[9000:] - ref[9000:] - (got[8999] - ref[8999]) * (1 - alpha) ** np.arange(1, 11001))) < 1e-12
+    )

@@ -11,16 +11,17 @@ from aerotruth.sim.studies.inspection import _real_track, level_segments
 from aerotruth.truth.mission import MissionRun, MissionSpec, fly_mission
 from aerotruth.units import FT, NM
 
-RUNS = [{"type": "low_pass", "from_nm": 9, "height_ft": 1800},
-        {"type": "crossing", "height_ft": 1300, "at_nm": 6},
-        {"type": "level_run", "height_ft": 2200, "from_nm": 12, "to_nm": 3},
-        {"type": "approach", "from_nm": 10, "height_ft": 2000, "decision_height_ft": 400}]
+RUNS = [
+    {"type": "low_pass", "from_nm": 9, "height_ft": 1800},
+    {"type": "crossing", "height_ft": 1300, "at_nm": 6},
+    {"type": "level_run", "height_ft": 2200, "from_nm": 12, "to_nm": 3},
+    {"type": "approach", "from_nm": 10, "height_ft": 2000, "decision_height_ft": 400},
+]
 
 
 @pytest.fixture(scope="module")
 def mission():
-    spec = MissionSpec("PANC", "07R", dt.datetime(2009, 8, 15, 14, tzinfo=dt.timezone.utc),
-                       tuple(MissionRun(**r) for r in RUNS))
+    spec = MissionSpec("PANC", "07R", dt.datetime(2009, 8, 15, 14, tzinfo=dt.UTC), tuple(MissionRun(**r) for r in RUNS))
     return fly_mission(spec, seed=3)
 
 
@@ -49,9 +50,22 @@ def test_level_segments_and_the_real_track_reader(tmp_path):
     trk = np.where(t < 180, 90.0, 95.0)
     p = pd.DataFrame({"time_s": t, "vertical_rate_fpm": vs, "track_deg": trk})
     assert list(level_segments(p)) == [145.0]
-    assert list(level_segments(p.assign(track_deg=np.where(t < 180, 90.0, 150.0)))) == [75.0, 65.0]  # a 60-deg turn splits it
-    rec = [{"timestamp": 1000 * k, "altitude": 0 if k == 0 else 2000, "groundspeed": 150, "vertical_rate": 0, "track": 90,
-            "latitude": 50.0, "longitude": 4.0} for k in range(5)]
+    assert list(level_segments(p.assign(track_deg=np.where(t < 180, 90.0, 150.0)))) == [
+        75.0,
+        65.0,
+    ]  # a 60-deg turn splits it
+    rec = [
+        {
+            "timestamp": 1000 * k,
+            "altitude": 0 if k == 0 else 2000,
+            "groundspeed": 150,
+            "vertical_rate": 0,
+            "track": 90,
+            "latitude": 50.0,
+            "longitude": 4.0,
+        }
+        for k in range(5)
+    ]
     path = tmp_path / "c.json"
     path.write_text(pd.Series(rec).to_json(orient="values"))
     r = _real_track(str(path))

@@ -10,13 +10,27 @@ from aerotruth.sensors.modes import LSB, ModeSSensor, ModeSSpec, ReplyProcess, h
 def avionics_turn(rate_deg_s=3.0, duration=600.0, dt=0.05):
     t = np.arange(0.0, duration, dt)
     heading = (90.0 + rate_deg_s * t) % 360
-    return pd.DataFrame({
-        "time_s": t, "roll_deg": 25.0 + 0 * t, "track_deg": heading, "groundspeed_kt": 250.0 + 0 * t,
-        "track_rate_deg_s": rate_deg_s + 0 * t, "tas_kt": 240.0 + 0 * t, "heading_mag_deg": heading,
-        "ias_kt": 200.0 + 0 * t, "mach": 0.4 + 0 * t, "vrate_baro_fpm": 0 * t, "vrate_inertial_fpm": 0 * t,
-        "v_east_kt": 0 * t, "v_north_kt": 0 * t, "vertical_rate_fpm": 0 * t, "altitude_ft": 15000 + 0 * t,
-        "lat": 45.0 + 0 * t, "lon": -93.0 + 0 * t,
-    })
+    return pd.DataFrame(
+        {
+            "time_s": t,
+            "roll_deg": 25.0 + 0 * t,
+            "track_deg": heading,
+            "groundspeed_kt": 250.0 + 0 * t,
+            "track_rate_deg_s": rate_deg_s + 0 * t,
+            "tas_kt": 240.0 + 0 * t,
+            "heading_mag_deg": heading,
+            "ias_kt": 200.0 + 0 * t,
+            "mach": 0.4 + 0 * t,
+            "vrate_baro_fpm": 0 * t,
+            "vrate_inertial_fpm": 0 * t,
+            "v_east_kt": 0 * t,
+            "v_north_kt": 0 * t,
+            "vertical_rate_fpm": 0 * t,
+            "altitude_ft": 15000 + 0 * t,
+            "lat": 45.0 + 0 * t,
+            "lon": -93.0 + 0 * t,
+        }
+    )
 
 
 def test_fields_are_multiples_of_their_lsb():

@@ -17,7 +17,9 @@ from aerotruth.sensors.modes import (
 )
 
 RAW = real_data_dir() / "full_flight_short.jsonl.gz"
-pytestmark = pytest.mark.skipif(not RAW.exists(), reason=f"raw Mode-S flight not found at {RAW} (set AEROTRUTH_REAL_DATA)")
+pytestmark = pytest.mark.skipif(
+    not RAW.exists(), reason=f"raw Mode-S flight not found at {RAW} (set AEROTRUTH_REAL_DATA)"
+)
 
 
 @pytest.fixture(scope="module")
@@ -31,14 +33,21 @@ def real_unique_intervals(raw, register):
     t = register_times(raw, register)
     sel = raw["time_s"].isin(t) & raw["bds"].isin(["50", "60", "05", "09"])
     m = raw[sel & raw["time_s"].between(t.min(), t.max())]
-    m = m[m["bds"] == {"BDS50": "50", "BDS60": "60", "velocity": "09", "position": "05"}[register]].sort_values("time_s")
+    m = m[m["bds"] == {"BDS50": "50", "BDS60": "60", "velocity": "09", "position": "05"}[register]].sort_values(
+        "time_s"
+    )
     return np.diff(m.drop_duplicates("payload")["time_s"].to_numpy())
 
 
 def test_update_intervals_per_register_match_the_real_flight(raw):
-    spec = ModeSSpec(**{name.lower() if name.startswith("BDS") else name:
-                        fit_reply_process(register_times(raw, name), "squitter" if name in ("velocity", "position") else "interrogated")
-                        for name in ("BDS50", "BDS60", "velocity", "position")})
+    spec = ModeSSpec(
+        **{
+            name.lower() if name.startswith("BDS") else name: fit_reply_process(
+                register_times(raw, name), "squitter" if name in ("velocity", "position") else "interrogated"
+            )
+            for name in ("BDS50", "BDS60", "velocity", "position")
+        }
+    )
     msgs = ModeSSensor(spec).apply(avionics_from_raw(raw), np.random.default_rng(11))
     rows = []
     for reg in ("BDS50", "BDS60", "velocity", "position"):
@@ -51,5 +60,11 @@ def test_update_intervals_per_register_match_the_real_flight(raw):
 
 def test_fitted_environment_is_the_default_spec(raw):
     fitted = fit_reply_process(register_times(raw, "BDS60"), "interrogated")
-    assert (round(fitted.dead_time_s, 3), round(fitted.mean_excess_s, 3)) == (ModeSSpec().bds60.dead_time_s, ModeSSpec().bds60.mean_excess_s)
-    assert round(fit_reply_process(register_times(raw, "position"), "squitter").reception, 2) == ModeSSpec().position.reception
+    assert (round(fitted.dead_time_s, 3), round(fitted.mean_excess_s, 3)) == (
+        ModeSSpec().bds60.dead_time_s,
+        ModeSSpec().bds60.mean_excess_s,
+    )
+    assert (
+        round(fit_reply_process(register_times(raw, "position"), "squitter").reception, 2)
+        == ModeSSpec().position.reception
+    )

@@ -26,7 +26,9 @@ def synthetic(A_deg=1.5, k=0.01, D_s=2.0, B_deg=0.0, C_deg=0.0, noise_mps=0.5, s
     # what the aircraft reports: heading late by D_s, off by -A (the correction is +A) and a one-cycle deviation
     psi_late = np.interp(t - D_s, t, np.unwrap(psi))
     dev = np.radians(A_deg + B_deg * np.sin(psi_late) + C_deg * np.cos(psi_late))
-    if slaving_tau_s:  # a slaved gyro: the error follows the valve's deviation, de/dt = (dev - e) / tau, 10 sub-steps a second
+    if (
+        slaving_tau_s
+    ):  # a slaved gyro: the error follows the valve's deviation, de/dt = (dev - e) / tau, 10 sub-steps a second
         e = np.empty_like(dev)
         e[0] = dev[0]
         for i in range(1, len(dev)):
@@ -37,16 +39,23 @@ def synthetic(A_deg=1.5, k=0.01, D_s=2.0, B_deg=0.0, C_deg=0.0, noise_mps=0.5, s
         dev = e
     psi_rep = psi_late - dev
     tas_rep = tas / (1 + k)
-    return pd.DataFrame({"time_s": t, "tas_mps": tas_rep, "heading_rad": psi_rep,
-                         "vn_mps": vn + noise_mps * rng.standard_normal(len(t)), "ve_mps": ve + noise_mps * rng.standard_normal(len(t)),
-                         "heading_rate_rad_s": np.gradient(np.unwrap(psi_rep), t)})
+    return pd.DataFrame(
+        {
+            "time_s": t,
+            "tas_mps": tas_rep,
+            "heading_rad": psi_rep,
+            "vn_mps": vn + noise_mps * rng.standard_normal(len(t)),
+            "ve_mps": ve + noise_mps * rng.standard_normal(len(t)),
+            "heading_rate_rad_s": np.gradient(np.unwrap(psi_rep), t),
+        }
+    )
 
 
 def test_hidden_heading_offset_tas_scale_and_time_offset_are_recovered():
     track = synthetic()
     f = fit(track, effects=("heading_offset", "tas_scale", "heading_time_offset"))
-    got = dict(zip(f["names"], f["coef"]))
-    se = dict(zip(f["names"], f["se"]))
+    got = dict(zip(f["names"], f["coef"], strict=False))
+    se = dict(zip(f["names"], f["se"], strict=False))
     assert got["A_deg"] == pytest.approx(1.5, abs=max(0.1, 4 * se["A_deg"]))
     assert got["k"] == pytest.approx(0.01, abs=0.002)
     assert got["D_s"] == pytest.approx(2.0, abs=0.3)
@@ -55,7 +64,7 @@ def test_hidden_heading_offset_tas_scale_and_time_offset_are_recovered():
 def test_one_cycle_deviation_is_recovered():
     track = synthetic(A_deg=0.0, k=0.0, D_s=0.0, B_deg=1.0, C_deg=-0.5)
     f = fit(track, effects=("heading_deviation_1psi",))
-    got = dict(zip(f["names"], f["coef"]))
+    got = dict(zip(f["names"], f["coef"], strict=False))
     assert (got["B_deg"], got["C_deg"]) == pytest.approx((1.0, -0.5), abs=0.15)
 
 

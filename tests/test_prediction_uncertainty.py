@@ -27,26 +27,46 @@ def _fleet(duplicate_before: bool):
     rng = np.random.default_rng(5)
     poor_before = 16.0 + _standardized(rng, 2.0)  # sd 2 kn, slope 0.01 kn/nT: the parameter's sd is 2 / 0.01 = 200 nT
     control_before = 11.0 + _standardized(rng, 1.0)  # no slope: no information on the parameter
-    cells = {("poor", "before", "total"): (poor_before, 0.01, "calibrated"),
-             ("control", "before", "total"): (control_before, 0.0, "calibrated"),
-             # an exact linear function of the two before totals: its conditional value is known
-             ("poor", "improvement", "total"): (7.0 + 0.8 * (poor_before - 16.0) - 0.5 * (control_before - 11.0), 0.02, "predicted"),
-             ("poor", "after_adjusted", "total"): (9.0 + 0.1 * (poor_before - 16.0), 0.005, "predicted")}
+    cells = {
+        ("poor", "before", "total"): (poor_before, 0.01, "calibrated"),
+        ("control", "before", "total"): (control_before, 0.0, "calibrated"),
+        # an exact linear function of the two before totals: its conditional value is known
+        ("poor", "improvement", "total"): (
+            7.0 + 0.8 * (poor_before - 16.0) - 0.5 * (control_before - 11.0),
+            0.02,
+            "predicted",
+        ),
+        ("poor", "after_adjusted", "total"): (9.0 + 0.1 * (poor_before - 16.0), 0.005, "predicted"),
+    }
     if duplicate_before:  # a component that is the total over again: it adds no information
         cells[("poor", "before", "transverse")] = (poor_before - 1.0, 0.01, "calibrated")
     return cells
 
 
-PAPER = {("poor", "before", "total"): 16.4, ("control", "before", "total"): 11.6, ("poor", "improvement", "total"): 8.2,
-         ("poor", "after_adjusted", "total"): 8.2, ("poor", "before", "transverse"): 15.6}
+PAPER = {
+    ("poor", "before", "total"): 16.4,
+    ("control", "before", "total"): 11.6,
+    ("poor", "improvement", "total"): 8.2,
+    ("poor", "after_adjusted", "total"): 8.2,
+    ("poor", "before", "transverse"): 15.6,
+}
 
 
 def _write(root: Path, tag: str, cells, value: float) -> list[str]:
     runs = []
     for s in range(N):
-        rows = [{"group": g, "period": p, "component": c, "paper_kt": PAPER[(g, p, c)],
-                 "simulated_kt": float(v[s] + slope * (value - FROZEN)), "role": role, "source": "hand"}
-                for (g, p, c), (v, slope, role) in cells.items()]
+        rows = [
+            {
+                "group": g,
+                "period": p,
+                "component": c,
+                "paper_kt": PAPER[(g, p, c)],
+                "simulated_kt": float(v[s] + slope * (value - FROZEN)),
+                "role": role,
+                "source": "hand",
+            }
+            for (g, p, c), (v, slope, role) in cells.items()
+        ]
         d = root / f"{tag}-{s}" / "tables"
         d.mkdir(parents=True)
         pd.DataFrame(rows).to_parquet(d / "heading_correction.versus_paper.parquet")
@@ -58,8 +78,22 @@ def _run(monkeypatch, capsys, tmp_path, duplicate_before=False):
     cells = _fleet(duplicate_before)
     frozen = _write(tmp_path, "f", cells, FROZEN)
     lo, hi = _write(tmp_path, "lo", cells, 680.0), _write(tmp_path, "hi", cells, 920.0)
-    monkeypatch.setattr(sys, "argv", ["x", *frozen, "--frozen", "hard_iron_nT=800", "--variant", "hard_iron_nT=680", *lo,
-                                      "--variant", "hard_iron_nT=920", *hi])
+    monkeypatch.setattr(
+        sys,
+        "argv",
+        [
+            "x",
+            *frozen,
+            "--frozen",
+            "hard_iron_nT=800",
+            "--variant",
+            "hard_iron_nT=680",
+            *lo,
+            "--variant",
+            "hard_iron_nT=920",
+            *hi,
+        ],
+    )
     pu.main()
     out = {}
     for line in capsys.readouterr().out.splitlines():
@@ -102,6 +136,8 @@ def test_a_variant_with_other_seeds_is_refused_by_name(monkeypatch, capsys, tmp_
     cells = _fleet(False)
     frozen = _write(tmp_path, "f", cells, FROZEN)
     lo = _write(tmp_path, "lo", cells, 680.0)[:-1]
-    monkeypatch.setattr(sys, "argv", ["x", *frozen, "--frozen", "hard_iron_nT=800", "--variant", "hard_iron_nT=680", *lo])
+    monkeypatch.setattr(
+        sys, "argv", ["x", *frozen, "--frozen", "hard_iron_nT=800", "--variant", "hard_iron_nT=680", *lo]
+    )
     with pytest.raises(SystemExit, match=r"--variant hard_iron_nT=680: expected 16 runs"):
         pu.main()

@@ -30,11 +30,12 @@ from aerotruth.app.cli import build_parser
 ROOT = Path(__file__).resolve().parents[1]
 README = ROOT / "README.md"
 # the docs written with the README (others are generated or kept by their own tests)
-GUIDES = sorted([ROOT / "docs" / n for n in ("architecture.md", "commands.md", "truth.md", "sensors.md", "checks.md")]
-                + list((ROOT / "docs" / "howto").glob("*.md")))
+GUIDES = sorted(
+    [ROOT / "docs" / n for n in ("architecture.md", "commands.md", "truth.md", "sensors.md", "checks.md")]
+    + list((ROOT / "docs" / "howto").glob("*.md"))
+)
 DOCS = [README, *GUIDES]
-CI_LINES = ('pip install -e ".[dev]" && aerotruth run campaigns/quick.yaml',
-            'pip install -e ".[dev]" && pytest')
+CI_LINES = ('pip install -e ".[dev]" && aerotruth run campaigns/quick.yaml', 'pip install -e ".[dev]" && pytest')
 FLIES = {"fly", "fly-approach", "run"}  # commands that fly JSBSim (minutes of simulated time)
 REPO_DIRS = ("aerotruth/", "campaigns/", "tests/", "validation/", "benchmarks/", "tools/", "docs/")
 
@@ -78,8 +79,9 @@ def scratch(tmp_path: Path) -> Path:
 
 
 def run(args: list[str], cwd: Path, timeout: float = 600) -> subprocess.CompletedProcess:
-    return subprocess.run(args, cwd=cwd, capture_output=True, text=True, timeout=timeout,
-                          env={**os.environ, "PYTHONPATH": str(ROOT)})
+    return subprocess.run(
+        args, cwd=cwd, capture_output=True, text=True, timeout=timeout, env={**os.environ, "PYTHONPATH": str(ROOT)}
+    )
 
 
 # ----------------------------------------------------------------------------- the README
@@ -190,8 +192,9 @@ def test_guides_keep_lines_readable(doc):
     assert long == [], f"{doc.name}: lines over 400 characters: {long}"
 
 
-@pytest.mark.parametrize("doc", [p for p in GUIDES if any("studies:" in b for b in blocks(text(p), "yaml"))],
-                         ids=lambda p: p.name)
+@pytest.mark.parametrize(
+    "doc", [p for p in GUIDES if any("studies:" in b for b in blocks(text(p), "yaml"))], ids=lambda p: p.name
+)
 def test_campaigns_in_the_guides_validate(doc, scratch):
     for i, block in enumerate(b for b in blocks(text(doc), "yaml") if "studies:" in b):
         path = scratch / f"example{i}.yaml"

@@ -35,7 +35,9 @@ def test_tolerance_rule_is_abs_plus_rel_times_baseline():
 
 
 def test_regress_passes_within_tolerance(tmp_path, run_dir, capsys):
-    b = baseline(tmp_path, {"default": {"rel": 0.01}, "metrics": {"w.speed": 10.05, "w.n": {"value": 4}, "w.nan": None}})
+    b = baseline(
+        tmp_path, {"default": {"rel": 0.01}, "metrics": {"w.speed": 10.05, "w.n": {"value": 4}, "w.nan": None}}
+    )
     assert main(["regress", str(run_dir), b]) == 0
     assert capsys.readouterr().out.strip() == "3 of 3 metrics within tolerance"
 
@@ -68,7 +70,10 @@ def test_written_baseline_passes_then_fails_after_an_edit(tmp_path, run_dir):
 def test_bad_baseline_is_one_line_exit_2(tmp_path, run_dir, capsys):
     b = baseline(tmp_path, {"metrics": {"w.speed": {"value": 1.0, "abs": -1}}})
     assert main(["regress", str(run_dir), b]) == 2
-    assert capsys.readouterr().err.strip() == "aerotruth regress: metrics.w.speed.abs: expected a non-negative number, got -1"
+    assert (
+        capsys.readouterr().err.strip()
+        == "aerotruth regress: metrics.w.speed.abs: expected a non-negative number, got -1"
+    )
     with pytest.raises(BaselineError, match="not valid JSON"):
         p = tmp_path / "broken.json"
         p.write_text("{")

@@ -4,7 +4,7 @@ geometry, vertical targets, schedule timing and determinism."""
 from __future__ import annotations
 
 import math
-from datetime import date, datetime, timedelta, timezone
+from datetime import UTC, date, datetime, timedelta
 
 import numpy as np
 import pytest
@@ -27,7 +27,7 @@ from aerotruth.truth.routes import (
 )
 from aerotruth.units import FT, KT, NM
 
-T0 = datetime(2009, 8, 15, 12, 0, tzinfo=timezone.utc)
+T0 = datetime(2009, 8, 15, 12, 0, tzinfo=UTC)
 
 
 def wind_from(direction_deg: float, speed: float) -> tuple[float, float]:
@@ -36,24 +36,62 @@ def wind_from(direction_deg: float, speed: float) -> tuple[float, float]:
     return speed * math.sin(to), speed * math.cos(to)
 
 
-def synthetic_airport(icao: str, lat: float, lon: float, course_deg: float, elev_ft: float = 1000.0,
-                      undulation_m: float = -30.0, length_ft: float = 8000.0) -> Airport:
+def synthetic_airport(
+    icao: str,
+    lat: float,
+    lon: float,
+    course_deg: float,
+    elev_ft: float = 1000.0,
+    undulation_m: float = -30.0,
+    length_ft: float = 8000.0,
+) -> Airport:
     """One-runway airport: runway centred on (lat, lon) with the given landing course for
     end '09'-like ident 'A' and its reciprocal 'B'."""
     half = length_ft * FT / 2.0
     a_lat, a_lon, _ = forward(lat, lon, course_deg + 180.0, half)
     b_lat, b_lon, _ = forward(lat, lon, course_deg, half)
-    common = dict(airport=icao, elevation_m=elev_ft * FT, length_m=length_ft * FT, width_m=45.0,
-                  undulation_m=undulation_m, displaced_threshold_m=0.0, surface="ASP")
-    rw_a = Runway(ident="A", threshold_lat=a_lat, threshold_lon=a_lon, true_course_deg=course_deg % 360,
-                  start_lat=a_lat, start_lon=a_lon, reciprocal_ident="B", **common)
-    rw_b = Runway(ident="B", threshold_lat=b_lat, threshold_lon=b_lon, true_course_deg=(course_deg + 180) % 360,
-                  start_lat=b_lat, start_lon=b_lon, reciprocal_ident="A", **common)
-    return Airport(icao=icao, name=icao, lat=lat, lon=lon, elevation_m=elev_ft * FT, undulation_m=undulation_m,
-                   runways=(rw_a, rw_b))
+    common = dict(
+        airport=icao,
+        elevation_m=elev_ft * FT,
+        length_m=length_ft * FT,
+        width_m=45.0,
+        undulation_m=undulation_m,
+        displaced_threshold_m=0.0,
+        surface="ASP",
+    )
+    rw_a = Runway(
+        ident="A",
+        threshold_lat=a_lat,
+        threshold_lon=a_lon,
+        true_course_deg=course_deg % 360,
+        start_lat=a_lat,
+        start_lon=a_lon,
+        reciprocal_ident="B",
+        **common,
+    )
+    rw_b = Runway(
+        ident="B",
+        threshold_lat=b_lat,
+        threshold_lon=b_lon,
+        true_course_deg=(course_deg + 180) % 360,
+        start_lat=b_lat,
+        start_lon=b_lon,
+        reciprocal_ident="A",
+        **common,
+    )
+    return Airport(
+        icao=icao,
+        name=icao,
+        lat=lat,
+        lon=lon,
+        elevation_m=elev_ft * FT,
+        undulation_m=undulation_m,
+        runways=(rw_a, rw_b),
+    )
 
 
 # ---------------------------------------------------------------- runway choice
+
 
 def test_headwind_component_by_hand():
     east = synthetic_airport("XEAS", 45.0, -93.0, 90.0).runway("A")  # landing due east
@@ -91,6 +129,7 @@ def test_bad_wind_is_rejected():
 
 
 # ---------------------------------------------------------------- cruise level
+
 
 def test_semicircular_rule_odd_eastbound_even_westbound():
     assert semicircular_altitude_ft(17200.0, 90.0, floor_ft=14000, ceiling_ft=25000) == 17000.0
@@ -155,6 +194,7 @@ def test_long_legs_cruise_high_and_short_legs_low():
 
 
 # ---------------------------------------------------------------- lateral path
+
 
 def test_intermediate_and_final_points_on_the_extended_centreline():
     leg = plan_leg("KMSP", "KDLH", T0, wind_uv=wind_from(270.0, 10.0))
@@ -244,7 +284,7 @@ def test_no_base_point_for_a_straight_in_arrival():
 def test_distance_to_go_and_total_distance():
     leg = plan_leg("KMSP", "KFAR", T0)
     w = leg.waypoints
-    by_hand = sum(inverse(a.lat, a.lon, b.lat, b.lon)[2] for a, b in zip(w[:-1], w[1:]))
+    by_hand = sum(inverse(a.lat, a.lon, b.lat, b.lon)[2] for a, b in zip(w[:-1], w[1:], strict=False))
     assert leg.total_distance_m == pytest.approx(by_hand, abs=1e-6)
     assert leg.distance_to_go_m(0, w[0].lat, w[0].lon) == pytest.approx(leg.total_distance_m, abs=1e-6)
     assert leg.distance_to_go_m(1, w[0].lat, w[0].lon) == pytest.approx(leg.total_distance_m, abs=1e-6)
@@ -296,6 +336,7 @@ def test_every_network_leg_plans_within_limits():
 
 # ---------------------------------------------------------------- schedule
 
+
 def test_block_time_is_distance_at_250_kt_plus_15_min():
     assert block_time_s(250 * NM) == pytest.approx(75 * 60.0)
     assert block_time_s(0.0) == pytest.approx(15 * 60.0)
@@ -337,15 +378,16 @@ def test_schedule_alternates_hub_and_spoke_with_turn_times(name):
         local = legs[0].departure_utc + timedelta(hours=hub_utc_offset_h(net, hub, day))
         assert local.date() == day
         assert 6 * 60 <= local.hour * 60 + local.minute <= 8 * 60
-        assert legs[0].departure_utc.tzinfo == timezone.utc
+        assert legs[0].departure_utc.tzinfo == UTC
 
 
 def test_schedule_is_deterministic_given_the_rng():
     a = day_schedule("mesaba", date(2009, 8, 15), np.random.default_rng(7), aircraft_id="N1")
     b = day_schedule("mesaba", date(2009, 8, 15), np.random.default_rng(7), aircraft_id="N1")
     assert a == b
-    others = [day_schedule("mesaba", date(2009, 8, 15), np.random.default_rng(s), aircraft_id="N1")
-              for s in range(8, 12)]
+    others = [
+        day_schedule("mesaba", date(2009, 8, 15), np.random.default_rng(s), aircraft_id="N1") for s in range(8, 12)
+    ]
     assert any(o != a for o in others)
 
 
@@ -356,8 +398,7 @@ def test_schedule_uses_the_surface_wind_for_runways():
         calls.append((apt.icao, t))
         return wind_from(170.0, 10.0)
 
-    legs = day_schedule("mesaba", date(2009, 8, 15), np.random.default_rng(3), aircraft_id="N2",
-                        surface_wind=wind)
+    legs = day_schedule("mesaba", date(2009, 8, 15), np.random.default_rng(3), aircraft_id="N2", surface_wind=wind)
     for leg in legs:
         assert leg.departure_runway == choose_runway(leg.origin, wind_from(170.0, 10.0))
         assert leg.arrival_runway == choose_runway(leg.destination, wind_from(170.0, 10.0))
@@ -379,11 +420,14 @@ def test_schedule_rejects_bad_input():
 
 
 def _courses(plan):
-    return [float(inverse(a.lat, a.lon, b.lat, b.lon)[0]) for a, b in zip(plan.waypoints[:-1], plan.waypoints[1:])]
+    return [
+        float(inverse(a.lat, a.lon, b.lat, b.lon)[0])
+        for a, b in zip(plan.waypoints[:-1], plan.waypoints[1:], strict=False)
+    ]
 
 
 def test_airway_fixes_keep_the_ends_their_margins_and_the_paths_closure():
-    plan = plan_leg("KMSP", "KDTW", datetime(2009, 8, 15, 13, tzinfo=timezone.utc))
+    plan = plan_leg("KMSP", "KDTW", datetime(2009, 8, 15, 13, tzinfo=UTC))
     names = [w.name for w in plan.waypoints]
     i = names.index("CLIMB")
     climb, nxt = plan.waypoints[i], plan.waypoints[i + 1]
@@ -395,13 +439,14 @@ def test_airway_fixes_keep_the_ends_their_margins_and_the_paths_closure():
         n_with += bool(awy)
         # the ends are unchanged, the fixes sit between CLIMB and the next waypoint
         assert q.waypoints[: i + 1] == plan.waypoints[: i + 1]
-        assert q.waypoints[i + 1 + len(awy):] == plan.waypoints[i + 1:]
-        assert [w.name for w in q.waypoints[i + 1: i + 1 + len(awy)]] == [f"AWY{k}" for k in range(1, len(awy) + 1)]
+        assert q.waypoints[i + 1 + len(awy) :] == plan.waypoints[i + 1 :]
+        assert [w.name for w in q.waypoints[i + 1 : i + 1 + len(awy)]] == [f"AWY{k}" for k in range(1, len(awy) + 1)]
         for w in awy:
             assert inverse(climb.lat, climb.lon, w.lat, w.lon)[2] > 20 * NM * 0.95
             assert inverse(w.lat, w.lon, nxt.lat, nxt.lon)[2] > 20 * NM * 0.95
         assert q.segment_lengths_m == pytest.approx(
-            [inverse(a.lat, a.lon, b.lat, b.lon)[2] for a, b in zip(q.waypoints[:-1], q.waypoints[1:])])
+            [inverse(a.lat, a.lon, b.lat, b.lon)[2] for a, b in zip(q.waypoints[:-1], q.waypoints[1:], strict=False)]
+        )
     assert n_with >= 45  # a 466-nm leg: ~4 fixes on average
 
 
@@ -409,7 +454,7 @@ def test_airway_course_changes_have_the_stated_size_and_cost_about_one_percent()
     # independent expectation: segment courses N(0, 9 deg) -> a change at a fix with rms
     # sqrt(2) x 9 = 12.7 deg, mean |change| sqrt(2/pi) x 12.7 = 10.2 deg; extra distance
     # E(1 - cos theta) = 9^2 / 2 deg^2 = 1.2 %
-    plan = plan_leg("KMSP", "KDTW", datetime(2009, 8, 15, 13, tzinfo=timezone.utc))
+    plan = plan_leg("KMSP", "KDTW", datetime(2009, 8, 15, 13, tzinfo=UTC))
     rng = np.random.default_rng(11)
     changes, extra, counts = [], [], []
     for _ in range(400):
@@ -426,9 +471,9 @@ def test_airway_course_changes_have_the_stated_size_and_cost_about_one_percent()
 
 
 def test_airway_is_deterministic_and_short_legs_stay_direct():
-    plan = plan_leg("KMSP", "KDTW", datetime(2009, 8, 15, 13, tzinfo=timezone.utc))
+    plan = plan_leg("KMSP", "KDTW", datetime(2009, 8, 15, 13, tzinfo=UTC))
     assert with_airway(plan, np.random.default_rng(7)) == with_airway(plan, np.random.default_rng(7))
-    short = plan_leg("KDTW", "KFNT", datetime(2009, 8, 15, 13, tzinfo=timezone.utc))
+    short = plan_leg("KDTW", "KFNT", datetime(2009, 8, 15, 13, tzinfo=UTC))
     assert with_airway(short, np.random.default_rng(7)) == short
     with pytest.raises(ValueError, match="rng"):
         with_airway(plan, 7)

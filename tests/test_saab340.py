@@ -50,8 +50,11 @@ def test_model_loads_from_the_package_layout_with_published_geometry_and_mass():
     # Roskam radii of gyration 0.25 / 0.38 / 0.39 at MTOW (R part V table 4.1):
     # I = m (R b/2)^2 with b = span (Ixx, Izz) or length 19.73 m (Iyy)
     m = chk.MTOW_KG
-    expected = {"ixx": m * (0.25 * 21.44 / 2) ** 2, "iyy": m * (0.38 * 19.73 / 2) ** 2,
-                "izz": m * (0.39 * (21.44 + 19.73) / 4) ** 2}
+    expected = {
+        "ixx": m * (0.25 * 21.44 / 2) ** 2,
+        "iyy": m * (0.38 * 19.73 / 2) ** 2,
+        "izz": m * (0.39 * (21.44 + 19.73) / 4) ** 2,
+    }
     for axis, value in expected.items():
         assert fdm[f"inertia/{axis}-slugs_ft2"] * SLUG_FT2 == pytest.approx(value, rel=0.05), axis
     # CG within the usual forward/aft range of the MAC (LEMAC 8.10 m, MAC 2.02 m)

@@ -42,7 +42,7 @@ def _table(text: str, heading: str) -> dict[str, list[str]]:
     lines = text.splitlines()
     start = lines.index(f"### {heading}")
     rows: dict[str, list[str]] = {}
-    for line in lines[start + 1:]:
+    for line in lines[start + 1 :]:
         if line.startswith("### "):
             break
         if line.startswith("| `"):

@@ -69,8 +69,9 @@ def test_a_set_that_the_size_block_would_undo_is_an_error_naming_the_size_path()
         seed_runs.check_not_shadowed(doc, "periods.fit.every_days=5", "reduced")
     # keys the size does not restate pass, as does any set at the full size or inside sizes
     seed_runs.check_not_shadowed(doc, "studies.heading_correction.selection.by=transverse", "reduced")
-    seed_runs.check_not_shadowed(doc, "studies.heading_correction.sensors.fleets.penair.heading.poor_count=4",
-                                 "reduced")
+    seed_runs.check_not_shadowed(
+        doc, "studies.heading_correction.sensors.fleets.penair.heading.poor_count=4", "reduced"
+    )
     seed_runs.check_not_shadowed(doc, "periods.fit.every_days=5", "full")
     seed_runs.check_not_shadowed(doc, "sizes.reduced.periods.0.every_days=20", "reduced")
     # and what the check lets through does reach the reduced campaign
@@ -79,5 +80,6 @@ def test_a_set_that_the_size_block_would_undo_is_an_error_naming_the_size_path()
     path = ROOT / "campaigns" / "penair_2010.yaml"
     text = yaml.safe_dump(doc, sort_keys=False)
     from aerotruth.sim.campaign_file import parse_campaign
+
     c = parse_campaign(text, base_dir=path.parent, size="reduced")
     assert c.section("heading_correction").selection.by == "total"

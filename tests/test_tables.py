@@ -16,8 +16,9 @@ from aerotruth.measured.tables import csv_separator, read_csv_table
 
 
 def _obs() -> pd.DataFrame:
-    return gen.generate([gen.AircraftTruth("N470XJ", A=-3.0, B=1.5, C=0.0, cruise_tas_kt=280.0)],
-                        np.random.default_rng(12), flights=8)
+    return gen.generate(
+        [gen.AircraftTruth("N470XJ", A=-3.0, B=1.5, C=0.0, cruise_tas_kt=280.0)], np.random.default_rng(12), flights=8
+    )
 
 
 @pytest.mark.parametrize("header, sep", [("a,b;c", ","), ("a;b;c", ";"), ("a\tb\tc", "\t"), ("a", ",")])

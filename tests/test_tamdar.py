@@ -38,14 +38,26 @@ def _truth(knots_t_s, knots_p_hpa, tas_mps=120.0, heading_deg=0.0, wind_uv=(0.0,
     ve = tas_mps * np.sin(psi) + wind_uv[0]
     vn = tas_mps * np.cos(psi) + wind_uv[1]
     m, n = radii(45.0 * DEG)
-    return pd.DataFrame({
-        "time_s": t, "lat_deg": 45.0 + np.degrees(vn * t / m), "lon_deg": -93.0 + np.degrees(ve * t / (n * np.cos(45 * DEG))),
-        "h_ellipsoid_m": pressure_altitude_m(p), "pressure_altitude_m": pressure_altitude_m(p),
-        "vn_mps": np.full(t.size, vn), "ve_mps": np.full(t.size, ve), "vd_mps": np.zeros(t.size),
-        "roll_rad": np.zeros(t.size), "pitch_rad": np.zeros(t.size), "heading_rad": np.full(t.size, psi),
-        "tas_mps": np.full(t.size, tas_mps), "wind_u_mps": np.full(t.size, wind_uv[0]),
-        "wind_v_mps": np.full(t.size, wind_uv[1]), "static_pressure_pa": p, "temperature_k": np.full(t.size, 250.0),
-    })
+    return pd.DataFrame(
+        {
+            "time_s": t,
+            "lat_deg": 45.0 + np.degrees(vn * t / m),
+            "lon_deg": -93.0 + np.degrees(ve * t / (n * np.cos(45 * DEG))),
+            "h_ellipsoid_m": pressure_altitude_m(p),
+            "pressure_altitude_m": pressure_altitude_m(p),
+            "vn_mps": np.full(t.size, vn),
+            "ve_mps": np.full(t.size, ve),
+            "vd_mps": np.zeros(t.size),
+            "roll_rad": np.zeros(t.size),
+            "pitch_rad": np.zeros(t.size),
+            "heading_rad": np.full(t.size, psi),
+            "tas_mps": np.full(t.size, tas_mps),
+            "wind_u_mps": np.full(t.size, wind_uv[0]),
+            "wind_v_mps": np.full(t.size, wind_uv[1]),
+            "static_pressure_pa": p,
+            "temperature_k": np.full(t.size, 250.0),
+        }
+    )
 
 
 # climb 1000 -> 400 hPa at 0.5 hPa/s, cruise at 400 hPa (~23,600 ft), descent to 700 hPa at
@@ -124,8 +136,10 @@ def test_lookup_table_interpolates_circularly_on_the_magnetic_heading():
     # the same true heading with no variation is magnetic 2 deg: c = -2 (1 - 2/45)
     np.testing.assert_allclose(np.degrees(lut.apply(np.array([2.0 * DEG]), 0.0)), [2.0 - 2.0 * 43.0 / 45.0])
     mid = LookupTableCorrection(lut_deg=[0, 1, 2, 3, 4, 3, 2, 1])
-    np.testing.assert_allclose(np.degrees(mid.correction_rad(np.radians([22.5, 337.5, 350.0, 180.0, 200.0]))),
-                               [0.5, 0.5, 1 - 35 / 45, 4.0, 4 - 20 / 45])
+    np.testing.assert_allclose(
+        np.degrees(mid.correction_rad(np.radians([22.5, 337.5, 350.0, 180.0, 200.0]))),
+        [0.5, 0.5, 1 - 35 / 45, 4.0, 4 - 20 / 45],
+    )
     with pytest.raises(ValueError, match="lut_deg"):
         LookupTableCorrection(lut_deg=[0.0] * 7)
 
@@ -136,13 +150,21 @@ def test_onboard_correction_removes_a_heading_offset_from_the_reported_wind(corr
     measured = truth["heading_rad"].to_numpy() + 3.0 * DEG
     spec = ReportSpec()
     raw = generate_reports(truth, measured, spec, ground_pressure_hpa=1000.0)
-    fixed = generate_reports(truth, measured, spec, ground_pressure_hpa=1000.0, correction=correction,
-                             variation_rad=np.full(len(truth), -2.0 * DEG))
+    fixed = generate_reports(
+        truth,
+        measured,
+        spec,
+        ground_pressure_hpa=1000.0,
+        correction=correction,
+        variation_rad=np.full(len(truth), -2.0 * DEG),
+    )
     # uncorrected: the air vector is turned by 3 deg: wind error 2 TAS sin(1.5 deg) = 6.28 m/s = 12.2 kt
     u_true, v_true = 10.0 / KT, -5.0 / KT
+
     def err(r):
         d = np.radians(r["wind_dir_deg"].to_numpy())
         return np.hypot(-r["wind_speed_kt"] * np.sin(d) - u_true, -r["wind_speed_kt"] * np.cos(d) - v_true)
+
     np.testing.assert_allclose(err(raw), 2 * 120.0 * np.sin(1.5 * DEG) / KT, atol=0.6)
     assert (fixed["wind_speed_kt"] == 22.0).all() and (fixed["wind_dir_deg"] == 297.0).all()
 
@@ -150,11 +172,23 @@ def test_onboard_correction_removes_a_heading_offset_from_the_reported_wind(corr
 def test_air_data_errors_follow_their_measurement_equation():
     truth = _truth([0.0, 1000.0], [700.0, 700.0], tas_mps=100.0)
     rng = np.random.default_rng(7)
-    exact = AirDataSpec(tas_bias_kt=2.0, tas_scale_factor=0.01, tas_noise_kt=0.0, pressure_altitude_noise_ft=0.0,
-                        gps_position_sigma_m=0.0, gps_velocity_sigma_mps=0.0).draw(rng).apply(truth, rng)
+    exact = (
+        AirDataSpec(
+            tas_bias_kt=2.0,
+            tas_scale_factor=0.01,
+            tas_noise_kt=0.0,
+            pressure_altitude_noise_ft=0.0,
+            gps_position_sigma_m=0.0,
+            gps_velocity_sigma_mps=0.0,
+        )
+        .draw(rng)
+        .apply(truth, rng)
+    )
     np.testing.assert_allclose(exact["tas_mps"], 1.01 * 100.0 + 2.0 * KT)
     np.testing.assert_allclose(exact["static_pressure_pa"], truth["static_pressure_pa"], rtol=1e-9)
-    noisy = AirDataSpec(tas_noise_kt=1.0, gps_position_sigma_m=5.0, gps_velocity_sigma_mps=0.2).draw(rng).apply(truth, rng)
+    noisy = (
+        AirDataSpec(tas_noise_kt=1.0, gps_position_sigma_m=5.0, gps_velocity_sigma_mps=0.2).draw(rng).apply(truth, rng)
+    )
     m, n = radii(np.radians(truth["lat_deg"].to_numpy()))
     h = truth["h_ellipsoid_m"].to_numpy()
     assert np.std(noisy["tas_mps"] - 100.0) / KT == pytest.approx(1.0, rel=0.03)
@@ -186,8 +220,13 @@ def _quantized_triples(rng, n: int, speed_mps: float, spacing_s: float, step_deg
     lon = np.stack([lon0, lon1, lon2], axis=1).ravel()
     ids = np.repeat(np.arange(n), 3)
     tq = quantize(t, time_step_s)
-    gt = ground_track(tq, np.radians(quantize(lat, step_deg)), np.radians(quantize(lon, step_deg)),
-                      report_flights(ids, tq, METRIC_GATES.flight_gap_s), METRIC_GATES)
+    gt = ground_track(
+        tq,
+        np.radians(quantize(lat, step_deg)),
+        np.radians(quantize(lon, step_deg)),
+        report_flights(ids, tq, METRIC_GATES.flight_gap_s),
+        METRIC_GATES,
+    )
     true_track = np.radians(np.mod(np.asarray(back1) + 180.0, 360.0))
     sel = slice(1, None, 3)
     track_err = np.angle(np.exp(1j * (np.arctan2(gt.vg_e[sel], gt.vg_n[sel]) - true_track)))
@@ -206,7 +245,9 @@ def test_cruise_three_report_track_error_matches_the_quantization_analytic_estim
     span = 2 * spacing
     baseline = v * span
     var_track = 2 * (sig_e**2 * np.cos(eta) ** 2 + sig_n**2 * np.sin(eta) ** 2) / baseline**2
-    var_speed = 2 * (sig_e**2 * np.sin(eta) ** 2 + sig_n**2 * np.cos(eta) ** 2) / span**2 + 2 * v**2 * sig_t**2 / span**2
+    var_speed = (
+        2 * (sig_e**2 * np.sin(eta) ** 2 + sig_n**2 * np.cos(eta) ** 2) / span**2 + 2 * v**2 * sig_t**2 / span**2
+    )
     rms_track, pred_track = np.sqrt(np.mean(track_err**2)), np.sqrt(np.mean(var_track))
     rms_speed, pred_speed = np.sqrt(np.mean(speed_err**2)), np.sqrt(np.mean(var_speed))
     print(f"cruise track rms deg: {np.degrees(rms_track):.4f} analytic {np.degrees(pred_track):.4f}")
@@ -231,11 +272,15 @@ def test_climb_three_report_tracks_are_mostly_rejected_by_the_gates_and_the_dist
     q = [50, 90, 99]
     print(f"climb |track error| deg p50/p90/p99: {np.percentile(np.degrees(np.abs(track_err)), q).round(2)}")
     print(f"climb |speed error| kt p50/p90/p99: {np.percentile(np.abs(speed_err) / KT, q).round(1)}")
-    print(f"climb triples: {usable.size}, collinearity gate rejects {np.mean(off_line):.3f}, "
-          f"then the constant-speed gate {np.mean(speed_change):.3f}, usable {np.mean(usable):.3f}")
+    print(
+        f"climb triples: {usable.size}, collinearity gate rejects {np.mean(off_line):.3f}, "
+        f"then the constant-speed gate {np.mean(speed_change):.3f}, usable {np.mean(usable):.3f}"
+    )
     if usable.any():
-        print(f"climb usable |track error| deg p50/p90: "
-              f"{np.percentile(np.degrees(np.abs(track_err[usable])), [50, 90]).round(2)}")
+        print(
+            f"climb usable |track error| deg p50/p90: "
+            f"{np.percentile(np.degrees(np.abs(track_err[usable])), [50, 90]).round(2)}"
+        )
     # the gates reject most triples; the errors are tens of degrees and knots (the baseline is
     # comparable to the step, so the small-error propagation of the cruise test does not apply)
     assert np.mean(~usable) > 0.5

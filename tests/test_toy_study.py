@@ -98,7 +98,12 @@ def test_changing_a_sensor_parameter_flies_no_leg_and_keeps_the_truth_rows(toy_r
 
 def test_paired_runs_with_and_without_the_correction_share_truth_and_noise(toy_run, tmp_path):
     off = tmp_path / "uncorrected"
-    run_campaign(parse_campaign(TOY.replace("    noise_deg: 0.5\n", "    noise_deg: 0.5\n    correct: false\n")), LOCAL1, out=off, **QUIET)
+    run_campaign(
+        parse_campaign(TOY.replace("    noise_deg: 0.5\n", "    noise_deg: 0.5\n    correct: false\n")),
+        LOCAL1,
+        out=off,
+        **QUIET,
+    )
     a, b = rows_of(toy_run, "toy_offset"), rows_of(off, "toy_offset")
     assert list(a["task"]) == list(b["task"])
     assert list(a["truth_digest"]) == list(b["truth_digest"]) and list(a["noise_digest"]) == list(b["noise_digest"])

@@ -1,7 +1,7 @@
 """TruthTrack storage and the shared truth store."""
 
 import dataclasses
-from datetime import date, datetime, timezone
+from datetime import UTC, date, datetime
 
 import numpy as np
 import pandas as pd
@@ -60,7 +60,7 @@ def test_air_velocity_of_level_flight_heading_east_with_zero_alpha_beta():
     assert air_velocity_ned(df)[0] == pytest.approx([0.0, 100.0, 0.0], abs=1e-9)
 
 
-DEP = datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc)
+DEP = datetime(2009, 8, 15, 13, 0, tzinfo=UTC)
 
 
 def _leg(**kw) -> PlannedLeg:
@@ -138,7 +138,7 @@ def test_bad_departure_dates_name_the_option(text):
 
 
 def test_departure_date_defaults_to_13_utc():
-    assert parse_departure("2009-08-15") == datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc)
+    assert parse_departure("2009-08-15") == datetime(2009, 8, 15, 13, 0, tzinfo=UTC)
 
 
 def test_flight_diverged_survives_pickling_between_processes():

@@ -18,8 +18,23 @@ from aerotruth.truth.turbulence import (
 )
 
 
-@pytest.mark.parametrize("u,k", [(0.9, 1), (0.2, 1), (0.15, 1), (0.1, 2), (0.05, 2), (0.01, 3), (0.002, 3),
-                                 (1e-3, 4), (2e-5, 5), (1e-5, 6), (1e-6, 7), (1e-9, 7)])
+@pytest.mark.parametrize(
+    "u,k",
+    [
+        (0.9, 1),
+        (0.2, 1),
+        (0.15, 1),
+        (0.1, 2),
+        (0.05, 2),
+        (0.01, 3),
+        (0.002, 3),
+        (1e-3, 4),
+        (2e-5, 5),
+        (1e-5, 6),
+        (1e-6, 7),
+        (1e-9, 7),
+    ],
+)
 def test_severity_is_the_most_severe_curve_exceeded(u, k):
     assert severity_of(u) == k
 
@@ -123,7 +138,7 @@ def test_steering_wander_is_gauss_markov_with_its_variance_and_correlation_time(
     for r in range(n_runs):
         fdm = _Fdm()
         w = SteeringWander(fdm, np.random.default_rng([7, r]), sigma_rad=sigma, tau_s=tau)
-        for k in range(n):
+        for _k in range(n):
             w.step()
         x[r] = fdm.pm.nodes[STEER_PROPERTY].values
     assert np.std(x[:, 0]) == pytest.approx(sigma, rel=0.15)  # stationary from the first step
@@ -134,10 +149,11 @@ def test_steering_wander_is_gauss_markov_with_its_variance_and_correlation_time(
 
 def test_mil8785_intensity_matches_hand_worked_values():
     from aerotruth.truth.turbulence import mil8785_intensity
+
     # low altitude (MIL-F-8785C 3.7.3): h = 100 ft, W20 = 30 ft/s
     f = 0.177 + 0.000823 * 100.0
     su, sw, lu, lw = mil8785_intensity(100.0, 30.0, 4)
-    assert (su, sw, lu, lw) == pytest.approx((3.0 / f ** 0.4, 3.0, 100.0 / f ** 1.2, 100.0))
+    assert (su, sw, lu, lw) == pytest.approx((3.0 / f**0.4, 3.0, 100.0 / f**1.2, 100.0))
     # at and below 10 ft the height is clipped to 10 ft
     assert mil8785_intensity(2.0, 30.0, 1) == pytest.approx(mil8785_intensity(10.0, 30.0, 1))
     # medium altitude: Figure 7's 1e-2 curve between 1,750 ft (6.9) and 3,750 ft (7.4)
@@ -159,12 +175,12 @@ def test_approach_gusts_near_the_ground_follow_the_wind_at_20ft(w20_kt):
     from aerotruth.truth.approach import approach_spec, fly_approach
     from aerotruth.truth.weather import UniformAtmosphere
     from aerotruth.units import FT, KT
+
     frm = math.radians(312.0)
     atm = UniformAtmosphere(u_mps=-w20_kt * KT * math.sin(frm), v_mps=-w20_kt * KT * math.cos(frm))
     sd = []
     for seed in (3, 4, 5):
-        df = fly_approach(approach_spec("KDLH", "27", date(2009, 8, 15), turbulence=True), seed=seed,
-                          atmosphere=atm).df
+        df = fly_approach(approach_spec("KDLH", "27", date(2009, 8, 15), turbulence=True), seed=seed, atmosphere=atm).df
         low = (df["z_m"] > 50 * FT) & (df["z_m"] < 900 * FT)
         sd.append(df.loc[low, "wind_w_mps"].std())
     expect = 0.1 * w20_kt * KT

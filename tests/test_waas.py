@@ -104,6 +104,7 @@ def test_negative_sigma_and_irregular_epochs_are_refused_naming_the_field():
 
 # --- INS drift, FITS paper eq. 4 with the Table II grades ---------------------------
 
+
 def test_accel_bias_drift_is_half_b_t_squared_and_gyro_bias_drift_is_g_eps_t_cubed_over_6():
     t = np.arange(0.0, 601.0)
     b, eps = 500 * MICRO_G, 1.0 * DEG_PER_H

@@ -134,19 +134,23 @@ def _fitted_scales(atm, spec, offsets, axis, n_real=24, n_pts=1500):
                 tb = t + d
             other = an.analysis_error(*_latlon(atm, xb, yb), zb, tb, p)
             rho.append(np.mean(base[0] * other[0] + base[1] * other[1]) / sigma2)
-        (c, length), _ = curve_fit(_gauss, np.asarray(offsets, dtype=float), np.array(rho),
-                                   p0=(1.0, offsets[len(offsets) // 2]))
+        (c, length), _ = curve_fit(
+            _gauss, np.asarray(offsets, dtype=float), np.array(rho), p0=(1.0, offsets[len(offsets) // 2])
+        )
         fits.append(abs(length))
     fits = np.array(fits)
     return fits.mean(), fits.std(ddof=1) / math.sqrt(n_real)
 
 
 @pytest.mark.slow
-@pytest.mark.parametrize("axis, offsets, stated", [
-    ("h", [0, 50e3, 100e3, 150e3, 200e3, 250e3, 300e3, 400e3], 150e3),
-    ("z", [0, 500.0, 1000.0, 1500.0, 2000.0, 2500.0, 3500.0], 1500.0),
-    ("t", [0, 3600.0, 7200.0, 10800.0, 14400.0, 18000.0, 25200.0], 3 * 3600.0),
-])
+@pytest.mark.parametrize(
+    "axis, offsets, stated",
+    [
+        ("h", [0, 50e3, 100e3, 150e3, 200e3, 250e3, 300e3, 400e3], 150e3),
+        ("z", [0, 500.0, 1000.0, 1500.0, 2000.0, 2500.0, 3500.0], 1500.0),
+        ("t", [0, 3600.0, 7200.0, 10800.0, 14400.0, 18000.0, 25200.0], 3 * 3600.0),
+    ],
+)
 def test_error_correlation_length_fitted_from_the_field_matches_the_stated_scale(atm, axis, offsets, stated):
     spec = preset("rr")
     mean, se = _fitted_scales(atm, spec, offsets, axis)
@@ -157,22 +161,33 @@ def test_error_correlation_length_fitted_from_the_field_matches_the_stated_scale
 
 # --- (c) smoothing ------------------------------------------------------------------------
 def _one_wave_atmosphere(wavelength_m: float, rms_ms: float = 5.0) -> TruthAtmosphere:
-    meso = MesoscaleSpec(min_wavelength_m=wavelength_m, max_wavelength_m=wavelength_m * (1 + 1e-9),
-                         shells=1, directions=1, rms_ms=rms_ms, w_modes=1, w_rms_ms=0.0)
+    meso = MesoscaleSpec(
+        min_wavelength_m=wavelength_m,
+        max_wavelength_m=wavelength_m * (1 + 1e-9),
+        shells=1,
+        directions=1,
+        rms_ms=rms_ms,
+        w_modes=1,
+        w_rms_ms=0.0,
+    )
     return TruthAtmosphere.for_day(APRIL_PEAK, 3, "upper_midwest", WindFieldSpec(n_waves=0, mesoscale=meso))
 
 
 NO_ERROR = {"sigma_levels": ((1000.0, 0.0),)}
 
 
-@pytest.mark.parametrize("wavelength_over_lambda_e, response", [
-    (0.25, 2.0**-16),  # exp(-ln2 * 16): dropped (below 1e-3), i.e. ~1.5e-5 of the wave left
-    (0.5, 2.0**-4),  # 0.0625
-    (1.0, 0.5),  # half amplitude at the effective resolution
-    (10.0, 2.0**-0.01),  # 0.99309: a long wave passes
-])
+@pytest.mark.parametrize(
+    "wavelength_over_lambda_e, response",
+    [
+        (0.25, 2.0**-16),  # exp(-ln2 * 16): dropped (below 1e-3), i.e. ~1.5e-5 of the wave left
+        (0.5, 2.0**-4),  # 0.0625
+        (1.0, 0.5),  # half amplitude at the effective resolution
+        (10.0, 2.0**-0.01),  # 0.99309: a long wave passes
+    ],
+)
 def test_truth_wave_is_attenuated_by_the_stated_response_of_the_effective_resolution(
-        wavelength_over_lambda_e, response):
+    wavelength_over_lambda_e, response
+):
     spec = preset("rr", **NO_ERROR)
     a = _one_wave_atmosphere(wavelength_over_lambda_e * spec.effective_resolution_m)
     an = WeatherModelAnalysis.draw(spec, a, np.random.default_rng(0))
@@ -227,8 +242,10 @@ def test_analysis_minus_truth_is_the_drawn_error_plus_the_unresolved_mesoscale(a
     sq = ((ua - ut - eu) ** 2 + (va - vt - ev) ** 2).reshape(batches, -1).mean(axis=1)
     se = sq.std(ddof=1) / math.sqrt(batches)
     total = math.sqrt(np.mean((ua - ut) ** 2 + (va - vt) ** 2))
-    print(f"unresolved vector MS {sq.mean():.3f} +- {se:.3f} m2/s2, from the modes {unresolved:.3f}; "
-          f"analysis - truth vector RMS {total:.2f} m/s")
+    print(
+        f"unresolved vector MS {sq.mean():.3f} +- {se:.3f} m2/s2, from the modes {unresolved:.3f}; "
+        f"analysis - truth vector RMS {total:.2f} m/s"
+    )
     assert se < 0.1 * unresolved
     assert abs(sq.mean() - unresolved) < 3 * se + 0.02 * unresolved  # + the envelope's spread
 
@@ -294,9 +311,23 @@ def _reports(atm, n=400, seed=8):
     lat, lon = 45 + rng.uniform(-3, 3, n), -91 + rng.uniform(-4, 4, n)
     z, t = rng.uniform(400, 7600, n), rng.uniform(0, 86400, n)
     p = atm.static_pressure(lat, lon, z, t)
-    day0 = dt.datetime(2010, 4, 16, tzinfo=dt.timezone.utc).timestamp()
-    return pd.DataFrame({"aircraft": "N1", "time": day0 + t, "lat": lat, "lon": lon,
-                         "pressure_altitude_ft": pressure_altitude_m(p) / FT}), lat, lon, z, t, p
+    day0 = dt.datetime(2010, 4, 16, tzinfo=dt.UTC).timestamp()
+    return (
+        pd.DataFrame(
+            {
+                "aircraft": "N1",
+                "time": day0 + t,
+                "lat": lat,
+                "lon": lon,
+                "pressure_altitude_ft": pressure_altitude_m(p) / FT,
+            }
+        ),
+        lat,
+        lon,
+        z,
+        t,
+        p,
+    )
 
 
 def test_pressure_altitude_is_converted_to_the_height_where_the_truth_has_that_pressure(atm):
@@ -304,8 +335,10 @@ def test_pressure_altitude_is_converted_to_the_height_where_the_truth_has_that_p
     _, lat, lon, z, t, p = _reports(atm)
     zz = an.geometric_altitude_of_pressure_m(lat, lon, p, t)
     isa_error = geometric_altitude_m(pressure_altitude_m(p)) - z
-    print(f"height from pressure: max error {np.max(np.abs(zz - z)):.2e} m; "
-          f"ISA heights would be off by up to {np.max(np.abs(isa_error)):.0f} m")
+    print(
+        f"height from pressure: max error {np.max(np.abs(zz - z)):.2e} m; "
+        f"ISA heights would be off by up to {np.max(np.abs(isa_error)):.0f} m"
+    )
     np.testing.assert_allclose(zz, z, atol=1e-3)
     np.testing.assert_allclose(atm.static_pressure(lat, lon, zz, t), p, rtol=1e-9)
 
@@ -320,16 +353,18 @@ def test_apply_fills_the_reference_columns_with_the_analysis_at_each_report(atm)
     assert np.max(np.abs(d)) < 1e-5
     assert (out["ref_source"] == "rr").all()
     assert list(out.columns[:5]) == list(reports.columns) and "ref_wind_speed_kt" not in reports
-    iso = reports.assign(time=pd.to_datetime(reports["time"], unit="s", utc=True).dt.strftime(
-        "%Y-%m-%dT%H:%M:%S.%fZ"))
+    iso = reports.assign(time=pd.to_datetime(reports["time"], unit="s", utc=True).dt.strftime("%Y-%m-%dT%H:%M:%S.%fZ"))
     np.testing.assert_allclose(an.apply(iso, 250.0)["ref_wind_speed_kt"], out["ref_wind_speed_kt"], atol=1e-4)
 
 
-@pytest.mark.parametrize("bias, speed_kt, from_deg", [
-    ((-10.0, 0.0), 10 / KT, 90.0),  # air moving west comes from the east
-    ((0.0, 10.0), 10 / KT, 180.0),  # moving north: from the south
-    ((3.0, 4.0), 5 / KT, 216.8699),  # towards 036.87: from 216.87
-])
+@pytest.mark.parametrize(
+    "bias, speed_kt, from_deg",
+    [
+        ((-10.0, 0.0), 10 / KT, 90.0),  # air moving west comes from the east
+        ((0.0, 10.0), 10 / KT, 180.0),  # moving north: from the south
+        ((3.0, 4.0), 5 / KT, 216.8699),  # towards 036.87: from 216.87
+    ],
+)
 def test_reference_direction_is_meteorological_from_and_speed_in_knots(atm, bias, speed_kt, from_deg):
     # the truth scaled to 1e-7 of itself leaves the bias alone (~3e-6 m/s)
     spec = preset("rr", bias_ms=bias, speed_bias_fraction=-1 + 1e-7, **NO_ERROR)
@@ -347,13 +382,16 @@ def test_apply_names_missing_report_columns(atm):
 
 
 # --- bad specs ---------------------------------------------------------------------------
-@pytest.mark.parametrize("kwargs, field, words", [
-    ({"name": "rr", "sigma_levels": ((850.0, 2.0), (500.0, -1.0))}, "sigma_levels", "sigma must be"),
-    ({"name": "rr", "sigma_levels": ((500.0, 2.0), (850.0, 2.0))}, "sigma_levels", "decrease"),
-    ({"name": "rr", "horizontal_correlation_m": -5.0}, "horizontal_correlation_m", "greater than 0"),
-    ({"name": "ecmwf"}, "name", "not a preset"),
-    ({"name": "rr", "sigma": 2.0}, "sigma", "Extra inputs"),
-])
+@pytest.mark.parametrize(
+    "kwargs, field, words",
+    [
+        ({"name": "rr", "sigma_levels": ((850.0, 2.0), (500.0, -1.0))}, "sigma_levels", "sigma must be"),
+        ({"name": "rr", "sigma_levels": ((500.0, 2.0), (850.0, 2.0))}, "sigma_levels", "decrease"),
+        ({"name": "rr", "horizontal_correlation_m": -5.0}, "horizontal_correlation_m", "greater than 0"),
+        ({"name": "ecmwf"}, "name", "not a preset"),
+        ({"name": "rr", "sigma": 2.0}, "sigma", "Extra inputs"),
+    ],
+)
 def test_bad_spec_gives_one_error_naming_the_field(kwargs, field, words):
     with pytest.raises(ValidationError) as exc:
         WeatherModelSpec(**kwargs)

@@ -19,12 +19,22 @@ from aerotruth.analysis.wind.metrics import (
 
 
 def _obs(aircraft, times, lats, lons, wind, ref, alt_ft=5000.0, phase="ascent", ref_source="RR") -> pd.DataFrame:
-    return pd.DataFrame({
-        "aircraft": aircraft, "time": times, "lat": lats, "lon": lons, "pressure_altitude_ft": alt_ft,
-        "wind_speed_kt": [w[0] for w in wind], "wind_dir_deg": [w[1] for w in wind],
-        "ref_wind_speed_kt": [r[0] for r in ref], "ref_wind_dir_deg": [r[1] for r in ref],
-        "phase": phase, "ref_source": ref_source, "fleet": "mesaba",
-    })
+    return pd.DataFrame(
+        {
+            "aircraft": aircraft,
+            "time": times,
+            "lat": lats,
+            "lon": lons,
+            "pressure_altitude_ft": alt_ft,
+            "wind_speed_kt": [w[0] for w in wind],
+            "wind_dir_deg": [w[1] for w in wind],
+            "ref_wind_speed_kt": [r[0] for r in ref],
+            "ref_wind_dir_deg": [r[1] for r in ref],
+            "phase": phase,
+            "ref_source": ref_source,
+            "fleet": "mesaba",
+        }
+    )
 
 
 # Four reports flying due north along 93 W, one a minute. Report wind / reference ("from"):
@@ -33,14 +43,23 @@ def _obs(aircraft, times, lats, lons, wind, ref, alt_ft=5000.0, phase="ascent", 
 #   r2 10 kt from 090 / calm:           du = -10          |e| = 10, longitudinal 0, transverse -10
 #   r3  5 kt from 180 /  5 kt from 180: 0                  (end report: no track)
 # total = sqrt(300 / 4) = 8.660; components over r1, r2: sqrt(100 / 2) = 7.071 each, RSS 10.0
-NORTH = dict(times=[0.0, 60.0, 120.0, 180.0], lats=[45.0, 45.1, 45.2, 45.3], lons=[-93.0] * 4,
-             wind=[(20, 270), (30, 360), (10, 90), (5, 180)], ref=[(10, 270), (20, 360), (0, 0), (5, 180)])
+NORTH = dict(
+    times=[0.0, 60.0, 120.0, 180.0],
+    lats=[45.0, 45.1, 45.2, 45.3],
+    lons=[-93.0] * 4,
+    wind=[(20, 270), (30, 360), (10, 90), (5, 180)],
+    ref=[(10, 270), (20, 360), (0, 0), (5, 180)],
+)
 # Five reports: north as above, then a 90 deg turn to the east at r3 (fails the collinearity
 # gate). r1 and r2: 10 kt from 270 against calm (du = +10: transverse +10, to the right of
 # north); r0, r3, r4 agree with the reference. total = sqrt(200 / 5) = 6.325 < transverse 10.
-TURN = dict(times=[0.0, 60.0, 120.0, 180.0, 240.0], lats=[45.0, 45.1, 45.2, 45.3, 45.3],
-            lons=[-93.0, -93.0, -93.0, -93.0, -92.86],
-            wind=[(5, 180), (10, 270), (10, 270), (5, 180), (5, 180)], ref=[(5, 180), (0, 0), (0, 0), (5, 180), (5, 180)])
+TURN = dict(
+    times=[0.0, 60.0, 120.0, 180.0, 240.0],
+    lats=[45.0, 45.1, 45.2, 45.3, 45.3],
+    lons=[-93.0, -93.0, -93.0, -93.0, -92.86],
+    wind=[(5, 180), (10, 270), (10, 270), (5, 180), (5, 180)],
+    ref=[(5, 180), (0, 0), (0, 0), (5, 180), (5, 180)],
+)
 
 
 def test_hand_worked_four_reports_give_total_and_components_whose_rss_exceeds_the_total():
@@ -70,8 +89,9 @@ def test_track_subset_mechanism_reproduces_a_transverse_rms_above_the_total_as_i
 
 def _track(case):
     n = len(case["times"])
-    return ground_track(np.asarray(case["times"]), np.radians(case["lats"]), np.radians(case["lons"]), np.zeros(n, int),
-                        METRIC_GATES)
+    return ground_track(
+        np.asarray(case["times"]), np.radians(case["lats"]), np.radians(case["lons"]), np.zeros(n, int), METRIC_GATES
+    )
 
 
 def test_three_report_track_matches_the_geodesic_between_the_end_reports():
@@ -81,8 +101,13 @@ def test_three_report_track_matches_the_geodesic_between_the_end_reports():
     assert np.degrees(np.arctan2(gt.vg_e[1], gt.vg_n[1])) == pytest.approx(0.0, abs=1e-9)
     assert [GATE_NAMES[g] for g in gt.gate] == ["no_neighbours", "used", "used", "no_neighbours"]
     # the 90-deg turn at r3 fails collinearity (r1, r2 pass)
-    assert [GATE_NAMES[g] for g in _track(TURN).gate] == ["no_neighbours", "used", "used", "collinearity",
-                                                           "no_neighbours"]
+    assert [GATE_NAMES[g] for g in _track(TURN).gate] == [
+        "no_neighbours",
+        "used",
+        "used",
+        "collinearity",
+        "no_neighbours",
+    ]
 
 
 def test_air_track_axis_is_the_heading_of_ground_velocity_minus_reported_wind():
@@ -121,20 +146,28 @@ def test_combined_references_pool_every_report_model_pair():
 
 
 def test_summary_by_aircraft_altitude_band_phase_and_fleet():
-    obs = pd.concat([_obs("N1", **NORTH, alt_ft=5000.0, phase="ascent"),
-                     _obs("N2", **TURN, alt_ft=15000.0, phase="level")], ignore_index=True)
+    obs = pd.concat(
+        [_obs("N1", **NORTH, alt_ft=5000.0, phase="ascent"), _obs("N2", **TURN, alt_ft=15000.0, phase="level")],
+        ignore_index=True,
+    )
     errors = wind_errors(obs, axis="ground_track")
     expected = {"N1": (np.sqrt(75.0), np.sqrt(50.0), np.sqrt(50.0)), "N2": (np.sqrt(40.0), 0.0, 10.0)}
-    for by, keys in (("aircraft", ("N1", "N2")), ("phase", ("ascent", "level")),
-                     ("altitude_band", ("0-10000", "10000-20000"))):
+    for by, keys in (
+        ("aircraft", ("N1", "N2")),
+        ("phase", ("ascent", "level")),
+        ("altitude_band", ("0-10000", "10000-20000")),
+    ):
         table = wind_error_summary(errors, by=[by], altitude_bands_ft=[0, 10000, 20000]).set_index(by)
-        for key, ac in zip(keys, ("N1", "N2")):
+        for key, ac in zip(keys, ("N1", "N2"), strict=False):
             got = table.loc[key, ["rms_kt", "longitudinal_rms_kt", "transverse_rms_kt"]].to_numpy(dtype=float)
             np.testing.assert_allclose(got, expected[ac], atol=1e-6)
     fleet = wind_error_summary(errors, by=["fleet"]).iloc[0]
     # 9 reports: sqrt(500 / 9); 4 with tracks: longitudinal sqrt(100 / 4), transverse sqrt(300 / 4)
-    np.testing.assert_allclose(fleet[["rms_kt", "longitudinal_rms_kt", "transverse_rms_kt"]].to_numpy(dtype=float),
-                               [np.sqrt(500.0 / 9.0), 5.0, np.sqrt(75.0)], atol=1e-6)
+    np.testing.assert_allclose(
+        fleet[["rms_kt", "longitudinal_rms_kt", "transverse_rms_kt"]].to_numpy(dtype=float),
+        [np.sqrt(500.0 / 9.0), 5.0, np.sqrt(75.0)],
+        atol=1e-6,
+    )
     with pytest.raises(ValueError, match="altitude_bands_ft"):
         wind_error_summary(errors, by=["altitude_band"])
     with pytest.raises(ValueError, match="by"):

@@ -20,9 +20,11 @@ from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.wind_observations import aircraft_heading
 
 LEGS = '[{from: KMSP, to: KDLH, departure_utc: "13:00"}, {from: KDLH, to: KMSP, departure_utc: "14:30"}]'
-IDEAL_REFERENCE = ("{name: exact, grid_spacing_m: 1, effective_resolution_m: 1, analysis_interval_s: 10, "
-                   "sigma_levels: [[1000, 0.0]], horizontal_correlation_m: 1.0e5, vertical_correlation_m: 1000, "
-                   "temporal_correlation_s: 3600}")
+IDEAL_REFERENCE = (
+    "{name: exact, grid_spacing_m: 1, effective_resolution_m: 1, analysis_interval_s: 10, "
+    "sigma_levels: [[1000, 0.0]], horizontal_correlation_m: 1.0e5, vertical_correlation_m: 1000, "
+    "temporal_correlation_s: 3600}"
+)
 
 
 def campaign(heading: str, air: str, references: str = f"[{IDEAL_REFERENCE}]", extra: str = "") -> str:
@@ -49,7 +51,9 @@ NO_NOISE = "{tas_noise_kt: 0, pressure_altitude_noise_ft: 0, gps_position_sigma_
 
 
 def _run(text, out):
-    s = run_campaign(parse_campaign(text), ExecutorChoice("local", workers=2), out=out, progress=False, log=lambda m: None)
+    s = run_campaign(
+        parse_campaign(text), ExecutorChoice("local", workers=2), out=out, progress=False, log=lambda m: None
+    )
     obs = pd.read_parquet(out / "data" / "wind_reports.observations.parquet")
     return s, obs, json.loads((out / "metrics.json").read_text())["metrics"]
 
@@ -85,14 +89,21 @@ def test_ideal_sensors_report_the_truth_wind_and_a_sensor_change_reflies_nothing
     level = _steady_level(obs, perfect_valve=True)
     assert len(level) >= 8
     # report vs truth at the trigger sample: 1-kt/1-deg quantization and a 10-s mean of a slowly varying wind
-    du = (level["wind_speed_kt"] * np.sin(np.radians(level["wind_dir_deg"]))
-          - level["truth_wind_speed_kt"] * np.sin(np.radians(level["truth_wind_dir_deg"])))
-    dv = (level["wind_speed_kt"] * np.cos(np.radians(level["wind_dir_deg"]))
-          - level["truth_wind_speed_kt"] * np.cos(np.radians(level["truth_wind_dir_deg"])))
-    assert np.sqrt(np.mean(du ** 2 + dv ** 2)) < 1.5
+    du = level["wind_speed_kt"] * np.sin(np.radians(level["wind_dir_deg"])) - level["truth_wind_speed_kt"] * np.sin(
+        np.radians(level["truth_wind_dir_deg"])
+    )
+    dv = level["wind_speed_kt"] * np.cos(np.radians(level["wind_dir_deg"])) - level["truth_wind_speed_kt"] * np.cos(
+        np.radians(level["truth_wind_dir_deg"])
+    )
+    assert np.sqrt(np.mean(du**2 + dv**2)) < 1.5
     # the error-free reference is the truth wind at the report's pressure level
-    dref = np.hypot(level["ref_wind_speed_kt"] - level["truth_wind_speed_kt"],
-                    ((level["ref_wind_dir_deg"] - level["truth_wind_dir_deg"] + 180) % 360 - 180) * level["truth_wind_speed_kt"] * np.pi / 180)
+    dref = np.hypot(
+        level["ref_wind_speed_kt"] - level["truth_wind_speed_kt"],
+        ((level["ref_wind_dir_deg"] - level["truth_wind_dir_deg"] + 180) % 360 - 180)
+        * level["truth_wind_speed_kt"]
+        * np.pi
+        / 180,
+    )
     assert np.median(dref) < 1.0
 
     # only the sensors change: the same two legs come from the store, nothing is flown
@@ -107,12 +118,18 @@ def test_ideal_sensors_report_the_truth_wind_and_a_sensor_change_reflies_nothing
     # than 1 deg between consecutive reports restarts the clock
     level = level[_straight_for(obs2, level, 300.0)]
     assert len(level) >= 3
-    _, valve = aircraft_heading(11, "f", "N1", FluxValveFleetSpec(poor_fraction=1, soft_iron_sigma=0, mounting_sigma_deg=0))
+    _, valve = aircraft_heading(
+        11, "f", "N1", FluxValveFleetSpec(poor_fraction=1, soft_iron_sigma=0, mounting_sigma_deg=0)
+    )
     px, py, _ = valve.hard_iron_nT
     # level flight, magnetic heading psi: body field (H cos psi, -H sin psi); the valve reads
     # atan2(H sin psi - py, H cos psi + px)
-    be, bn, _ = ppigrf.igrf(level["lon"].to_numpy(), level["lat"].to_numpy(),
-                            level["pressure_altitude_ft"].to_numpy() * 0.3048 / 1000, dt.datetime(2009, 8, 15))
+    be, bn, _ = ppigrf.igrf(
+        level["lon"].to_numpy(),
+        level["lat"].to_numpy(),
+        level["pressure_altitude_ft"].to_numpy() * 0.3048 / 1000,
+        dt.datetime(2009, 8, 15),
+    )
     h = np.hypot(be, bn).ravel()
     dec = np.degrees(np.arctan2(be, bn)).ravel()
     psi = np.radians(level["truth_heading_deg"].to_numpy() - dec)
@@ -129,12 +146,17 @@ def test_ideal_sensors_report_the_truth_wind_and_a_sensor_change_reflies_nothing
     assert np.max(np.abs(residual)) < 0.3 and abs(np.mean(residual)) < 0.2
 
 
-@pytest.mark.parametrize("edit, field", [
-    ("heading: {soft_iron_sigma: -0.1}", "soft_iron_sigma"),
-    ("air_data: {tas_noise_kt: -1}", "tas_noise_kt"),
-])
+@pytest.mark.parametrize(
+    "edit, field",
+    [
+        ("heading: {soft_iron_sigma: -0.1}", "soft_iron_sigma"),
+        ("air_data: {tas_noise_kt: -1}", "tas_noise_kt"),
+    ],
+)
 def test_bad_fleet_sensor_spec_names_the_field(edit, field):
-    text = campaign(PERFECT_VALVE, NO_NOISE).replace(f"f: {{heading: {PERFECT_VALVE}, air_data: {NO_NOISE}}}", f"f: {{{edit}}}")
+    text = campaign(PERFECT_VALVE, NO_NOISE).replace(
+        f"f: {{heading: {PERFECT_VALVE}, air_data: {NO_NOISE}}}", f"f: {{{edit}}}"
+    )
     with pytest.raises(ConfigError) as e:
         parse_campaign(text)
     msg = str(e.value)
@@ -144,7 +166,9 @@ def test_bad_fleet_sensor_spec_names_the_field(edit, field):
 def test_unknown_reference_model_and_zero_quantization_and_unknown_fleet_are_one_line_errors():
     with pytest.raises(ConfigError, match=r"sensors\.references.*not a preset"):
         parse_campaign(campaign(PERFECT_VALVE, NO_NOISE, references="[{name: gfs}]"))
-    zero_step = campaign(PERFECT_VALVE, NO_NOISE).replace("      references:", "      reports: {lat_lon_step_deg: 0}\n      references:")
+    zero_step = campaign(PERFECT_VALVE, NO_NOISE).replace(
+        "      references:", "      reports: {lat_lon_step_deg: 0}\n      references:"
+    )
     with pytest.raises(ConfigError, match=r"sensors\.reports\.lat_lon_step_deg.*quantization step"):
         parse_campaign(zero_step)
     with pytest.raises(ConfigError, match=r"sensors\.fleets\.g.*fleet of the campaign"):
@@ -165,10 +189,13 @@ def test_poor_count_gives_the_fleet_exactly_that_many_poor_valves_and_is_checked
     with pytest.raises(ValueError, match=r"poor_count.*aircraft of fleet 'f'"):
         aircraft_heading(1, "f", "N1", spec)
     text = campaign("{poor_count: 2}", NO_NOISE)
-    with pytest.raises(ConfigError, match=r"sensors\.fleets\.f\.heading\.poor_count.*at most the fleet's 1 aircraft, got 2"):
+    with pytest.raises(
+        ConfigError, match=r"sensors\.fleets\.f\.heading\.poor_count.*at most the fleet's 1 aircraft, got 2"
+    ):
         parse_campaign(text)
     # a task of a fleet with poor_count carries the fleet's aircraft; other tasks keep their identity
     from aerotruth.sim.studies.wind_reports import sensor_params
+
     c = parse_campaign(campaign("{poor_count: 1}", NO_NOISE))
     sensors = c.section("wind_reports").sensors
     assert sensor_params(c, sensors, "f")["fleet_aircraft"] == ("N1",)

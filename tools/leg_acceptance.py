@@ -8,10 +8,10 @@ wind-triangle closure) for each aircraft, in the day's truth atmosphere.
 from __future__ import annotations
 
 import argparse
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
-from aerotruth.truth.flight import fly_leg
 from aerotruth.truth.days import plan_in_weather
+from aerotruth.truth.flight import fly_leg
 
 
 def main() -> None:
@@ -20,14 +20,19 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=1)
     ap.add_argument("--turbulence", action="store_true")
     args = ap.parse_args()
-    dep = datetime(2009, 8, 15, 13, 0, tzinfo=timezone.utc)
+    dep = datetime(2009, 8, 15, 13, 0, tzinfo=UTC)
     for ac in args.aircraft:
         for a, b in (("KMSP", "KDLH"), ("PANC", "PADL")):
             plan = plan_in_weather(a, b, dep, weather_seed=args.seed)
             s = fly_leg(plan, seed=args.seed, aircraft=ac, turbulence=args.turbulence).summary()
             tag = f"{ac}_{a}_{b}"
-            for key in ("cruise_tas_error_max_kt", "cruise_xtrack_max_nm", "arrival_centreline_offset_nm",
-                        "wind_triangle_residual_max_kt", "duration_s"):
+            for key in (
+                "cruise_tas_error_max_kt",
+                "cruise_xtrack_max_nm",
+                "arrival_centreline_offset_nm",
+                "wind_triangle_residual_max_kt",
+                "duration_s",
+            ):
                 print(f"{tag}_{key}: {s[key]:.4f}")
 
 

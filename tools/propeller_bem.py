@@ -78,10 +78,14 @@ def airfoil(alpha: np.ndarray, mach: np.ndarray, tc: np.ndarray) -> tuple[np.nda
     under = np.clip((a_neg - alpha) / np.radians(25.0), 0.0, 1.0)
     cd_pos = 0.0095 + 0.014 * 0.9**2 + wave
     cd_neg = 0.0095 + 0.014 * 1.3**2 + wave
-    cl = np.where(over > 0, (1 - over) * 1.3 + over * cl_fp,
-                  np.where(under > 0, (1 - under) * -0.9 + under * cl_fp, cl_att))
-    cd = np.where(over > 0, np.maximum((1 - over) * cd_pos + over * cd_fp, cd_pos),
-                  np.where(under > 0, np.maximum((1 - under) * cd_neg + under * cd_fp, cd_neg), cd_att))
+    cl = np.where(
+        over > 0, (1 - over) * 1.3 + over * cl_fp, np.where(under > 0, (1 - under) * -0.9 + under * cl_fp, cl_att)
+    )
+    cd = np.where(
+        over > 0,
+        np.maximum((1 - over) * cd_pos + over * cd_fp, cd_pos),
+        np.where(under > 0, np.maximum((1 - under) * cd_neg + under * cd_fp, cd_neg), cd_att),
+    )
     return cl, cd
 
 
@@ -174,10 +178,9 @@ def monotone_power(cp: np.ndarray) -> np.ndarray:
 
 def _table(name: str, js: np.ndarray, betas: np.ndarray, tab: np.ndarray) -> str:
     head = "          " + "".join(f"{b:8.0f}" for b in betas)
-    rows = [f"   {j:5.2f}  " + "".join(f"{v:8.4f}" for v in row) for j, row in zip(js, tab)]
+    rows = [f"   {j:5.2f}  " + "".join(f"{v:8.4f}" for v in row) for j, row in zip(js, tab, strict=False)]
     body = "\n".join([head, *rows])
-    return (f'  <table name="{name}" type="internal">\n'
-            f"    <tableData>\n{body}\n    </tableData>\n  </table>")
+    return f'  <table name="{name}" type="internal">\n    <tableData>\n{body}\n    </tableData>\n  </table>'
 
 
 HEADER = """<?xml version="1.0"?>
@@ -221,9 +224,8 @@ HEADER = """<?xml version="1.0"?>
 
 
 def _table1(name: str, xs: np.ndarray, ys: np.ndarray) -> str:
-    rows = "\n".join(f"      {x:5.2f}  {y:7.4f}" for x, y in zip(xs, ys))
-    return (f'  <table name="{name}" type="internal">\n'
-            f"    <tableData>\n{rows}\n    </tableData>\n  </table>")
+    rows = "\n".join(f"      {x:5.2f}  {y:7.4f}" for x, y in zip(xs, ys, strict=False))
+    return f'  <table name="{name}" type="internal">\n    <tableData>\n{rows}\n    </tableData>\n  </table>'
 
 
 if __name__ == "__main__":
@@ -233,5 +235,15 @@ if __name__ == "__main__":
     cp_tab = monotone_power(cp_tab)
     M = np.array([0.50, 0.60, 0.70, 0.75, 0.80, 0.85, 0.90, 0.95, 1.00])
     f_ct, f_cp = mach_factors(M)
-    print(HEADER + "\n".join([_table("C_THRUST", J, B, ct_tab), _table("C_POWER", J, B, cp_tab),
-                               _table1("CT_MACH", M, f_ct), _table1("CP_MACH", M, f_cp)]) + "\n</propeller>")
+    print(
+        HEADER
+        + "\n".join(
+            [
+                _table("C_THRUST", J, B, ct_tab),
+                _table("C_POWER", J, B, cp_tab),
+                _table1("CT_MACH", M, f_ct),
+                _table1("CP_MACH", M, f_cp),
+            ]
+        )
+        + "\n</propeller>"
+    )

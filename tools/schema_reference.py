@@ -305,8 +305,16 @@ def yaml_key(name: str, info: FieldInfo) -> str:
 
 
 _SCALARS: dict[Any, str] = {
-    int: "int", float: "float", str: "str", bool: "bool", dt.date: "date", dt.time: "time", dt.datetime: "datetime",
-    Path: "path", Any: "Any", NULL: "null",
+    int: "int",
+    float: "float",
+    str: "str",
+    bool: "bool",
+    dt.date: "date",
+    dt.time: "time",
+    dt.datetime: "datetime",
+    Path: "path",
+    Any: "Any",
+    NULL: "null",
 }
 
 _BOUNDS = (("ge", ">="), ("gt", ">"), ("le", "<="), ("lt", "<"))
@@ -404,7 +412,7 @@ def _escape(text: str) -> str:
     `runs/<name>` is not read as an HTML tag nor `a * b * c` as emphasis."""
     out, pos = [], 0
     for m in _CODE.finditer(text):
-        out.append(re.sub(r"([<*])", r"\\\1", text[pos:m.start()]))
+        out.append(re.sub(r"([<*])", r"\\\1", text[pos : m.start()]))
         out.append(m.group(0))
         pos = m.end()
     out.append(re.sub(r"([<*])", r"\\\1", text[pos:]))

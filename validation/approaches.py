@@ -20,8 +20,16 @@ from aerotruth.truth.days import day_atmosphere
 from aerotruth.truth.flight import FlightDiverged
 from aerotruth.truth.weather import region_for_airport
 
-RUNWAYS = [("KDLH", "27"), ("KMSP", "30L"), ("KRST", "31"), ("KATW", "03"), ("PADL", "19"), ("PANC", "07R"),
-           ("KIND", "23L"), ("KCMH", "28L")]
+RUNWAYS = [
+    ("KDLH", "27"),
+    ("KMSP", "30L"),
+    ("KRST", "31"),
+    ("KATW", "03"),
+    ("PADL", "19"),
+    ("PANC", "07R"),
+    ("KIND", "23L"),
+    ("KCMH", "28L"),
+]
 DAYS = [dt.date(2009, 8, 15), dt.date(2009, 9, 20), dt.date(2010, 1, 20), dt.date(2010, 3, 25), dt.date(2010, 10, 30)]
 
 
@@ -47,16 +55,26 @@ def main() -> None:
     keys = rows[0].keys()
     m = {k: np.array([r[k] for r in rows]) for k in keys}
     print(f"approaches: {len(rows)}")
-    print(f"runways: {len({(a, b) for a, b in RUNWAYS[:min(args.n, len(RUNWAYS))]})}")
+    print(f"runways: {len({(a, b) for a, b in RUNWAYS[: min(args.n, len(RUNWAYS))]})}")
     print(f"diverged: {len(diverged)}")
     for d in diverged:
         print(f"# diverged {d}")
     for s in skipped:
         print(f"# skipped {s}")
     print(f"stabilised_share: {m['stabilised'].mean():.3f}")
-    for k in ("loc_dots_1000ft", "gs_dots_1000ft", "cas_minus_vref_kt_1000ft", "sink_fpm_1000ft", "lateral_rms_m_1nm",
-              "vertical_rms_m_1nm", "height_over_threshold_ft", "cas_threshold_kt", "pitch_threshold_deg",
-              "roll_threshold_deg", "recorded_past_threshold_s"):
+    for k in (
+        "loc_dots_1000ft",
+        "gs_dots_1000ft",
+        "cas_minus_vref_kt_1000ft",
+        "sink_fpm_1000ft",
+        "lateral_rms_m_1nm",
+        "vertical_rms_m_1nm",
+        "height_over_threshold_ft",
+        "cas_threshold_kt",
+        "pitch_threshold_deg",
+        "roll_threshold_deg",
+        "recorded_past_threshold_s",
+    ):
         v = m[k]
         print(f"{k}_median: {np.median(v):.3f}")
         print(f"{k}_worst: {v[np.argmax(np.abs(v - np.median(v)))]:.3f}")

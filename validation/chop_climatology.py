@@ -94,8 +94,9 @@ def truth_check(days: int) -> None:
 
     sig, kf = [], []
     for k in range(days):
-        day = AircraftDay.for_campaign(2009, f"N40{k + 1}XJ", dt.date(2009, 8, 15) + dt.timedelta(days=k),
-                                       network="mesaba", turbulence=True)
+        day = AircraftDay.for_campaign(
+            2009, f"N40{k + 1}XJ", dt.date(2009, 8, 15) + dt.timedelta(days=k), network="mesaba", turbulence=True
+        )
         for leg in day.plans():
             try:
                 df = fly_leg(leg.plan, seed=leg.flight_seed, turbulence=True, atmosphere=leg.atmosphere()).df
@@ -110,17 +111,21 @@ def truth_check(days: int) -> None:
                     continue
                 v = float(tas[s].mean())
                 sig.append(float(hp[s].std()))
-                kf.append(density(float(h[s].mean())) * v * SAAB_CL_ALPHA / (2 * SAAB_MASS_KG * G / SAAB_S) * kept_share(v))
+                kf.append(
+                    density(float(h[s].mean())) * v * SAAB_CL_ALPHA / (2 * SAAB_MASS_KG * G / SAAB_S) * kept_share(v)
+                )
     print(f"saab.windows: {len(sig)}")
     print(f"saab.gust_load_factor_x_kept_share: {np.median(kf):.4f}")
-    for p, q in zip(CHOP_QUANTILE_PROBS[1:-1], CHOP_SIGMA_W_QUANTILES[1:-1]):
+    for p, q in zip(CHOP_QUANTILE_PROBS[1:-1], CHOP_SIGMA_W_QUANTILES[1:-1], strict=False):
         print(f"saab.sigma_n_q{int(round(100 * p)):02d}_g: {np.quantile(sig, p):.4f}")
         print(f"expected.sigma_n_q{int(round(100 * p)):02d}_g: {q * np.median(kf):.4f}")
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--truth-days", type=int, default=0, help="also fly this many Mesaba aircraft-days and check the chain")
+    ap.add_argument(
+        "--truth-days", type=int, default=0, help="also fly this many Mesaba aircraft-days and check the chain"
+    )
     args = ap.parse_args()
     a = pd.DataFrame(json.load(gzip.open(REAL))).sort_values("timestamp")
     n = a["vertical_acceleration"].to_numpy(float)

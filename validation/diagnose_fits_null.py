@@ -21,7 +21,6 @@ import sys
 from collections import Counter
 from pathlib import Path
 
-
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import approach_log_generator as gen  # noqa: E402
 
@@ -31,8 +30,11 @@ POWER = {
     "dgps_offset": ("DGPS offset per axis (m)", [0.02, 0.05, 0.1, 0.2, 0.3], lambda v: {"dgps_offset": (0.0, v, v)}),
     "ins_bias": ("INS bias scale (x grade)", [1.0, 1.5, 2.0, 2.5, 3.0], lambda v: {"ins_bias_scale": v}),
     "waas_latency": ("WAAS time-tag latency (s)", [0.01, 0.02, 0.05, 0.1, 0.2], lambda v: {"waas_latency_s": v}),
-    "tvps_scale": ("TVPS scale k (threshold y sd 3 m)", [0.99, 0.98, 0.97, 0.95, 0.9],
-                   lambda v: {"tvps_scale": v, "threshold_y_sd_m": 3.0}),
+    "tvps_scale": (
+        "TVPS scale k (threshold y sd 3 m)",
+        [0.99, 0.98, 0.97, 0.95, 0.9],
+        lambda v: {"tvps_scale": v, "threshold_y_sd_m": 3.0},
+    ),
 }
 
 
@@ -41,8 +43,12 @@ def main() -> None:
     ap.add_argument("--datasets", type=int, default=100)
     ap.add_argument("--power-datasets", type=int, default=20)
     ap.add_argument("--out", default="runs/diagnose_fits_power.png")
-    ap.add_argument("--threshold-y-sd", type=float, default=3.0,
-                    help="sd (m) of where the null datasets' approaches cross the threshold laterally (0: on the centreline)")
+    ap.add_argument(
+        "--threshold-y-sd",
+        type=float,
+        default=3.0,
+        help="sd (m) of where the null datasets' approaches cross the threshold laterally (0: on the centreline)",
+    )
     args = ap.parse_args()
     found = Counter()
     for s in range(args.datasets):
@@ -71,7 +77,7 @@ def main() -> None:
     import matplotlib.pyplot as plt
 
     fig, axes = plt.subplots(1, len(curves), figsize=(4.5 * len(curves), 3.5))
-    for ax, (effect, (label, sizes, shares)) in zip(axes, curves.items()):
+    for ax, (effect, (label, sizes, shares)) in zip(axes, curves.items(), strict=False):
         ax.plot(sizes, shares, "o-")
         ax.set(xlabel=label, ylabel="share found first", ylim=(-0.02, 1.02), title=effect)
         ax.grid(alpha=0.3)

@@ -28,8 +28,8 @@ import pandas as pd
 
 from aerotruth import seeds
 from aerotruth.analysis.diagnose.fits import FitsModel, diagnose_log
-from aerotruth.sim.campaign_file import load_campaign
 from aerotruth.sensors.inspection_log import approach_logs
+from aerotruth.sim.campaign_file import load_campaign
 from aerotruth.sim.studies.fits import FitsStudy, planned_approach
 from aerotruth.truth.store import TruthStore
 
@@ -57,8 +57,11 @@ def main() -> None:
     with ProcessPoolExecutor(a.workers) as ex:
         flown = list(ex.map(_fly, planned))
     store = TruthStore()
-    tracks = [(f"{p.spec.airport}-{p.spec.runway}-{p.spec.start_utc:%Y%m%dT%H%M}", store.approach(p).track)
-              for p, ok in zip(planned, flown) if ok]
+    tracks = [
+        (f"{p.spec.airport}-{p.spec.runway}-{p.spec.start_utc:%Y%m%dT%H%M}", store.approach(p).track)
+        for p, ok in zip(planned, flown, strict=False)
+        if ok
+    ]
     print(f"approaches: {len(tracks)} of {len(planned)} flown")
     model = FitsModel.from_campaign(campaign)
     labels = [i.label for i in section.sensors.ins]
@@ -70,8 +73,12 @@ def main() -> None:
     for s in range(a.datasets):
         frames = []
         for label, track in tracks:
-            logs = approach_logs(track, section.sensors,
-                                 lambda *n, _l=label, _s=s: seeds.generator(seeds.named_sequence(80_000 + _s, "sensor", _l, *n)), label)
+            logs = approach_logs(
+                track,
+                section.sensors,
+                lambda *n, _l=label, _s=s: seeds.generator(seeds.named_sequence(80_000 + _s, "sensor", _l, *n)),
+                label,
+            )
             frames.append(logs.logs[ins].assign(approach=label))
         f, _ = diagnose_log("simulated", pd.concat(frames, ignore_index=True), model)
         n_with += bool(f)

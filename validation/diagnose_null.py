@@ -18,14 +18,17 @@ import datetime as dt
 import numpy as np
 
 from aerotruth.analysis.diagnose.modes import diagnose_track
-from aerotruth.measured.modes import track_from_measured
 from aerotruth.errors import DataError
+from aerotruth.measured.modes import track_from_measured
 from aerotruth.sim.modes_data import simulated_modes_day
 from aerotruth.truth.days import AircraftDay
 
 
 def days(n: int) -> list[AircraftDay]:
-    return [AircraftDay.for_campaign(2009, f"N{400 + i}XJ", dt.date(2009, 8, 15), network="mesaba", max_legs=4) for i in range(n)]
+    return [
+        AircraftDay.for_campaign(2009, f"N{400 + i}XJ", dt.date(2009, 8, 15), network="mesaba", max_legs=4)
+        for i in range(n)
+    ]
 
 
 def findings(day, rng, **hidden):
@@ -54,8 +57,10 @@ def main() -> None:
     print(f"null_datasets: {n}")
     print(f"null_findings: {k}")
     print(f"null_false_rate: {k / max(n, 1):.3f}")
-    for effect, key, sizes in (("heading_offset", "table_error_deg", (0.25, 0.5, 1.0, 2.0)),
-                               ("heading_time_offset", "heading_lag_s", (0.5, 1.0, 2.0))):
+    for effect, key, sizes in (
+        ("heading_offset", "table_error_deg", (0.25, 0.5, 1.0, 2.0)),
+        ("heading_time_offset", "heading_lag_s", (0.5, 1.0, 2.0)),
+    ):
         for size in sizes:
             hit = m = 0
             for i, day in enumerate(ds[: args.power]):

@@ -33,7 +33,10 @@ def run(seed: int, tas_scale: float = 0.0, soft_deg: float = 0.0) -> list:
     fleet = gen.fleet(12, rng, de_every=0, one_heading_last=False)
     if tas_scale or soft_deg:
         ph = rng.uniform(0, 2 * np.pi, len(fleet))
-        fleet = [replace(a, tas_scale=tas_scale, D=soft_deg * np.cos(p), E=soft_deg * np.sin(p)) for a, p in zip(fleet, ph)]
+        fleet = [
+            replace(a, tas_scale=tas_scale, D=soft_deg * np.cos(p), E=soft_deg * np.sin(p))
+            for a, p in zip(fleet, ph, strict=False)
+        ]
     obs = gen.generate(fleet, rng, flights=40)
     findings, _, _, _ = diagnose_wind(prepare(obs), WindModelSpec())
     return findings
@@ -59,7 +62,7 @@ def main() -> None:
             print(f"null_finding_{k}: {v}")
     curves = {"tas_scale": [0.001, 0.002, 0.003, 0.005, 0.01], "soft_iron": [0.1, 0.15, 0.2, 0.3, 0.5]}
     power = {}
-    for eff, sizes in (curves.items() if a.power else ()):
+    for eff, sizes in curves.items() if a.power else ():
         for size in sizes:
             hits = 0
             for s in range(a.power):
@@ -75,7 +78,9 @@ def main() -> None:
         import matplotlib.pyplot as plt
 
         fig, axes = plt.subplots(1, 2, figsize=(9, 3.5))
-        for ax, (eff, sizes), unit in zip(axes, curves.items(), ("TAS scale factor", "2z amplitude (deg)")):
+        for ax, (eff, sizes), unit in zip(
+            axes, curves.items(), ("TAS scale factor", "2z amplitude (deg)"), strict=False
+        ):
             ax.plot(sizes, [power[(eff, x)] for x in sizes], "o-")
             ax.set_xscale("log")
             ax.set_ylim(-0.05, 1.05)

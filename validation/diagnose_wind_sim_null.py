@@ -55,8 +55,11 @@ class MemoStore:
 
 def truth_days(n_aircraft: int, n_days: int) -> list[AircraftDay]:
     dates = [dt.date(2009, 8, 17) + dt.timedelta(days=7 * k) for k in range(n_days)]
-    return [AircraftDay.for_campaign(2009, f"N{401 + i}XJ", d, network="mesaba", max_legs=6)
-            for i in range(n_aircraft) for d in dates]
+    return [
+        AircraftDay.for_campaign(2009, f"N{401 + i}XJ", d, network="mesaba", max_legs=6)
+        for i in range(n_aircraft)
+        for d in dates
+    ]
 
 
 def _fly(day: AircraftDay) -> int:
@@ -104,11 +107,16 @@ def main() -> None:
     curve = []
     fs = sensors.of(fleet)
     for k in (0.02, 0.05, 0.1) if a.power else ():
-        refs = [r.model_copy(update={"speed_bias_fraction": -k}) if r.name == "rr" else r for r in fs.references or sensors.references]
+        refs = [
+            r.model_copy(update={"speed_bias_fraction": -k}) if r.name == "rr" else r
+            for r in fs.references or sensors.references
+        ]
         hidden = sensors.model_copy(update={"fleets": {fleet: fs.model_copy(update={"references": refs})}})
         hit, est = 0, []
         for s in range(a.power):
-            f, _, _, _ = diagnose_wind(prepare(simulated_observations(days, hidden, 60_000 + s, fleet=fleet, store=store)), spec)
+            f, _, _, _ = diagnose_wind(
+                prepare(simulated_observations(days, hidden, 60_000 + s, fleet=fleet, store=store)), spec
+            )
             hit += bool(f) and f[0].effect == "reference_bias"
             if f and f[0].effect == "reference_bias":
                 est.append(f[0].parameters["bias_kt"]["rr"]["value"])
@@ -127,7 +135,9 @@ def main() -> None:
         ax.set_xlabel("hidden RR wind-speed underestimate (%)")
         ax.set_ylabel("share ranked first")
         ax.set_ylim(-0.05, 1.05)
-        ax.set_title(f"aerotruth sensors: {sum(found.values())} false findings in {a.datasets} null datasets", fontsize=9)
+        ax.set_title(
+            f"aerotruth sensors: {sum(found.values())} false findings in {a.datasets} null datasets", fontsize=9
+        )
         fig.tight_layout()
         fig.savefig(a.figure, dpi=120)
 

@@ -96,9 +96,13 @@ def budget(obs: pd.DataFrame, w: dict[str, np.ndarray]) -> dict[str, float]:
     for (g, st), idx in obs.groupby(["group", "stage"]).groups.items():
         i = obs.index.get_indexer(idx)
         own = wind_error_components(oe[i] - te[i], on[i] - tn[i], head[i])
-        parts = {"total": wind_error_components(oe[i] - re_[i], on[i] - rn[i], head[i])["rms_kt"],
-                 "model": wind_error_components(re_[i] - te[i], rn[i] - tn[i], head[i])["rms_kt"],
-                 "own": own["rms_kt"], "own_along": own["longitudinal_kt"], "own_across": own["transverse_kt"]}
+        parts = {
+            "total": wind_error_components(oe[i] - re_[i], on[i] - rn[i], head[i])["rms_kt"],
+            "model": wind_error_components(re_[i] - te[i], rn[i] - tn[i], head[i])["rms_kt"],
+            "own": own["rms_kt"],
+            "own_along": own["longitudinal_kt"],
+            "own_across": own["transverse_kt"],
+        }
         for part, v in parts.items():
             out[f"budget.{g}.{st}.{part}_kt"] = float(v)
         d = obs.loc[idx][one_ref[idx]]
@@ -119,11 +123,19 @@ def _judged_cells(e2: pd.Series, obs: pd.DataFrame) -> dict[str, float]:
     """Poor after, adjusted after and improvement (kn) from the squared wind errors (m/s)^2
     of the scored reports, adjusted as the study adjusts (adjusted_table)."""
     r = np.sqrt(e2.groupby([obs["group"], obs["stage"]]).mean()) / KT
-    cells = adjusted_table(pd.DataFrame(
-        [{"group": g, "period": p, **{c: (v if c == "rms_kt" else np.nan) for c, _ in COMPONENTS}}
-         for (g, p), v in r.items()])).set_index(["group", "period"])["rms_kt"]
-    return {"poor_after": cells["poor", "after"], "adjusted_after": cells["poor", "after_adjusted"],
-            "improvement": cells["poor", "improvement"]}
+    cells = adjusted_table(
+        pd.DataFrame(
+            [
+                {"group": g, "period": p, **{c: (v if c == "rms_kt" else np.nan) for c, _ in COMPONENTS}}
+                for (g, p), v in r.items()
+            ]
+        )
+    ).set_index(["group", "period"])["rms_kt"]
+    return {
+        "poor_after": cells["poor", "after"],
+        "adjusted_after": cells["poor", "after_adjusted"],
+        "improvement": cells["poor", "improvement"],
+    }
 
 
 def table_bounds(obs: pd.DataFrame, w: dict[str, np.ndarray]) -> dict[str, float]:
@@ -132,8 +144,9 @@ def table_bounds(obs: pd.DataFrame, w: dict[str, np.ndarray]) -> dict[str, float
     dh = w["dh"]
     tas = obs["tas_kt"].to_numpy(float) * KT
     psi = np.radians(obs["heading_deg"].to_numpy(float))
-    rows = pd.DataFrame({"va_e": tas * np.sin(psi), "va_n": tas * np.cos(psi),
-                         "dw_e": w["oe"] - w["re"], "dw_n": w["on"] - w["rn"]})
+    rows = pd.DataFrame(
+        {"va_e": tas * np.sin(psi), "va_n": tas * np.cos(psi), "dw_e": w["oe"] - w["re"], "dw_n": w["on"] - w["rn"]}
+    )
     mag = obs["heading_mag_deg"] if "heading_mag_deg" in obs else obs["heading_deg"]
     hm = np.radians(mag.to_numpy(float))
     poor_after = ((obs["group"] == "poor") & (obs["stage"] == "after")).to_numpy()
@@ -146,10 +159,13 @@ def table_bounds(obs: pd.DataFrame, w: dict[str, np.ndarray]) -> dict[str, float
         coef, *_ = np.linalg.lstsq(design[k], dh[k], rcond=None)
         full[k] = design[k] @ coef
     out: dict[str, float] = {}
-    for case, removed in (("scored", np.zeros(len(obs))), ("full_static_table", full),
-                          ("no_heading_error", np.where(eligible, dh, 0.0))):
+    for case, removed in (
+        ("scored", np.zeros(len(obs))),
+        ("full_static_table", full),
+        ("no_heading_error", np.where(eligible, dh, 0.0)),
+    ):
         ex, ey = corrected_wind_error(rows, -removed)  # the heading corrected by -removed
-        for cell, v in _judged_cells(pd.Series(ex ** 2 + ey ** 2, index=obs.index), obs).items():
+        for cell, v in _judged_cells(pd.Series(ex**2 + ey**2, index=obs.index), obs).items():
             out[f"bound.{case}.{cell}_kt"] = float(v)
     octant = (np.round(np.degrees(hm) / 45.0).astype(int) % 8) * 45
     one_ref = (obs["ref_source"] == obs["ref_source"].iloc[0]).to_numpy()

@@ -40,7 +40,7 @@ def residuals(fit: FleetHeadingFit | None, steady: pd.DataFrame) -> pd.Series:
         f = None if fit is None else fit.fits_.get(str(ac))
         if f is not None and f.status_ != "refused":
             d = d + lut_correction(np.nan_to_num(np.asarray(f.lut_, dtype=float)), g["heading_mag_deg"].to_numpy())
-        out[str(ac)] = float(np.sqrt(np.mean(d ** 2)))
+        out[str(ac)] = float(np.sqrt(np.mean(d**2)))
     return pd.Series(out)
 
 
@@ -75,16 +75,24 @@ def main() -> None:
     for fleet, fl in steady.groupby("fleet", observed=True, sort=True):
         none = residuals(None, fl)
         floor = residuals(fitted(dates), fl)
-        print(f"fleet: {fleet} ({len(none)} poor aircraft, {len(dates)} fit days, {legs_per_day:.1f} legs per aircraft-day)")
+        print(
+            f"fleet: {fleet} ({len(none)} poor aircraft, {len(dates)} fit days, "
+            f"{legs_per_day:.1f} legs per aircraft-day)"
+        )
         print(f"residual_deg.{fleet}.none: median {none.median():.3f} p90 {none.quantile(0.9):.3f}")
         medians = {}
         for k in sorted(set(d for d in a.days if d < len(dates))):
             vals = pd.concat([residuals(fitted(rng.choice(dates, k, replace=False)), fl) for _ in range(a.reps)])
             medians[k] = vals.median()
-            print(f"residual_deg.{fleet}.{k}d: median {vals.median():.3f} p90 {vals.quantile(0.9):.3f} "
-                  f"({k * legs_per_day:.0f} legs per aircraft)")
+            print(
+                f"residual_deg.{fleet}.{k}d: median {vals.median():.3f} p90 {vals.quantile(0.9):.3f} "
+                f"({k * legs_per_day:.0f} legs per aircraft)"
+            )
         medians[len(dates)] = floor.median()
-        print(f"residual_deg.{fleet}.{len(dates)}d: median {floor.median():.3f} p90 {floor.quantile(0.9):.3f} (every fit day)")
+        print(
+            f"residual_deg.{fleet}.{len(dates)}d: median {floor.median():.3f} "
+            f"p90 {floor.quantile(0.9):.3f} (every fit day)"
+        )
         for x in (1.0, 0.75, 0.5):
             k = next((k for k in sorted(medians) if medians[k] < x), None)
             print(f"days_for.{fleet}.{x:g}deg: {k if k is not None else f'> {len(dates)}'}")

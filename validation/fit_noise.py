@@ -47,7 +47,9 @@ from aerotruth.sim.studies.wind_reports import unbanked
 STUDY = "heading_correction"
 
 
-def onboard_correction(tables: pd.DataFrame, aircraft: np.ndarray, psi_deg: np.ndarray, var_deg: np.ndarray) -> np.ndarray:
+def onboard_correction(
+    tables: pd.DataFrame, aircraft: np.ndarray, psi_deg: np.ndarray, var_deg: np.ndarray
+) -> np.ndarray:
     """The correction (deg) each report's aircraft adds onboard with the learned `tables`
     (the study's `corrections` rows): what the study uploads (`uploaded_correction`: the
     8-point table at the magnetic heading psi - var, the offset for true-heading avionics,
@@ -72,8 +74,9 @@ def uncorrected_heading(psi_c: np.ndarray, tables: pd.DataFrame, aircraft: np.nd
     return psi_u
 
 
-def rescored_wind(speed_kt: np.ndarray, dir_deg: np.ndarray, tas_kt: np.ndarray, psi_c: np.ndarray,
-                  psi_n: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def rescored_wind(
+    speed_kt: np.ndarray, dir_deg: np.ndarray, tas_kt: np.ndarray, psi_c: np.ndarray, psi_n: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The reported wind (speed kt, direction from, deg) had the heading been psi_n instead
     of psi_c: W' = W + TAS (u(psi_c) - u(psi_n)), u the unit vector along the heading (in
     double precision: `corrected_wind_error` is the same rotation with the method's
@@ -153,8 +156,9 @@ class Rescorer:
         for the after period."""
         psi_n = self.psi_u + onboard_correction(tables, self.aircraft, self.psi_u, self.var)
         a = self.after.copy()
-        a["wind_speed_kt"], a["wind_dir_deg"] = rescored_wind(a["wind_speed_kt"].to_numpy(), a["wind_dir_deg"].to_numpy(),
-                                                              a["tas_kt"].to_numpy(), self.psi_c, psi_n)
+        a["wind_speed_kt"], a["wind_dir_deg"] = rescored_wind(
+            a["wind_speed_kt"].to_numpy(), a["wind_dir_deg"].to_numpy(), a["tas_kt"].to_numpy(), self.psi_c, psi_n
+        )
         out = {}
         for period, obs in (("before", self.before), ("after", a)):
             for g in ("poor", "control"):
@@ -166,8 +170,12 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+")
     ap.add_argument("--splits", type=int, default=4, help="random half splits of each aircraft's fit days (or flights)")
-    ap.add_argument("--by", choices=("day", "flight"), default="day",
-                    help="the unit a half takes whole (default day: the model error is correlated within a day)")
+    ap.add_argument(
+        "--by",
+        choices=("day", "flight"),
+        default="day",
+        help="the unit a half takes whole (default day: the model error is correlated within a day)",
+    )
     ap.add_argument("--seed", type=int, default=7)
     a = ap.parse_args()
     rng = np.random.default_rng(a.seed)
@@ -184,13 +192,16 @@ def main() -> None:
             print(f"run.{run.name}.skipped: a poor aircraft's fit is refused ({e})")
             continue
         if not math.isclose(stored[("poor", "after")], full[("poor", "after")], rel_tol=1e-6):
-            sys.exit(f"{run}: the refitted tables do not reproduce the stored poor after cell "
-                     f"({full[('poor', 'after')]:.4f} vs {stored[('poor', 'after')]:.4f} kn)")
+            sys.exit(
+                f"{run}: the refitted tables do not reproduce the stored poor after cell "
+                f"({full[('poor', 'after')]:.4f} vs {stored[('poor', 'after')]:.4f} kn)"
+            )
         unit_col = "date" if a.by == "day" else "flight"
         half_sq = []
         try:
-            for in_first in half_splits(r.fit_obs["aircraft"].astype(str).to_numpy(),
-                                        r.fit_obs[unit_col].astype(str).to_numpy(), rng, a.splits):
+            for in_first in half_splits(
+                r.fit_obs["aircraft"].astype(str).to_numpy(), r.fit_obs[unit_col].astype(str).to_numpy(), rng, a.splits
+            ):
                 for part in (in_first, ~in_first):
                     half_sq.append(r.cells(r.fit(part))[("poor", "after")] ** 2)
         except Refused as e:
@@ -199,9 +210,20 @@ def main() -> None:
         after, half = full[("poor", "after")], math.sqrt(float(np.mean(half_sq)))
         inf = math.sqrt(max(2 * after**2 - half**2, 0.0))
         change = full[("control", "after")] - full[("control", "before")]
-        res.append({"after": after, "after_half": half, "after_inf": inf, "adjusted": after - change,
-                    "adjusted_half": half - change, "adjusted_inf": inf - change})
-        print(f"run.{run.name}.poor_after_kt: {stored[('poor', 'after')]:.3f} {after:.3f} {half:.3f} {inf:.3f}", flush=True)
+        res.append(
+            {
+                "after": after,
+                "after_half": half,
+                "after_inf": inf,
+                "adjusted": after - change,
+                "adjusted_half": half - change,
+                "adjusted_inf": inf - change,
+            }
+        )
+        print(
+            f"run.{run.name}.poor_after_kt: {stored[('poor', 'after')]:.3f} {after:.3f} {half:.3f} {inf:.3f}",
+            flush=True,
+        )
     if not res:
         sys.exit("fit_noise: no run could be split")
     t = pd.DataFrame(res)

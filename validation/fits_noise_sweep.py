@@ -36,9 +36,9 @@ def cell(gm: float, white: float, n: int, rng: np.random.Generator) -> tuple[flo
         ins = InertialErrors.draw(InertialErrorSpec(grade="tactical"), rng, t).error_ned_m
         nl = waas_noiseless(t, w.error_m, ins, w.sv_change | w.iono_update, FitsSpec())
         r = nl.n_hat - w.cyclic_m
-        inner.append(np.abs(r[2 * T:-2 * T]) < 0.1)
-        edge.append(np.abs(np.r_[r[:2 * T], r[-2 * T:]]) < 0.1)
-        sq.append(r[2 * T:-2 * T] ** 2)
+        inner.append(np.abs(r[2 * T : -2 * T]) < 0.1)
+        edge.append(np.abs(np.r_[r[: 2 * T], r[-2 * T :]]) < 0.1)
+        sq.append(r[2 * T : -2 * T] ** 2)
     floor = noise_floor_rms(T, white, gm, spec.gm_tau_s)
     rms = float(np.sqrt(np.mean(np.concatenate(sq))))
     return float(np.mean(inner)), float(np.mean(edge)), rms / floor if floor > 0 else float("nan")
@@ -69,8 +69,12 @@ def main() -> None:
         ax.plot(GM_LEVELS, share[i], "o-", label=f"white {white:g} m")
     ax.axhline(0.9, color="k", ls=":", lw=1, label="90 %")
     ax.axvline(0.05, color="0.6", ls="--", lw=1, label="default GM 0.05 m")
-    ax.set(xlabel="Gauss-Markov sigma (m), tau 100 s", ylabel="share of epochs |N_hat - N| < 0.1 m",
-           title="Cyclic-noise residual vs the WAAS noise the filter passes", ylim=(0, 1.02))
+    ax.set(
+        xlabel="Gauss-Markov sigma (m), tau 100 s",
+        ylabel="share of epochs |N_hat - N| < 0.1 m",
+        title="Cyclic-noise residual vs the WAAS noise the filter passes",
+        ylim=(0, 1.02),
+    )
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     out = Path(args.out)

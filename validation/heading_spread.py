@@ -36,7 +36,9 @@ def circular_std_deg(angles_rad: np.ndarray) -> float:
 def great_circle(plan):
     """The same leg as one great circle from the first to the last waypoint."""
     a, b = plan.waypoints[0], plan.waypoints[-1]
-    return dataclasses.replace(plan, waypoints=(a, b), segment_lengths_m=(float(inverse(a.lat, a.lon, b.lat, b.lon)[2]),))
+    return dataclasses.replace(
+        plan, waypoints=(a, b), segment_lengths_m=(float(inverse(a.lat, a.lon, b.lat, b.lon)[2]),)
+    )
 
 
 def main() -> None:
@@ -46,7 +48,9 @@ def main() -> None:
     spread = {(w, ph): [] for w in ("procedures", "great_circle") for ph in ("climb", "descent")}
     n = 0
     for k in range(args.days):
-        day = AircraftDay.for_campaign(2009, f"N40{k + 1}XJ", dt.date(2009, 8, 15) + dt.timedelta(days=k), network="mesaba")
+        day = AircraftDay.for_campaign(
+            2009, f"N40{k + 1}XJ", dt.date(2009, 8, 15) + dt.timedelta(days=k), network="mesaba"
+        )
         for leg in day.plans():
             for way, plan in (("procedures", leg.plan), ("great_circle", great_circle(leg.plan))):
                 try:

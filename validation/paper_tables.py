@@ -4,8 +4,9 @@ of several run directories of one campaign (one per campaign seed, e.g. made wit
 `aerotruth run campaigns/mesaba_2009.yaml --size reduced --out runs/m-<seed>` after setting
 `seed:`), and prints per cell the mean over the seeds, the seed-to-seed standard deviation
 (the reduced run's statistical precision), the standard error of the mean, the paper's
-value, the cell's role (calibrated or predicted) and, for the judged cells (the poor group's adjusted after cell and the improvement, total RMS), whether the
-mean lands within max(1.0 kn, 2 standard errors) of the paper.
+value, the cell's role (calibrated or predicted) and, for the judged cells (the poor group's
+adjusted after cell and the improvement, total RMS), whether the mean lands within max(1.0
+kn, 2 standard errors) of the paper.
 
     python validation/paper_tables.py RUN_DIR [RUN_DIR ...] [--markdown]
     python validation/paper_tables.py RUN_DIR ... --baseline BASE_DIR ...
@@ -49,14 +50,21 @@ def collect(run_dirs: list[str]) -> pd.DataFrame:
 def summarize(rows: pd.DataFrame) -> pd.DataFrame:
     """Mean, seed-to-seed sd, se of the mean per (group, period, component), beside the paper."""
     g = rows.groupby(["group", "period", "component"], sort=False)
-    out = g.agg(paper_kt=("paper_kt", "first"), role=("role", "first"), n_seeds=("simulated_kt", "count"),
-                mean_kt=("simulated_kt", "mean"), sd_kt=("simulated_kt", "std")).reset_index()
+    out = g.agg(
+        paper_kt=("paper_kt", "first"),
+        role=("role", "first"),
+        n_seeds=("simulated_kt", "count"),
+        mean_kt=("simulated_kt", "mean"),
+        sd_kt=("simulated_kt", "std"),
+    ).reset_index()
     out["se_kt"] = out["sd_kt"] / out["n_seeds"].clip(lower=1) ** 0.5
     out["difference_kt"] = out["mean_kt"] - out["paper_kt"]
     out["tolerance_kt"] = [max(TOLERANCE_KT, 2 * se) if math.isfinite(se) else TOLERANCE_KT for se in out["se_kt"]]
     judged = [(r.group, r.period) in JUDGED and r.component == "total" for r in out.itertuples()]
-    out["verdict"] = ["" if not j else ("pass" if abs(r.difference_kt) <= r.tolerance_kt else "fail")
-                      for j, r in zip(judged, out.itertuples())]
+    out["verdict"] = [
+        "" if not j else ("pass" if abs(r.difference_kt) <= r.tolerance_kt else "fail")
+        for j, r in zip(judged, out.itertuples(), strict=False)
+    ]
     return out
 
 
@@ -96,9 +104,18 @@ def figure(t: pd.DataFrame, path: str, title: str = "") -> None:
     x = range(len(tot))
     ax.bar([i - 0.2 for i in x], tot["paper_kt"], 0.4, color="0.6", label="paper")
     colors = ["0.35" if r == "calibrated" else "tab:blue" for r in tot["role"]]
-    ax.bar([i + 0.2 for i in x], tot["mean_kt"], 0.4, color=colors, yerr=2 * tot["se_kt"].fillna(0), capsize=3,
-           label=f"simulated, mean of {int(tot['n_seeds'].max())} seeds +- 2 se (dark: calibrated)")
-    ax.set_xticks(list(x), [f"{g}\n{p.replace('_', ' ')}" for g, p in zip(tot["group"], tot["period"])], fontsize=7)
+    ax.bar(
+        [i + 0.2 for i in x],
+        tot["mean_kt"],
+        0.4,
+        color=colors,
+        yerr=2 * tot["se_kt"].fillna(0),
+        capsize=3,
+        label=f"simulated, mean of {int(tot['n_seeds'].max())} seeds +- 2 se (dark: calibrated)",
+    )
+    ax.set_xticks(
+        list(x), [f"{g}\n{p.replace('_', ' ')}" for g, p in zip(tot["group"], tot["period"], strict=False)], fontsize=7
+    )
     ax.set_ylabel("RMS vector difference (kn)")
     ax.set_title(title, fontsize=9)
     ax.legend(fontsize=7)
@@ -112,21 +129,31 @@ def main() -> None:
     ap.add_argument("runs", nargs="+", help="run directories of one campaign, one per seed")
     ap.add_argument("--markdown", action="store_true", help="also print the table as Markdown")
     ap.add_argument("--figure", help="also draw the total cells, paper vs mean +- 2 se, to this PNG")
-    ap.add_argument("--baseline", nargs="+", help="baseline runs on the same seeds, in the same order: also print "
-                    "the paired differences (these runs minus the baseline)")
+    ap.add_argument(
+        "--baseline",
+        nargs="+",
+        help="baseline runs on the same seeds, in the same order: also print "
+        "the paired differences (these runs minus the baseline)",
+    )
     a = ap.parse_args()
     if a.baseline and len(a.baseline) != len(a.runs):
-        sys.exit(f"--baseline: expected {len(a.runs)} run directories (one per run, same seeds, same order), "
-                 f"got {len(a.baseline)}")
+        sys.exit(
+            f"--baseline: expected {len(a.runs)} run directories (one per run, same seeds, same order), "
+            f"got {len(a.baseline)}"
+        )
     rows = collect(a.runs)
     t = summarize(rows)
     print(f"seeds: {len(a.runs)}")
     for r in t.itertuples():
-        print(f"cell.{r.group}.{r.period}.{r.component}: mean {r.mean_kt:.2f} sd {r.sd_kt:.2f} se {r.se_kt:.2f} "
-              f"paper {r.paper_kt:.1f} {r.role}")
+        print(
+            f"cell.{r.group}.{r.period}.{r.component}: mean {r.mean_kt:.2f} sd {r.sd_kt:.2f} se {r.se_kt:.2f} "
+            f"paper {r.paper_kt:.1f} {r.role}"
+        )
     for r in t[t["verdict"] != ""].itertuples():
-        print(f"judged.{r.group}.{r.period}: {r.verdict} (|mean - paper| = {abs(r.difference_kt):.2f}, tolerance "
-              f"{r.tolerance_kt:.2f})")
+        print(
+            f"judged.{r.group}.{r.period}: {r.verdict} (|mean - paper| = {abs(r.difference_kt):.2f}, tolerance "
+            f"{r.tolerance_kt:.2f})"
+        )
     chi2, n_cells = calibration_chi2(t)
     print(f"calibration.chi2: {chi2:.2f} over {n_cells} calibrated cells")
     if a.baseline:
@@ -135,7 +162,18 @@ def main() -> None:
     if a.figure:
         figure(t, a.figure, title=str(rows["source"].iloc[0]) if "source" in rows else "")
     if a.markdown:
-        cols = ["group", "period", "component", "role", "paper_kt", "mean_kt", "sd_kt", "se_kt", "difference_kt", "verdict"]
+        cols = [
+            "group",
+            "period",
+            "component",
+            "role",
+            "paper_kt",
+            "mean_kt",
+            "sd_kt",
+            "se_kt",
+            "difference_kt",
+            "verdict",
+        ]
         from aerotruth.markdown import to_markdown
 
         print(to_markdown(t[cols].round(2)))

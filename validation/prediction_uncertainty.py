@@ -55,8 +55,9 @@ def per_seed(rows: pd.DataFrame) -> pd.DataFrame:
     return wide.loc[list(dict.fromkeys(rows["run"]))]
 
 
-def sensitivities(frozen: pd.DataFrame, variants: list[tuple[str, float, pd.DataFrame]],
-                  at: dict[str, float]) -> tuple[pd.DataFrame, pd.DataFrame]:
+def sensitivities(
+    frozen: pd.DataFrame, variants: list[tuple[str, float, pd.DataFrame]], at: dict[str, float]
+) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Per cell and parameter: the least-squares slope through the frozen point of the
     seed-paired differences (variant - frozen) against the parameter's change, and its
     standard error from the seeds' scatter of the per-seed slopes."""
@@ -69,8 +70,10 @@ def sensitivities(frozen: pd.DataFrame, variants: list[tuple[str, float, pd.Data
             if n != name:
                 continue
             if len(runs) != len(frozen):
-                sys.exit(f"--variant {name}={value:g}: expected {len(frozen)} runs (the frozen runs' seeds, same order), "
-                         f"got {len(runs)}")
+                sys.exit(
+                    f"--variant {name}={value:g}: expected {len(frozen)} runs (the frozen runs' seeds, same order), "
+                    f"got {len(runs)}"
+                )
             if value == at[name]:
                 sys.exit(f"--variant {name}={value:g}: the frozen value itself")
             d.append(runs[frozen.columns].to_numpy() - frozen.to_numpy())
@@ -84,7 +87,7 @@ def sensitivities(frozen: pd.DataFrame, variants: list[tuple[str, float, pd.Data
 
 def calibration_covariance(J: np.ndarray, sd: np.ndarray, S: np.ndarray) -> np.ndarray:
     """cov(theta) of the chi2 rule linearized: H^-1 J' W S W J H^-1, H = J' W J, W = diag(sd^-2)."""
-    W = np.diag(1.0 / sd ** 2)
+    W = np.diag(1.0 / sd**2)
     H_inv = np.linalg.inv(J.T @ W @ J)
     return H_inv @ J.T @ W @ S @ W @ J @ H_inv
 
@@ -107,8 +110,15 @@ def conditional(frozen: pd.DataFrame, paper: pd.Series, cells: list[tuple]) -> p
         b = AtA_inv @ A.T @ y
         resid = y - A @ b
         s2 = resid @ resid / (n - p - 1)
-        out.append({"cell": c, "value": a_star @ b, "se": float(np.sqrt(s2 * a_star @ AtA_inv @ a_star)),
-                    "scatter": float(np.sqrt(s2)), "paper": float(paper[c])})
+        out.append(
+            {
+                "cell": c,
+                "value": a_star @ b,
+                "se": float(np.sqrt(s2 * a_star @ AtA_inv @ a_star)),
+                "scatter": float(np.sqrt(s2)),
+                "paper": float(paper[c]),
+            }
+        )
     return pd.DataFrame(out)
 
 
@@ -126,8 +136,14 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("runs", nargs="+", help="the frozen calibration's runs, one per seed")
     ap.add_argument("--frozen", action="append", default=[], help="NAME=VALUE: a calibrated parameter's frozen value")
-    ap.add_argument("--variant", action="append", nargs="+", default=[], metavar="NAME=VALUE RUN",
-                    help="one parameter changed: NAME=VALUE, then its runs on the frozen runs' seeds, same order")
+    ap.add_argument(
+        "--variant",
+        action="append",
+        nargs="+",
+        default=[],
+        metavar="NAME=VALUE RUN",
+        help="one parameter changed: NAME=VALUE, then its runs on the frozen runs' seeds, same order",
+    )
     a = ap.parse_args()
     rows = collect(a.runs)
     frozen = per_seed(rows)
@@ -157,11 +173,15 @@ def main() -> None:
         sd_cal = pd.Series(np.sqrt(np.einsum("ci,ij,cj->c", g, cov, g)), index=frozen.columns)
     for c in predicted:
         mean, se = cells.at[c, "mean_kt"], cells.at[c, "se_kt"]
-        print(f"prediction.{'.'.join(c)}: mean {mean:.2f} se {se:.2f} sd_cal {sd_cal[c]:.2f} "
-              f"total_se {np.hypot(se, sd_cal[c]):.2f} paper {paper[c]:.1f}")
+        print(
+            f"prediction.{'.'.join(c)}: mean {mean:.2f} se {se:.2f} sd_cal {sd_cal[c]:.2f} "
+            f"total_se {np.hypot(se, sd_cal[c]):.2f} paper {paper[c]:.1f}"
+        )
     totals = [c for c in predicted if c[2] == "total"]
     for r in conditional(frozen, paper, totals).itertuples():
-        print(f"conditional.{'.'.join(r.cell)}: {r.value:.2f} se {r.se:.2f} scatter {r.scatter:.2f} paper {r.paper:.1f}")
+        print(
+            f"conditional.{'.'.join(r.cell)}: {r.value:.2f} se {r.se:.2f} scatter {r.scatter:.2f} paper {r.paper:.1f}"
+        )
 
 
 if __name__ == "__main__":

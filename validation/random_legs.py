@@ -10,10 +10,10 @@ Prints one line per divergence and `label: value` totals:
 from __future__ import annotations
 
 import argparse
+import multiprocessing as mp
 import time
 from concurrent.futures import ProcessPoolExecutor
-from datetime import date, datetime, timedelta, timezone
-import multiprocessing as mp
+from datetime import UTC, date, datetime, timedelta
 
 import numpy as np
 
@@ -31,14 +31,14 @@ def draw_legs(n: int, seed: int) -> list[tuple[int, str, str, str, datetime]]:
         spoke = spokes[int(rng.integers(len(spokes)))]
         a, b = (hub, spoke) if rng.random() < 0.5 else (spoke, hub)
         day = date(2009, 1, 1) + timedelta(days=int(rng.integers(0, 730)))
-        dep = datetime(day.year, day.month, day.day, tzinfo=timezone.utc) + timedelta(minutes=int(rng.integers(0, 1440)))
+        dep = datetime(day.year, day.month, day.day, tzinfo=UTC) + timedelta(minutes=int(rng.integers(0, 1440)))
         legs.append((i, name, a, b, dep))
     return legs
 
 
 def fly_one(job):
-    from aerotruth.truth.flight import FlightDiverged, fly_leg
     from aerotruth.truth.days import plan_in_weather
+    from aerotruth.truth.flight import FlightDiverged, fly_leg
     from aerotruth.truth.weather import NETWORK_REGION
 
     i, net, a, b, dep, aircraft, base_seed = job
@@ -75,8 +75,12 @@ def main() -> None:
     print(f"diverged: {sum(r[2] == 'diverged' for r in results)}")
     print(f"refused: {sum(r[2] == 'refused' for r in results)}")
     if ok:
-        for key in ("cruise_tas_error_max_kt", "cruise_xtrack_max_nm", "arrival_centreline_offset_nm",
-                    "wind_triangle_residual_max_kt"):
+        for key in (
+            "cruise_tas_error_max_kt",
+            "cruise_xtrack_max_nm",
+            "arrival_centreline_offset_nm",
+            "wind_triangle_residual_max_kt",
+        ):
             vals = np.array([s[key] for s in ok], dtype=float)
             vals = vals[np.isfinite(vals)]
             print(f"{key}_p95: {np.percentile(vals, 95):.3f}")

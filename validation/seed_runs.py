@@ -97,8 +97,10 @@ def check_not_shadowed(doc: dict, assignment: str, size: str) -> None:
             return
         node = node[key]
         if i == len(keys) - 1 or not isinstance(node, dict):
-            sys.exit(f"--set {path}: the size {size!r} sets {'.'.join(['sizes', size, *keys[:i + 1]])} itself, which "
-                     f"would undo this change when the size is merged in; set sizes.{size}.{path} instead (or as well)")
+            sys.exit(
+                f"--set {path}: the size {size!r} sets {'.'.join(['sizes', size, *keys[: i + 1]])} itself, which "
+                f"would undo this change when the size is merged in; set sizes.{size}.{path} instead (or as well)"
+            )
 
 
 def with_truth_cap(doc: dict, max_gb: float | None) -> None:
@@ -122,7 +124,9 @@ def main() -> None:
     ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="change a campaign parameter")
     ap.add_argument("--size", default="reduced", help="the campaign's size (default reduced; 'full' for none)")
     ap.add_argument("--baseline-tag", help="print paired differences against OUT/<this tag>-<seed>")
-    ap.add_argument("--truth-max-gb", type=float, help="the truth store's size cap for these runs (default: the campaign's)")
+    ap.add_argument(
+        "--truth-max-gb", type=float, help="the truth store's size cap for these runs (default: the campaign's)"
+    )
     a = ap.parse_args()
 
     src = Path(a.campaign)
@@ -148,8 +152,9 @@ def main() -> None:
             continue
         doc["seed"] = seed
         copy = out / f"{a.tag}-{seed}.yaml"
-        copy.write_text(f"# {src} with seed {seed}" + "".join(f"; {s}" for s in a.set) + "\n"
-                        + yaml.safe_dump(doc, sort_keys=False))
+        copy.write_text(
+            f"# {src} with seed {seed}" + "".join(f"; {s}" for s in a.set) + "\n" + yaml.safe_dump(doc, sort_keys=False)
+        )
         cmd = ["aerotruth", "run", str(copy), "--out", str(run), "--quiet", "--no-report"]
         if a.size != "full":
             cmd[3:3] = ["--size", a.size]

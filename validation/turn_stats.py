@@ -1,10 +1,11 @@
 """Turns of the truth flights against the real A320 recorder extract
 (../shared/real-data/fuelflow_a320.json.gz; not the A310 file, a zero-g flight with
 interpolated samples): roll rate differenced at 1 Hz below and above 10,000 ft (p95 and
-max; the truth's roll rounded to the recorder's resolution first, as the A320's is), the share of samples banked more than 10 deg, and the sideslip of the truth in
-steady turns and at turn entry (no real data for it): `turn_entry` every 10-Hz sample
-rolling faster than 1 deg/s (in turbulence, gusts too), `roll_in` only those banked more
-than 3 deg and rolling further away from wings level.
+max; the truth's roll rounded to the recorder's resolution first, as the A320's is), the
+share of samples banked more than 10 deg, and the sideslip of the truth in steady turns
+and at turn entry (no real data for it): `turn_entry` every 10-Hz sample rolling faster
+than 1 deg/s (in turbulence, gusts too), `roll_in` only those banked more than 3 deg and
+rolling further away from wings level.
 
 The truth side: the legs of Mesaba aircraft-days (the campaign's daily schedules in the
 day's truth weather; turbulence, light chop and the steering wander on unless `--calm`),
@@ -58,40 +59,51 @@ def roll_stats(roll_deg: np.ndarray, alt_ft: np.ndarray, lsb_deg: float | None =
     return out
 
 
-def wings_level_stats(roll_deg: np.ndarray, track_deg: np.ndarray, gs_mps: np.ndarray, alt_ft: np.ndarray,
-                      window_s: int = 10) -> dict[str, float]:
+def wings_level_stats(
+    roll_deg: np.ndarray, track_deg: np.ndarray, gs_mps: np.ndarray, alt_ft: np.ndarray, window_s: int = 10
+) -> dict[str, float]:
     """1-Hz samples (NaN between legs): rms roll and track rate of straight-flight windows
     above 10,000 ft, and the slope and correlation of track rate on g tan(roll) / V."""
     ok = (alt_ft > 10000.0) & (np.abs(roll_deg) < 3.0)
     trk = np.radians(track_deg)
     phi, rate, v = [], [], []
     for i in range(0, len(roll_deg) - window_s, window_s):
-        if not ok[i:i + window_s + 1].all():
+        if not ok[i : i + window_s + 1].all():
             continue
         turn = np.angle(np.exp(1j * (trk[i + window_s] - trk[i])))  # wrapped to (-pi, pi]
-        phi.append(np.radians(roll_deg[i:i + window_s]).mean())
+        phi.append(np.radians(roll_deg[i : i + window_s]).mean())
         rate.append(turn / window_s)
-        v.append(gs_mps[i:i + window_s].mean())
+        v.append(gs_mps[i : i + window_s].mean())
     phi, rate, v = map(np.asarray, (phi, rate, v))
     if len(phi) < 3:
         return {}
     coordinated = 9.81 * np.tan(phi) / v
-    return {"windows": float(len(phi)), "roll_rms_deg": float(np.degrees(np.sqrt(np.mean(phi ** 2)))),
-            "track_rate_rms_deg_min": float(np.degrees(np.sqrt(np.mean(rate ** 2))) * 60.0),
-            "turning_slope": float(np.polyfit(coordinated, rate, 1)[0]),
-            "turning_corr": float(np.corrcoef(coordinated, rate)[0, 1])}
+    return {
+        "windows": float(len(phi)),
+        "roll_rms_deg": float(np.degrees(np.sqrt(np.mean(phi**2)))),
+        "track_rate_rms_deg_min": float(np.degrees(np.sqrt(np.mean(rate**2))) * 60.0),
+        "turning_slope": float(np.polyfit(coordinated, rate, 1)[0]),
+        "turning_corr": float(np.corrcoef(coordinated, rate)[0, 1]),
+    }
 
 
-def wings_level_acf(roll_deg: np.ndarray, alt_ft: np.ndarray, lags=(1, 2, 5, 10), min_len: int = 60) -> dict[str, float]:
+def wings_level_acf(
+    roll_deg: np.ndarray, alt_ft: np.ndarray, lags=(1, 2, 5, 10), min_len: int = 60
+) -> dict[str, float]:
     """Autocorrelation of the bank in straight flight above 10,000 ft (1-Hz samples, stretches
-    of >= `min_len` s with |roll| < 2 deg, each stretch's mean removed): how long the weave lasts."""
+    of >= `min_len` s with |roll| < 2 deg, each stretch's mean removed): how long the weave
+    lasts."""
     ok = (alt_ft >= 10000) & (np.abs(roll_deg) < 2.0) & np.isfinite(roll_deg)
     edges = np.flatnonzero(np.diff(np.r_[0, ok.astype(int), 0]))
-    parts = [roll_deg[a:b] - roll_deg[a:b].mean() for a, b in zip(edges[::2], edges[1::2]) if b - a >= min_len]
+    parts = [
+        roll_deg[a:b] - roll_deg[a:b].mean() for a, b in zip(edges[::2], edges[1::2], strict=False) if b - a >= min_len
+    ]
     var = sum(float(np.sum(x * x)) for x in parts)
     out = {}
     for lag in lags:
-        out[f"roll_acf_{lag}s"] = sum(float(np.sum(x[:-lag] * x[lag:])) for x in parts) / var if var > 0 else float("nan")
+        out[f"roll_acf_{lag}s"] = (
+            sum(float(np.sum(x[:-lag] * x[lag:])) for x in parts) / var if var > 0 else float("nan")
+        )
     return out
 
 
@@ -111,14 +123,23 @@ def main() -> None:
     a = pd.DataFrame(json.load(gzip.open(REAL))).sort_values("timestamp")
     lsb = recorder_step_deg(a["roll"].to_numpy(float))
     real = roll_stats(a["roll"].to_numpy(float), a["altitude"].to_numpy(float), lsb)
-    real_wl = wings_level_stats(a["roll"].to_numpy(float), a["track"].to_numpy(float),
-                                a["groundspeed"].to_numpy(float) * 0.514444, a["altitude"].to_numpy(float))
+    real_wl = wings_level_stats(
+        a["roll"].to_numpy(float),
+        a["track"].to_numpy(float),
+        a["groundspeed"].to_numpy(float) * 0.514444,
+        a["altitude"].to_numpy(float),
+    )
     real_wl.update(wings_level_acf(a["roll"].to_numpy(float), a["altitude"].to_numpy(float)))
     rolls, alts, betas, tracks, speeds = [], [], [], [], []
     n_legs = n_div = 0
     for k in range(args.days):
-        day = AircraftDay.for_campaign(2009, f"N40{k + 1}XJ", dt.date(2009, 8, 15) + dt.timedelta(days=k),
-                                       network="mesaba", turbulence=args.turbulence)
+        day = AircraftDay.for_campaign(
+            2009,
+            f"N40{k + 1}XJ",
+            dt.date(2009, 8, 15) + dt.timedelta(days=k),
+            network="mesaba",
+            turbulence=args.turbulence,
+        )
         for leg in day.plans():
             n_legs += 1
             try:
@@ -133,7 +154,9 @@ def main() -> None:
             speeds += [np.hypot(one["ve_mps"].to_numpy(), one["vn_mps"].to_numpy()), [np.nan]]
             betas.append(df[["roll_rad", "beta_rad", "p_radps"]].to_numpy())
     roll_1hz = np.concatenate(rolls)
-    truth = roll_stats(np.round(roll_1hz / lsb) * lsb, np.concatenate(alts), lsb)  # recorded as the A320's recorder would
+    truth = roll_stats(
+        np.round(roll_1hz / lsb) * lsb, np.concatenate(alts), lsb
+    )  # recorded as the A320's recorder would
     print(f"a320.roll_resolution_deg: {lsb:.4f}")
     print(f"legs: {n_legs}")
     print(f"legs_diverged: {n_div}")
@@ -143,8 +166,12 @@ def main() -> None:
         if "rate" in k:
             print(f"ratio.{k}: {truth[k] / real[k]:.2f}")
     trk_lsb = recorder_step_deg(a["track"].to_numpy(float))  # 0.088 deg: as recorded, like the roll
-    truth_wl = wings_level_stats(np.round(roll_1hz / lsb) * lsb, np.round(np.concatenate(tracks) / trk_lsb) * trk_lsb,
-                                 np.concatenate(speeds), np.concatenate(alts))
+    truth_wl = wings_level_stats(
+        np.round(roll_1hz / lsb) * lsb,
+        np.round(np.concatenate(tracks) / trk_lsb) * trk_lsb,
+        np.concatenate(speeds),
+        np.concatenate(alts),
+    )
     truth_wl.update(wings_level_acf(np.round(roll_1hz / lsb) * lsb, np.concatenate(alts)))
     for k in real_wl:
         print(f"a320.wings_level.{k}: {real_wl[k]:.3f}")
@@ -152,7 +179,7 @@ def main() -> None:
     b = np.vstack(betas)
     roll, beta, p = np.degrees(b[:, 0]), np.degrees(b[:, 1]), np.degrees(b[:, 2])
     steady = (np.abs(roll) > 15.0) & (np.abs(p) < 0.5)
-    entry = (np.abs(p) > 1.0)  # any roll rate above 1 deg/s: gusts included
+    entry = np.abs(p) > 1.0  # any roll rate above 1 deg/s: gusts included
     roll_in = (np.abs(roll) > 3.0) & (p * np.sign(roll) > 1.0)  # banking further away from wings level
     print(f"truth.sideslip_steady_turn_p95_deg: {np.percentile(np.abs(beta[steady]), 95):.3f}")
     print(f"truth.sideslip_turn_entry_max_deg: {np.abs(beta[entry]).max():.3f}")

@@ -39,8 +39,16 @@ class Measurement:
     R: np.ndarray
 
 
-def kalman_rts(t: np.ndarray, F: np.ndarray, G: np.ndarray, Qc: np.ndarray, x0: np.ndarray, P0: np.ndarray,
-               measurements: dict[int, Measurement], smooth: bool = True) -> tuple[np.ndarray, np.ndarray]:
+def kalman_rts(
+    t: np.ndarray,
+    F: np.ndarray,
+    G: np.ndarray,
+    Qc: np.ndarray,
+    x0: np.ndarray,
+    P0: np.ndarray,
+    measurements: dict[int, Measurement],
+    smooth: bool = True,
+) -> tuple[np.ndarray, np.ndarray]:
     """Filtered (smooth=False) or smoothed state means (K, n) and covariances (K, n, n) at the epochs t.
 
     The smoother's gains C_k need only the filter's covariances, so they are solved for all

@@ -28,7 +28,9 @@ def run_cli(args: argparse.Namespace) -> int:
     ex = campaign.executor
     # SIGTERM (e.g. a batch system's kill) unwinds like Ctrl-C: the executor stops its
     # workers instead of leaving them orphaned; finished tasks stay stored for a resume.
-    choice = resolve(ex.kind, ex.workers, ex.scheduler, kind=args.executor, workers=args.workers, scheduler=args.scheduler)
+    choice = resolve(
+        ex.kind, ex.workers, ex.scheduler, kind=args.executor, workers=args.workers, scheduler=args.scheduler
+    )
     previous = signal.signal(signal.SIGTERM, _terminate)
     try:
         summary = run_campaign(campaign, choice, out=args.out, progress=not args.quiet, log=_err)
@@ -36,7 +38,10 @@ def run_cli(args: argparse.Namespace) -> int:
         raise ConfigError(f"{args.campaign}: {e}") from None
     finally:
         signal.signal(signal.SIGTERM, previous)
-    _err(f"{campaign.name}: {summary.n_tasks} tasks ({summary.reused} reused, {summary.ran} run, {summary.legs_flown} legs flown) in {summary.seconds:.1f} s")
+    _err(
+        f"{campaign.name}: {summary.n_tasks} tasks ({summary.reused} reused, {summary.ran} run, "
+        f"{summary.legs_flown} legs flown) in {summary.seconds:.1f} s"
+    )
     outputs = campaign.outputs
     if outputs.report and not args.no_report:
         from aerotruth.app.report import write_report
@@ -60,7 +65,10 @@ def validate_cli(args: argparse.Namespace) -> int:
     except ConfigError as e:
         raise ConfigError(f"{args.campaign}: {e}") from None
     counts = ", ".join(f"{s} {sum(t.study == s for t in tasks)}" for s in campaign.studies)
-    print(f"{args.campaign}: ok, campaign {campaign.name}, {len(tasks)} tasks ({counts}), config hash {campaign.config_hash()[:12]}")
+    print(
+        f"{args.campaign}: ok, campaign {campaign.name}, {len(tasks)} tasks ({counts}), "
+        f"config hash {campaign.config_hash()[:12]}"
+    )
     return 0
 
 
@@ -69,7 +77,7 @@ def figures_cli(args: argparse.Namespace) -> int:
     from aerotruth.app.figures import make_figures
 
     figs = make_figures(args.run_dir)
-    for study, items in figs.items():
+    for _study, items in figs.items():
         for f in items:
             print(f"{args.run_dir}/figures/{f.stem}.png")
     return 0
@@ -95,5 +103,7 @@ def regress_cli(args: argparse.Namespace) -> int:
     bad = [c for c in checks if not c.ok]
     if bad or args.all:
         print(format_checks(checks, only_failures=not args.all))
-    print(f"{len(checks) - len(bad)} of {len(checks)} metrics within tolerance" + (f", {len(bad)} moved" if bad else ""))
+    print(
+        f"{len(checks) - len(bad)} of {len(checks)} metrics within tolerance" + (f", {len(bad)} moved" if bad else "")
+    )
     return 1 if bad else 0

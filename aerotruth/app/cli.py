@@ -42,11 +42,20 @@ def spec_value(model, field: str, unit: str = ""):
 
     info = model.model_fields[field]
     adapter = TypeAdapter(typing.Annotated[(info.annotation, *info.metadata)] if info.metadata else info.annotation)
-    bounds = {k: getattr(m, k) for m in info.metadata for k in ("ge", "gt", "le", "lt") if getattr(m, k, None) is not None}
+    bounds = {
+        k: getattr(m, k) for m in info.metadata for k in ("ge", "gt", "le", "lt") if getattr(m, k, None) is not None
+    }
     lo = bounds.get("ge", bounds.get("gt"))
     hi = bounds.get("le", bounds.get("lt"))
-    span = (f"{lo:g} to {hi:g}" if lo is not None and hi is not None else f"at least {lo:g}" if lo is not None
-            else f"at most {hi:g}" if hi is not None else "a number")
+    span = (
+        f"{lo:g} to {hi:g}"
+        if lo is not None and hi is not None
+        else f"at least {lo:g}"
+        if lo is not None
+        else f"at most {hi:g}"
+        if hi is not None
+        else "a number"
+    )
     what = re.sub(r"\s*\([^()]*\)$", "", (info.description or "").split(":")[0])
     what = f" ({what})" if what else ""
     expected = f"expected {span}{' ' + unit if unit else ''}{what}"
@@ -73,7 +82,9 @@ def _pass_height_ft(text: str) -> float:
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a height in ft, got {text!r}") from None
     if not 20.0 <= value <= 1000.0:
-        raise argparse.ArgumentTypeError(f"expected 20-1000 ft above the runway (AFIS passes fly 50-100 ft), got {value:g}")
+        raise argparse.ArgumentTypeError(
+            f"expected 20-1000 ft above the runway (AFIS passes fly 50-100 ft), got {value:g}"
+        )
     return value
 
 
@@ -92,8 +103,9 @@ def _output_file(value: str, option: str = "--out") -> Path:
     if not out.parent.exists():
         raise UserError(f"{option}: folder {out.parent} does not exist")
     if out.suffix and out.suffix.lower() not in (".parquet", ".pq"):
-        raise UserError(f"{option}: the TruthTrack is written as Parquet: expected a .parquet file name, "
-                        f"got '{out.name}'")
+        raise UserError(
+            f"{option}: the TruthTrack is written as Parquet: expected a .parquet file name, got '{out.name}'"
+        )
     return out
 
 
@@ -115,16 +127,25 @@ def _cmd_fly(args: argparse.Namespace) -> int:
     # (CRUISE_CEILING_FT, 25,000 ft); Boeing 737 classic/NG 41,000 ft
     ceiling_fl = {"saab340": int(CRUISE_CEILING_FT // 100), "737": 410}.get(args.aircraft or DEFAULT_AIRCRAFT)
     if args.cruise_fl is not None and ceiling_fl is not None and args.cruise_fl > ceiling_fl:
-        raise UserError(f"--cruise-fl: FL{args.cruise_fl} is above the {args.aircraft or DEFAULT_AIRCRAFT}'s ceiling, "
-                        f"FL{ceiling_fl}")
+        raise UserError(
+            f"--cruise-fl: FL{args.cruise_fl} is above the {args.aircraft or DEFAULT_AIRCRAFT}'s ceiling, "
+            f"FL{ceiling_fl}"
+        )
     origin, destination = args.origin.strip().upper(), args.destination.strip().upper()
     weather_seed = args.seed if args.weather_seed is None else args.weather_seed
     try:
         airframe(args.aircraft)
         departure = parse_departure(args.date)
         region = args.region or region_for_airport(origin)
-        plan = plan_in_weather(origin, destination, departure, weather_seed=weather_seed, region=region,
-                               cruise_flight_level=args.cruise_fl, flight_id=args.flight_id or "")
+        plan = plan_in_weather(
+            origin,
+            destination,
+            departure,
+            weather_seed=weather_seed,
+            region=region,
+            cruise_flight_level=args.cruise_fl,
+            flight_id=args.flight_id or "",
+        )
         if not args.direct:
             plan = on_airway(plan, args.seed)
         atmosphere = day_atmosphere(plan.departure_utc.date(), weather_seed, region)
@@ -133,14 +154,20 @@ def _cmd_fly(args: argparse.Namespace) -> int:
         raise UserError(str(e)) from None
     track.to_parquet(out)
     if args.cruise_fl is not None and plan.cruise_flight_level != args.cruise_fl:
-        print(f"--cruise-fl: FL{args.cruise_fl} does not fit this leg (climb, cruise and a 3 deg descent); flown at "
-              f"FL{plan.cruise_flight_level}, the highest level of the direction's parity that does")
+        print(
+            f"--cruise-fl: FL{args.cruise_fl} does not fit this leg (climb, cruise and a 3 deg descent); flown at "
+            f"FL{plan.cruise_flight_level}, the highest level of the direction's parity that does"
+        )
     s = track.summary()
-    print(f"{plan.origin.icao} rwy {plan.departure_runway.ident} -> {plan.destination.icao} rwy "
-          f"{plan.arrival_runway.ident}, FL{plan.cruise_flight_level}, {plan.total_distance_m / NM:.0f} nm: "
-          f"{len(track)} samples ({s['duration_s'] / 60:.1f} min) -> {out}")
-    print(f"cruise TAS error max {s['cruise_tas_error_max_kt']:.2f} kt, cruise cross-track max "
-          f"{s['cruise_xtrack_max_nm']:.3f} nm, arrival off centreline {s['arrival_centreline_offset_nm']:.3f} nm")
+    print(
+        f"{plan.origin.icao} rwy {plan.departure_runway.ident} -> {plan.destination.icao} rwy "
+        f"{plan.arrival_runway.ident}, FL{plan.cruise_flight_level}, {plan.total_distance_m / NM:.0f} nm: "
+        f"{len(track)} samples ({s['duration_s'] / 60:.1f} min) -> {out}"
+    )
+    print(
+        f"cruise TAS error max {s['cruise_tas_error_max_kt']:.2f} kt, cruise cross-track max "
+        f"{s['cruise_xtrack_max_nm']:.3f} nm, arrival off centreline {s['arrival_centreline_offset_nm']:.3f} nm"
+    )
     return 0
 
 
@@ -165,20 +192,32 @@ def _cmd_fly_approach(args: argparse.Namespace) -> int:
         when = parse_departure(args.date, default_hour=15)
         region = args.region or region_for_airport(icao)
         atmosphere = None if args.calm else day_atmosphere(when.date(), weather_seed, region)
-        spec = approach_spec(icao, runway.ident, when, profile=args.profile, mass_kg=args.mass_kg,
-                             turbulence=args.turbulence, pass_height_ft=args.pass_height_ft, offset_nm=args.offset_nm,
-                             intercept_deg=args.intercept_deg)
+        spec = approach_spec(
+            icao,
+            runway.ident,
+            when,
+            profile=args.profile,
+            mass_kg=args.mass_kg,
+            turbulence=args.turbulence,
+            pass_height_ft=args.pass_height_ft,
+            offset_nm=args.offset_nm,
+            intercept_deg=args.intercept_deg,
+        )
         seed = child(named_sequence(flight_seed, "approach", icao, runway.ident), "flight")
         track = fly_approach(spec, seed=seed, atmosphere=atmosphere)
     except (ValueError, FlightDiverged) as e:
         raise UserError(str(e)) from None
     track.to_parquet(out)
     m = approach_metrics(track)
-    print(f"{icao} ILS {runway.ident} ({spec.profile}), {len(track)} samples at 50 Hz "
-          f"({track.df['time_s'].iloc[-1] / 60:.1f} min) -> {out}")
-    print(f"at 1,000 ft: localizer {m['loc_dots_1000ft']:+.2f} dot, glide slope {m['gs_dots_1000ft']:+.2f} dot, "
-          f"Vref{m['cas_minus_vref_kt_1000ft']:+.1f} kt, sink {m['sink_fpm_1000ft']:.0f} fpm; "
-          f"threshold crossed at {m['height_over_threshold_ft']:.0f} ft, {m['cas_threshold_kt']:.0f} KCAS")
+    print(
+        f"{icao} ILS {runway.ident} ({spec.profile}), {len(track)} samples at 50 Hz "
+        f"({track.df['time_s'].iloc[-1] / 60:.1f} min) -> {out}"
+    )
+    print(
+        f"at 1,000 ft: localizer {m['loc_dots_1000ft']:+.2f} dot, glide slope {m['gs_dots_1000ft']:+.2f} dot, "
+        f"Vref{m['cas_minus_vref_kt_1000ft']:+.1f} kt, sink {m['sink_fpm_1000ft']:.0f} fpm; "
+        f"threshold crossed at {m['height_over_threshold_ft']:.0f} ft, {m['cas_threshold_kt']:.0f} KCAS"
+    )
     return 0
 
 
@@ -222,61 +261,80 @@ def _add_campaign_commands(sub) -> None:
 
         return call
 
-    run = sub.add_parser("run", help="run a campaign (seeded Monte-Carlo) into a run directory",
-                         description="Run (or resume) a seeded Monte-Carlo campaign into its run directory (default "
-                                     "runs/<name>; with --size NAME the campaign's `sizes: NAME:` overrides, into "
-                                     "runs/<name>-NAME): one table per task, the learned states, metrics.json, the "
-                                     "studies' tables and data exports, then the figures and RUN_DIR/report.md. Legs "
-                                     "and approaches come from the truth store and are flown only when missing; a "
-                                     "stored task result is reused only while the code, data and configuration it came "
-                                     "from are unchanged. Every random draw comes from a stream named by its task, so "
-                                     "the numbers do not depend on the executor or the number of workers.")
+    run = sub.add_parser(
+        "run",
+        help="run a campaign (seeded Monte-Carlo) into a run directory",
+        description="Run (or resume) a seeded Monte-Carlo campaign into its run directory (default "
+        "runs/<name>; with --size NAME the campaign's `sizes: NAME:` overrides, into "
+        "runs/<name>-NAME): one table per task, the learned states, metrics.json, the "
+        "studies' tables and data exports, then the figures and RUN_DIR/report.md. Legs "
+        "and approaches come from the truth store and are flown only when missing; a "
+        "stored task result is reused only while the code, data and configuration it came "
+        "from are unchanged. Every random draw comes from a stream named by its task, so "
+        "the numbers do not depend on the executor or the number of workers.",
+    )
     run.add_argument("campaign", help="campaign YAML file")
-    run.add_argument("--size", default=None,
-                     help="apply the campaign's `sizes: NAME:` overrides (e.g. reduced); runs/<name>-<size>")
+    run.add_argument(
+        "--size", default=None, help="apply the campaign's `sizes: NAME:` overrides (e.g. reduced); runs/<name>-<size>"
+    )
     run.add_argument("--out", default=None, help="run directory (default runs/<campaign name>)")
     run.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: cores)")
-    run.add_argument("--executor", choices=["local", "dask"], default=None,
-                     help="executor (default: the YAML's, else local)")
+    run.add_argument(
+        "--executor", choices=["local", "dask"], default=None, help="executor (default: the YAML's, else local)"
+    )
     run.add_argument("--scheduler", default=None, help="Dask scheduler address (implies --executor dask)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.add_argument("--no-report", action="store_true", help="skip figures and report")
     run.set_defaults(func=lazy("run_cli"))
 
-    val = sub.add_parser("validate", help="check a campaign YAML and expand its tasks",
-                         description="Check a campaign file against the schema of every study it names (a problem is "
-                                     "one line naming the YAML path and line), expand its tasks and print their count "
-                                     "per study and the configuration hash. Nothing is run or flown.")
+    val = sub.add_parser(
+        "validate",
+        help="check a campaign YAML and expand its tasks",
+        description="Check a campaign file against the schema of every study it names (a problem is "
+        "one line naming the YAML path and line), expand its tasks and print their count "
+        "per study and the configuration hash. Nothing is run or flown.",
+    )
     val.add_argument("campaign", help="campaign YAML file")
     val.add_argument("--size", default=None, help="validate with the campaign's `sizes: NAME:` overrides applied")
     val.set_defaults(func=lazy("validate_cli"))
 
-    fig = sub.add_parser("figures", help="draw the figures of a run directory",
-                         description="Draw the figures of a finished run into RUN_DIR/figures (PNG and PDF): each "
-                                     "study draws its own from its stored rows, tables and learned states; nothing is "
-                                     "recomputed.")
+    fig = sub.add_parser(
+        "figures",
+        help="draw the figures of a run directory",
+        description="Draw the figures of a finished run into RUN_DIR/figures (PNG and PDF): each "
+        "study draws its own from its stored rows, tables and learned states; nothing is "
+        "recomputed.",
+    )
     fig.add_argument("run_dir", help="run directory written by `aerotruth run`")
     fig.set_defaults(func=lazy("figures_cli"))
 
-    rep = sub.add_parser("report", help="write RUN_DIR/report.md with figures and metric tables",
-                         description="Write RUN_DIR/report.md for a finished run: the campaign (seed, configuration "
-                                     "hash, task counts, library versions), then per study its tables, its figures "
-                                     "(drawn anew: PNG embedded, PDF linked) and all its metrics.")
+    rep = sub.add_parser(
+        "report",
+        help="write RUN_DIR/report.md with figures and metric tables",
+        description="Write RUN_DIR/report.md for a finished run: the campaign (seed, configuration "
+        "hash, task counts, library versions), then per study its tables, its figures "
+        "(drawn anew: PNG embedded, PDF linked) and all its metrics.",
+    )
     rep.add_argument("run_dir", help="run directory written by `aerotruth run`")
     rep.set_defaults(func=lazy("report_cli"))
 
-    reg = sub.add_parser("regress", help="compare a run's metrics with a baseline (exit 1 if a metric moved)",
-                         description="Compare a run's metrics.json with a baseline JSON. A metric passes when |got - "
-                                     "value| <= abs + rel |value| (its own tolerances, else the baseline's defaults); "
-                                     "a baseline metric missing from the run fails. Exit status 1 and a table of the "
-                                     "metrics that moved; --write makes the baseline from the run instead.")
+    reg = sub.add_parser(
+        "regress",
+        help="compare a run's metrics with a baseline (exit 1 if a metric moved)",
+        description="Compare a run's metrics.json with a baseline JSON. A metric passes when |got - "
+        "value| <= abs + rel |value| (its own tolerances, else the baseline's defaults); "
+        "a baseline metric missing from the run fails. Exit status 1 and a table of the "
+        "metrics that moved; --write makes the baseline from the run instead.",
+    )
     reg.add_argument("run_dir", help="run directory written by `aerotruth run`")
     reg.add_argument("baseline", help="baseline JSON (metric values and tolerances)")
     reg.add_argument("--write", action="store_true", help="write the baseline from this run instead of checking")
-    reg.add_argument("--abs-tol", type=_non_negative_float, default=0.0,
-                     help="with --write: absolute tolerance per metric")
-    reg.add_argument("--rel-tol", type=_non_negative_float, default=0.01,
-                     help="with --write: relative tolerance per metric")
+    reg.add_argument(
+        "--abs-tol", type=_non_negative_float, default=0.0, help="with --write: absolute tolerance per metric"
+    )
+    reg.add_argument(
+        "--rel-tol", type=_non_negative_float, default=0.01, help="with --write: relative tolerance per metric"
+    )
     reg.add_argument("--all", action="store_true", help="print every metric, not only those that moved")
     reg.set_defaults(func=lazy("regress_cli"))
 
@@ -288,147 +346,211 @@ def build_parser() -> argparse.ArgumentParser:
     p.add_argument("--version", action="version", version=f"aerotruth {aerotruth.__version__}")
     sub = p.add_subparsers(dest="command", required=True)
 
-    fly = sub.add_parser("fly", help="fly one leg with JSBSim and write its TruthTrack (Parquet)",
-                         description="Fly one route leg with JSBSim (the SAAB 340B unless --aircraft) through the "
-                                     "day's truth atmosphere and write its 10 Hz TruthTrack (Parquet, "
-                                     "docs/data-formats.md): runways chosen into the day's surface wind, a straight "
-                                     "climb-out, en-route fixes drawn from --seed (--direct leaves them out), cruise, "
-                                     "and a descent to a point on final 2,000 ft above the runway. A campaign leg is "
-                                     "re-flown bit for bit with the arguments in the fly_command column of its truth "
-                                     "row (seeds, region, cruise level, flight id).")
+    fly = sub.add_parser(
+        "fly",
+        help="fly one leg with JSBSim and write its TruthTrack (Parquet)",
+        description="Fly one route leg with JSBSim (the SAAB 340B unless --aircraft) through the "
+        "day's truth atmosphere and write its 10 Hz TruthTrack (Parquet, "
+        "docs/data-formats.md): runways chosen into the day's surface wind, a straight "
+        "climb-out, en-route fixes drawn from --seed (--direct leaves them out), cruise, "
+        "and a descent to a point on final 2,000 ft above the runway. A campaign leg is "
+        "re-flown bit for bit with the arguments in the fly_command column of its truth "
+        "row (seeds, region, cruise level, flight id).",
+    )
     fly.add_argument("--from", dest="origin", required=True, help="departure airport ICAO code")
     fly.add_argument("--to", dest="destination", required=True, help="arrival airport ICAO code")
-    fly.add_argument("--date", required=True,
-                     help="UTC date YYYY-MM-DD (departure 13:00 UTC) or ISO date-time of departure")
-    fly.add_argument("--seed", type=_non_negative_int, default=0,
-                     help="flight seed (en-route fixes, turbulence); also the weather seed unless --weather-seed")
-    fly.add_argument("--weather-seed", type=_non_negative_int, default=None,
-                     help="seed of the day's truth atmosphere (default: --seed)")
+    fly.add_argument(
+        "--date", required=True, help="UTC date YYYY-MM-DD (departure 13:00 UTC) or ISO date-time of departure"
+    )
+    fly.add_argument(
+        "--seed",
+        type=_non_negative_int,
+        default=0,
+        help="flight seed (en-route fixes, turbulence); also the weather seed unless --weather-seed",
+    )
+    fly.add_argument(
+        "--weather-seed",
+        type=_non_negative_int,
+        default=None,
+        help="seed of the day's truth atmosphere (default: --seed)",
+    )
     fly.add_argument("--region", default=None, help="truth-atmosphere region (default: that of the departure airport)")
-    fly.add_argument("--cruise-fl", type=_positive_int, default=None,
-                     help="cruise flight level (default: by distance and direction)")
+    fly.add_argument(
+        "--cruise-fl", type=_positive_int, default=None, help="cruise flight level (default: by distance and direction)"
+    )
     fly.add_argument("--flight-id", default=None, help="flight id recorded in the track's metadata")
     fly.add_argument("--aircraft", default=None, help="aircraft type (default: the project default, saab340)")
-    fly.add_argument("--turbulence", action="store_true",
-                     help="a real flight's disturbances: MIL-F-8785C turbulence patches, light chop, steering wander")
-    fly.add_argument("--direct", action="store_true",
-                     help="no en-route fixes: direct from the climb-out to the arrival fix")
+    fly.add_argument(
+        "--turbulence",
+        action="store_true",
+        help="a real flight's disturbances: MIL-F-8785C turbulence patches, light chop, steering wander",
+    )
+    fly.add_argument(
+        "--direct", action="store_true", help="no en-route fixes: direct from the climb-out to the arrival fix"
+    )
     fly.add_argument("--out", required=True, help="output Parquet file")
     fly.set_defaults(func=_cmd_fly)
     _add_campaign_commands(sub)
 
-    fa = sub.add_parser("fly-approach",
-                        help="fly one ILS approach with JSBSim and write its 50 Hz TruthTrack (Parquet)",
-                        description="Fly one coupled ILS approach with JSBSim's SAAB 340B from 14 nm out: gear and "
-                                    "flaps 20 at glide-path capture, flaps 35 below 2,000 ft, Vref + 5 kt by 1,000 ft, "
-                                    "then the AFIS level pass over the runway (--pass-height-ft) or a go-around at 200 "
-                                    "ft (--profile go-around). Writes a 50 Hz TruthTrack with the runway-frame "
-                                    "position and the IMU's velocity and angle increments (docs/data-formats.md). "
-                                    "--offset-nm and --intercept-deg start it off the centreline for a turn onto "
-                                    "final.")
+    fa = sub.add_parser(
+        "fly-approach",
+        help="fly one ILS approach with JSBSim and write its 50 Hz TruthTrack (Parquet)",
+        description="Fly one coupled ILS approach with JSBSim's SAAB 340B from 14 nm out: gear and "
+        "flaps 20 at glide-path capture, flaps 35 below 2,000 ft, Vref + 5 kt by 1,000 ft, "
+        "then the AFIS level pass over the runway (--pass-height-ft) or a go-around at 200 "
+        "ft (--profile go-around). Writes a 50 Hz TruthTrack with the runway-frame "
+        "position and the IMU's velocity and angle increments (docs/data-formats.md). "
+        "--offset-nm and --intercept-deg start it off the centreline for a turn onto "
+        "final.",
+    )
     fa.add_argument("--airport", required=True, help="airport ICAO code (the embedded airport table)")
     fa.add_argument("--runway", required=True, help="runway end landed on, e.g. 27")
     fa.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (start 15:00 UTC) or ISO date-time of the start")
-    fa.add_argument("--seed", type=_non_negative_int, default=0,
-                    help="seed of the approach (weather and flight unless given)")
-    fa.add_argument("--weather-seed", type=_non_negative_int, default=None,
-                    help="seed of the day's truth atmosphere (default: --seed)")
-    fa.add_argument("--flight-seed", type=_non_negative_int, default=None,
-                    help="seed of the flight's own draws, e.g. turbulence (default: --seed)")
+    fa.add_argument(
+        "--seed", type=_non_negative_int, default=0, help="seed of the approach (weather and flight unless given)"
+    )
+    fa.add_argument(
+        "--weather-seed",
+        type=_non_negative_int,
+        default=None,
+        help="seed of the day's truth atmosphere (default: --seed)",
+    )
+    fa.add_argument(
+        "--flight-seed",
+        type=_non_negative_int,
+        default=None,
+        help="seed of the flight's own draws, e.g. turbulence (default: --seed)",
+    )
     fa.add_argument("--region", default=None, help="truth-atmosphere region (default: that of the airport)")
-    fa.add_argument("--profile", choices=["afis", "go-around"], default="afis",
-                    help="after the glide path: the AFIS level pass over the runway, or a go-around at 200 ft")
-    fa.add_argument("--pass-height-ft", type=_pass_height_ft, default=100.0,
-                    help="AFIS level-pass height above the runway (ft)")
+    fa.add_argument(
+        "--profile",
+        choices=["afis", "go-around"],
+        default="afis",
+        help="after the glide path: the AFIS level pass over the runway, or a go-around at 200 ft",
+    )
+    fa.add_argument(
+        "--pass-height-ft", type=_pass_height_ft, default=100.0, help="AFIS level-pass height above the runway (ft)"
+    )
     fa.add_argument("--mass-kg", type=float, default=12000.0, help="landing mass (kg); Vref = 1.3 Vs scales with it")
-    fa.add_argument("--turbulence", action="store_true",
-                    help="MIL-F-8785C turbulence in patches, near the ground 0.1 x the wind at 20 ft")
+    fa.add_argument(
+        "--turbulence",
+        action="store_true",
+        help="MIL-F-8785C turbulence in patches, near the ground 0.1 x the wind at 20 ft",
+    )
     fa.add_argument("--calm", action="store_true", help="ISA, no wind (instead of the day's truth atmosphere)")
-    fa.add_argument("--offset-nm", type=float, default=0.0,
-                    help="start this far left (+) or right (-) of the centreline (nm) ...")
-    fa.add_argument("--intercept-deg", type=float, default=0.0,
-                    help="... on a heading this far off the course: a turn onto final")
+    fa.add_argument(
+        "--offset-nm", type=float, default=0.0, help="start this far left (+) or right (-) of the centreline (nm) ..."
+    )
+    fa.add_argument(
+        "--intercept-deg", type=float, default=0.0, help="... on a heading this far off the course: a turn onto final"
+    )
     fa.add_argument("--out", required=True, help="output Parquet file")
     fa.set_defaults(func=_cmd_fly_approach)
 
-    dia = sub.add_parser("diagnose",
-                         help="show where measured data disagree with the simulation's sensor model, and why",
-                         description="Recognise a measured file from its content and tell where it disagrees with the "
-                                     "sensor model of the simulation (the campaign of --model), which effect explains "
-                                     "it, by how much, and what the extended model gains on data it was not fitted on. "
-                                     "Mode-S message logs and trajectories: heading offset, once-round heading "
-                                     "deviation, TAS scale, heading/track timing and compass slaving lag, from the "
-                                     "smoothness of the derived wind. Observation tables: the wind paper's deviation "
-                                     "model per aircraft against soft iron, hard-iron scaling with the horizontal "
-                                     "field, TAS scale, a stale declination model, a biased reference model, a "
-                                     "recalibration, a drifting offset and coarser report rounding, tested on 6-h "
-                                     "weather blocks. Approach logs: INS axes not in the runway frame, another WAAS "
-                                     "cyclic period, a DGPS survey offset, unflagged WAAS jumps, late WAAS time tags, "
-                                     "a TVPS sign or scale, a barometer loop's time constant and an INS beyond its "
-                                     "grade. Writes DIR/diagnosis.json, DIR/report.md and figures, and for Mode-S data "
-                                     "and observation tables with findings DIR/extended_model.yaml (the campaign with "
-                                     "the findings in its model).")
+    dia = sub.add_parser(
+        "diagnose",
+        help="show where measured data disagree with the simulation's sensor model, and why",
+        description="Recognise a measured file from its content and tell where it disagrees with the "
+        "sensor model of the simulation (the campaign of --model), which effect explains "
+        "it, by how much, and what the extended model gains on data it was not fitted on. "
+        "Mode-S message logs and trajectories: heading offset, once-round heading "
+        "deviation, TAS scale, heading/track timing and compass slaving lag, from the "
+        "smoothness of the derived wind. Observation tables: the wind paper's deviation "
+        "model per aircraft against soft iron, hard-iron scaling with the horizontal "
+        "field, TAS scale, a stale declination model, a biased reference model, a "
+        "recalibration, a drifting offset and coarser report rounding, tested on 6-h "
+        "weather blocks. Approach logs: INS axes not in the runway frame, another WAAS "
+        "cyclic period, a DGPS survey offset, unflagged WAAS jumps, late WAAS time tags, "
+        "a TVPS sign or scale, a barometer loop's time constant and an INS beyond its "
+        "grade. Writes DIR/diagnosis.json, DIR/report.md and figures, and for Mode-S data "
+        "and observation tables with findings DIR/extended_model.yaml (the campaign with "
+        "the findings in its model).",
+    )
     dia.add_argument("measured", help="measured data file (Mode-S JSON/JSONL, observation table, approach log, ...)")
     dia.add_argument("--model", required=True, help="campaign YAML of the simulation the data are compared with")
     dia.add_argument("--out", required=True, help="output folder")
     dia.set_defaults(func=_cmd_diagnose)
 
-    fits = sub.add_parser("fits", help="the WAAS-aided FITS (FITS paper) on an approach log -> DIR/trajectory.csv",
-                          description="The WAAS-aided flight-inspection truth system (FITS paper) on an approach log "
-                                      "(docs/data-formats.md). The log is checked first (units from the physics; with "
-                                      "3 or more approaches, INS columns in the runway frame). Per approach it removes "
-                                      "the 12-s cyclic WAAS noise through the INS (triangular zero-phase filter, eqs. "
-                                      "7-17), compensates the WAAS bias jumps the receiver flags, fixes the bias at "
-                                      "the threshold from radar altimeter and TVPS (eq. 18) and writes the trajectory "
-                                      "(eq. 19) at the WAAS epochs and on an 8 Hz grid, the cyclic noise and the "
-                                      "biases; with DGPS in the log, the errors against it and the requirement figure "
-                                      "too.")
+    fits = sub.add_parser(
+        "fits",
+        help="the WAAS-aided FITS (FITS paper) on an approach log -> DIR/trajectory.csv",
+        description="The WAAS-aided flight-inspection truth system (FITS paper) on an approach log "
+        "(docs/data-formats.md). The log is checked first (units from the physics; with "
+        "3 or more approaches, INS columns in the runway frame). Per approach it removes "
+        "the 12-s cyclic WAAS noise through the INS (triangular zero-phase filter, eqs. "
+        "7-17), compensates the WAAS bias jumps the receiver flags, fixes the bias at "
+        "the threshold from radar altimeter and TVPS (eq. 18) and writes the trajectory "
+        "(eq. 19) at the WAAS epochs and on an 8 Hz grid, the cyclic noise and the "
+        "biases; with DGPS in the log, the errors against it and the requirement figure "
+        "too.",
+    )
     fits.add_argument("log", help="approach log (CSV, .csv.gz or Parquet, docs/data-formats.md)")
     fits.add_argument("--out", required=True, help="output folder")
-    fits.add_argument("--ra-lever-arm", type=spec_value(FitsSpec, "ra_lever_arm_m", "m"), default=0.0,
-                      help="height of the log's reference point above the radar-altimeter antenna (m)")
-    fits.add_argument("--waas-latency", type=spec_value(FitsSpec, "waas_latency_s", "s"), default=0.0,
-                      help="seconds by which the log's WAAS positions are stamped late (what `aerotruth diagnose` "
-                           "finds as waas_latency); each epoch is put at its time minus this")
+    fits.add_argument(
+        "--ra-lever-arm",
+        type=spec_value(FitsSpec, "ra_lever_arm_m", "m"),
+        default=0.0,
+        help="height of the log's reference point above the radar-altimeter antenna (m)",
+    )
+    fits.add_argument(
+        "--waas-latency",
+        type=spec_value(FitsSpec, "waas_latency_s", "s"),
+        default=0.0,
+        help="seconds by which the log's WAAS positions are stamped late (what `aerotruth diagnose` "
+        "finds as waas_latency); each epoch is put at its time minus this",
+    )
     fits.set_defaults(func=_cmd_fits)
 
-    heading = sub.add_parser("heading", help="the wind paper's heading-deviation method on your own reports",
-                             description="The wind paper's heading-deviation method on your own aircraft reports: "
-                                         "`fit` learns each aircraft's deviation and 8-point table from an observation "
-                                         "table, `apply` corrects the reports of another period with those tables.")
+    heading = sub.add_parser(
+        "heading",
+        help="the wind paper's heading-deviation method on your own reports",
+        description="The wind paper's heading-deviation method on your own aircraft reports: "
+        "`fit` learns each aircraft's deviation and 8-point table from an observation "
+        "table, `apply` corrects the reports of another period with those tables.",
+    )
     hsub = heading.add_subparsers(dest="heading_command", required=True)
-    hfit = hsub.add_parser("fit",
-                           help="fit eq. 2 per aircraft from an observation table -> DIR/deviation.csv, figures, "
-                                "report",
-                           description="The wind paper's method on an observation table (aircraft wind reports with "
-                                       "reference-model winds, docs/data-formats.md): ground tracks from three "
-                                       "adjacent reports, the heading error against each reference model (eqs. 3-4), a "
-                                       "robust flight-clustered fit of eq. 2 per aircraft (D, E only when a Wald test "
-                                       "keeps them; the offset alone when the headings cannot identify the sinusoid) "
-                                       "and its 8-point table. Writes DIR/deviation.csv (and deviation_mag.csv, fitted "
-                                       "on magnetic heading, when the table has heading_mag_deg or declination_deg), "
-                                       "flight-bootstrap intervals in deviation_ci.csv, a figure per aircraft and "
-                                       "DIR/report.md.")
+    hfit = hsub.add_parser(
+        "fit",
+        help="fit eq. 2 per aircraft from an observation table -> DIR/deviation.csv, figures, report",
+        description="The wind paper's method on an observation table (aircraft wind reports with "
+        "reference-model winds, docs/data-formats.md): ground tracks from three "
+        "adjacent reports, the heading error against each reference model (eqs. 3-4), a "
+        "robust flight-clustered fit of eq. 2 per aircraft (D, E only when a Wald test "
+        "keeps them; the offset alone when the headings cannot identify the sinusoid) "
+        "and its 8-point table. Writes DIR/deviation.csv (and deviation_mag.csv, fitted "
+        "on magnetic heading, when the table has heading_mag_deg or declination_deg), "
+        "flight-bootstrap intervals in deviation_ci.csv, a figure per aircraft and "
+        "DIR/report.md.",
+    )
     hfit.add_argument("obs", help="observation table (CSV, .csv.gz or Parquet, docs/data-formats.md)")
     hfit.add_argument("--out", required=True, help="output folder")
-    hfit.add_argument("--bootstrap", type=int, default=200, metavar="N",
-                      help="flight resamples for the 95 %% intervals of A..E and the table entries (deviation_ci.csv; "
-                      "default 200, 0: none; ~20 s per million rows and heading frame at 200)")
+    hfit.add_argument(
+        "--bootstrap",
+        type=int,
+        default=200,
+        metavar="N",
+        help="flight resamples for the 95 %% intervals of A..E and the table entries (deviation_ci.csv; "
+        "default 200, 0: none; ~20 s per million rows and heading frame at 200)",
+    )
     hfit.add_argument("--seed", type=int, default=0, help="seed of the bootstrap's resampling (default 0)")
     hfit.set_defaults(func=_cmd_heading_fit)
-    happ = hsub.add_parser("apply", help="apply the tables of `heading fit` to the reports of another period -> "
-                           "DIR/corrected.*, apply.csv (before/after per aircraft), figure, report",
-                           description="Apply the tables `aerotruth heading fit` learned to the reports of another "
-                                       "period, as the onboard table would have corrected them (eq. 1 with the air "
-                                       "vector turned by the table's correction; nothing is refitted). The reports "
-                                       "must not be corrected onboard already. Writes DIR/corrected.csv (or .parquet, "
-                                       "as the input) with each row's correction and corrected wind, DIR/apply.csv "
-                                       "(per aircraft the wind error against the references before and after: RMS, "
-                                       "longitudinal, transverse; in_sample where the dates overlap the fit's), a "
-                                       "before/after figure and DIR/report.md.")
+    happ = hsub.add_parser(
+        "apply",
+        help="apply the tables of `heading fit` to the reports of another period -> "
+        "DIR/corrected.*, apply.csv (before/after per aircraft), figure, report",
+        description="Apply the tables `aerotruth heading fit` learned to the reports of another "
+        "period, as the onboard table would have corrected them (eq. 1 with the air "
+        "vector turned by the table's correction; nothing is refitted). The reports "
+        "must not be corrected onboard already. Writes DIR/corrected.csv (or .parquet, "
+        "as the input) with each row's correction and corrected wind, DIR/apply.csv "
+        "(per aircraft the wind error against the references before and after: RMS, "
+        "longitudinal, transverse; in_sample where the dates overlap the fit's), a "
+        "before/after figure and DIR/report.md.",
+    )
     happ.add_argument("obs", help="observation table (CSV, .csv.gz or Parquet, docs/data-formats.md)")
-    happ.add_argument("--tables", required=True,
-                      help="the deviation.csv (or deviation_mag.csv) of `aerotruth heading fit`")
+    happ.add_argument(
+        "--tables", required=True, help="the deviation.csv (or deviation_mag.csv) of `aerotruth heading fit`"
+    )
     happ.add_argument("--out", required=True, help="output folder")
     happ.set_defaults(func=_cmd_heading_apply)
     return p

@@ -52,22 +52,34 @@ def diagnose_main(measured_path: str, model_path: str, out_dir: str) -> int:
         findings, baseline = diagnose_log(Path(args.measured), df, fm)
         write_log_diagnosis(args.measured, df, findings, baseline, fm, Path(args.out))
         names = ", ".join(f.effect for f in findings) or "none"
-        print(f"{args.measured}: approach log, {baseline['approaches']} approaches; findings: {names} -> {Path(args.out) / 'diagnosis.json'}")
+        print(
+            f"{args.measured}: approach log, {baseline['approaches']} approaches; "
+            f"findings: {names} -> {Path(args.out) / 'diagnosis.json'}"
+        )
         return 0
     if measured.kind == "observation_table":
         return _diagnose_observations(args, model, measured)
     track, excluded = track_from_measured(measured)
     findings, baseline = diagnose_track(track)
     for f in findings:
-        if f.effect == "heading_offset" and measured.kind in ("modes_track", "modes_raw"):  # BDS 6,0 heading is magnetic
+        if f.effect == "heading_offset" and measured.kind in (
+            "modes_track",
+            "modes_raw",
+        ):  # BDS 6,0 heading is magnetic
             import datetime as dt
 
             from aerotruth.analysis.diagnose.modes import variation_table_epoch
 
             df = measured.df
-            when = dt.datetime.fromtimestamp(float(track["time_s"].iloc[0]), tz=dt.timezone.utc).replace(tzinfo=None)
-            f.evidence["variation_table"] = (variation_table_epoch(f.parameters["A_deg"]["value"], track, float(df["latitude"].median()),
-                                                      float(df["longitude"].median()), float(df["altitude"].median()) * 0.3048, when))
+            when = dt.datetime.fromtimestamp(float(track["time_s"].iloc[0]), tz=dt.UTC).replace(tzinfo=None)
+            f.evidence["variation_table"] = variation_table_epoch(
+                f.parameters["A_deg"]["value"],
+                track,
+                float(df["latitude"].median()),
+                float(df["longitude"].median()),
+                float(df["altitude"].median()) * 0.3048,
+                when,
+            )
     diag = Diagnosis(str(args.measured), measured.kind, len(track), excluded, findings, baseline)
     out = Path(args.out)
     write_diagnosis(diag, track, out)
@@ -103,12 +115,17 @@ def _diagnose_observations(args: SimpleNamespace, model, measured) -> int:
         names += f" (not tested: {baseline['weather_blocks']} six-hour weather blocks, too few; see report.md)"
     table = baseline["data"]
     skipped = table["rows_dropped_empty"] + table["rows_dropped_duplicate"]
-    left = (f" ({table['rows_dropped_empty']} rows with an empty required cell, {table['rows_dropped_duplicate']} "
-            f"repeated rows left out)" if skipped else "")
-    print(f"{args.measured}: observation table, {baseline['reports']} gated reports of {baseline['aircraft']} aircraft"
-          f"{left}; findings: {names} -> {out / 'diagnosis.json'}")
+    left = (
+        f" ({table['rows_dropped_empty']} rows with an empty required cell, {table['rows_dropped_duplicate']} "
+        f"repeated rows left out)"
+        if skipped
+        else ""
+    )
+    print(
+        f"{args.measured}: observation table, {baseline['reports']} gated reports of {baseline['aircraft']} aircraft"
+        f"{left}; findings: {names} -> {out / 'diagnosis.json'}"
+    )
     return 0
-
 
 
 def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s: float = 600.0) -> None:
@@ -116,43 +133,81 @@ def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s:
     out_dir.mkdir(parents=True, exist_ok=True)
     doc = asdict(diag)
     a0, a1 = ALPHA_LAW_SAAB340
-    model = (f"Model: the simulation's Mode-S sensor on this flight's own trajectory, ideal heading and airspeed; the air "
-             f"track is heading - alpha sin(roll) with the simulation's aircraft's angle of attack, the SAAB 340B's "
-             f"alpha = {a0:.2f} deg + {a1:.0f} Pa deg / (q cos roll) (modes_wind.ALPHA_LAW_SAAB340), used for this aircraft "
-             "too: its own alpha law is not known here (a different alpha moves the air track by (delta alpha) sin(roll), "
-             "< 0.1 deg per deg of alpha at 5 deg of bank).")
+    model = (
+        f"Model: the simulation's Mode-S sensor on this flight's own trajectory, ideal heading and airspeed; the air "
+        f"track is heading - alpha sin(roll) with the simulation's aircraft's angle of attack, the SAAB 340B's "
+        f"alpha = {a0:.2f} deg + {a1:.0f} Pa deg / (q cos roll) (modes_wind.ALPHA_LAW_SAAB340), used for this aircraft "
+        "too: its own alpha law is not known here (a different alpha moves the air track by (delta alpha) sin(roll), "
+        "< 0.1 deg per deg of alpha at 5 deg of bank)."
+    )
     doc["model"] = model
     atomic_write_text(out_dir / "diagnosis.json", json.dumps(doc, indent=2, sort_keys=False) + "\n")
-    lines = [f"# Diagnosis of `{diag.measured}`", "", f"Kind: {diag.kind}; samples used: {diag.samples_used}.", "",
-             "Excluded: " + "; ".join(f"{k}: {v}" for k, v in diag.samples_excluded.items()), "",
-             model, "",
-             f"Baseline (ideal sensor, smooth wind): residual {diag.baseline['rms_kt']:.2f} kt per component, "
-             f"held out {diag.baseline['held_out_rms_kt']:.2f} kt.", ""]
+    lines = [
+        f"# Diagnosis of `{diag.measured}`",
+        "",
+        f"Kind: {diag.kind}; samples used: {diag.samples_used}.",
+        "",
+        "Excluded: " + "; ".join(f"{k}: {v}" for k, v in diag.samples_excluded.items()),
+        "",
+        model,
+        "",
+        f"Baseline (ideal sensor, smooth wind): residual {diag.baseline['rms_kt']:.2f} kt per component, "
+        f"held out {diag.baseline['held_out_rms_kt']:.2f} kt.",
+        "",
+    ]
     if not diag.findings:
         lines += ["**No finding**: no candidate effect improves the held-out fit with strong evidence.", ""]
     for i, f in enumerate(diag.findings, 1):
         ps = ", ".join(f"{k} = {v['value']:.4g} ± {v['se']:.2g}" for k, v in f.parameters.items())
         vt = f.evidence.get("variation_table")
         if vt is not None:
-            ps += (f"; the aircraft's variation table must hold {vt['implied_table_variation_deg']:.1f} deg where IGRF gives "
-                   f"{vt['declination_now_deg']:.1f} deg today" + (f", the declination there in {vt['igrf_epoch_with_that_variation']:.0f}"
-                                                                   if "igrf_epoch_with_that_variation" in vt else ""))
-        lines += [f"## {i}. {f.effect}", "", f.cause, "", f"* parameters: {ps}", f"* ΔBIC {f.evidence['delta_bic']:.1f}, jackknife p = {f.evidence['p_value']:.2g} (level {f.evidence['alpha']:.2g})",
-                  f"* residual {f.gain['before']:.2f} → {f.gain['after']:.2f} kt; held out {f.gain['held_out_before']:.2f} → "
-                  f"{f.gain['held_out_after']:.2f} kt", ""]
+            ps += (
+                f"; the aircraft's variation table must hold {vt['implied_table_variation_deg']:.1f} deg "
+                "where IGRF gives "
+                f"{vt['declination_now_deg']:.1f} deg today"
+                + (
+                    f", the declination there in {vt['igrf_epoch_with_that_variation']:.0f}"
+                    if "igrf_epoch_with_that_variation" in vt
+                    else ""
+                )
+            )
+        lines += [
+            f"## {i}. {f.effect}",
+            "",
+            f.cause,
+            "",
+            f"* parameters: {ps}",
+            f"* ΔBIC {f.evidence['delta_bic']:.1f}, jackknife p = {f.evidence['p_value']:.2g} "
+            f"(level {f.evidence['alpha']:.2g})",
+            f"* residual {f.gain['before']:.2f} → {f.gain['after']:.2f} kt; held out {f.gain['held_out_before']:.2f} → "
+            f"{f.gain['held_out_after']:.2f} kt",
+            "",
+        ]
     last = (diag.baseline.get("rounds") or [{}])[-1]
     if last:
-        lines += ["Candidates after the last finding (what the data say of each):", "",
-                  "| effect | outcome | size | ΔBIC | jackknife p | held out (kt) |", "|---|---|---|---|---|---|"]
+        lines += [
+            "Candidates after the last finding (what the data say of each):",
+            "",
+            "| effect | outcome | size | ΔBIC | jackknife p | held out (kt) |",
+            "|---|---|---|---|---|---|",
+        ]
         for eff, c in last.items():
             ses = c.get("se", {})
-            size = ", ".join(f"{k} {v:.3g}" + (f" ± {ses[k]:.2g}" if k in ses else "") for k, v in c.get("values", {}).items())
-            ho = (f"{c['held_out_before_kt']:.3f} → {c['held_out_after_kt']:.3f}" if "held_out_after_kt" in c else "")
-            lines.append(f"| {eff} | {c['outcome']} | {size} | {c['delta_bic']:.1f} | {c['p_value']:.2g} | {ho} |"
-                         if "delta_bic" in c else f"| {eff} | {c['outcome']} | {size} | | | |")
+            size = ", ".join(
+                f"{k} {v:.3g}" + (f" ± {ses[k]:.2g}" if k in ses else "") for k, v in c.get("values", {}).items()
+            )
+            ho = f"{c['held_out_before_kt']:.3f} → {c['held_out_after_kt']:.3f}" if "held_out_after_kt" in c else ""
+            lines.append(
+                f"| {eff} | {c['outcome']} | {size} | {c['delta_bic']:.1f} | {c['p_value']:.2g} | {ho} |"
+                if "delta_bic" in c
+                else f"| {eff} | {c['outcome']} | {size} | | | |"
+            )
         lines.append("")
     _wind_along_flight_figure(diag, track, out_dir, knot_s)
-    lines += ["![The derived wind along the flight, coloured by heading, before and after](figures/wind_along_flight.png)", ""]
+    lines += [
+        "![The derived wind along the flight, coloured by heading, before and after](figures/wind_along_flight.png)",
+        "",
+    ]
     atomic_write_text(out_dir / "report.md", "\n".join(lines))
 
 
@@ -172,7 +227,9 @@ def _wind_along_flight_figure(diag: Diagnosis, track: pd.DataFrame, out_dir: Pat
     psi = np.degrees(track["heading_rad"].to_numpy()) % 360
     n = len(track)
     fig, axes = plt.subplots(2, 2, figsize=(11, 6), sharex=True, sharey="row")
-    for col, (effs, title) in enumerate((((), "ideal sensor"), (effects, "with the findings" if effects else "no finding"))):
+    for col, (effs, title) in enumerate(
+        (((), "ideal sensor"), (effects, "with the findings" if effects else "no finding"))
+    ):
         X, y, names = design(track, knot_s, effs)
         coef, *_ = np.linalg.lstsq(X, y, rcond=None)
         eff_cols = [i for i, nm in enumerate(names) if not nm.startswith("wind_")]
@@ -245,36 +302,56 @@ def _data_lines(table: dict) -> list[str]:
     if not table:
         return []
     gates = ", ".join(f"{k} {v}" for k, v in table["row_gates"].items())
-    return [f"Read {table['rows_read']} rows: {table['rows_dropped_empty']} with an empty required cell and "
-            f"{table['rows_dropped_duplicate']} repeating an (aircraft, time, reference) row left out; "
-            f"{table['reports']} reports; rows by ground-track gate: {gates}.", ""]
+    return [
+        f"Read {table['rows_read']} rows: {table['rows_dropped_empty']} with an empty required cell and "
+        f"{table['rows_dropped_duplicate']} repeating an (aircraft, time, reference) row left out; "
+        f"{table['reports']} reports; rows by ground-track gate: {gates}.",
+        "",
+    ]
 
 
 # per-item parameters of the library's effects, one phrase per aircraft (reference model)
 _ITEMS = {
-    "soft_iron": ("aircraft", lambda x: f"D {x['D_deg']:+.2f} ± {x['D_se_deg']:.2f}, E {x['E_deg']:+.2f} ± {x['E_se_deg']:.2f} deg"),
+    "soft_iron": (
+        "aircraft",
+        lambda x: f"D {x['D_deg']:+.2f} ± {x['D_se_deg']:.2f}, E {x['E_deg']:+.2f} ± {x['E_se_deg']:.2f} deg",
+    ),
     "tas_scale": ("aircraft", lambda x: f"k {x['k']:+.4f} ± {x['se']:.4f}"),
-    "reference_bias": ("bias_kt", lambda x: f"{x['value']:+.2f} ± {x['se']:.2f} kt along the wind, or a scale of its wind "
-                                            f"{100 * x['scale']['value']:+.1f} ± {100 * x['scale']['se']:.1f} %; "
-                                            f"the {x['form']} fits better"),
+    "reference_bias": (
+        "bias_kt",
+        lambda x: (
+            f"{x['value']:+.2f} ± {x['se']:.2f} kt along the wind, or a scale of its wind "
+            f"{100 * x['scale']['value']:+.1f} ± {100 * x['scale']['se']:.1f} %; "
+            f"the {x['form']} fits better"
+        ),
+    ),
     "recalibration": ("steps", lambda x: f"{x['step_deg']:+.2f} ± {x['se_deg']:.2f} deg at {x['time_utc']}"),
-    "offset_drift": ("aircraft", lambda x: f"{x['rate_deg_per_day']:+.3f} ± {x['se_deg_per_day']:.3f} deg/day "
-                                           f"({x['change_deg']:+.2f} deg over {x['days']:.1f} days)"),
+    "offset_drift": (
+        "aircraft",
+        lambda x: (
+            f"{x['rate_deg_per_day']:+.3f} ± {x['se_deg_per_day']:.3f} deg/day "
+            f"({x['change_deg']:+.2f} deg over {x['days']:.1f} days)"
+        ),
+    ),
 }
 
 
 def _fmt_params(effect: str, p: dict) -> str:
     """The finding's parameters in words: its summary values, then each aircraft's (or model's)."""
-    parts = [f"{k} = {v['value']:.4g} ± {v['se']:.2g}" + (f" (model {v['model']:g})" if "model" in v else "")
-             for k, v in p.items() if isinstance(v, dict) and "value" in v]
+    parts = [
+        f"{k} = {v['value']:.4g} ± {v['se']:.2g}" + (f" (model {v['model']:g})" if "model" in v else "")
+        for k, v in p.items()
+        if isinstance(v, dict) and "value" in v
+    ]
     if effect in _ITEMS:
         key, phrase = _ITEMS[effect]
         parts += [f"{name}: {phrase(x)}" for name, x in p[key].items()]
     return "; ".join(parts) or (p.get("signature") or "")
 
 
-def write_wind_diagnosis(measured: str, findings: list, baseline: dict, spec: WindModelSpec, extended: WindModelSpec,
-                         plots: dict, out_dir) -> None:
+def write_wind_diagnosis(
+    measured: str, findings: list, baseline: dict, spec: WindModelSpec, extended: WindModelSpec, plots: dict, out_dir
+) -> None:
     """DIR/diagnosis.json, DIR/report.md, DIR/figures/<effect>.png."""
     import json
     from dataclasses import asdict
@@ -284,63 +361,110 @@ def write_wind_diagnosis(measured: str, findings: list, baseline: dict, spec: Wi
 
     out = Path(out_dir)
     (out / "figures").mkdir(parents=True, exist_ok=True)
-    doc = {"measured": str(measured), "kind": "observation_table", "model": spec.model_dump(mode="json"),
-           "findings": [asdict(f) for f in findings], "baseline": baseline,
-           "extended_model": extended.model_dump(mode="json")}
+    doc = {
+        "measured": str(measured),
+        "kind": "observation_table",
+        "model": spec.model_dump(mode="json"),
+        "findings": [asdict(f) for f in findings],
+        "baseline": baseline,
+        "extended_model": extended.model_dump(mode="json"),
+    }
     atomic_write_text(out / "diagnosis.json", json.dumps(doc, indent=2, default=float) + "\n")
     rr = baseline["residual_rms_kt"]
-    lines = [f"# Diagnosis of `{measured}` (observation table)", "",
-             f"{baseline['reports']} reports of {baseline['aircraft']} aircraft in {baseline['flights']} flights; "
-             f"{baseline['rows']} (report, reference) rows pass the wind paper's ground-track gates.", "",
-             *_data_lines(baseline.get("data") or {}),
-             "Model: each aircraft's heading deviation A + B sin z + C cos z" + (" + D sin 2z + E cos 2z" if spec.deviation_terms == 5 else "")
-             + f" (wind paper eq. 2), field scaling gamma = {spec.field_scaling:g}, lat/lon grid {spec.lat_lon_step_deg:g} deg"
-             + ("; a TAS bias per aircraft" if spec.tas_bias else "") + ("; TAS along the air path" if spec.tas_along_path else "")
-             + f". Tests on {baseline['weather_blocks']} six-hour weather blocks.", "",
-             f"Residual RMS (kt), transverse {rr['transverse_before']:.2f} → {rr['transverse_after']:.2f}, along "
-             f"{rr['along_before']:.2f} → {rr['along_after']:.2f} (model → extended model).", ""]
+    lines = [
+        f"# Diagnosis of `{measured}` (observation table)",
+        "",
+        f"{baseline['reports']} reports of {baseline['aircraft']} aircraft in {baseline['flights']} flights; "
+        f"{baseline['rows']} (report, reference) rows pass the wind paper's ground-track gates.",
+        "",
+        *_data_lines(baseline.get("data") or {}),
+        "Model: each aircraft's heading deviation A + B sin z + C cos z"
+        + (" + D sin 2z + E cos 2z" if spec.deviation_terms == 5 else "")
+        + f" (wind paper eq. 2), field scaling gamma = {spec.field_scaling:g}, "
+        f"lat/lon grid {spec.lat_lon_step_deg:g} deg"
+        + ("; a TAS bias per aircraft" if spec.tas_bias else "")
+        + ("; TAS along the air path" if spec.tas_along_path else "")
+        + f". Tests on {baseline['weather_blocks']} six-hour weather blocks.",
+        "",
+        f"Residual RMS (kt), transverse {rr['transverse_before']:.2f} → {rr['transverse_after']:.2f}, along "
+        f"{rr['along_before']:.2f} → {rr['along_after']:.2f} (model → extended model).",
+        "",
+    ]
     if "not_tested" in baseline:
         lines += [f"**Not tested**: {baseline['not_tested']}", ""]
     elif not findings:
-        lines += ["**No finding**: nothing in the effects library or the screening is significant at the family-wise "
-                  f"{100 * baseline['alpha']['family_wise']:.0f} % level with a held-out gain.", ""]
+        lines += [
+            "**No finding**: nothing in the effects library or the screening is significant at the family-wise "
+            f"{100 * baseline['alpha']['family_wise']:.0f} % level with a held-out gain.",
+            "",
+        ]
     free = baseline.get("free_terms") or {}
     if free:
-        lines += ["Terms the model has, fitted: " + "; ".join(f"{k} {v['slope']:+.3g} ± {v['se']:.2g} {v['unit']}"
-                                                          if np.isfinite(v["se"]) else f"{k} (no reports to fit it)"
-                                                          for k, v in free.items()), ""]
+        lines += [
+            "Terms the model has, fitted: "
+            + "; ".join(
+                f"{k} {v['slope']:+.3g} ± {v['se']:.2g} {v['unit']}"
+                if np.isfinite(v["se"])
+                else f"{k} (no reports to fit it)"
+                for k, v in free.items()
+            ),
+            "",
+        ]
     for i, f in enumerate(findings, 1):
         ev = f.evidence
         pv = f"p = {ev['p_value']:.2g}" if "p_value" in ev else f"log10 p = {ev['log10_p']:.0f}"
         g = f.gain
-        lines += [f"## {i}. {f.effect}", "", f.cause, "", f"* parameters: {_fmt_params(f.effect, f.parameters)}",
-                  f"* evidence: {ev['test']}, {pv} (level {ev['alpha']:.2g})",
-                  f"* gain: {g['metric']}: {g['before']:.3g} → {g['after']:.3g}; held out {g['held_out_before']:.3g} → "
-                  f"{g['held_out_after']:.3g}"]
+        lines += [
+            f"## {i}. {f.effect}",
+            "",
+            f.cause,
+            "",
+            f"* parameters: {_fmt_params(f.effect, f.parameters)}",
+            f"* evidence: {ev['test']}, {pv} (level {ev['alpha']:.2g})",
+            f"* gain: {g['metric']}: {g['before']:.3g} → {g['after']:.3g}; held out {g['held_out_before']:.3g} → "
+            f"{g['held_out_after']:.3g}",
+        ]
         if "forms_chosen" in ev:
             fc = ev["forms_chosen"]
-            lines += ["* in the forms that fit each reference (" + ", ".join(f"{k}: {v}" for k, v in fc["forms"].items())
-                      + f"): p = {fc['p_value']:.2g}; held out {fc['held_out_before']:.3g} → {fc['held_out_after']:.3g}"]
+            lines += [
+                "* in the forms that fit each reference ("
+                + ", ".join(f"{k}: {v}" for k, v in fc["forms"].items())
+                + f"): p = {fc['p_value']:.2g}; held out {fc['held_out_before']:.3g} → {fc['held_out_after']:.3g}"
+            ]
         lines += [""]
         if f.effect in plots:
             name = f.effect.replace(":", "_").replace("+", "_")
-            _residual_figure(plots[f.effect], f"{f.effect}: residual against the effect's term", out / "figures" / f"{name}.png")
+            _residual_figure(
+                plots[f.effect], f"{f.effect}: residual against the effect's term", out / "figures" / f"{name}.png"
+            )
             lines += [f"![{f.effect}](figures/{name}.png)", ""]
     for s in baseline["not_identifiable"]:
         lines += [f"* not identifiable: {s}"]
     fits = baseline["model_fit"]
-    lines += ["", "## The model's fit per aircraft", "", "| aircraft | status | A (deg) | B (deg) | C (deg) | flights | reason |",
-              "|---|---|---|---|---|---|---|"]
+    lines += [
+        "",
+        "## The model's fit per aircraft",
+        "",
+        "| aircraft | status | A (deg) | B (deg) | C (deg) | flights | reason |",
+        "|---|---|---|---|---|---|---|",
+    ]
     for a, r in fits.items():
-        drift = (f" drifting {r['A_drift_deg_per_day']:+.3f} ± {r['A_drift_se_deg_per_day']:.3f} deg/day"
-                 if "A_drift_deg_per_day" in r else "")
-        lines.append(f"| {a} | {r['status']} | {r.get('A_deg', float('nan')):+.2f} ± {r.get('A_se_deg', float('nan')):.2f}"
-                     f"{drift} | {r.get('B_deg', float('nan')):+.2f} | {r.get('C_deg', float('nan')):+.2f} | {r['flights']} | "
-                     f"{r['reason']} |")
+        drift = (
+            f" drifting {r['A_drift_deg_per_day']:+.3f} ± {r['A_drift_se_deg_per_day']:.3f} deg/day"
+            if "A_drift_deg_per_day" in r
+            else ""
+        )
+        lines.append(
+            f"| {a} | {r['status']} | {r.get('A_deg', float('nan')):+.2f} ± {r.get('A_se_deg', float('nan')):.2f}"
+            f"{drift} | {r.get('B_deg', float('nan')):+.2f} | {r.get('C_deg', float('nan')):+.2f} | {r['flights']} | "
+            f"{r['reason']} |"
+        )
     atomic_write_text(out / "report.md", "\n".join(lines) + "\n")
 
 
-def write_log_diagnosis(path, df: pd.DataFrame, findings: list[Finding], baseline: dict, model: FitsModel, out_dir) -> None:
+def write_log_diagnosis(
+    path, df: pd.DataFrame, findings: list[Finding], baseline: dict, model: FitsModel, out_dir
+) -> None:
     """DIR/diagnosis.json, DIR/report.md and DIR/figures/waas_periodogram.png."""
     import json
     from dataclasses import asdict
@@ -353,22 +477,41 @@ def write_log_diagnosis(path, df: pd.DataFrame, findings: list[Finding], baselin
     (out / "figures").mkdir(parents=True, exist_ok=True)
     diag = Diagnosis(str(path), "approach_log", int(len(df)), {}, findings, {**baseline, "model": asdict(model)})
     atomic_write_text(out / "diagnosis.json", json.dumps(asdict(diag), indent=2, default=float) + "\n")
-    lines = [f"# Diagnosis of `{path}`", "", f"Kind: approach log; {baseline['approaches']} approaches; DGPS truth: "
-             f"{'yes' if baseline['dgps'] else 'no (only the INS frame and the cyclic period can be tested)'}.", "",
-             f"Model: WAAS cyclic period {model.period_s:g} s, {model.grade} INS ({model.accel_bias_ug:g} ug), DGPS survey offset "
-             f"{tuple(model.dgps_offset_m)} m.", ""]
+    lines = [
+        f"# Diagnosis of `{path}`",
+        "",
+        f"Kind: approach log; {baseline['approaches']} approaches; DGPS truth: "
+        f"{'yes' if baseline['dgps'] else 'no (only the INS frame and the cyclic period can be tested)'}.",
+        "",
+        f"Model: WAAS cyclic period {model.period_s:g} s, {model.grade} INS ({model.accel_bias_ug:g} ug), "
+        "DGPS survey offset "
+        f"{tuple(model.dgps_offset_m)} m.",
+        "",
+    ]
     if "fits_minus_dgps_rms_m" in baseline:
-        lines += [f"Baseline: FITS minus DGPS, cross-track and vertical, RMS {baseline['fits_minus_dgps_rms_m']:.3f} m.", ""]
+        lines += [
+            f"Baseline: FITS minus DGPS, cross-track and vertical, RMS {baseline['fits_minus_dgps_rms_m']:.3f} m.",
+            "",
+        ]
     if not findings:
         lines += ["**No finding**: the log agrees with the model within the tests' thresholds.", ""]
     for i, f in enumerate(findings, 1):
         ps = ", ".join(f"{k} = {v['value']:.4g} ± {v['se']:.2g}" for k, v in f.parameters.items())
         g = f.gain
-        lines += [f"## {i}. {f.effect}", "", f.cause, "", f"* parameters: {ps}",
-                  "* evidence: " + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in f.evidence.items()),
-                  f"* {g.get('unit', '')}: {g.get('before', float('nan')):.4g} → {g.get('after', float('nan')):.4g}; held out "
-                  f"{g.get('held_out_before', float('nan')):.4g} → {g.get('held_out_after', float('nan')):.4g}"
-                  + (f" ({g['note']})" if "note" in g else ""), ""]
+        lines += [
+            f"## {i}. {f.effect}",
+            "",
+            f.cause,
+            "",
+            f"* parameters: {ps}",
+            "* evidence: "
+            + ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}" for k, v in f.evidence.items()),
+            f"* {g.get('unit', '')}: {g.get('before', float('nan')):.4g} → {g.get('after', float('nan')):.4g}; "
+            "held out "
+            f"{g.get('held_out_before', float('nan')):.4g} → {g.get('held_out_after', float('nan')):.4g}"
+            + (f" ({g['note']})" if "note" in g else ""),
+            "",
+        ]
     _periodogram_figure(df, path, model, out / "figures" / "waas_periodogram.png")
     lines += ["![Periodogram of WAAS - INS with the model's cyclic period](figures/waas_periodogram.png)", ""]
     atomic_write_text(out / "report.md", "\n".join(lines))

@@ -29,7 +29,9 @@ def make_figures(run_dir: str | Path) -> dict[str, list[Figure]]:
         study = reg.get(name)
         rows = store.read_rows([t for t in tasks if t.study == name])
         prefix = f"{name}."
-        summary = Summary({k[len(prefix):]: v for k, v in metrics.items() if k.startswith(prefix)}, store.read_tables(name))
+        summary = Summary(
+            {k[len(prefix) :]: v for k, v in metrics.items() if k.startswith(prefix)}, store.read_tables(name)
+        )
         try:
             out[name] = study.figures(rows, summary, store.learned_of(name), FigureFolder(store.figures_dir))
         finally:

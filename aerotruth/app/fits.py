@@ -12,8 +12,9 @@ the FITS per approach and writes into DIR:
   the WAAS epochs, angular errors and requirement verdicts from aerotruth.analysis.fits.ils_metrics)
   and requirement.png (cross-track and vertical errors against the 0.015/0.05 deg lines).
 
-Handling of the log (aerotruth.analysis.fits.approach_log): rows are grouped by `approach` (any order of approaches); within one
-approach time_s must increase strictly (unsorted or repeated times are an error, not
+Handling of the log (aerotruth.analysis.fits.approach_log): rows are grouped by `approach`
+(any order of approaches); within one approach time_s must increase strictly (unsorted or
+repeated times are an error, not
 re-sorted); a gap (a row step or a WAAS-epoch step over 1.5 times the typical one) is an
 error; WAAS columns are finite on WAAS epochs and NaN elsewhere (all three together); the
 INS on every row except event rows; a receiver flag on a row between WAAS epochs belongs
@@ -86,8 +87,10 @@ def _requirement_figure(errors: pd.DataFrame, path: Path) -> None:
 
     fig, axes = plt.subplots(2, 1, figsize=(8, 7), sharex=True)
     d_nm = errors["distance_to_threshold_m"] / NM
-    for ax, col, rng_col, floor, label in ((axes[0], "cross_m", "range_loc_m", FLOOR_HORIZONTAL_M, "cross-track"),
-                                           (axes[1], "vertical_m", "range_gp_m", FLOOR_VERTICAL_M, "vertical")):
+    for ax, col, rng_col, floor, label in (
+        (axes[0], "cross_m", "range_loc_m", FLOOR_HORIZONTAL_M, "cross-track"),
+        (axes[1], "vertical_m", "range_gp_m", FLOOR_VERTICAL_M, "vertical"),
+    ):
         for a, e in errors.groupby("approach"):
             ax.plot(d_nm[e.index], e[col], lw=0.8, label=f"approach {a}" if errors["approach"].nunique() <= 8 else None)
         order = np.argsort(d_nm.to_numpy())
@@ -117,17 +120,21 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
     missing = [a for a in df["approach"].unique() if geometry_of(geoms, a) is None]
     if missing:  # a file of per-approach geometries: every approach of the log needs its own
         a = missing[0].item() if isinstance(missing[0], np.generic) else missing[0]
-        raise DataError(f"{geom_src}: no runway geometry for approach {a!r} (it has "
-                        f"{', '.join(map(str, geoms))}); give every approach one, or one for the whole log")
+        raise DataError(
+            f"{geom_src}: no runway geometry for approach {a!r} (it has "
+            f"{', '.join(map(str, geoms))}); give every approach one, or one for the whole log"
+        )
     approaches = []
     for a, g in df.groupby("approach", sort=False):
         check_approach(p, a, g)
         approaches.append((a, g, retagged(approach_inputs(g), spec.waas_latency_s)))
     fe = frame_error([inputs for _, _, inputs in approaches])  # needs 3 approaches: a single one can mislead
     if fe is not None:
-        raise DataError(f"{p}: columns ins_x_m/ins_y_m/ins_z_m: {'; '.join(fe.said())} (beyond a drift the INS follows "
-                        f"the aircraft's motion as the WAAS sees it with loadings {fe.loads()}, over {len(approaches)} "
-                        "approaches); expected the runway frame, x along the course, y left, z up")
+        raise DataError(
+            f"{p}: columns ins_x_m/ins_y_m/ins_z_m: {'; '.join(fe.said())} (beyond a drift the INS follows "
+            f"the aircraft's motion as the WAAS sees it with loadings {fe.loads()}, over {len(approaches)} "
+            "approaches); expected the runway frame, x along the course, y left, z up"
+        )
     traj, grid, noise, bias, errs = [], [], [], [], []
     for a, g, inputs in approaches:
         try:
@@ -136,18 +143,41 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
             raise DataError(f"{p}: approach {a!r}: {exc}") from None
         nl = r.noiseless
         g, _ = split_events(g)
-        traj.append(pd.DataFrame({"approach": a, "time_s": nl.t_s, "x_m": r.xyz_m[:, 0], "y_m": r.xyz_m[:, 1], "z_m": r.xyz_m[:, 2]}))
+        traj.append(
+            pd.DataFrame(
+                {"approach": a, "time_s": nl.t_s, "x_m": r.xyz_m[:, 0], "y_m": r.xyz_m[:, 1], "z_m": r.xyz_m[:, 2]}
+            )
+        )
         tg, pg = r.on_grid(g["time_s"].to_numpy(), g[["ins_x_m", "ins_y_m", "ins_z_m"]].to_numpy(), spec.grid_rate_hz)
         grid.append(pd.DataFrame({"approach": a, "time_s": tg, "x_m": pg[:, 0], "y_m": pg[:, 1], "z_m": pg[:, 2]}))
-        noise.append(pd.DataFrame({"approach": a, "time_s": nl.t_s, "n_x_m": nl.n_hat[:, 0], "n_y_m": nl.n_hat[:, 1], "n_z_m": nl.n_hat[:, 2]}))
-        bias.append({"approach": a, "bias_x_m": r.bias_m[0], "bias_y_m": r.bias_m[1], "bias_z_m": r.bias_m[2], "jumps": len(nl.jump_idx)})
+        noise.append(
+            pd.DataFrame(
+                {
+                    "approach": a,
+                    "time_s": nl.t_s,
+                    "n_x_m": nl.n_hat[:, 0],
+                    "n_y_m": nl.n_hat[:, 1],
+                    "n_z_m": nl.n_hat[:, 2],
+                }
+            )
+        )
+        bias.append(
+            {
+                "approach": a,
+                "bias_x_m": r.bias_m[0],
+                "bias_y_m": r.bias_m[1],
+                "bias_z_m": r.bias_m[2],
+                "jumps": len(nl.jump_idx),
+            }
+        )
         if has_dgps:
             d = inputs.dgps_w  # at the (re-tagged) WAAS epochs
             ok = np.isfinite(d).all(axis=1)
             if ok.any():
                 geom = geometry_of(geoms, a)
-                e = approach_errors(d[ok, 0], r.xyz_m[ok], d[ok], loc_x_m=geom["loc_x_m"], gp_x_m=geom["gp_x_m"],
-                                    gp_y_m=geom["gp_y_m"])
+                e = approach_errors(
+                    d[ok, 0], r.xyz_m[ok], d[ok], loc_x_m=geom["loc_x_m"], gp_x_m=geom["gp_x_m"], gp_y_m=geom["gp_y_m"]
+                )
                 e.insert(0, "time_s", nl.t_s[ok])
                 e.insert(0, "approach", a)
                 errs.append(e)
@@ -158,22 +188,33 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
     atomic_write_text(out / "bias.csv", pd.DataFrame(bias).to_csv(index=False))
     epochs = sum(len(t) for t in traj)
     jumps = sum(b["jumps"] for b in bias)
-    print(f"{p}: {len(traj)} approaches, {epochs} WAAS epochs, {jumps} flagged bias jumps compensated -> "
-          f"{out / 'trajectory.csv'}")
+    print(
+        f"{p}: {len(traj)} approaches, {epochs} WAAS epochs, {jumps} flagged bias jumps compensated -> "
+        f"{out / 'trajectory.csv'}"
+    )
     if errs:
         errors = pd.concat(errs, ignore_index=True)
         atomic_write_text(out / "errors.csv", errors.to_csv(index=False))
         print(f"runway geometry for the angular errors: {geom_src}")
         verdicts = [approach_verdict(e, SUMMARY_FROM_NM) for e in errs]  # errs: one frame per approach
-        met = {f"{axis}_{name}": sum(v[f"{axis}_meets_{name}"] for v in verdicts)
-               for axis in ("cross", "vertical") for name in REQUIREMENTS}
+        met = {
+            f"{axis}_{name}": sum(v[f"{axis}_meets_{name}"] for v in verdicts)
+            for axis in ("cross", "vertical")
+            for name in REQUIREMENTS
+        }
         d = errors["distance_to_threshold_m"].to_numpy()
         inside = errors[(d >= 0.0) & (d <= SUMMARY_FROM_NM * NM)]
-        print(f"FITS - DGPS, threshold to {SUMMARY_FROM_NM:g} nm: cross-track RMS {np.sqrt(np.mean(inside['cross_m'] ** 2)):.2f} m, "
-              f"vertical RMS {np.sqrt(np.mean(inside['vertical_m'] ** 2)):.2f} m; approaches meeting "
-              + ", ".join(f"{name} ({REQUIREMENTS[name]:g} deg) cross {met['cross_' + name]}/{len(verdicts)} vertical "
-                          f"{met['vertical_' + name]}/{len(verdicts)}" for name in REQUIREMENTS)
-              + f" -> {out / 'errors.csv'}")
+        print(
+            f"FITS - DGPS, threshold to {SUMMARY_FROM_NM:g} nm: "
+            f"cross-track RMS {np.sqrt(np.mean(inside['cross_m'] ** 2)):.2f} m, "
+            f"vertical RMS {np.sqrt(np.mean(inside['vertical_m'] ** 2)):.2f} m; approaches meeting "
+            + ", ".join(
+                f"{name} ({REQUIREMENTS[name]:g} deg) cross {met['cross_' + name]}/{len(verdicts)} vertical "
+                f"{met['vertical_' + name]}/{len(verdicts)}"
+                for name in REQUIREMENTS
+            )
+            + f" -> {out / 'errors.csv'}"
+        )
         tmp = out / "requirement.png.part.png"
         _requirement_figure(errors, tmp)
         atomic_write_bytes(out / "requirement.png", tmp.read_bytes())

@@ -70,14 +70,25 @@ def _figure(scores: pd.DataFrame, path: Path) -> None:
 
 
 def _report(src: str, tables: str, frame: str, scores: pd.DataFrame, out: pd.DataFrame) -> str:
-    lines = [f"# Heading tables applied: {src}", "",
-             f"Tables: `{tables}` (indexed by {frame} heading). {int(out['corrected'].sum())} of {len(out)} (report, "
-             f"reference) rows corrected; {int((out['gate'] != 'used').sum())} outside the method's gates and left as "
-             "reported.", "", to_markdown(scores), "", "![before/after per aircraft](figures/apply.png)", ""]
+    lines = [
+        f"# Heading tables applied: {src}",
+        "",
+        f"Tables: `{tables}` (indexed by {frame} heading). {int(out['corrected'].sum())} of {len(out)} (report, "
+        f"reference) rows corrected; {int((out['gate'] != 'used').sum())} outside the method's gates and left as "
+        "reported.",
+        "",
+        to_markdown(scores),
+        "",
+        "![before/after per aircraft](figures/apply.png)",
+        "",
+    ]
     if (scores["in_sample"] == True).any():  # noqa: E712 - object column of bools and ""
-        lines += ["In sample: these reports' dates overlap the dates the tables were fitted on; the after column "
-                  "then flatters the tables. Judge them on a later period, with a control group of aircraft "
-                  "without tables to take out the model's own change (the wind paper's Tables I-IV).", ""]
+        lines += [
+            "In sample: these reports' dates overlap the dates the tables were fitted on; the after column "
+            "then flatters the tables. Judge them on a later period, with a control group of aircraft "
+            "without tables to take out the model's own change (the wind paper's Tables I-IV).",
+            "",
+        ]
     return "\n".join(lines)
 
 
@@ -97,8 +108,13 @@ def heading_apply_main(obs_path: str, tables_path: str, out_dir: str) -> int:
         atomic_write(out / "corrected.parquet", lambda tmp: table.to_parquet(tmp, index=False))
     atomic_write_text(out / "apply.csv", scores.to_csv(index=False))
     _figure(scores, out / "figures" / "apply.png")
-    atomic_write_text(out / "report.md", _report(str(obs_path), str(tables_path), table_frame(fleet), scores, corrected))
+    atomic_write_text(
+        out / "report.md", _report(str(obs_path), str(tables_path), table_frame(fleet), scores, corrected)
+    )
     every = scores.iloc[-1]  # the fleet's row
-    print(f"{obs_path}: {len(scores) - 1} aircraft, {int(every['n_scored'])} scored (report, reference) rows; wind RMS "
-          f"{every['rms_before_kt']:.2f} -> {every['rms_after_kt']:.2f} kt with the tables of {tables_path} -> {out / 'apply.csv'}")
+    print(
+        f"{obs_path}: {len(scores) - 1} aircraft, {int(every['n_scored'])} scored (report, reference) rows; wind RMS "
+        f"{every['rms_before_kt']:.2f} -> {every['rms_after_kt']:.2f} kt with the tables of {tables_path} "
+        f"-> {out / 'apply.csv'}"
+    )
     return 0

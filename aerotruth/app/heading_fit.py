@@ -67,13 +67,26 @@ def _figure(fit, rows: pd.DataFrame, col: str, path: Path, ci: pd.DataFrame | No
     if fit.status_ != "refused":
         zz = np.arange(0.0, 360.5, 1.0)
         ax.plot(zz, fit.deviation(zz), color="C3", lw=2, label=f"fit ({fit.status_}, terms {''.join(fit.terms_)})")
-        ax.plot(np.r_[LUT_HEADINGS_DEG, 360.0], -np.r_[fit.lut_, fit.lut_[0]], "o--", color="C0", ms=5,
-                label="8-point table (minus the correction)")
+        ax.plot(
+            np.r_[LUT_HEADINGS_DEG, 360.0],
+            -np.r_[fit.lut_, fit.lut_[0]],
+            "o--",
+            color="C0",
+            ms=5,
+            label="8-point table (minus the correction)",
+        )
         if ci is not None and len(ci):
             lut = ci.set_index("quantity").reindex([f"lut_{int(h):03d}_deg" for h in LUT_HEADINGS_DEG])
             est, lo_, hi_ = -lut["estimate"].to_numpy(), -lut["hi"].to_numpy(), -lut["lo"].to_numpy()
-            ax.errorbar(LUT_HEADINGS_DEG, est, yerr=[est - lo_, hi_ - est], fmt="none", ecolor="C0", capsize=4,
-                        label=f"{ci['level'].iloc[0]:.0%} bootstrap intervals")
+            ax.errorbar(
+                LUT_HEADINGS_DEG,
+                est,
+                yerr=[est - lo_, hi_ - est],
+                fmt="none",
+                ecolor="C0",
+                capsize=4,
+                label=f"{ci['level'].iloc[0]:.0%} bootstrap intervals",
+            )
     ax.axhline(0, color="k", lw=0.5)
     ax.set_xlim(0, 360)
     ax.set_xticks(np.arange(0, 361, 45))
@@ -91,59 +104,132 @@ def _figure(fit, rows: pd.DataFrame, col: str, path: Path, ci: pd.DataFrame | No
     plt.close(fig)
 
 
-def _report(obs: pd.DataFrame, rows: pd.DataFrame, fleet: FleetHeadingFit, mag: FleetHeadingFit | None, src: str,
-            ci: pd.DataFrame | None = None, warnings: list[str] = ()) -> str:
+def _report(
+    obs: pd.DataFrame,
+    rows: pd.DataFrame,
+    fleet: FleetHeadingFit,
+    mag: FleetHeadingFit | None,
+    src: str,
+    ci: pd.DataFrame | None = None,
+    warnings: list[str] = (),
+) -> str:
     gates = rows.drop_duplicates("report")["gate"].value_counts().reindex(GATE_NAMES, fill_value=0)
     table = fleet.to_table()
-    out = [f"# Heading deviation fit: {src}", "",
-           f"{obs['aircraft'].nunique()} aircraft, {rows['report'].nunique()} reports, {len(rows)} (report, reference) rows "
-           f"from {', '.join(sorted(map(str, obs['ref_source'].unique())))}; "
-           f"{obs.attrs.get('dropped_empty', 0)} rows with an empty required cell and "
-           f"{obs.attrs.get('dropped_duplicates', 0)} duplicate rows skipped.", "",
-           "## Reports through the three-report ground-track gates (wind paper 5.1)", "",
-           "| gate | reports |", "|---|---|", *[f"| {g} | {int(n)} |" for g, n in gates.items()], "",
-           "## Fit on true heading (deviation.csv)", "",
-           to_markdown(table[["aircraft", "status", "n_used", "A_deg", "B_deg", "C_deg", "D_deg", "E_deg",
-                              "A_se_deg", "B_se_deg", "C_se_deg"]]), "",
-           "Reasons:", "", *[f"* {r.aircraft}: {r.reason}" for r in table.itertuples()], ""]
+    out = [
+        f"# Heading deviation fit: {src}",
+        "",
+        f"{obs['aircraft'].nunique()} aircraft, {rows['report'].nunique()} reports, "
+        f"{len(rows)} (report, reference) rows "
+        f"from {', '.join(sorted(map(str, obs['ref_source'].unique())))}; "
+        f"{obs.attrs.get('dropped_empty', 0)} rows with an empty required cell and "
+        f"{obs.attrs.get('dropped_duplicates', 0)} duplicate rows skipped.",
+        "",
+        "## Reports through the three-report ground-track gates (wind paper 5.1)",
+        "",
+        "| gate | reports |",
+        "|---|---|",
+        *[f"| {g} | {int(n)} |" for g, n in gates.items()],
+        "",
+        "## Fit on true heading (deviation.csv)",
+        "",
+        to_markdown(
+            table[
+                [
+                    "aircraft",
+                    "status",
+                    "n_used",
+                    "A_deg",
+                    "B_deg",
+                    "C_deg",
+                    "D_deg",
+                    "E_deg",
+                    "A_se_deg",
+                    "B_se_deg",
+                    "C_se_deg",
+                ]
+            ]
+        ),
+        "",
+        "Reasons:",
+        "",
+        *[f"* {r.aircraft}: {r.reason}" for r in table.itertuples()],
+        "",
+    ]
     if warnings:
         out += ["## Warnings", "", *[f"* {w}" for w in warnings], ""]
     if mag is not None:
         mt = mag.to_table()
-        out += ["## Fit on magnetic heading (deviation_mag.csv; the onboard table's index)", "",
-                to_markdown(mt[["aircraft", "status", "n_used", "A_deg", "B_deg", "C_deg", "D_deg", "E_deg",
-                                "B_se_deg", "C_se_deg"]]), ""]
+        out += [
+            "## Fit on magnetic heading (deviation_mag.csv; the onboard table's index)",
+            "",
+            to_markdown(
+                mt[
+                    [
+                        "aircraft",
+                        "status",
+                        "n_used",
+                        "A_deg",
+                        "B_deg",
+                        "C_deg",
+                        "D_deg",
+                        "E_deg",
+                        "B_se_deg",
+                        "C_se_deg",
+                    ]
+                ]
+            ),
+            "",
+        ]
     if ci is not None and len(ci):
         lut = ci[ci["quantity"].str.startswith("lut_")]
-        wide = lut.assign(cell=[f"{e:+.2f} [{lo:+.2f}, {hi:+.2f}]" for e, lo, hi in zip(lut["estimate"], lut["lo"], lut["hi"])])
+        wide = lut.assign(
+            cell=[
+                f"{e:+.2f} [{lo:+.2f}, {hi:+.2f}]"
+                for e, lo, hi in zip(lut["estimate"], lut["lo"], lut["hi"], strict=False)
+            ]
+        )
         wide = wide.pivot(index="aircraft", columns="quantity", values="cell").reset_index()
-        out += [f"## Lookup tables with {ci['level'].iloc[0]:.0%} bootstrap intervals (deviation_ci.csv; "
-                f"{int(ci['n_boot'].iloc[0])} flight resamples)", "",
-                "Correction to add (deg) at each measured true heading. For an aircraft fitted on one axis the "
-                "intervals hold the along-axis curve's uncertainty only: its perpendicular part is not measured "
-                "(taken as zero).", "", to_markdown(wide), ""]
+        out += [
+            f"## Lookup tables with {ci['level'].iloc[0]:.0%} bootstrap intervals (deviation_ci.csv; "
+            f"{int(ci['n_boot'].iloc[0])} flight resamples)",
+            "",
+            "Correction to add (deg) at each measured true heading. For an aircraft fitted on one axis the "
+            "intervals hold the along-axis curve's uncertainty only: its perpendicular part is not measured "
+            "(taken as zero).",
+            "",
+            to_markdown(wide),
+            "",
+        ]
     used = rows["gate"].to_numpy() == "used"
     ru = rows.loc[used]
     before, after = wind_errors_before_after(ru, fleet.correction(ru["aircraft"].array, ru["heading_deg"].to_numpy()))
-    out += ["## Wind error against the references, used reports (in sample)", "",
-            "| | RMS kt | longitudinal kt | transverse kt |", "|---|---|---|---|",
-            f"| before | {before['rms_kt']:.2f} | {before['longitudinal_kt']:.2f} | {before['transverse_kt']:.2f} |",
-            f"| after the lookup tables | {after['rms_kt']:.2f} | {after['longitudinal_kt']:.2f} | {after['transverse_kt']:.2f} |",
-            "", "In-sample: the tables were fitted on these reports; judge them on a later period (the paper's "
-            "before/after with a control group): `aerotruth heading apply LATER_OBS --tables deviation.csv --out DIR`.",
-            "",
-            "## Method and criteria", "",
-            "* Heading error psi - psi' = angle(V_G - V_W,TAM) - angle(V_G - V_W,REF) (wind paper eqs. 3, 4) against "
-            "the measured heading (the `heading_deg` column where given, else the angle of V_A).",
-            "* Fit of d = A + B sin z + C cos z + D sin 2z + E cos 2z (eq. 2): Huber M-estimate (c = 1.345, MAD scale), "
-            "weights TAS^2; standard errors clustered by flight (leave-one-flight-out, CR3).",
-            "* Sinusoid fitted only when the smaller eigenvalue of the covariance of (sin z, cos z) is >= 0.1 "
-            "(uniform headings 0.5); else offset only. D, E kept when the flight-clustered Wald test rejects "
-            "D = E = 0 at 0.001.",
-            "* Reference models: all (report, model) pairs pooled; each model alone for the consistency check "
-            "(Wald test of equal curves, p < 0.01 flagged).",
-            "* Lookup table: correction to add at 0, 45, ..., 315 deg = -d(z); applied by piecewise-linear "
-            "interpolation round the circle. Aircraft with `heading_input` = true: offset only (wind paper 8.4).", ""]
+    out += [
+        "## Wind error against the references, used reports (in sample)",
+        "",
+        "| | RMS kt | longitudinal kt | transverse kt |",
+        "|---|---|---|---|",
+        f"| before | {before['rms_kt']:.2f} | {before['longitudinal_kt']:.2f} | {before['transverse_kt']:.2f} |",
+        f"| after the lookup tables | {after['rms_kt']:.2f} | {after['longitudinal_kt']:.2f} "
+        f"| {after['transverse_kt']:.2f} |",
+        "",
+        "In-sample: the tables were fitted on these reports; judge them on a later period (the paper's "
+        "before/after with a control group): `aerotruth heading apply LATER_OBS --tables deviation.csv --out DIR`.",
+        "",
+        "## Method and criteria",
+        "",
+        "* Heading error psi - psi' = angle(V_G - V_W,TAM) - angle(V_G - V_W,REF) (wind paper eqs. 3, 4) against "
+        "the measured heading (the `heading_deg` column where given, else the angle of V_A).",
+        "* Fit of d = A + B sin z + C cos z + D sin 2z + E cos 2z (eq. 2): Huber M-estimate (c = 1.345, MAD scale), "
+        "weights TAS^2; standard errors clustered by flight (leave-one-flight-out, CR3).",
+        "* Sinusoid fitted only when the smaller eigenvalue of the covariance of (sin z, cos z) is >= 0.1 "
+        "(uniform headings 0.5); else offset only. D, E kept when the flight-clustered Wald test rejects "
+        "D = E = 0 at 0.001.",
+        "* Reference models: all (report, model) pairs pooled; each model alone for the consistency check "
+        "(Wald test of equal curves, p < 0.01 flagged).",
+        "* Lookup table: correction to add at 0, 45, ..., 315 deg = -d(z); applied by piecewise-linear "
+        "interpolation round the circle. Aircraft with `heading_input` = true: offset only (wind paper 8.4).",
+        "",
+    ]
     return "\n".join(out)
 
 
@@ -179,8 +265,11 @@ def heading_fit_main(obs_path: str, out_dir: str, n_boot: int = 200, seed: int =
     warnings = magnetic_heading_warnings(obs, rows)
     atomic_write_text(out / "report.md", _report(obs, rows, fleet, mag, str(obs_path), ci, warnings))
     status = pd.Series([f.status_ for f in fleet.fits_.values()]).value_counts()
-    print(f"{obs_path}: {len(fleet.fits_)} aircraft: " + ", ".join(f"{int(status.get(k, 0))} {k}" for k in STATUSES)
-          + f" -> {out / 'deviation.csv'}")
+    print(
+        f"{obs_path}: {len(fleet.fits_)} aircraft: "
+        + ", ".join(f"{int(status.get(k, 0))} {k}" for k in STATUSES)
+        + f" -> {out / 'deviation.csv'}"
+    )
     for w in warnings:
         print(f"aerotruth heading: warning: {obs_path}: {w}", file=sys.stderr)
     return 0

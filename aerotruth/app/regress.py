@@ -98,7 +98,11 @@ def load_baseline(path: str | Path) -> dict[str, tuple[float | None, float, floa
             a, r, value = None, None, spec
         if value is not None and (not isinstance(value, (int, float)) or isinstance(value, bool)):
             raise BaselineError(f"{p}: {where}: expected a number or null, got {json.dumps(value)}")
-        out[name] = (None if value is None else float(value), a if a is not None else (d_abs or 0.0), r if r is not None else (d_rel or 0.0))
+        out[name] = (
+            None if value is None else float(value),
+            a if a is not None else (d_abs or 0.0),
+            r if r is not None else (d_rel or 0.0),
+        )
     return out
 
 
@@ -122,8 +126,14 @@ def format_checks(checks: list[Check], only_failures: bool = True) -> str:
     rows = [c for c in checks if not (only_failures and c.ok)]
     head = ("metric", "baseline", "got", "diff", "tolerance", "status")
     body = [
-        (c.metric, format_value(c.baseline, 6), "missing" if c.missing else format_value(c.got, 6),
-         format_value(c.diff, 3), format_value(c.tolerance, 3), "ok" if c.ok else "MOVED")
+        (
+            c.metric,
+            format_value(c.baseline, 6),
+            "missing" if c.missing else format_value(c.got, 6),
+            format_value(c.diff, 3),
+            format_value(c.tolerance, 3),
+            "ok" if c.ok else "MOVED",
+        )
         for c in rows
     ]
     widths = [max(len(h), *(len(r[i]) for r in body)) if body else len(h) for i, h in enumerate(head)]
@@ -142,14 +152,21 @@ def write_baseline(run_dir: str | Path, path: str | Path, *, abs_tol: float = 0.
     """Write the run's metrics as a baseline with default tolerances; returns the count."""
     target = Path(path)
     if target.is_dir():
-        raise BaselineError(f"{target}: is a folder, expected the baseline's file name (e.g. {target / 'baseline.json'})")
+        raise BaselineError(
+            f"{target}: is a folder, expected the baseline's file name (e.g. {target / 'baseline.json'})"
+        )
     if not target.parent.is_dir():
         raise BaselineError(f"{target}: folder {target.parent} does not exist")
     metrics = RunStore(run_dir).read_metrics()["metrics"]
     bad = [k for k, v in metrics.items() if v is not None and (not isinstance(v, (int, float)) or isinstance(v, bool))]
     if bad:
-        raise BaselineError(f"{run_dir}: metric {bad[0]} is {json.dumps(metrics[bad[0]])}; a baseline holds numbers or null "
-                            "(the study should report flags as 1.0/0.0)")
-    doc = {"default": {"abs": abs_tol, "rel": rel_tol}, "metrics": {k: {"value": v} for k, v in sorted(metrics.items())}}
+        raise BaselineError(
+            f"{run_dir}: metric {bad[0]} is {json.dumps(metrics[bad[0]])}; a baseline holds numbers or null "
+            "(the study should report flags as 1.0/0.0)"
+        )
+    doc = {
+        "default": {"abs": abs_tol, "rel": rel_tol},
+        "metrics": {k: {"value": v} for k, v in sorted(metrics.items())},
+    }
     atomic_write_text(target, json.dumps(doc, indent=2, sort_keys=True) + "\n")
     return len(metrics)

@@ -38,12 +38,17 @@ def write_report(run_dir: str | Path) -> Path:
     for name in campaign.studies:
         study = reg.get(name)
         prefix = f"{name}."
-        mine = {k[len(prefix):]: v for k, v in doc["metrics"].items() if k.startswith(prefix)}
+        mine = {k[len(prefix) :]: v for k, v in doc["metrics"].items() if k.startswith(prefix)}
         lines += [f"## {study.title}", ""]
         for tname, table in store.read_tables(name).items():
             lines += [f"### {tname.replace('_', ' ')}", "", to_markdown(table), ""]
         for fig in figures.get(name, []):
-            lines += [f"![{fig.caption}](figures/{fig.stem}.png)", "", f"*{fig.caption}* ([PDF](figures/{fig.stem}.pdf))", ""]
+            lines += [
+                f"![{fig.caption}](figures/{fig.stem}.png)",
+                "",
+                f"*{fig.caption}* ([PDF](figures/{fig.stem}.pdf))",
+                "",
+            ]
         if not mine:
             lines += ["(no metrics)", ""]
         else:

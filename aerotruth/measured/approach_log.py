@@ -85,7 +85,9 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
     try:
         df = pd.read_parquet(p) if p.suffix.lower() in (".parquet", ".pq") else read_csv_table(p)
     except Exception as exc:  # noqa: BLE001 - any reader failure is one line about the file
-        raise DataError(f"{p}: cannot be read as CSV/Parquet ({type(exc).__name__}: {str(exc).splitlines()[0]})") from None
+        raise DataError(
+            f"{p}: cannot be read as CSV/Parquet ({type(exc).__name__}: {str(exc).splitlines()[0]})"
+        ) from None
     missing = [c for c in REQUIRED if c not in df.columns]
     if missing:
         raise DataError(f"{p}: missing column {missing[0]!r} (an approach log needs {', '.join(REQUIRED)})")
@@ -99,10 +101,15 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
             num = pd.to_numeric(df[c], errors="coerce")
             bad = num.isna() & df[c].notna()
             if bad.any():
-                raise DataError(f"{p}: column {c!r} data row {int(np.flatnonzero(bad)[0]) + 1}: expected a number, got {df[c][bad].iloc[0]!r}")
+                raise DataError(
+                    f"{p}: column {c!r} data row {int(np.flatnonzero(bad)[0]) + 1}: "
+                    f"expected a number, got {df[c][bad].iloc[0]!r}"
+                )
             df[c] = num.astype(float)
     if df["time_s"].isna().any():
-        raise DataError(f"{p}: column 'time_s' data row {int(np.flatnonzero(df['time_s'].isna())[0]) + 1}: missing time")
+        raise DataError(
+            f"{p}: column 'time_s' data row {int(np.flatnonzero(df['time_s'].isna())[0]) + 1}: missing time"
+        )
     for c in ("sv_change", "iono_update"):
         v = df[c].fillna(0.0)
         if not v.isin([0.0, 1.0]).all():

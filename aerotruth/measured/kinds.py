@@ -40,10 +40,12 @@ from aerotruth.measured.tables import GZIP_MAGIC, read_csv_table
 OBSERVATION_COLUMNS = OBSERVATION_REQUIRED
 APPROACH_COLUMNS = APPROACH_LOG_KEY
 KINDS = ("observation_table", "approach_log", "modes_raw", "modes_track", "adsb_track", "qar")
-_EXPECTED = ("an observation table (CSV/Parquet with columns " + ", ".join(OBSERVATION_COLUMNS) + "), an approach log "
-             "(CSV/Parquet with " + ", ".join(APPROACH_COLUMNS) + ", ...), Mode-S/ADS-B messages (JSONL with timestamp, df, "
-             "frame), a Mode-S or ADS-B trajectory (JSON records with timestamp, latitude, longitude) or a QAR extract "
-             "(column-oriented JSON with timestamp, pitch, roll)")
+_EXPECTED = (
+    "an observation table (CSV/Parquet with columns " + ", ".join(OBSERVATION_COLUMNS) + "), an approach log "
+    "(CSV/Parquet with " + ", ".join(APPROACH_COLUMNS) + ", ...), Mode-S/ADS-B messages (JSONL with timestamp, df, "
+    "frame), a Mode-S or ADS-B trajectory (JSON records with timestamp, latitude, longitude) or a QAR extract "
+    "(column-oriented JSON with timestamp, pitch, roll)"
+)
 
 
 @dataclass
@@ -118,7 +120,9 @@ def _json(path: Path, data: bytes):
             if not records:
                 return None
             cut = " (the last line: a capture cut short?)" if i == len(lines) else ""
-            raise DataError(f"{path}: line {i} is not valid JSON ({e.msg}){cut}; expected one JSON object per line") from None
+            raise DataError(
+                f"{path}: line {i} is not valid JSON ({e.msg}){cut}; expected one JSON object per line"
+            ) from None
     return records
 
 
@@ -129,8 +133,24 @@ def _epoch_seconds(ts: pd.Series) -> pd.Series:
 
 
 # fields the Mode-S / ADS-B / QAR kinds read as numbers (README of ../shared/real-data)
-NUMERIC_FIELDS = ("timestamp", "latitude", "longitude", "altitude", "groundspeed", "track", "vertical_rate", "heading",
-                  "TAS", "IAS", "Mach", "roll", "pitch", "track_rate", "CAS", "drift")
+NUMERIC_FIELDS = (
+    "timestamp",
+    "latitude",
+    "longitude",
+    "altitude",
+    "groundspeed",
+    "track",
+    "vertical_rate",
+    "heading",
+    "TAS",
+    "IAS",
+    "Mach",
+    "roll",
+    "pitch",
+    "track_rate",
+    "CAS",
+    "drift",
+)
 
 
 def _checked_records(path: Path, df: pd.DataFrame, what: str) -> pd.DataFrame:
@@ -150,9 +170,11 @@ def _checked_records(path: Path, df: pd.DataFrame, what: str) -> pd.DataFrame:
     if "icao24" in df.columns:
         ids = pd.unique(df["icao24"].dropna().astype(str).str.lower())
         if len(ids) > 1:
-            raise DataError(f"{path}: data of {len(ids)} aircraft (icao24 {', '.join(sorted(ids)[:5])}"
-                            f"{', ...' if len(ids) > 5 else ''}); diagnose takes one aircraft's flight: keep the "
-                            f"records of one icao24")
+            raise DataError(
+                f"{path}: data of {len(ids)} aircraft (icao24 {', '.join(sorted(ids)[:5])}"
+                f"{', ...' if len(ids) > 5 else ''}); diagnose takes one aircraft's flight: keep the "
+                f"records of one icao24"
+            )
     return df
 
 
@@ -169,7 +191,11 @@ def load_measured(path: str | Path) -> Measured:
             return Measured("approach_log", table, path)
         raise DataError(f"{path}: a table with columns {', '.join(map(str, table.columns[:12]))}; expected {_EXPECTED}")
     obj = _json(path, data)
-    if isinstance(obj, dict) and {"timestamp", "pitch", "roll"} <= set(obj) and all(isinstance(v, dict) for v in obj.values()):
+    if (
+        isinstance(obj, dict)
+        and {"timestamp", "pitch", "roll"} <= set(obj)
+        and all(isinstance(v, dict) for v in obj.values())
+    ):
         df = pd.DataFrame({k: pd.Series(v) for k, v in obj.items()})
         df.index = df.index.astype(int)
         df = _checked_records(path, df.sort_index().reset_index(drop=True), "row")

@@ -38,22 +38,33 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
         d = _track_from_raw(*_raw_registers(m))
         excluded = {"BDS 6,0 replies without BDS 5,0 / ADS-B neighbours": int((m.df["bds"] == "60").sum() - len(d))}
     else:
-        what = {"adsb_track": "an ADS-B track", "qar": "a flight-data-recorder extract"}.get(m.kind, f"a {m.kind.replace('_', ' ')}")
-        raise DataError(f"{m.path}: diagnose of {what} is not possible: it carries no heading and "
-                        "airspeed to test; Mode-S data, observation tables and approach logs are supported")
+        what = {"adsb_track": "an ADS-B track", "qar": "a flight-data-recorder extract"}.get(
+            m.kind, f"a {m.kind.replace('_', ' ')}"
+        )
+        raise DataError(
+            f"{m.path}: diagnose of {what} is not possible: it carries no heading and "
+            "airspeed to test; Mode-S data, observation tables and approach logs are supported"
+        )
     if len(d) < 200:  # before the exclusions, which need samples to work on
-        raise DataError(f"{m.path}: only {len(d)} samples carry heading, TAS, track, ground speed and position "
-                        f"({excluded}); need at least 200")
+        raise DataError(
+            f"{m.path}: only {len(d)} samples carry heading, TAS, track, ground speed and position "
+            f"({excluded}); need at least 200"
+        )
     vr = d["vertical_rate"].to_numpy(float) if "vertical_rate" in d else np.zeros(len(d))
     t = d["time_s"].to_numpy(float)
     steep = np.abs(vr) > PARABOLA_FPM
     near = np.zeros(len(d), bool)
     for ts in t[steep]:
         near |= np.abs(t - ts) <= PARABOLA_MARGIN_S
-    excluded[f"within {PARABOLA_MARGIN_S:.0f} s of |vertical rate| > {PARABOLA_FPM:.0f} ft/min (parabolas, steep climbs and descents)"] = int(near.sum())
+    excluded[
+        f"within {PARABOLA_MARGIN_S:.0f} s of |vertical rate| > {PARABOLA_FPM:.0f} ft/min "
+        "(parabolas, steep climbs and descents)"
+    ] = int(near.sum())
     keep = ~near
     climbing = keep & (np.abs(vr) > LEVEL_FPM)
-    excluded[f"climbing or descending faster than {LEVEL_FPM:.0f} ft/min (wind shear with height)"] = int(climbing.sum())
+    excluded[f"climbing or descending faster than {LEVEL_FPM:.0f} ft/min (wind shear with height)"] = int(
+        climbing.sum()
+    )
     keep &= ~climbing
     tas = d["TAS"].to_numpy(float)
     order = np.argsort(t, kind="stable")
@@ -61,7 +72,10 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
     rate = np.empty(len(t))
     rate[order] = central_rate(ts, vs, SPEED_HALF_WINDOW_S)
     changing = keep & (np.abs(rate) > SPEED_RATE_KT_S)
-    excluded[f"airspeed changing faster than {SPEED_RATE_KT_S:g} kt/s (held TAS and fresh ground speed of different instants)"] = int(changing.sum())
+    excluded[
+        f"airspeed changing faster than {SPEED_RATE_KT_S:g} kt/s "
+        "(held TAS and fresh ground speed of different instants)"
+    ] = int(changing.sum())
     keep &= ~changing
     if max_roll_deg is not None and "roll" in d:
         banked = keep & (np.abs(d["roll"].to_numpy(float)) > max_roll_deg)
@@ -69,20 +83,24 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
         keep &= ~banked
     if m.kind == "modes_track":
         fresh = _on_grid(d["heading"].to_numpy(float), 90 / 512) & _on_grid(d["TAS"].to_numpy(float), 2.0)
-        excluded["heading or TAS off its register LSB grid (interpolated by the resampler)"] = int((keep & ~fresh).sum())
+        excluded["heading or TAS off its register LSB grid (interpolated by the resampler)"] = int(
+            (keep & ~fresh).sum()
+        )
         keep &= fresh
     d = d[keep]
     if len(d) < 200:
         raise DataError(f"{m.path}: only {len(d)} usable samples after exclusions ({excluded}); need at least 200")
-    when = dt.datetime.fromtimestamp(float(d["time_s"].iloc[0]), tz=dt.timezone.utc).replace(tzinfo=None)
+    when = dt.datetime.fromtimestamp(float(d["time_s"].iloc[0]), tz=dt.UTC).replace(tzinfo=None)
     return modes_track_to_wind_frame(d, when), excluded
 
 
 # what the wind frame is built from in a raw message log: (downlink formats, BDS, fields, what it is)
-RAW_REGISTERS = ((("20", "21"), "60", ("heading",), "Comm-B BDS 6,0 replies (magnetic heading)"),
-                 (("20", "21"), "50", ("TAS",), "Comm-B BDS 5,0 replies (true airspeed)"),
-                 (("17",), "09", ("groundspeed", "track", "vertical_rate"), "ADS-B airborne velocity messages (DF 17, BDS 0,9)"),
-                 (("17",), "05", ("latitude", "longitude", "altitude"), "ADS-B airborne position messages (DF 17, BDS 0,5)"))
+RAW_REGISTERS = (
+    (("20", "21"), "60", ("heading",), "Comm-B BDS 6,0 replies (magnetic heading)"),
+    (("20", "21"), "50", ("TAS",), "Comm-B BDS 5,0 replies (true airspeed)"),
+    (("17",), "09", ("groundspeed", "track", "vertical_rate"), "ADS-B airborne velocity messages (DF 17, BDS 0,9)"),
+    (("17",), "05", ("latitude", "longitude", "altitude"), "ADS-B airborne position messages (DF 17, BDS 0,5)"),
+)
 
 
 def _raw_registers(m: Measured) -> list[pd.DataFrame]:
@@ -97,8 +115,7 @@ def _raw_registers(m: Measured) -> list[pd.DataFrame]:
         missing = [f for f in fields if f not in sel.columns or sel[f].isna().all()]
         if len(sel) == 0 or missing:
             got = f"{len(sel)} of them, none with {missing[0]!r} decoded" if len(sel) else "none"
-            raise DataError(f"{m.path}: no usable {what}: {got}; diagnose needs them with "
-                            f"{', '.join(fields)}")
+            raise DataError(f"{m.path}: no usable {what}: {got}; diagnose needs them with {', '.join(fields)}")
         out.append(sel)
     return out
 

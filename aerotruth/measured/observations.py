@@ -15,7 +15,7 @@ EXTENSIONS = {".csv": "csv", ".csv.gz": "csv", ".parquet": "parquet", ".pq": "pa
 
 
 def table_kind(path: Path) -> str | None:
-    """"csv" or "parquet" from the file's name (EXTENSIONS, any case), None for neither."""
+    """ "csv" or "parquet" from the file's name (EXTENSIONS, any case), None for neither."""
     name = path.name.lower()
     return next((kind for ext, kind in EXTENSIONS.items() if name.endswith(ext)), None)
 
@@ -37,8 +37,9 @@ def read_observation_file(path: str | Path) -> pd.DataFrame:
     path = Path(path)
     kind = table_kind(path)
     if kind is None:
-        raise DataError(f"{path}: expected a .csv, .csv.gz or .parquet observation table, got "
-                        f"'{path.suffix or 'no extension'}'")
+        raise DataError(
+            f"{path}: expected a .csv, .csv.gz or .parquet observation table, got '{path.suffix or 'no extension'}'"
+        )
     if not path.exists():
         raise DataError(f"{path}: no such file")
     if path.is_dir():

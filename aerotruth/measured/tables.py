@@ -60,8 +60,11 @@ def read_parquet_table(path: str | Path) -> pd.DataFrame:
     import pyarrow as pa
     import pyarrow.parquet as pq
 
-    labels = [f.name for f in pq.read_schema(path) if f.name in TEXT_COLUMNS
-              and (pa.types.is_string(f.type) or pa.types.is_large_string(f.type))]
+    labels = [
+        f.name
+        for f in pq.read_schema(path)
+        if f.name in TEXT_COLUMNS and (pa.types.is_string(f.type) or pa.types.is_large_string(f.type))
+    ]
     return pd.read_parquet(path, read_dictionary=labels)
 
 

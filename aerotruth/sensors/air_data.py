@@ -33,8 +33,16 @@ from aerotruth.schema import Section
 from aerotruth.truth.isa import isa_pressure_pa
 from aerotruth.units import FT, KT
 
-AIR_DATA_COLUMNS = ("time_s", "tas_mps", "pressure_altitude_m", "static_pressure_pa",
-                    "lat_deg", "lon_deg", "vn_mps", "ve_mps")
+AIR_DATA_COLUMNS = (
+    "time_s",
+    "tas_mps",
+    "pressure_altitude_m",
+    "static_pressure_pa",
+    "lat_deg",
+    "lon_deg",
+    "vn_mps",
+    "ve_mps",
+)
 _TRUTH_INPUTS = ("time_s", "tas_mps", "pressure_altitude_m", "lat_deg", "lon_deg", "h_ellipsoid_m", "vn_mps", "ve_mps")
 
 
@@ -44,14 +52,16 @@ class AirDataSpec(Section):
 
     tas_bias_kt: float = Field(default=0.0, description="mean TAS bias b over realizations")
     tas_bias_sigma_kt: float = Field(default=0.0, ge=0, description="spread of b between realizations (aircraft)")
-    tas_scale_factor: float = Field(default=0.0, gt=-1, description="mean TAS scale-factor error s (0.01 = reads 1 % high)")
+    tas_scale_factor: float = Field(
+        default=0.0, gt=-1, description="mean TAS scale-factor error s (0.01 = reads 1 % high)"
+    )
     tas_scale_sigma: float = Field(default=0.0, ge=0, description="spread of s between realizations")
     tas_noise_kt: float = Field(default=0.5, ge=0, description="white TAS noise per 10 Hz sample")
     pressure_altitude_noise_ft: float = Field(default=5.0, ge=0, description="white pressure-altitude noise per sample")
     gps_position_sigma_m: float = Field(default=3.0, ge=0, description="white GPS position noise per horizontal axis")
     gps_velocity_sigma_mps: float = Field(default=0.1, ge=0, description="white GPS velocity noise per horizontal axis")
 
-    def draw(self, rng: np.random.Generator) -> "AirDataErrors":
+    def draw(self, rng: np.random.Generator) -> AirDataErrors:
         """One realization: the constant TAS bias and scale factor of one aircraft."""
         bias = (self.tas_bias_kt + self.tas_bias_sigma_kt * rng.standard_normal()) * KT
         scale = self.tas_scale_factor + self.tas_scale_sigma * rng.standard_normal()
@@ -85,16 +95,18 @@ class AirDataErrors:
         lat_m = col["lat_deg"] + np.degrees(sp * noise[2] / (m + h))
         lon_m = col["lon_deg"] + np.degrees(sp * noise[3] / ((nn + h) * np.cos(lat)))
         sv = s.gps_velocity_sigma_mps
-        return pd.DataFrame({
-            "time_s": col["time_s"],
-            "tas_mps": tas,
-            "pressure_altitude_m": h_p,
-            "static_pressure_pa": isa_pressure_pa(h_p),
-            "lat_deg": lat_m,
-            "lon_deg": lon_m,
-            "vn_mps": col["vn_mps"] + sv * noise[4],
-            "ve_mps": col["ve_mps"] + sv * noise[5],
-        })
+        return pd.DataFrame(
+            {
+                "time_s": col["time_s"],
+                "tas_mps": tas,
+                "pressure_altitude_m": h_p,
+                "static_pressure_pa": isa_pressure_pa(h_p),
+                "lat_deg": lat_m,
+                "lon_deg": lon_m,
+                "vn_mps": col["vn_mps"] + sv * noise[4],
+                "ve_mps": col["ve_mps"] + sv * noise[5],
+            }
+        )
 
 
 def ideal_air_data(truth: pd.DataFrame) -> pd.DataFrame:

@@ -18,7 +18,9 @@ class DgpsSpec(Section):
     rate_hz: float = Field(default=5.0, gt=0, description="output rate (docs/conventions.md: 5 Hz)")
     sigma_horizontal_m: float = Field(default=0.05, ge=0, description="white noise per horizontal axis")
     sigma_vertical_m: float = Field(default=0.10, ge=0, description="white noise, vertical")
-    survey_offset_m: tuple[float, float, float] = Field(default=(0.0, 0.0, 0.0), description="reference-station survey error, runway frame")
+    survey_offset_m: tuple[float, float, float] = Field(
+        default=(0.0, 0.0, 0.0), description="reference-station survey error, runway frame"
+    )
 
     def draw(self, rng: np.random.Generator) -> Dgps:
         return Dgps(self)

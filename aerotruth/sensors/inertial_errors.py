@@ -6,9 +6,10 @@
     x_D'' = beta_D,                  phi_D' = eps_D
 
 beta: accelerometer error (bias + white), eps: gyro error (bias + white), phi: tilt,
-g = G0 = 9.80665 m/s^2, R = EARTH_RADIUS_M = 6,371,008.8 m (aerotruth.units, IUGG mean radius). Each horizontal channel is x'' = a + g phi,
-phi' = -x'/R + e (with a = beta_N, e = eps_E for north; a = beta_E, e = -eps_N for east,
-phi = -phi_N), whose exact solution with the Schuler frequency w = sqrt(g / R) is
+g = G0 = 9.80665 m/s^2, R = EARTH_RADIUS_M = 6,371,008.8 m (aerotruth.units, IUGG mean
+radius). Each horizontal channel is x'' = a + g phi, phi' = -x'/R + e (with a = beta_N, e
+= eps_E for north; a = beta_E, e = -eps_N for east, phi = -phi_N), whose exact solution
+with the Schuler frequency w = sqrt(g / R) is
 
     x(t) = x0 + v0 sin(wt)/w + g phi0 (1 - cos wt)/w^2
            + int a(s) sin(w(t - s))/w ds + int g e(s) (1 - cos w(t - s))/w^2 ds,
@@ -54,21 +55,29 @@ class InertialGrade(Section):
 
 
 INS_GRADES = {  # FITS paper Table II; navigation grade: docs/conventions.md (the table lacks it)
-    "tactical": InertialGrade(accel_bias_ug=500.0, gyro_bias_deg_h=1.0, accel_white_ug2_hz=2500.0, gyro_white_deg2_s2_hz=1e-6),
-    "automotive": InertialGrade(accel_bias_ug=30000.0, gyro_bias_deg_h=100.0, accel_white_ug2_hz=5000.0, gyro_white_deg2_s2_hz=1e-4),
+    "tactical": InertialGrade(
+        accel_bias_ug=500.0, gyro_bias_deg_h=1.0, accel_white_ug2_hz=2500.0, gyro_white_deg2_s2_hz=1e-6
+    ),
+    "automotive": InertialGrade(
+        accel_bias_ug=30000.0, gyro_bias_deg_h=100.0, accel_white_ug2_hz=5000.0, gyro_white_deg2_s2_hz=1e-4
+    ),
     # ~25 ug and <= 0.01 deg/h (docs/conventions.md, INS grades: the AFIS class); noise: 10 ug/sqrt(Hz) and an
     # angle random walk of 0.002 deg/sqrt(h) ((0.002/60)^2 (deg/s)^2/Hz), typical figures
     # for a ring-laser-gyro navigator (Groves, 2nd ed., Table 4.1 class values) - stated
     # estimates, not a product's data sheet
-    "navigation": InertialGrade(accel_bias_ug=25.0, gyro_bias_deg_h=0.01, accel_white_ug2_hz=100.0,
-                                gyro_white_deg2_s2_hz=(0.002 / 60.0) ** 2),
+    "navigation": InertialGrade(
+        accel_bias_ug=25.0, gyro_bias_deg_h=0.01, accel_white_ug2_hz=100.0, gyro_white_deg2_s2_hz=(0.002 / 60.0) ** 2
+    ),
 }
 
 
 class InertialErrorSpec(Section):
     """INS grade and the initial errors of its alignment."""
 
-    grade: str = Field(default="tactical", description="tactical or automotive (FITS paper Table II), or navigation (docs/conventions.md)")
+    grade: str = Field(
+        default="tactical",
+        description="tactical or automotive (FITS paper Table II), or navigation (docs/conventions.md)",
+    )
     initial_position_sigma_m: float = Field(default=0.0, ge=0, description="per axis, 1 sigma")
     initial_velocity_sigma_mps: float = Field(default=0.05, ge=0, description="per axis, 1 sigma")
     initial_tilt_sigma_urad: float = Field(default=500.0, ge=0, description="transfer-alignment tilt per axis, 1 sigma")
@@ -80,8 +89,16 @@ class InertialErrorSpec(Section):
         return INS_GRADES[self.grade]
 
 
-def ins_error_ned(t_s, accel_bias, gyro_bias, accel_noise=None, gyro_noise=None, x0=(0.0, 0.0, 0.0),
-                  v0=(0.0, 0.0, 0.0), tilt0=(0.0, 0.0)) -> np.ndarray:
+def ins_error_ned(
+    t_s,
+    accel_bias,
+    gyro_bias,
+    accel_noise=None,
+    gyro_noise=None,
+    x0=(0.0, 0.0, 0.0),
+    v0=(0.0, 0.0, 0.0),
+    tilt0=(0.0, 0.0),
+) -> np.ndarray:
     """Position error (n, 3) NED of eq. 4 from constant accelerometer and gyro biases (3,)
     (m/s^2, rad/s; solved in closed form), optional white-noise samples (n, 3) (each row
     holds over the step that follows it; summed by the rectangle rule), the initial
@@ -109,10 +126,14 @@ def ins_error_ned(t_s, accel_bias, gyro_bias, accel_noise=None, gyro_noise=None,
     bh, gh = b_a[:2], gyro_pair(b_g)
     phi0 = np.array([tilt0[1], -tilt0[0]])
     x0, v0 = np.asarray(x0, float), np.asarray(v0, float)
-    horiz = (x0[:2] + v0[:2] * s / w + (G0 * phi0 + bh) * (1.0 - c) / w**2  # eq. 4, solved: tilt and accel bias
-             + G0 * gh * (tc - s / w) / w**2  # gyro bias
-             + (s * before(ah * c) - c * before(ah * s)) / w  # int a(s) sin(w(t - s))/w ds
-             + G0 * (before(eh) - c * before(eh * c) - s * before(eh * s)) / w**2)  # int g e (1 - cos w(t - s))/w^2 ds
+    horiz = (
+        x0[:2]
+        + v0[:2] * s / w
+        + (G0 * phi0 + bh) * (1.0 - c) / w**2  # eq. 4, solved: tilt and accel bias
+        + G0 * gh * (tc - s / w) / w**2  # gyro bias
+        + (s * before(ah * c) - c * before(ah * s)) / w  # int a(s) sin(w(t - s))/w ds
+        + G0 * (before(eh) - c * before(eh * c) - s * before(eh * s)) / w**2
+    )  # int g e (1 - cos w(t - s))/w^2 ds
     # vertical: x_D'' = beta_D  ->  x = x0 + v0 t + beta t^2/2 + int (t - s) noise(s) ds
     ad = a[:, 2:3]
     vert = x0[2] + v0[2] * tc + 0.5 * b_a[2] * tc**2 + tc * before(ad) - before(ad * tc)
@@ -148,7 +169,9 @@ class InertialErrors:
         b_g = gr.gyro_bias_deg_h * DEG_PER_H * rng.standard_normal(3)
         # white: two-sided density S/2, averaged over each step -> variance S / (2 dt)
         w_a = np.sqrt(gr.accel_white_ug2_hz / (2 * dt))[:, None] * MICRO_G * rng.standard_normal((len(t), 3))
-        w_g = np.sqrt(gr.gyro_white_deg2_s2_hz / (2 * dt))[:, None] * math.radians(1.0) * rng.standard_normal((len(t), 3))
+        w_g = (
+            np.sqrt(gr.gyro_white_deg2_s2_hz / (2 * dt))[:, None] * math.radians(1.0) * rng.standard_normal((len(t), 3))
+        )
         x0 = spec.initial_position_sigma_m * rng.standard_normal(3)
         v0 = spec.initial_velocity_sigma_mps * rng.standard_normal(3)
         tilt0 = spec.initial_tilt_sigma_urad * 1e-6 * rng.standard_normal(2)

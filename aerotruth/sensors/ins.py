@@ -69,13 +69,23 @@ class InsSpec(InertialErrorSpec):
 
     name: str = Field(default="", description="label in tables and figures (default: the grade)")
     mechanization: Literal["error_model", "strapdown"] = Field(
-        default="error_model", description="error_model (FITS paper eq. 4) or strapdown (the recorded IMU truth integrated)")
-    time_tag_error_s: float = Field(default=0.0, description="INS output stamped this late (s); 0 for a correct time tag")
+        default="error_model",
+        description="error_model (FITS paper eq. 4) or strapdown (the recorded IMU truth integrated)",
+    )
+    time_tag_error_s: float = Field(
+        default=0.0, description="INS output stamped this late (s); 0 for a correct time tag"
+    )
     vertical: Literal["free", "inertial", "baro"] = Field(
-        default="free", description="eq. 4's vertical (x_D'' = beta_D), the free-inertial channel with its gravity "
-        "feedback (x_D'' = 2 g / R x_D + beta_D), or the baro-inertial loop")
-    baro_loop_time_constant_s: float = Field(default=30.0, gt=0, description="triple pole of the baro-inertial loop at -1/tau")
-    baro_gm_sigma_m: float = Field(default=1.0, ge=0, description="barometric altitude error, Gauss-Markov part, 1 sigma")
+        default="free",
+        description="eq. 4's vertical (x_D'' = beta_D), the free-inertial channel with its gravity "
+        "feedback (x_D'' = 2 g / R x_D + beta_D), or the baro-inertial loop",
+    )
+    baro_loop_time_constant_s: float = Field(
+        default=30.0, gt=0, description="triple pole of the baro-inertial loop at -1/tau"
+    )
+    baro_gm_sigma_m: float = Field(
+        default=1.0, ge=0, description="barometric altitude error, Gauss-Markov part, 1 sigma"
+    )
     baro_gm_tau_s: float = Field(default=60.0, gt=0)
     baro_white_sigma_m: float = Field(default=0.3, ge=0, description="barometric altitude noise per reading")
     baro_rate_hz: float = Field(default=1.0, gt=0, description="barometric altitude readings per second (held between)")
@@ -92,8 +102,9 @@ def _shifted(t: np.ndarray, values: np.ndarray, tau: float) -> np.ndarray:
     return np.column_stack([np.interp(t - tau, t, values[:, i]) for i in range(values.shape[1])])
 
 
-def ins_positions(track, spec: InsSpec, rng: np.random.Generator, point: str = "gnss",
-                  true_point_m: np.ndarray | None = None) -> tuple[np.ndarray, InertialErrors]:
+def ins_positions(
+    track, spec: InsSpec, rng: np.random.Generator, point: str = "gnss", true_point_m: np.ndarray | None = None
+) -> tuple[np.ndarray, InertialErrors]:
     """The INS position (n, 3), runway frame, of the airframe point `point` at every
     sample of the approach `track`, and the error draw behind it (`true_point_m`: that
     point's true positions, when the caller has them already)."""
@@ -104,13 +115,28 @@ def ins_positions(track, spec: InsSpec, rng: np.random.Generator, point: str = "
     draw = InertialErrors.draw(spec, rng, t)
     course = float(meta["runway_frame"]["course_deg"])
     if spec.mechanization == "error_model":
-        p_true = point_positions(track, {point: tuple(track.meta["points_structural_m"][point])})[point] \
-            if true_point_m is None else true_point_m
+        p_true = (
+            point_positions(track, {point: tuple(track.meta["points_structural_m"][point])})[point]
+            if true_point_m is None
+            else true_point_m
+        )
         if spec.vertical in ("baro", "inertial"):
-            up = baro_inertial_error(t, draw, spec, rng) if spec.vertical == "baro" else -inertial_vertical_error(t, draw)
-            draw = InertialErrors(draw.t_s, draw.accel_bias_mps2, draw.gyro_bias_radps,
-                                  np.column_stack([draw.error_ned_m[:, :2], -up]), draw.accel_white_mps2,
-                                  draw.gyro_white_radps, draw.position0_m, draw.velocity0_mps, draw.tilt0_rad)
+            up = (
+                baro_inertial_error(t, draw, spec, rng)
+                if spec.vertical == "baro"
+                else -inertial_vertical_error(t, draw)
+            )
+            draw = InertialErrors(
+                draw.t_s,
+                draw.accel_bias_mps2,
+                draw.gyro_bias_radps,
+                np.column_stack([draw.error_ned_m[:, :2], -up]),
+                draw.accel_white_mps2,
+                draw.gyro_white_radps,
+                draw.position0_m,
+                draw.velocity0_mps,
+                draw.tilt0_rad,
+            )
         p = draw.apply(p_true, t, course)
     else:
         if spec.vertical != "free":
@@ -139,8 +165,12 @@ def inertial_vertical_error(t: np.ndarray, draw: InertialErrors) -> np.ndarray:
         return np.concatenate([[0.0], np.cumsum(u * dt)[:-1]])
 
     x0, v0, b = draw.position0_m[2], draw.velocity0_mps[2], draw.accel_bias_mps2[2]
-    return (x0 * ch + v0 * sh / w + b * (ch - 1.0) / w**2
-            + (sh * before(a * np.cosh(w * t)) - ch * before(a * np.sinh(w * t))) / w)
+    return (
+        x0 * ch
+        + v0 * sh / w
+        + b * (ch - 1.0) / w**2
+        + (sh * before(a * np.cosh(w * t)) - ch * before(a * np.sinh(w * t))) / w
+    )
 
 
 def baro_inertial_error(t: np.ndarray, draw: InertialErrors, spec: InsSpec, rng: np.random.Generator) -> np.ndarray:

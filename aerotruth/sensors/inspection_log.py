@@ -27,8 +27,8 @@ come from the truth's metadata; `geometry(track)` is the log's sidecar content.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 import pandas as pd
@@ -52,9 +52,13 @@ def _default_ins() -> list[InsSpec]:
 class InspectionSensors(Section):
     """The sensors of the WAAS-aided FITS and its DGPS reference (module docstring)."""
 
-    log_rate_hz: float = Field(default=5.0, gt=0, description="log rows per second (a divisor of the 50 Hz truth, a multiple of the WAAS rate)")
+    log_rate_hz: float = Field(
+        default=5.0, gt=0, description="log rows per second (a divisor of the 50 Hz truth, a multiple of the WAAS rate)"
+    )
     waas: WaasSpec = Field(default_factory=WaasSpec)
-    ins: list[InsSpec] = Field(default_factory=_default_ins, description="INS variants flown on the same truth and WAAS noise")
+    ins: list[InsSpec] = Field(
+        default_factory=_default_ins, description="INS variants flown on the same truth and WAAS noise"
+    )
     radar_altimeter: RadarAltimeterSpec = Field(default_factory=RadarAltimeterSpec)
     tvps: TvpsSpec = Field(default_factory=TvpsSpec)
     dgps: DgpsSpec = Field(default_factory=DgpsSpec)
@@ -90,10 +94,18 @@ def geometry(track) -> dict:
     """The runway geometry of the log's sidecar (`<log>.runway.json`, docs/data-formats.md)."""
     meta = track.meta
     g = meta["glide_path"]
-    return {"airport": meta["airport"], "runway": meta["runway"], "length_m": float(meta["runway_length_m"]),
-            "loc_x_m": float(g["loc_x_m"]), "gp_x_m": float(g["gp_x_m"]), "gp_y_m": float(g["gp_y_m"]),
-            "glide_path_deg": float(g["theta_deg"]), "tch_m": float(g["tch_m"]),
-            "undulation_m": float(meta["undulation_m"]), "runway_frame": meta["runway_frame"]}
+    return {
+        "airport": meta["airport"],
+        "runway": meta["runway"],
+        "length_m": float(meta["runway_length_m"]),
+        "loc_x_m": float(g["loc_x_m"]),
+        "gp_x_m": float(g["gp_x_m"]),
+        "gp_y_m": float(g["gp_y_m"]),
+        "glide_path_deg": float(g["theta_deg"]),
+        "tch_m": float(g["tch_m"]),
+        "undulation_m": float(meta["undulation_m"]),
+        "runway_frame": meta["runway_frame"],
+    }
 
 
 @dataclass
@@ -112,7 +124,9 @@ def _crossing_time(t: np.ndarray, x: np.ndarray, x_cross: float) -> float | None
     return float(t[k] + (x_cross - x[k]) / (x[k + 1] - x[k]) * (t[k + 1] - t[k]))
 
 
-def approach_logs(track, sensors: InspectionSensors, rng: Callable[..., np.random.Generator], approach: str) -> ApproachLogs:
+def approach_logs(
+    track, sensors: InspectionSensors, rng: Callable[..., np.random.Generator], approach: str
+) -> ApproachLogs:
     """The approach log of every INS variant (module docstring). `rng(*name)` gives the
     named stream of each consumer ("waas", ("ins", label), "radar_altimeter", ...)."""
     from aerotruth.truth.approach import point_positions
@@ -123,14 +137,32 @@ def approach_logs(track, sensors: InspectionSensors, rng: Callable[..., np.rando
     step = int(round(1.0 / (sensors.log_rate_hz * dt)))
     per_waas = sensors.log_rate_hz / sensors.waas.rate_hz
     if abs(step * sensors.log_rate_hz * dt - 1.0) > 1e-6 or abs(per_waas - round(per_waas)) > 1e-6:
-        raise ValueError(f"log_rate_hz: expected a divisor of the {1 / dt:g} Hz truth and a multiple of the WAAS rate "
-                         f"({sensors.waas.rate_hz:g} Hz), got {sensors.log_rate_hz:g}")
+        raise ValueError(
+            f"log_rate_hz: expected a divisor of the {1 / dt:g} Hz truth and a multiple of the WAAS rate "
+            f"({sensors.waas.rate_hz:g} Hz), got {sensors.log_rate_hz:g}"
+        )
     rows = np.arange(0, len(t50), step)
     t = np.round(t50[rows], 9)
     w_rows = np.flatnonzero(np.abs(t * sensors.waas.rate_hz - np.round(t * sensors.waas.rate_hz)) < 1e-6)
     # sensors sample the truth at the log rows (the 50 Hz IMU record only feeds the strapdown)
-    need = ["time_s", "lat_deg", "lon_deg", "heading_rad", "pitch_rad", "roll_rad", "cg_x_m", "cg_y_m", "cg_z_m",
-            "x_m", "y_m", "z_m", "vn_mps", "ve_mps", "vd_mps", "h_ellipsoid_m"]
+    need = [
+        "time_s",
+        "lat_deg",
+        "lon_deg",
+        "heading_rad",
+        "pitch_rad",
+        "roll_rad",
+        "cg_x_m",
+        "cg_y_m",
+        "cg_z_m",
+        "x_m",
+        "y_m",
+        "z_m",
+        "vn_mps",
+        "ve_mps",
+        "vd_mps",
+        "h_ellipsoid_m",
+    ]
     sub = _Rows(pd.DataFrame({c: df[c].to_numpy()[rows] for c in need}), track.meta)
     pts = point_positions(sub)
     ref = pts[REFERENCE_POINT]
@@ -144,7 +176,9 @@ def approach_logs(track, sensors: InspectionSensors, rng: Callable[..., np.rando
     # ranging sensors at their own points, with the lever arms the system computes
     length = float(track.meta["runway_length_m"])
     ra_pt, tv_pt = pts["radar_altimeter"], pts["tvps"]
-    ra = sensors.radar_altimeter.draw(rng("radar_altimeter", "bias")).apply(ra_pt, length, rng("radar_altimeter", "noise"))
+    ra = sensors.radar_altimeter.draw(rng("radar_altimeter", "bias")).apply(
+        ra_pt, length, rng("radar_altimeter", "noise")
+    )
     tvps = sensors.tvps.draw(rng("tvps", "bias")).apply(tv_pt, length, rng("tvps", "noise"))
     ra_lever = ref[:, 2] - ra_pt[:, 2]
     tv_lever = ref[:, 1] - tv_pt[:, 1]
@@ -160,7 +194,9 @@ def approach_logs(track, sensors: InspectionSensors, rng: Callable[..., np.rando
         tc = _crossing_time(t, ref[:, 0], x_cross)
         if tc is None:
             continue
-        delay = max(0.0, sensors.event_button.reaction_mean_s + sensors.event_button.reaction_sd_s * ev.standard_normal())
+        delay = max(
+            0.0, sensors.event_button.reaction_mean_s + sensors.event_button.reaction_sd_s * ev.standard_normal()
+        )
         if tc + delay <= t[-1]:
             marks.append((tc + delay, code))
     # rows in time order: the epochs, and each mark inserted after the epochs before it
@@ -176,10 +212,18 @@ def approach_logs(track, sensors: InspectionSensors, rng: Callable[..., np.rando
     common = {"approach": np.full(n + len(marks), approach, dtype=object), "time_s": np.concatenate([t, t_m])[order]}
     for i, a in enumerate("xyz"):
         common[f"waas_{a}_m"] = col(waas[:, i])
-    later = {"dgps_x_m": col(dgps[:, 0]), "dgps_y_m": col(dgps[:, 1]), "dgps_z_m": col(dgps[:, 2]),
-             "ra_m": col(ra), "tvps_y_m": col(tvps), "event": event,
-             "sv_change": col(sv, 0), "iono_update": col(iono, 0),
-             "ra_lever_arm_m": col(ra_lever), "tvps_lever_arm_m": col(tv_lever)}
+    later = {
+        "dgps_x_m": col(dgps[:, 0]),
+        "dgps_y_m": col(dgps[:, 1]),
+        "dgps_z_m": col(dgps[:, 2]),
+        "ra_m": col(ra),
+        "tvps_y_m": col(tvps),
+        "event": event,
+        "sv_change": col(sv, 0),
+        "iono_update": col(iono, 0),
+        "ra_lever_arm_m": col(ra_lever),
+        "tvps_lever_arm_m": col(tv_lever),
+    }
     logs = {}
     for spec in sensors.ins:
         if spec.mechanization == "strapdown":  # the 50 Hz increments, integrated
@@ -188,8 +232,13 @@ def approach_logs(track, sensors: InspectionSensors, rng: Callable[..., np.rando
             p = ins_positions(sub, spec, rng("ins", spec.label), REFERENCE_POINT, true_point_m=ref)[0]
         ins = {f"ins_{a}_m": col(p[:, i]) for i, a in enumerate("xyz")}
         logs[spec.label] = pd.DataFrame({**common, **ins, **later})  # LOG_COLUMNS order, then the lever arms
-    truth = pd.DataFrame({"time_s": t[w_rows], **{f"{a}_m": ref[w_rows, i] for i, a in enumerate("xyz")},
-                          **{f"cyclic_{a}_m": werr.cyclic_m[:, i] for i, a in enumerate("xyz")},
-                          **{f"bias_{a}_m": werr.bias_m[i] + werr.jump_m[:, i] for i, a in enumerate("xyz")}})
+    truth = pd.DataFrame(
+        {
+            "time_s": t[w_rows],
+            **{f"{a}_m": ref[w_rows, i] for i, a in enumerate("xyz")},
+            **{f"cyclic_{a}_m": werr.cyclic_m[:, i] for i, a in enumerate("xyz")},
+            **{f"bias_{a}_m": werr.bias_m[i] + werr.jump_m[:, i] for i, a in enumerate("xyz")},
+        }
+    )
     gs_rows = np.hypot(sub.df["vn_mps"].to_numpy(float), sub.df["ve_mps"].to_numpy(float))
     return ApproachLogs(logs, truth, geometry(track), t, pts, marks, gs_rows)

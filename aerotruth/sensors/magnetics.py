@@ -163,8 +163,15 @@ class GeomagneticField:
     so a box may cross the antimeridian (lon_deg=(170, 200)).
     """
 
-    def __init__(self, when: _dt.date | _dt.datetime, lat_deg: tuple[float, float], lon_deg: tuple[float, float],
-                 h_m: tuple[float, float] = (-1000.0, 13000.0), step_deg: float = 0.5, h_step_m: float = 3500.0):
+    def __init__(
+        self,
+        when: _dt.date | _dt.datetime,
+        lat_deg: tuple[float, float],
+        lon_deg: tuple[float, float],
+        h_m: tuple[float, float] = (-1000.0, 13000.0),
+        step_deg: float = 0.5,
+        h_step_m: float = 3500.0,
+    ):
         self.when = _as_datetime(when)
         if not IGRF_YEARS[0] <= self.when.year < IGRF_YEARS[1]:
             raise ValueError(f"when: IGRF covers {IGRF_YEARS[0]}-{IGRF_YEARS[1]}, got {self.when:%Y-%m-%d}")
@@ -193,14 +200,19 @@ class GeomagneticField:
         be, bn, bu = ppigrf.igrf(lon_g, lat_g, h_g / 1000.0, self.when)
         nodes = np.stack([bn[0], be[0], -bu[0]], axis=-1)  # (n_lat, n_lon, n_h, 3) NED
         # each cell's 8 corner values side by side (cell, component, corner): one gather per point
-        corners = [nodes[di:n_lat - 1 + di, dj:n_lon - 1 + dj, dk:n_h - 1 + dk]
-                   for di in (0, 1) for dj in (0, 1) for dk in (0, 1)]
+        corners = [
+            nodes[di : n_lat - 1 + di, dj : n_lon - 1 + dj, dk : n_h - 1 + dk]
+            for di in (0, 1)
+            for dj in (0, 1)
+            for dk in (0, 1)
+        ]
         self._cells = np.ascontiguousarray(np.stack(corners, axis=-1).reshape(-1, 3, 8))
         self._other_dates: dict[_dt.datetime, GeomagneticField] = {}
 
     @classmethod
-    def covering(cls, lat_deg: ArrayLike, lon_deg: ArrayLike, when: _dt.date | _dt.datetime,
-                 margin_deg: float = 0.5, **grid) -> "GeomagneticField":
+    def covering(
+        cls, lat_deg: ArrayLike, lon_deg: ArrayLike, when: _dt.date | _dt.datetime, margin_deg: float = 0.5, **grid
+    ) -> GeomagneticField:
         """A field whose box holds the given points with a margin (e.g. a track, a fleet's region)."""
         lat, lon = np.asarray(lat_deg, float).ravel(), np.asarray(lon_deg, float).ravel()
         if lat.size == 0 or not (np.all(np.isfinite(lat)) and np.all(np.isfinite(lon))):
@@ -208,18 +220,23 @@ class GeomagneticField:
         lon180 = (lon + 180.0) % 360.0 - 180.0
         lon360 = lon % 360.0
         lon_use = lon180 if np.ptp(lon180) <= np.ptp(lon360) else lon360
-        return cls(when, (max(-90.0, lat.min() - margin_deg), min(90.0, lat.max() + margin_deg)),
-                   (lon_use.min() - margin_deg, lon_use.max() + margin_deg), **grid)
+        return cls(
+            when,
+            (max(-90.0, lat.min() - margin_deg), min(90.0, lat.max() + margin_deg)),
+            (lon_use.min() - margin_deg, lon_use.max() + margin_deg),
+            **grid,
+        )
 
-    def for_date(self, when: _dt.date | _dt.datetime) -> "GeomagneticField":
+    def for_date(self, when: _dt.date | _dt.datetime) -> GeomagneticField:
         """The same box and grid for another date (e.g. a receiver's declination epoch);
         built once per date and kept."""
         when = _as_datetime(when)
         if when == self.when:
             return self
         if when not in self._other_dates:
-            self._other_dates[when] = GeomagneticField(when, self.lat_deg, self.lon_deg, self.h_m, self.step_deg,
-                                                       self.h_step_m)
+            self._other_dates[when] = GeomagneticField(
+                when, self.lat_deg, self.lon_deg, self.h_m, self.step_deg, self.h_step_m
+            )
         return self._other_dates[when]
 
     def along(self, lat_deg: ArrayLike, lon_deg: ArrayLike, h_m: ArrayLike, stride: int = 50) -> FieldComponents:
@@ -230,7 +247,9 @@ class GeomagneticField:
         lat, lon, h = (np.asarray(a, dtype=float) for a in (lat_deg, lon_deg, h_m))
         n = lat.size
         if lat.ndim != 1 or lon.shape != (n,) or h.shape != (n,):
-            raise ValueError(f"lat_deg, lon_deg, h_m: expected 1-D arrays of one length, got {lat.shape}, {lon.shape}, {h.shape}")
+            raise ValueError(
+                f"lat_deg, lon_deg, h_m: expected 1-D arrays of one length, got {lat.shape}, {lon.shape}, {h.shape}"
+            )
         if stride < 1:
             raise ValueError(f"stride: expected >= 1, got {stride}")
         if n <= 2 * stride:
@@ -247,13 +266,22 @@ class GeomagneticField:
         lat, lon, h = lat.ravel(), lon.ravel(), h.ravel()
         offsets = (lat - self.lat_deg[0], (lon - self.lon_deg[0]) % 360.0, h - self.h_m[0])
         idx, weights = [], []
-        for name, raw, x, n, spacing, box in zip(("lat_deg", "lon_deg", "h_m"), (lat, lon, h), offsets, self._shape,
-                                                   self._spacing, (self.lat_deg, self.lon_deg, self.h_m)):
+        for name, raw, x, n, spacing, box in zip(
+            ("lat_deg", "lon_deg", "h_m"),
+            (lat, lon, h),
+            offsets,
+            self._shape,
+            self._spacing,
+            (self.lat_deg, self.lon_deg, self.h_m),
+            strict=False,
+        ):
             f = x / spacing
             bad = ~((f >= -1e-9) & (f <= n - 1 + 1e-9))
             if bad.any():
-                raise ValueError(f"{name}: {int(bad.sum())} point(s) outside the field's box [{box[0]}, {box[1]}], "
-                                 f"e.g. {raw[bad][0]}")
+                raise ValueError(
+                    f"{name}: {int(bad.sum())} point(s) outside the field's box [{box[0]}, {box[1]}], "
+                    f"e.g. {raw[bad][0]}"
+                )
             i = np.clip(np.floor(f).astype(np.intp), 0, n - 2)
             idx.append(i)
             weights.append(np.clip(f - i, 0.0, 1.0))
@@ -276,15 +304,26 @@ class FluxValveSpec(Section):
 
     hard_iron_nT: Vector3 = Field(default=(0.0, 0.0, 0.0), description="permanent magnetism p (body x, y, z), nT")
     soft_iron: tuple[Vector3, Vector3, Vector3] = Field(
-        default=((0.0, 0.0, 0.0),) * 3, description="induced magnetism S (3x3, dimensionless, rows body x, y, z): m = (I + S) b + p")
-    mounting_deg: Finite = Field(default=0.0, ge=-180, le=180, description="valve reference line yawed right of the fore-aft axis")
-    slaving_tau_s: Finite = Field(default=60.0, gt=0, description="slaving time constant (assumption: ~1 deg/min per deg of error)")
+        default=((0.0, 0.0, 0.0),) * 3,
+        description="induced magnetism S (3x3, dimensionless, rows body x, y, z): m = (I + S) b + p",
+    )
+    mounting_deg: Finite = Field(
+        default=0.0, ge=-180, le=180, description="valve reference line yawed right of the fore-aft axis"
+    )
+    slaving_tau_s: Finite = Field(
+        default=60.0, gt=0, description="slaving time constant (assumption: ~1 deg/min per deg of error)"
+    )
     slaving_rate_max_deg_min: Finite | None = Field(
-        default=None, gt=0, description="the slaving torquer's largest correction rate (None: the loop never saturates)")
-    slaving_cutout_bank_deg: Finite = Field(default=10.0, gt=0, le=90, description="no slaving while |roll| exceeds this")
+        default=None, gt=0, description="the slaving torquer's largest correction rate (None: the loop never saturates)"
+    )
+    slaving_cutout_bank_deg: Finite = Field(
+        default=10.0, gt=0, le=90, description="no slaving while |roll| exceeds this"
+    )
     gyro_drift_deg_h: Finite = Field(default=0.0, description="uncompensated directional-gyro drift")
     declination_epoch: _dt.date | Literal["truth"] = Field(
-        default="truth", description="date of the declination model the system converts with; 'truth' = the flight's date")
+        default="truth",
+        description="date of the declination model the system converts with; 'truth' = the flight's date",
+    )
 
     @field_validator("soft_iron")
     @classmethod
@@ -309,14 +348,23 @@ class FluxValveFleetSpec(Section):
     """
 
     poor_fraction: Finite = Field(default=0.5, ge=0, le=1, description="probability that an aircraft's valve is poor")
-    poor_count: int | None = Field(default=None, ge=0, description="exactly this many of the fleet's aircraft have "
-                                   "poor valves (replaces poor_fraction; which ones is drawn per campaign seed)")
+    poor_count: int | None = Field(
+        default=None,
+        ge=0,
+        description="exactly this many of the fleet's aircraft have "
+        "poor valves (replaces poor_fraction; which ones is drawn per campaign seed)",
+    )
     poor_hard_iron_sigma_nT: Finite = Field(default=500.0, ge=0, description="per-axis hard-iron sigma, poor valves")
-    healthy_hard_iron_sigma_nT: Finite = Field(default=100.0, ge=0, description="per-axis hard-iron sigma, healthy valves")
+    healthy_hard_iron_sigma_nT: Finite = Field(
+        default=100.0, ge=0, description="per-axis hard-iron sigma, healthy valves"
+    )
     soft_iron_sigma: Finite = Field(default=0.005, ge=0, le=0.1, description="sigma of each soft-iron element")
     mounting_sigma_deg: Finite = Field(default=1.0, ge=0, description="sigma of the mounting error")
-    poor_mounting_sigma_deg: Finite | None = Field(default=None, ge=0, description="sigma of the mounting (offset) "
-                                                   "error of poor systems (default: mounting_sigma_deg)")
+    poor_mounting_sigma_deg: Finite | None = Field(
+        default=None,
+        ge=0,
+        description="sigma of the mounting (offset) error of poor systems (default: mounting_sigma_deg)",
+    )
     slaving_tau_s: Finite = Field(default=60.0, gt=0)
     slaving_rate_max_deg_min: Finite | None = Field(default=None, gt=0)
     slaving_cutout_bank_deg: Finite = Field(default=10.0, gt=0, le=90)
@@ -336,13 +384,22 @@ class FluxValveFleetSpec(Section):
         sigma = self.poor_hard_iron_sigma_nT if poor else self.healthy_hard_iron_sigma_nT
         p = rng.normal(0.0, 1.0, 3) * sigma
         s = np.clip(rng.normal(0.0, 1.0, (3, 3)) * self.soft_iron_sigma, -0.5, 0.5)
-        m_sigma = self.poor_mounting_sigma_deg if poor and self.poor_mounting_sigma_deg is not None else self.mounting_sigma_deg
+        m_sigma = (
+            self.poor_mounting_sigma_deg
+            if poor and self.poor_mounting_sigma_deg is not None
+            else self.mounting_sigma_deg
+        )
         mount = float(np.clip(rng.normal() * m_sigma, -180.0, 180.0))
         return ("poor" if poor else "healthy"), FluxValveSpec(
-            hard_iron_nT=tuple(p.tolist()), soft_iron=tuple(tuple(r) for r in s.tolist()), mounting_deg=mount,
-            slaving_tau_s=self.slaving_tau_s, slaving_rate_max_deg_min=self.slaving_rate_max_deg_min,
+            hard_iron_nT=tuple(p.tolist()),
+            soft_iron=tuple(tuple(r) for r in s.tolist()),
+            mounting_deg=mount,
+            slaving_tau_s=self.slaving_tau_s,
+            slaving_rate_max_deg_min=self.slaving_rate_max_deg_min,
             slaving_cutout_bank_deg=self.slaving_cutout_bank_deg,
-            gyro_drift_deg_h=self.gyro_drift_deg_h, declination_epoch=self.declination_epoch)
+            gyro_drift_deg_h=self.gyro_drift_deg_h,
+            declination_epoch=self.declination_epoch,
+        )
 
 
 def poor_valves(aircraft: list[str] | tuple[str, ...], count: int, rng: np.random.Generator) -> frozenset[str]:
@@ -357,16 +414,23 @@ def poor_valves(aircraft: list[str] | tuple[str, ...], count: int, rng: np.rando
 # ----------------------------------------------------------------------------- physics
 
 
-def ned_to_body(v_ned: ArrayLike, roll_rad: ArrayLike, pitch_rad: ArrayLike,
-                heading_rad: ArrayLike) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def ned_to_body(
+    v_ned: ArrayLike, roll_rad: ArrayLike, pitch_rad: ArrayLike, heading_rad: ArrayLike
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Body components of NED vectors (..., 3): R_bn^T v with R_bn = Rz(psi) Ry(theta) Rx(phi)."""
     v = np.asarray(v_ned, dtype=float)
     return _rotate_to_body(_attitude_trig(roll_rad, pitch_rad, heading_rad), v[..., 0], v[..., 1], v[..., 2])
 
 
 def _attitude_trig(roll_rad: ArrayLike, pitch_rad: ArrayLike, heading_rad: ArrayLike) -> tuple[np.ndarray, ...]:
-    return (np.cos(heading_rad), np.sin(heading_rad), np.cos(pitch_rad), np.sin(pitch_rad),
-            np.cos(roll_rad), np.sin(roll_rad))
+    return (
+        np.cos(heading_rad),
+        np.sin(heading_rad),
+        np.cos(pitch_rad),
+        np.sin(pitch_rad),
+        np.cos(roll_rad),
+        np.sin(roll_rad),
+    )
 
 
 def _rotate_to_body(trig: tuple[np.ndarray, ...], x, y, z) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -411,8 +475,14 @@ class FluxValve:
         self.p = np.asarray(spec.hard_iron_nT, dtype=float)
         self.mounting_rad = spec.mounting_deg * DEG
 
-    def heading_mag(self, field_ned_nT: ArrayLike, roll_rad: ArrayLike, pitch_rad: ArrayLike, heading_rad: ArrayLike,
-                    accel_ned_mps2: ArrayLike | None = None) -> np.ndarray:
+    def heading_mag(
+        self,
+        field_ned_nT: ArrayLike,
+        roll_rad: ArrayLike,
+        pitch_rad: ArrayLike,
+        heading_rad: ArrayLike,
+        accel_ned_mps2: ArrayLike | None = None,
+    ) -> np.ndarray:
         """Valve heading (rad, [0, 2 pi)) for the Earth's field (NED, nT), attitude (heading
         true) and kinematic acceleration (NED; None = unaccelerated). Inputs broadcast."""
         trig = _attitude_trig(roll_rad, pitch_rad, heading_rad)
@@ -420,8 +490,11 @@ class FluxValve:
         mx, my, mz = _rotate_to_body(trig, b[..., 0], b[..., 1], b[..., 2])
         if self.soft:
             m = self.m
-            mx, my, mz = (m[0, 0] * mx + m[0, 1] * my + m[0, 2] * mz, m[1, 0] * mx + m[1, 1] * my + m[1, 2] * mz,
-                          m[2, 0] * mx + m[2, 1] * my + m[2, 2] * mz)
+            mx, my, mz = (
+                m[0, 0] * mx + m[0, 1] * my + m[0, 2] * mz,
+                m[1, 0] * mx + m[1, 1] * my + m[1, 2] * mz,
+                m[2, 0] * mx + m[2, 1] * my + m[2, 2] * mz,
+            )
         mx, my, mz = mx + self.p[0], my + self.p[1], mz + self.p[2]
         if accel_ned_mps2 is None:
             dx, dy, dz = _rotate_to_body(trig, 0.0, 0.0, 1.0)
@@ -444,20 +517,42 @@ class FluxValve:
         flight's date (evaluated along the track), or its components at the samples. The
         acceleration that tilts the pendulum comes from the track's NED velocity."""
         df = getattr(track, "df", track)
-        _require(df, ("time_s", "lat_deg", "lon_deg", "h_ellipsoid_m", "vn_mps", "ve_mps", "vd_mps",
-                      "roll_rad", "pitch_rad", "heading_rad"))
+        _require(
+            df,
+            (
+                "time_s",
+                "lat_deg",
+                "lon_deg",
+                "h_ellipsoid_m",
+                "vn_mps",
+                "ve_mps",
+                "vd_mps",
+                "roll_rad",
+                "pitch_rad",
+                "heading_rad",
+            ),
+        )
         b = _along(df, field) if isinstance(field, GeomagneticField) else field
         if b.north_nT.shape != (len(df),):
             raise ValueError(f"field: expected components at the {len(df)} samples, got shape {b.north_nT.shape}")
         t = df["time_s"].to_numpy(float)
-        acc = track_acceleration_ned(t, np.column_stack([df[c].to_numpy(float) for c in ("vn_mps", "ve_mps", "vd_mps")]))
-        return self.heading_mag(b.ned_nT(), df["roll_rad"].to_numpy(float), df["pitch_rad"].to_numpy(float),
-                                df["heading_rad"].to_numpy(float), acc)
+        acc = track_acceleration_ned(
+            t, np.column_stack([df[c].to_numpy(float) for c in ("vn_mps", "ve_mps", "vd_mps")])
+        )
+        return self.heading_mag(
+            b.ned_nT(),
+            df["roll_rad"].to_numpy(float),
+            df["pitch_rad"].to_numpy(float),
+            df["heading_rad"].to_numpy(float),
+            acc,
+        )
 
 
 def _along(df: pd.DataFrame, field: GeomagneticField) -> FieldComponents:
     _require(df, ("lat_deg", "lon_deg", "h_ellipsoid_m"))
-    return field.along(df["lat_deg"].to_numpy(float), df["lon_deg"].to_numpy(float), df["h_ellipsoid_m"].to_numpy(float))
+    return field.along(
+        df["lat_deg"].to_numpy(float), df["lon_deg"].to_numpy(float), df["h_ellipsoid_m"].to_numpy(float)
+    )
 
 
 def _require(df: pd.DataFrame, columns: tuple[str, ...]) -> None:
@@ -476,9 +571,17 @@ def _unwrap(x: np.ndarray) -> np.ndarray:
     return out
 
 
-def slaved_heading(time_s: ArrayLike, valve_heading_mag_rad: ArrayLike, heading_rad: ArrayLike, roll_rad: ArrayLike,
-                   tau_s: float, cutout_bank_rad: float, drift_rad_s: float = 0.0,
-                   initial_valve_rad: float | None = None, rate_max_rad_s: float | None = None) -> np.ndarray:
+def slaved_heading(
+    time_s: ArrayLike,
+    valve_heading_mag_rad: ArrayLike,
+    heading_rad: ArrayLike,
+    roll_rad: ArrayLike,
+    tau_s: float,
+    cutout_bank_rad: float,
+    drift_rad_s: float = 0.0,
+    initial_valve_rad: float | None = None,
+    rate_max_rad_s: float | None = None,
+) -> np.ndarray:
     """Magnetic heading (rad, [0, 2 pi)) of a directional gyro slaved to the valve:
     dpsi/dt = r_gyro + s (psi_valve - psi)/tau, s = 0 while |roll| > cutout (module
     docstring). `heading_rad` is the true heading whose rate the gyro senses; samples
@@ -541,23 +644,23 @@ def _slaving_filter(x: np.ndarray, alpha: float, e0: float) -> np.ndarray:
     e, s, chunk, wrapped = float(e0), 0, n, False
     while s < n:
         if not wrapped:  # linear: the input shifted onto e's branch
-            seg = x[s:s + chunk] + TWO_PI * np.round((e - x[s]) / TWO_PI)
+            seg = x[s : s + chunk] + TWO_PI * np.round((e - x[s]) / TWO_PI)
             ys = lfilter(b, a, seg, zi=[(1.0 - alpha) * e])[0]
             prev = np.concatenate(([e], ys[:-1]))
             far = np.flatnonzero(np.abs(seg - prev) > np.pi)
             k = int(far[0]) if far.size else seg.size
-            y[s:s + k] = ys[:k]
+            y[s : s + k] = ys[:k]
             e = float(prev[k]) if far.size else float(ys[-1])
             s += k
             chunk = min(2 * chunk, n)
             wrapped = bool(far.size)
             continue
-        xb = x[s:s + _SLAVING_BLOCK]
+        xb = x[s : s + _SLAVING_BLOCK]
         d = xb - e
         d += TWO_PI * np.round(-d[0] / TWO_PI)  # onto e's branch (the wrap below is branch-blind)
         wrapped = bool(np.any(np.abs(d) > np.pi))  # this block needed the wrap: so may the next
         xb = e + (np.mod(d + np.pi, TWO_PI) - np.pi)
-        y[s:s + xb.size] = lfilter(b, a, xb, zi=[(1.0 - alpha) * e])[0]
+        y[s : s + xb.size] = lfilter(b, a, xb, zi=[(1.0 - alpha) * e])[0]
         e = float(y[s + xb.size - 1])
         s += xb.size
         chunk = _SLAVING_BLOCK
@@ -575,16 +678,16 @@ def _saturating_slaving_filter(x: np.ndarray, alpha: float, e0: float, max_step:
     k, n = 0, x.size
     band = max_step / alpha  # |x - e| below this: the linear loop
     while k < n:
-        lin = _slaving_filter(x[k:k + _SLAVING_BLOCK], alpha, e)
+        lin = _slaving_filter(x[k : k + _SLAVING_BLOCK], alpha, e)
         prev = np.concatenate(([e], lin[:-1]))
-        over = np.flatnonzero(np.abs(x[k:k + lin.size] - prev) > band)
+        over = np.flatnonzero(np.abs(x[k : k + lin.size] - prev) > band)
         if over.size == 0:  # the whole block is linear
-            y[k:k + lin.size] = lin
+            y[k : k + lin.size] = lin
             e = float(lin[-1])
             k += lin.size
             continue
         j = k + int(over[0])
-        y[k:j] = lin[:j - k]
+        y[k:j] = lin[: j - k]
         e = float(prev[j - k])
         end = min(n, j + 20 * _SLAVING_BLOCK)  # saturated stretch: sample by sample
         for i in range(j, end):
@@ -602,8 +705,9 @@ class HeadingSystem:
         self.spec = spec
         self.valve = FluxValve(spec)
 
-    def apply(self, track: pd.DataFrame, field: GeomagneticField,
-              receiver_field: GeomagneticField | None = None) -> pd.DataFrame:
+    def apply(
+        self, track: pd.DataFrame, field: GeomagneticField, receiver_field: GeomagneticField | None = None
+    ) -> pd.DataFrame:
         """Per-sample headings of the system on a TruthTrack flown on `field`'s date.
 
         Returns columns `heading_mag_rad` (system, magnetic), `heading_rad` (true, after
@@ -621,17 +725,34 @@ class HeadingSystem:
         # heading, not the reading of a pendulum swinging in the first second of a climb
         psi0 = df["heading_rad"].to_numpy(float)[:1]
         fv0 = float(self.valve.heading_mag(comps.ned_nT()[:1], 0.0, 0.0, psi0)[0])
-        psi_mag = slaved_heading(df["time_s"].to_numpy(float), fv, df["heading_rad"].to_numpy(float), roll,
-                                 self.spec.slaving_tau_s, cutout, self.spec.gyro_drift_deg_h * DEG / 3600.0,
-                                 initial_valve_rad=fv0, rate_max_rad_s=(
-                                     None if self.spec.slaving_rate_max_deg_min is None
-                                     else self.spec.slaving_rate_max_deg_min * DEG / 60.0))
+        psi_mag = slaved_heading(
+            df["time_s"].to_numpy(float),
+            fv,
+            df["heading_rad"].to_numpy(float),
+            roll,
+            self.spec.slaving_tau_s,
+            cutout,
+            self.spec.gyro_drift_deg_h * DEG / 3600.0,
+            initial_valve_rad=fv0,
+            rate_max_rad_s=(
+                None if self.spec.slaving_rate_max_deg_min is None else self.spec.slaving_rate_max_deg_min * DEG / 60.0
+            ),
+        )
         epoch = self.spec.declination_epoch
         want = field.when if epoch == "truth" else _as_datetime(epoch)
         if receiver_field is not None and receiver_field.when != want:
-            raise ValueError(f"receiver_field: expected a field for declination_epoch {epoch} ({want:%Y-%m-%d}), "
-                             f"got one for {receiver_field.when:%Y-%m-%d}")
+            raise ValueError(
+                f"receiver_field: expected a field for declination_epoch {epoch} ({want:%Y-%m-%d}), "
+                f"got one for {receiver_field.when:%Y-%m-%d}"
+            )
         rx = field.for_date(want) if receiver_field is None else receiver_field
         dec = comps.declination_rad if rx is field else _along(df, rx).declination_rad
-        return pd.DataFrame({"heading_mag_rad": psi_mag, "heading_rad": _mod_2pi(psi_mag + dec),
-                             "valve_heading_mag_rad": fv, "declination_rad": dec, "slaving": np.abs(roll) <= cutout})
+        return pd.DataFrame(
+            {
+                "heading_mag_rad": psi_mag,
+                "heading_rad": _mod_2pi(psi_mag + dec),
+                "valve_heading_mag_rad": fv,
+                "declination_rad": dec,
+                "slaving": np.abs(roll) <= cutout,
+            }
+        )

@@ -35,9 +35,22 @@ from pydantic import Field
 from aerotruth.schema import Section
 
 LSB = {
-    "roll_deg": 45 / 256, "track_deg": 90 / 512, "groundspeed_kt": 2.0, "track_rate_deg_s": 8 / 256, "tas_kt": 2.0,
-    "heading_mag_deg": 90 / 512, "ias_kt": 1.0, "mach": 2.048 / 512, "vrate_baro_fpm": 32.0, "vrate_inertial_fpm": 32.0,
-    "v_east_kt": 1.0, "v_north_kt": 1.0, "vertical_rate_fpm": 64.0, "altitude_ft": 25.0, "lat": 1e-5, "lon": 1e-5,
+    "roll_deg": 45 / 256,
+    "track_deg": 90 / 512,
+    "groundspeed_kt": 2.0,
+    "track_rate_deg_s": 8 / 256,
+    "tas_kt": 2.0,
+    "heading_mag_deg": 90 / 512,
+    "ias_kt": 1.0,
+    "mach": 2.048 / 512,
+    "vrate_baro_fpm": 32.0,
+    "vrate_inertial_fpm": 32.0,
+    "v_east_kt": 1.0,
+    "v_north_kt": 1.0,
+    "vertical_rate_fpm": 64.0,
+    "altitude_ft": 25.0,
+    "lat": 1e-5,
+    "lon": 1e-5,
 }
 REGISTERS = {
     "BDS50": ("roll_deg", "track_deg", "groundspeed_kt", "track_rate_deg_s", "tas_kt"),
@@ -54,17 +67,25 @@ class ReplyProcess(Section):
     kind: str = Field(default="interrogated", pattern="^(interrogated|squitter)$")
     dead_time_s: float = Field(default=0.17, ge=0, description="interrogated: shortest interval between bursts")
     mean_excess_s: float = Field(default=0.55, gt=0, description="interrogated: mean of the exponential part")
-    squitter_s: tuple[float, float] = Field(default=(0.4, 0.6), description="squitter: broadcast interval range (DO-260B)")
+    squitter_s: tuple[float, float] = Field(
+        default=(0.4, 0.6), description="squitter: broadcast interval range (DO-260B)"
+    )
     reception: float = Field(default=0.9, gt=0, le=1, description="probability that a reply reaches the receiver")
-    refresh_s: float = Field(default=0.1, gt=0, description="register refresh from the avionics: as the ARINC 429 "
-                             "words arrive, about every 0.1 s (Doc 9871 allows up to 1.3 s; the raw CDG flight rejects "
-                             "1 s: BDS 6,0 new payloads come at p25 0.43 s)")
+    refresh_s: float = Field(
+        default=0.1,
+        gt=0,
+        description="register refresh from the avionics: as the ARINC 429 "
+        "words arrive, about every 0.1 s (Doc 9871 allows up to 1.3 s; the raw CDG flight rejects "
+        "1 s: BDS 6,0 new payloads come at p25 0.43 s)",
+    )
 
     def times(self, t0: float, t1: float, rng: np.random.Generator) -> np.ndarray:
         """Received reply times in [t0, t1): a renewal process started at a random phase."""
         if self.kind == "squitter" and not 0 < self.squitter_s[0] <= self.squitter_s[1]:
             raise ValueError(f"squitter_s: expected 0 < low <= high, got {self.squitter_s}")
-        mean_gap = self.dead_time_s + self.mean_excess_s if self.kind == "interrogated" else float(np.mean(self.squitter_s))
+        mean_gap = (
+            self.dead_time_s + self.mean_excess_s if self.kind == "interrogated" else float(np.mean(self.squitter_s))
+        )
         n = int((t1 - t0) / mean_gap) + 16
         chunks, last = [], t0 + rng.uniform(0, mean_gap)
         chunks.append(np.array([last]))
@@ -90,9 +111,11 @@ class ModeSSpec(Section):
     bds60: ReplyProcess = ReplyProcess(dead_time_s=0.169, mean_excess_s=0.544, reception=1.0)
     velocity: ReplyProcess = ReplyProcess(kind="squitter", reception=0.77)
     position: ReplyProcess = ReplyProcess(kind="squitter", reception=0.77)
-    noise: dict[str, float] = Field(default_factory=lambda: {"vertical_rate_fpm": 17.0},
-                                    description="white noise of the avionics source per refresh, by field (1 sigma, field units); "
-                                                "vertical rate: 17 ft/min from successive ADS-B reports of the CDG flight in level flight")
+    noise: dict[str, float] = Field(
+        default_factory=lambda: {"vertical_rate_fpm": 17.0},
+        description="white noise of the avionics source per refresh, by field (1 sigma, field units); "
+        "vertical rate: 17 ft/min from successive ADS-B reports of the CDG flight in level flight",
+    )
 
 
 @dataclass(frozen=True)
@@ -131,7 +154,11 @@ class ModeSSensor:
                 q = np.round(v / LSB[f]) * LSB[f]
                 row[f] = np.mod(q, 360.0) if f in ANGLES else q
             frames.append(pd.DataFrame(row))
-        return pd.concat(frames, ignore_index=True).sort_values(["time_s", "register"], kind="stable").reset_index(drop=True)
+        return (
+            pd.concat(frames, ignore_index=True)
+            .sort_values(["time_s", "register"], kind="stable")
+            .reset_index(drop=True)
+        )
 
 
 def unique_payload_intervals(messages: pd.DataFrame, register: str) -> np.ndarray:
@@ -176,24 +203,40 @@ def fit_reply_process(times_s: np.ndarray, kind: str, refresh_s: float = 0.1) ->
     bursts = np.diff(t[np.r_[True, d > BURST_GAP_S]])
     p25, p50 = np.percentile(bursts, [25, 50])
     tau = (p50 - p25) / (np.log(2.0) - np.log(4.0 / 3.0))
-    return ReplyProcess(dead_time_s=float(max(p25 - tau * np.log(4.0 / 3.0), 0.0)), mean_excess_s=float(tau), reception=1.0,
-                        refresh_s=refresh_s)
+    return ReplyProcess(
+        dead_time_s=float(max(p25 - tau * np.log(4.0 / 3.0), 0.0)),
+        mean_excess_s=float(tau),
+        reception=1.0,
+        refresh_s=refresh_s,
+    )
 
 
 RAW_FIELDS = {  # avionics field <- (register selector (df set, bds), decoded column)
-    "roll_deg": (("20", "21"), "50", "roll"), "track_deg": (("20", "21"), "50", "track"),
-    "groundspeed_kt": (("20", "21"), "50", "groundspeed"), "track_rate_deg_s": (("20", "21"), "50", "track_rate"),
-    "tas_kt": (("20", "21"), "50", "TAS"), "heading_mag_deg": (("20", "21"), "60", "heading"),
-    "ias_kt": (("20", "21"), "60", "IAS"), "mach": (("20", "21"), "60", "Mach"),
-    "vrate_baro_fpm": (("20", "21"), "60", "vrate_barometric"), "vrate_inertial_fpm": (("20", "21"), "60", "vrate_inertial"),
-    "vertical_rate_fpm": (("17",), "09", "vertical_rate"), "altitude_ft": (("17",), "05", "altitude"),
-    "lat": (("17",), "05", "latitude"), "lon": (("17",), "05", "longitude"),
+    "roll_deg": (("20", "21"), "50", "roll"),
+    "track_deg": (("20", "21"), "50", "track"),
+    "groundspeed_kt": (("20", "21"), "50", "groundspeed"),
+    "track_rate_deg_s": (("20", "21"), "50", "track_rate"),
+    "tas_kt": (("20", "21"), "50", "TAS"),
+    "heading_mag_deg": (("20", "21"), "60", "heading"),
+    "ias_kt": (("20", "21"), "60", "IAS"),
+    "mach": (("20", "21"), "60", "Mach"),
+    "vrate_baro_fpm": (("20", "21"), "60", "vrate_barometric"),
+    "vrate_inertial_fpm": (("20", "21"), "60", "vrate_inertial"),
+    "vertical_rate_fpm": (("17",), "09", "vertical_rate"),
+    "altitude_ft": (("17",), "05", "altitude"),
+    "lat": (("17",), "05", "latitude"),
+    "lon": (("17",), "05", "longitude"),
 }
 
 
 def register_times(raw: pd.DataFrame, register: str) -> np.ndarray:
     """Reply times of a register in a raw decoded message log (DF20 and DF21 together for Comm-B)."""
-    sel = {"BDS50": (("20", "21"), "50"), "BDS60": (("20", "21"), "60"), "velocity": (("17",), "09"), "position": (("17",), "05")}[register]
+    sel = {
+        "BDS50": (("20", "21"), "50"),
+        "BDS60": (("20", "21"), "60"),
+        "velocity": (("17",), "09"),
+        "position": (("17",), "05"),
+    }[register]
     return raw.loc[raw["df"].astype(str).isin(sel[0]) & (raw["bds"] == sel[1]), "time_s"].sort_values().to_numpy()
 
 
@@ -245,19 +288,28 @@ def avionics_from_truth(df: pd.DataFrame, variation_deg) -> pd.DataFrame:
     track = np.degrees(np.arctan2(ve, vn))
     heading = np.degrees(df["heading_rad"].to_numpy(float))
     palt = df["pressure_altitude_m"].to_numpy(float)
-    return pd.DataFrame({
-        "time_s": t, "roll_deg": np.degrees(df["roll_rad"].to_numpy(float)), "track_deg": track % 360,
-        "groundspeed_kt": np.hypot(vn, ve) / KT,
-        "track_rate_deg_s": np.gradient(np.degrees(np.unwrap(np.radians(track))), t),
-        "tas_kt": df["tas_mps"].to_numpy(float) / KT,
-        "heading_mag_deg": (heading - np.asarray(variation_deg, float)) % 360,
-        "ias_kt": df["cas_mps"].to_numpy(float) / KT,
-        # speed of sound sqrt(gamma R T), gamma 1.4, R 287.05287 J/(kg K) (ICAO Doc 7488)
-        "mach": df["tas_mps"].to_numpy(float) / np.sqrt(1.4 * 287.05287 * df["temperature_k"].to_numpy(float)),
-        "vrate_baro_fpm": np.gradient(palt, t) / FT * 60.0, "vrate_inertial_fpm": -vd / FT * 60.0,
-        "v_east_kt": ve / KT, "v_north_kt": vn / KT, "vertical_rate_fpm": -vd / FT * 60.0,
-        "altitude_ft": palt / FT, "lat": df["lat_deg"].to_numpy(float), "lon": df["lon_deg"].to_numpy(float),
-    })
+    return pd.DataFrame(
+        {
+            "time_s": t,
+            "roll_deg": np.degrees(df["roll_rad"].to_numpy(float)),
+            "track_deg": track % 360,
+            "groundspeed_kt": np.hypot(vn, ve) / KT,
+            "track_rate_deg_s": np.gradient(np.degrees(np.unwrap(np.radians(track))), t),
+            "tas_kt": df["tas_mps"].to_numpy(float) / KT,
+            "heading_mag_deg": (heading - np.asarray(variation_deg, float)) % 360,
+            "ias_kt": df["cas_mps"].to_numpy(float) / KT,
+            # speed of sound sqrt(gamma R T), gamma 1.4, R 287.05287 J/(kg K) (ICAO Doc 7488)
+            "mach": df["tas_mps"].to_numpy(float) / np.sqrt(1.4 * 287.05287 * df["temperature_k"].to_numpy(float)),
+            "vrate_baro_fpm": np.gradient(palt, t) / FT * 60.0,
+            "vrate_inertial_fpm": -vd / FT * 60.0,
+            "v_east_kt": ve / KT,
+            "v_north_kt": vn / KT,
+            "vertical_rate_fpm": -vd / FT * 60.0,
+            "altitude_ft": palt / FT,
+            "lat": df["lat_deg"].to_numpy(float),
+            "lon": df["lon_deg"].to_numpy(float),
+        }
+    )
 
 
 def decoded_track(messages: pd.DataFrame, start_epoch_s: float, rate_hz: float = 1.0) -> pd.DataFrame:
@@ -266,10 +318,19 @@ def decoded_track(messages: pd.DataFrame, start_epoch_s: float, rate_hz: float =
     speed from ADS-B velocity), as the A310 sample file holds them: what `diagnose` and
     `aerotruth.measured.kinds` take as a Mode-S trajectory."""
     h = held_track(messages, rate_hz).dropna()
-    return pd.DataFrame({
-        "timestamp": (start_epoch_s + h["time_s"]) * 1000.0, "latitude": h["lat"], "longitude": h["lon"],
-        "altitude": h["altitude_ft"], "heading": h["heading_mag_deg"], "TAS": h["tas_kt"],
-        "track": np.degrees(np.arctan2(h["v_east_kt"], h["v_north_kt"])) % 360,
-        "groundspeed": np.hypot(h["v_east_kt"], h["v_north_kt"]), "vertical_rate": h["vertical_rate_fpm"],
-        "roll": h["roll_deg"], "IAS": h["ias_kt"], "Mach": h["mach"],
-    }).reset_index(drop=True)
+    return pd.DataFrame(
+        {
+            "timestamp": (start_epoch_s + h["time_s"]) * 1000.0,
+            "latitude": h["lat"],
+            "longitude": h["lon"],
+            "altitude": h["altitude_ft"],
+            "heading": h["heading_mag_deg"],
+            "TAS": h["tas_kt"],
+            "track": np.degrees(np.arctan2(h["v_east_kt"], h["v_north_kt"])) % 360,
+            "groundspeed": np.hypot(h["v_east_kt"], h["v_north_kt"]),
+            "vertical_rate": h["vertical_rate_fpm"],
+            "roll": h["roll_deg"],
+            "IAS": h["ias_kt"],
+            "Mach": h["mach"],
+        }
+    ).reset_index(drop=True)

@@ -33,7 +33,9 @@ RA_95_M, TVPS_95_M = 0.30, 0.60  # FITS paper section II
 class RadarAltimeterSpec(Section):
     sigma_m: float = Field(default=RA_95_M / 1.96, ge=0, description="noise per reading (0.30 m 95 %, FITS paper)")
     bias_sigma_m: float = Field(default=0.0, ge=0, description="per-approach bias, 1 sigma")
-    runway_half_width_m: float = Field(default=30.0, gt=0, description="surveyed surface: half the runway width plus shoulder")
+    runway_half_width_m: float = Field(
+        default=30.0, gt=0, description="surveyed surface: half the runway width plus shoulder"
+    )
 
     def draw(self, rng: np.random.Generator) -> RadarAltimeter:
         return RadarAltimeter(self, float(self.bias_sigma_m * rng.standard_normal()))
@@ -55,7 +57,9 @@ class RadarAltimeter:
 class TvpsSpec(Section):
     sigma_m: float = Field(default=TVPS_95_M / 1.96, ge=0, description="noise per reading (0.60 m 95 %, FITS paper)")
     bias_sigma_m: float = Field(default=0.0, ge=0, description="per-approach bias, 1 sigma")
-    view_from_m: float = Field(default=600.0, ge=0, description="distance before the threshold from which the runway is resolved")
+    view_from_m: float = Field(
+        default=600.0, ge=0, description="distance before the threshold from which the runway is resolved"
+    )
 
     def draw(self, rng: np.random.Generator) -> Tvps:
         return Tvps(self, float(self.bias_sigma_m * rng.standard_normal()))

@@ -60,8 +60,9 @@ class NavState:
     c_eb: np.ndarray
 
     @classmethod
-    def from_geodetic(cls, lat_deg: float, lon_deg: float, h_m: float, v_ned: np.ndarray, roll: float, pitch: float,
-                      heading: float) -> NavState:
+    def from_geodetic(
+        cls, lat_deg: float, lon_deg: float, h_m: float, v_ned: np.ndarray, roll: float, pitch: float, heading: float
+    ) -> NavState:
         r = np.array(geo.ecef(lat_deg, lon_deg, h_m), float)
         c_en = geo.ecef_from_ned_matrix(lat_deg, lon_deg)
         c_nb = Rotation.from_euler("ZYX", [heading, pitch, roll]).as_matrix()

@@ -52,8 +52,21 @@ from aerotruth.units import DEG, FPM, FT, HPA, KT
 
 LUT_NODES_DEG = np.arange(0.0, 360.0, 45.0)
 _TIME_TOLERANCE_S = 1e-6  # sample times like 7795.3 s are inexact in binary: 8215.3 - 7795.3 < 420
-REPORT_COLUMNS = ("aircraft", "time", "lat", "lon", "pressure_altitude_ft", "wind_speed_kt", "wind_dir_deg",
-                  "tas_kt", "heading_deg", "roll_deg", "phase", "trigger", "sample_index")
+REPORT_COLUMNS = (
+    "aircraft",
+    "time",
+    "lat",
+    "lon",
+    "pressure_altitude_ft",
+    "wind_speed_kt",
+    "wind_dir_deg",
+    "tas_kt",
+    "heading_deg",
+    "roll_deg",
+    "phase",
+    "trigger",
+    "sample_index",
+)
 
 
 def quantize(x: ArrayLike, step: float) -> np.ndarray:
@@ -79,11 +92,19 @@ class ReportSpec(Section):
 
     pressure_step_low_hpa: float = Field(default=10.0, gt=0, description="pressure trigger near the ground")
     pressure_step_high_hpa: float = Field(default=50.0, gt=0, description="pressure trigger above the low zone")
-    low_zone_above_ground_hpa: float = Field(default=100.0, ge=0, description="depth of the low zone above ground pressure")
-    time_limit_low_s: float = Field(default=180.0, gt=0, description="report after this long without one, below the boundary")
+    low_zone_above_ground_hpa: float = Field(
+        default=100.0, ge=0, description="depth of the low zone above ground pressure"
+    )
+    time_limit_low_s: float = Field(
+        default=180.0, gt=0, description="report after this long without one, below the boundary"
+    )
     time_limit_high_s: float = Field(default=420.0, gt=0, description="the same at or above the boundary")
-    time_limit_boundary_ft: float = Field(default=20000.0, description="pressure altitude separating the two time limits")
-    time_report_resets_pressure: bool = Field(default=True, description="a time-triggered report resets the pressure reference")
+    time_limit_boundary_ft: float = Field(
+        default=20000.0, description="pressure altitude separating the two time limits"
+    )
+    time_report_resets_pressure: bool = Field(
+        default=True, description="a time-triggered report resets the pressure reference"
+    )
     averaging_window_s: float = Field(default=10.0, gt=0, description="trailing window of the reported wind (assumed)")
     phase_window_s: float = Field(default=30.0, gt=0, description="window of the vertical rate that sets the phase")
     level_rate_fpm: float = Field(default=300.0, gt=0, description="|rate| below this is level flight")
@@ -138,9 +159,13 @@ class OffsetCorrection(Section):
 HeadingCorrection = LookupTableCorrection | OffsetCorrection
 
 
-def report_schedule(time_s: ArrayLike, static_pressure_pa: ArrayLike, pressure_altitude_m: ArrayLike,
-                    ground_pressure_pa: ArrayLike,
-                    spec: ReportSpec) -> tuple[np.ndarray, np.ndarray]:
+def report_schedule(
+    time_s: ArrayLike,
+    static_pressure_pa: ArrayLike,
+    pressure_altitude_m: ArrayLike,
+    ground_pressure_pa: ArrayLike,
+    spec: ReportSpec,
+) -> tuple[np.ndarray, np.ndarray]:
     """Sample indices of the reports and whether each was pressure-triggered (else time).
 
     Rules in the module docstring. Work is one vectorised scan per report over the samples
@@ -149,11 +174,16 @@ def report_schedule(time_s: ArrayLike, static_pressure_pa: ArrayLike, pressure_a
     t = np.asarray(time_s, dtype=float)
     p = np.asarray(static_pressure_pa, dtype=float)
     n = t.size
-    step = np.where(np.broadcast_to(np.asarray(ground_pressure_pa, dtype=float), (n,)) - p
-                    <= spec.low_zone_above_ground_hpa * HPA,
-                    spec.pressure_step_low_hpa * HPA, spec.pressure_step_high_hpa * HPA)
-    limit = np.where(np.asarray(pressure_altitude_m, dtype=float) < spec.time_limit_boundary_ft * FT,
-                     spec.time_limit_low_s, spec.time_limit_high_s)
+    step = np.where(
+        np.broadcast_to(np.asarray(ground_pressure_pa, dtype=float), (n,)) - p <= spec.low_zone_above_ground_hpa * HPA,
+        spec.pressure_step_low_hpa * HPA,
+        spec.pressure_step_high_hpa * HPA,
+    )
+    limit = np.where(
+        np.asarray(pressure_altitude_m, dtype=float) < spec.time_limit_boundary_ft * FT,
+        spec.time_limit_low_s,
+        spec.time_limit_high_s,
+    )
     longest = max(spec.time_limit_low_s, spec.time_limit_high_s)
     indices: list[int] = []
     by_pressure: list[bool] = []
@@ -161,8 +191,8 @@ def report_schedule(time_s: ArrayLike, static_pressure_pa: ArrayLike, pressure_a
     while i < n - 1:
         # the scan reaches past the first sample at the longest limit, so "no hit" means end of track
         end = min(n, int(np.searchsorted(t, ref_t + longest - _TIME_TOLERANCE_S, side="left")) + 2)
-        hit_p = np.abs(p[i + 1:end] - ref_p) >= step[i + 1:end]
-        hit = hit_p | (t[i + 1:end] - ref_t >= limit[i + 1:end] - _TIME_TOLERANCE_S)
+        hit_p = np.abs(p[i + 1 : end] - ref_p) >= step[i + 1 : end]
+        hit = hit_p | (t[i + 1 : end] - ref_t >= limit[i + 1 : end] - _TIME_TOLERANCE_S)
         k = int(hit.argmax())
         if not hit[k]:
             break  # end of track before the next trigger
@@ -186,9 +216,18 @@ def _window_means(t: np.ndarray, idx: np.ndarray, window_s: float, *series: np.n
     return out
 
 
-def generate_reports(truth: pd.DataFrame, heading_rad: ArrayLike, spec: ReportSpec, *, ground_pressure_hpa: ArrayLike,
-                     air: pd.DataFrame | None = None, correction: HeadingCorrection | None = None,
-                     variation_rad: ArrayLike = 0.0, aircraft: str = "", start_epoch_s: float = 0.0) -> pd.DataFrame:
+def generate_reports(
+    truth: pd.DataFrame,
+    heading_rad: ArrayLike,
+    spec: ReportSpec,
+    *,
+    ground_pressure_hpa: ArrayLike,
+    air: pd.DataFrame | None = None,
+    correction: HeadingCorrection | None = None,
+    variation_rad: ArrayLike = 0.0,
+    aircraft: str = "",
+    start_epoch_s: float = 0.0,
+) -> pd.DataFrame:
     """TAMDAR reports of one flight, in the observation-table columns (REPORT_COLUMNS).
 
     truth: TruthTrack samples (time_s, roll_rad; and the air-data columns when `air` is
@@ -238,18 +277,20 @@ def generate_reports(truth: pd.DataFrame, heading_rad: ArrayLike, spec: ReportSp
     level = spec.level_rate_fpm * FPM
     phase = np.where(rate > level, "ascent", np.where(rate < -level, "descent", "level"))
 
-    return pd.DataFrame({
-        "aircraft": np.full(idx.size, aircraft, dtype=object),
-        "time": quantize(start_epoch_s + t[idx], spec.time_step_s),
-        "lat": quantize(air["lat_deg"].to_numpy(dtype=float)[idx], spec.lat_lon_step_deg),
-        "lon": quantize(air["lon_deg"].to_numpy(dtype=float)[idx], spec.lat_lon_step_deg),
-        "pressure_altitude_ft": h_p[idx] / FT,
-        "wind_speed_kt": quantize(speed / KT, spec.wind_speed_step_kt),
-        "wind_dir_deg": np.mod(quantize(np.degrees(direction), spec.wind_dir_step_deg), 360.0),
-        "tas_kt": tas_m / KT,
-        "heading_deg": np.mod(np.degrees(np.arctan2(s_m, c_m)), 360.0),
-        "roll_deg": np.degrees(truth["roll_rad"].to_numpy(dtype=float)[idx]),
-        "phase": phase,
-        "trigger": np.where(by_pressure, "pressure", "time"),
-        "sample_index": idx,
-    })
+    return pd.DataFrame(
+        {
+            "aircraft": np.full(idx.size, aircraft, dtype=object),
+            "time": quantize(start_epoch_s + t[idx], spec.time_step_s),
+            "lat": quantize(air["lat_deg"].to_numpy(dtype=float)[idx], spec.lat_lon_step_deg),
+            "lon": quantize(air["lon_deg"].to_numpy(dtype=float)[idx], spec.lat_lon_step_deg),
+            "pressure_altitude_ft": h_p[idx] / FT,
+            "wind_speed_kt": quantize(speed / KT, spec.wind_speed_step_kt),
+            "wind_dir_deg": np.mod(quantize(np.degrees(direction), spec.wind_dir_step_deg), 360.0),
+            "tas_kt": tas_m / KT,
+            "heading_deg": np.mod(np.degrees(np.arctan2(s_m, c_m)), 360.0),
+            "roll_deg": np.degrees(truth["roll_rad"].to_numpy(dtype=float)[idx]),
+            "phase": phase,
+            "trigger": np.where(by_pressure, "pressure", "time"),
+            "sample_index": idx,
+        }
+    )

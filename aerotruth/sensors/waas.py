@@ -49,17 +49,41 @@ class WaasSpec(Section):
     """WAAS error model parameters (defaults from the FITS paper, see the module docstring)."""
 
     rate_hz: float = Field(default=1.0, gt=0, description="output rate (FITS paper section V: WAAS at 1 Hz)")
-    bias_sigma_horizontal_m: float = Field(default=0.45, ge=0, description="per-approach bias per horizontal axis, 1 sigma (Table I: 2.45 sigma = 1.10 m radial 95 %)")
-    bias_sigma_vertical_m: float = Field(default=0.8, ge=0, description="per-approach vertical bias, 1 sigma (Table I: 1.96 sigma = 1.57 m 95 %)")
-    jump_rate_per_h: float = Field(default=2.0, ge=0, description="Poisson rate of satellite-set changes and iono updates (one per 30 min)")
+    bias_sigma_horizontal_m: float = Field(
+        default=0.45,
+        ge=0,
+        description="per-approach bias per horizontal axis, 1 sigma (Table I: 2.45 sigma = 1.10 m radial 95 %)",
+    )
+    bias_sigma_vertical_m: float = Field(
+        default=0.8, ge=0, description="per-approach vertical bias, 1 sigma (Table I: 1.96 sigma = 1.57 m 95 %)"
+    )
+    jump_rate_per_h: float = Field(
+        default=2.0, ge=0, description="Poisson rate of satellite-set changes and iono updates (one per 30 min)"
+    )
     jump_sigma_m: float = Field(default=1.0, ge=0, description="jump per axis, 1 sigma (section III-B, IV-C)")
-    jump_sv_share: float = Field(default=0.5, ge=0, le=1, description="share of jumps flagged sv_change (the rest iono_update)")
-    fast_correction_interval_s: float = Field(default=6.0, gt=0, description="fast-correction update interval (types 2-5, DO-229C); cyclic period is twice this (Fig. 6: 12 s)")
-    cyclic_amplitude_horizontal_m: float = Field(default=0.5, ge=0, description="mean amplitude of the cyclic noise per horizontal axis (section III-B: usually over 0.5 m)")
-    cyclic_amplitude_vertical_m: float = Field(default=0.5, ge=0, description="mean amplitude of the vertical cyclic noise")
+    jump_sv_share: float = Field(
+        default=0.5, ge=0, le=1, description="share of jumps flagged sv_change (the rest iono_update)"
+    )
+    fast_correction_interval_s: float = Field(
+        default=6.0,
+        gt=0,
+        description="fast-correction update interval (types 2-5, DO-229C); cyclic period is twice this (Fig. 6: 12 s)",
+    )
+    cyclic_amplitude_horizontal_m: float = Field(
+        default=0.5,
+        ge=0,
+        description="mean amplitude of the cyclic noise per horizontal axis (section III-B: usually over 0.5 m)",
+    )
+    cyclic_amplitude_vertical_m: float = Field(
+        default=0.5, ge=0, description="mean amplitude of the vertical cyclic noise"
+    )
     cyclic_modulation: float = Field(default=0.3, ge=0, le=1, description="relative amplitude variation (+-30 %)")
-    cyclic_modulation_period_s: float = Field(default=200.0, gt=0, description="period of the amplitude variation (~200 s)")
-    cyclic_waveform: Literal["sine", "stepped"] = Field(default="sine", description="sine, or stepped (each fast correction held 6 s)")
+    cyclic_modulation_period_s: float = Field(
+        default=200.0, gt=0, description="period of the amplitude variation (~200 s)"
+    )
+    cyclic_waveform: Literal["sine", "stepped"] = Field(
+        default="sine", description="sine, or stepped (each fast correction held 6 s)"
+    )
     gm_sigma_m: float = Field(default=0.05, ge=0, description="Gauss-Markov noise per axis, 1 sigma")
     gm_tau_s: float = Field(default=100.0, gt=0, description="Gauss-Markov correlation time")
     white_sigma_m: float = Field(default=0.03, ge=0, description="white noise per axis per epoch, 1 sigma")
@@ -126,9 +150,13 @@ class WaasErrors:
         sv[idx[is_sv]] = 1
         iono[idx[~is_sv]] = 1
         # cyclic noise of the fast corrections
-        amp0 = np.array([spec.cyclic_amplitude_horizontal_m, spec.cyclic_amplitude_horizontal_m, spec.cyclic_amplitude_vertical_m])
+        amp0 = np.array(
+            [spec.cyclic_amplitude_horizontal_m, spec.cyclic_amplitude_horizontal_m, spec.cyclic_amplitude_vertical_m]
+        )
         phi, psi = rng.uniform(0.0, 2 * np.pi, (2, 3))
-        amp = amp0 * (1.0 + spec.cyclic_modulation * np.sin(2 * np.pi * t[:, None] / spec.cyclic_modulation_period_s + psi))
+        amp = amp0 * (
+            1.0 + spec.cyclic_modulation * np.sin(2 * np.pi * t[:, None] / spec.cyclic_modulation_period_s + psi)
+        )
         carrier = np.sin(2 * np.pi * t[:, None] / spec.cyclic_period_s + phi)
         if spec.cyclic_waveform == "stepped":
             carrier = np.where(carrier >= 0.0, 1.0, -1.0)

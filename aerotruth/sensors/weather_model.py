@@ -118,20 +118,48 @@ _HYPSOMETRIC_ITERATIONS = 4
 
 ALASKA_SIGMA_SCALE = 1.4  # model error in Alaska / Mesaba region, from Tables II and III (docstring)
 
-_RR_SIGMA = ((1000.0, 2.1), (850.0, 2.0), (700.0, 2.0), (500.0, 2.3), (300.0, 3.0), (250.0, 3.2),
-             (200.0, 3.0), (100.0, 2.5))
+_RR_SIGMA = (
+    (1000.0, 2.1),
+    (850.0, 2.0),
+    (700.0, 2.0),
+    (500.0, 2.3),
+    (300.0, 3.0),
+    (250.0, 3.2),
+    (200.0, 3.0),
+    (100.0, 2.5),
+)
 _SEASON = {"seasonal_amplitude": 0.11, "seasonal_period_days": 182.625, "seasonal_peak_doy": 106.0}
 PRESETS: dict[str, dict[str, Any]] = {
-    "rr": {"grid_spacing_m": 13e3, "effective_resolution_m": 7 * 13e3, "analysis_interval_s": 3600.0,
-           "sigma_levels": _RR_SIGMA, "horizontal_correlation_m": 150e3,
-           "vertical_correlation_m": 1500.0, "temporal_correlation_s": 3 * 3600.0, **_SEASON},
-    "rtfdda": {"grid_spacing_m": 12e3, "effective_resolution_m": 7 * 12e3, "analysis_interval_s": 3600.0,
-               "sigma_levels": _RR_SIGMA, "horizontal_correlation_m": 120e3,
-               "vertical_correlation_m": 1500.0, "temporal_correlation_s": 3 * 3600.0, **_SEASON},
-    "nam": {"grid_spacing_m": 12e3, "effective_resolution_m": 7 * 12e3, "analysis_interval_s": 6 * 3600.0,
-            "sigma_levels": tuple((p, round(1.15 * s, 4)) for p, s in _RR_SIGMA),
-            "horizontal_correlation_m": 200e3, "vertical_correlation_m": 2000.0,
-            "temporal_correlation_s": 6 * 3600.0, **_SEASON},
+    "rr": {
+        "grid_spacing_m": 13e3,
+        "effective_resolution_m": 7 * 13e3,
+        "analysis_interval_s": 3600.0,
+        "sigma_levels": _RR_SIGMA,
+        "horizontal_correlation_m": 150e3,
+        "vertical_correlation_m": 1500.0,
+        "temporal_correlation_s": 3 * 3600.0,
+        **_SEASON,
+    },
+    "rtfdda": {
+        "grid_spacing_m": 12e3,
+        "effective_resolution_m": 7 * 12e3,
+        "analysis_interval_s": 3600.0,
+        "sigma_levels": _RR_SIGMA,
+        "horizontal_correlation_m": 120e3,
+        "vertical_correlation_m": 1500.0,
+        "temporal_correlation_s": 3 * 3600.0,
+        **_SEASON,
+    },
+    "nam": {
+        "grid_spacing_m": 12e3,
+        "effective_resolution_m": 7 * 12e3,
+        "analysis_interval_s": 6 * 3600.0,
+        "sigma_levels": tuple((p, round(1.15 * s, 4)) for p, s in _RR_SIGMA),
+        "horizontal_correlation_m": 200e3,
+        "vertical_correlation_m": 2000.0,
+        "temporal_correlation_s": 6 * 3600.0,
+        **_SEASON,
+    },
 }
 
 
@@ -143,14 +171,16 @@ class WeatherModelSpec(Section):
     """
 
     name: str = Field(min_length=1, description="rr, rtfdda, nam (presets) or a custom model name")
-    grid_spacing_m: float = Field(gt=0, description="grid spacing dx (m), for the record: "
-                                  "the smoothing uses effective_resolution_m")
-    effective_resolution_m: float = Field(gt=0, description="lambda_e (m): response 1/2 at this "
-                                          "wavelength (~7 dx)")
-    analysis_interval_s: float = Field(gt=0, description="time between analyses (s); analyses at "
-                                       "multiples of it after 00 UTC")
+    grid_spacing_m: float = Field(
+        gt=0, description="grid spacing dx (m), for the record: the smoothing uses effective_resolution_m"
+    )
+    effective_resolution_m: float = Field(gt=0, description="lambda_e (m): response 1/2 at this wavelength (~7 dx)")
+    analysis_interval_s: float = Field(
+        gt=0, description="time between analyses (s); analyses at multiples of it after 00 UTC"
+    )
     sigma_levels: tuple[tuple[float, float], ...] = Field(
-        min_length=1, description="(pressure hPa, per-component error sigma m/s), pressure decreasing")
+        min_length=1, description="(pressure hPa, per-component error sigma m/s), pressure decreasing"
+    )
     sigma_scale: float = Field(default=1.0, ge=0, description="multiplies every sigma (regional accuracy)")
     horizontal_correlation_m: float = Field(gt=0, description="L_h (m) of the Gaussian error correlation")
     vertical_correlation_m: float = Field(gt=0, description="L_z (m)")
@@ -172,8 +202,10 @@ class WeatherModelSpec(Section):
             return {**PRESETS[name], **data}
         required = [k for k, f in cls.model_fields.items() if f.is_required() and k not in data]
         if required:
-            raise ValueError(f"name: {name!r} is not a preset ({', '.join(PRESETS)}); a custom model must "
-                             f"give every field, missing: {', '.join(required)}")
+            raise ValueError(
+                f"name: {name!r} is not a preset ({', '.join(PRESETS)}); a custom model must "
+                f"give every field, missing: {', '.join(required)}"
+            )
         return data
 
     @field_validator("sigma_levels")
@@ -185,7 +217,7 @@ class WeatherModelSpec(Section):
                 raise ValueError(f"pressure must be in (0, 1100] hPa, got {pr}")
             if not (s >= 0 and math.isfinite(s)):
                 raise ValueError(f"sigma must be a finite number >= 0 m/s, got {s} at {pr} hPa")
-        if any(b >= a for a, b in zip(p, p[1:])):
+        if any(b >= a for a, b in zip(p, p[1:], strict=False)):
             raise ValueError(f"pressures must decrease strictly (surface first), got {p}")
         return v
 
@@ -193,7 +225,8 @@ class WeatherModelSpec(Section):
         """s(doy) = 1 + A cos(2 pi (doy - peak) / period) for the day of year of `date`."""
         doy = date.timetuple().tm_yday
         return 1.0 + self.seasonal_amplitude * math.cos(
-            2 * math.pi * (doy - self.seasonal_peak_doy) / self.seasonal_period_days)
+            2 * math.pi * (doy - self.seasonal_peak_doy) / self.seasonal_period_days
+        )
 
     def sigma_ms(self, pressure_pa, date: _dt.date) -> np.ndarray:
         """Per-component error sigma (m/s) at pressure p (Pa) on `date`: table (linear in
@@ -233,8 +266,7 @@ class WeatherModelAnalysis:
     columns smoothed mesoscale u, v and unit error fields e_u, e_v).
     """
 
-    def __init__(self, spec: WeatherModelSpec, atmosphere: TruthAtmosphere, kx, ky, kz, omega, phase,
-                 amplitude):
+    def __init__(self, spec: WeatherModelSpec, atmosphere: TruthAtmosphere, kx, ky, kz, omega, phase, amplitude):
         self.spec, self.atmosphere = spec, atmosphere
         self.kx, self.ky, self.kz = (np.ascontiguousarray(a, dtype=float) for a in (kx, ky, kz))
         self.omega = np.ascontiguousarray(omega, dtype=float)
@@ -245,13 +277,15 @@ class WeatherModelAnalysis:
         self._coef32 = np.stack([self.kx, self.ky, self.kz, np.zeros_like(self.kx)]).astype(np.float32)
         # value at t_k: cos(P) @ A; at t_k + T: cos(P + wT) = cos P cos wT - sin P sin wT
         # columns 0-3 give the sums at t_k, 4-7 the cosine part of those at t_k + T
-        self._amp_cos = np.concatenate([self.amplitude, self.amplitude * np.cos(self.omega * T)[:, None]],
-                                       axis=1).astype(np.float32)
+        self._amp_cos = np.concatenate(
+            [self.amplitude, self.amplitude * np.cos(self.omega * T)[:, None]], axis=1
+        ).astype(np.float32)
         self._amp_sin = (-self.amplitude * np.sin(self.omega * T)[:, None]).astype(np.float32)
 
     @classmethod
-    def draw(cls, spec: WeatherModelSpec, atmosphere: TruthAtmosphere,
-             rng: np.random.Generator) -> "WeatherModelAnalysis":
+    def draw(
+        cls, spec: WeatherModelSpec, atmosphere: TruthAtmosphere, rng: np.random.Generator
+    ) -> WeatherModelAnalysis:
         """Filter the atmosphere's mesoscale modes and draw the error features from `rng`."""
         if not isinstance(spec, WeatherModelSpec):
             raise ValueError(f"spec must be a WeatherModelSpec, got {type(spec).__name__}")
@@ -269,10 +303,16 @@ class WeatherModelAnalysis:
         famp[:n, 2] = famp[n:, 3] = math.sqrt(2.0 / n)
         mamp = np.zeros((int(keep.sum()), 4))
         mamp[:, :2] = amp_uv[keep]
-        return cls(spec, atmosphere,
-                   np.concatenate([m.kx[keep], fk[0]]), np.concatenate([m.ky[keep], fk[1]]),
-                   np.concatenate([m.kz[keep], fk[2]]), np.concatenate([m.omega[keep], fk[3]]),
-                   np.concatenate([m.phase[keep], fphase]), np.concatenate([mamp, famp]))
+        return cls(
+            spec,
+            atmosphere,
+            np.concatenate([m.kx[keep], fk[0]]),
+            np.concatenate([m.ky[keep], fk[1]]),
+            np.concatenate([m.kz[keep], fk[2]]),
+            np.concatenate([m.omega[keep], fk[3]]),
+            np.concatenate([m.phase[keep], fphase]),
+            np.concatenate([mamp, famp]),
+        )
 
     # evaluation --------------------------------------------------------------------
     def _mode_sums(self, x, y, z, t) -> np.ndarray:
@@ -288,7 +328,7 @@ class WeatherModelAnalysis:
             coef = self._coef32.copy()
             coef[3] = np.remainder(self.omega * (kk * T) + self.phase, 2 * np.pi)  # phases at t_k
             for s in range(0, idx.size, _CHUNK):
-                sel = idx[s:s + _CHUNK]
+                sel = idx[s : s + _CHUNK]
                 pts = np.stack([x[sel], y[sel], z[sel], np.ones(sel.size)], axis=1).astype(np.float32)
                 ph = pts @ coef
                 vc = np.cos(ph) @ self._amp_cos
@@ -317,9 +357,18 @@ class WeatherModelAnalysis:
         return u, v
 
     def _inputs(self, lat_deg, lon_deg, alt_m, t_s, ground_elevation_m=0.0):
-        lat, lon, z, t, zg = np.broadcast_arrays(*(_column(n, a) for n, a in (
-            ("lat_deg", lat_deg), ("lon_deg", lon_deg), ("alt_m", alt_m), ("t_s", t_s),
-            ("ground_elevation_m", ground_elevation_m))))
+        lat, lon, z, t, zg = np.broadcast_arrays(
+            *(
+                _column(n, a)
+                for n, a in (
+                    ("lat_deg", lat_deg),
+                    ("lon_deg", lon_deg),
+                    ("alt_m", alt_m),
+                    ("t_s", t_s),
+                    ("ground_elevation_m", ground_elevation_m),
+                )
+            )
+        )
         return (np.array(a, dtype=float) for a in (lat, lon, z, t, zg))
 
     def wind(self, lat_deg, lon_deg, alt_m, t_s, ground_elevation_m=0.0) -> tuple[np.ndarray, np.ndarray]:
@@ -349,8 +398,12 @@ class WeatherModelAnalysis:
         """Geometric altitude (m MSL) at which the truth atmosphere has pressure p: Newton on
         the hypsometric equation of its ISA + dT column, H <- H + (R T(H) / g0) ln(p(H) / p)."""
         atm = self.atmosphere
-        lat, lon, p, t = np.broadcast_arrays(*(_column(n, a) for n, a in (
-            ("lat_deg", lat_deg), ("lon_deg", lon_deg), ("pressure_pa", pressure_pa), ("t_s", t_s))))
+        lat, lon, p, t = np.broadcast_arrays(
+            *(
+                _column(n, a)
+                for n, a in (("lat_deg", lat_deg), ("lon_deg", lon_deg), ("pressure_pa", pressure_pa), ("t_s", t_s))
+            )
+        )
         dt_k = atm.delta_t(lat, lon, t)
         p_sl = atm.sea_level_pressure(lat, lon, t)
         h = pressure_altitude_m(p)  # the ISA height: tens to hundreds of metres off
@@ -367,8 +420,7 @@ class WeatherModelAnalysis:
         """
         missing = [c for c in ("time", "lat", "lon", "pressure_altitude_ft") if c not in reports.columns]
         if missing:
-            raise ValueError(f"reports: missing columns {', '.join(missing)} (observation table, "
-                             "docs/data-formats.md)")
+            raise ValueError(f"reports: missing columns {', '.join(missing)} (observation table, docs/data-formats.md)")
         out = reports.copy()
         t = reports["time"]
         if pd.api.types.is_numeric_dtype(t):
@@ -379,8 +431,9 @@ class WeatherModelAnalysis:
             except (ValueError, TypeError) as exc:
                 raise ValueError(f"reports.time: expected UTC epoch seconds or ISO-8601, {exc}") from None
             epoch = (stamps - pd.Timestamp(0, tz="UTC")).dt.total_seconds().to_numpy()
-        day0 = _dt.datetime(self.atmosphere.date.year, self.atmosphere.date.month, self.atmosphere.date.day,
-                            tzinfo=_dt.timezone.utc).timestamp()
+        day0 = _dt.datetime(
+            self.atmosphere.date.year, self.atmosphere.date.month, self.atmosphere.date.day, tzinfo=_dt.UTC
+        ).timestamp()
         t_s = epoch - day0
         lat = _column("reports.lat", reports["lat"].to_numpy(dtype=float))
         lon = _column("reports.lon", reports["lon"].to_numpy(dtype=float))

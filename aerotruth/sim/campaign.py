@@ -72,7 +72,9 @@ def expand(campaign: Campaign, reg: Registry | None = None) -> list[Task]:
         for t in got:
             missing = [n for n in t.needs if n not in study.learns]
             if missing:
-                raise ConfigError(f"studies.{name}: task {t.id} needs learned state {missing[0]!r}, which the study does not declare")
+                raise ConfigError(
+                    f"studies.{name}: task {t.id} needs learned state {missing[0]!r}, which the study does not declare"
+                )
         tasks.extend(dataclasses.replace(t, source=reg.sources[name]) for t in got)
     ids = [t.id for t in tasks]
     if len(set(ids)) != len(ids):
@@ -95,7 +97,9 @@ def _canonical(obj: Any) -> Any:
 
 
 def _digest(obj: Any) -> str:
-    return hashlib.sha256(json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_canonical).encode()).hexdigest()
+    return hashlib.sha256(
+        json.dumps(obj, sort_keys=True, separators=(",", ":"), default=_canonical).encode()
+    ).hexdigest()
 
 
 def task_key(campaign: Campaign, task: Task, learned_digests: dict[str, str]) -> str:
@@ -103,10 +107,15 @@ def task_key(campaign: Campaign, task: Task, learned_digests: dict[str, str]) ->
     receives (identity, parameters, campaign seed, learned states) and the digest of the
     code and data the study depends on. A change elsewhere in the campaign (another
     study, a day added to a period) leaves the task's stored table valid."""
-    return _digest({
-        "task": task.identity_json, "params": task.params, "seed": campaign.seed,
-        "code": code_digest(task.source), "learned": {n: learned_digests[n] for n in task.needs},
-    })
+    return _digest(
+        {
+            "task": task.identity_json,
+            "params": task.params,
+            "seed": campaign.seed,
+            "code": code_digest(task.source),
+            "learned": {n: learned_digests[n] for n in task.needs},
+        }
+    )
 
 
 @contextmanager
@@ -143,8 +152,13 @@ class _Progress:
             console = Console(stderr=True)
             if console.is_terminal:
                 self._bar = Progress(
-                    TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                    TimeElapsedColumn(), TextColumn("ETA"), TimeRemainingColumn(), console=console,
+                    TextColumn("[bold]{task.description}"),
+                    BarColumn(),
+                    MofNCompleteColumn(),
+                    TimeElapsedColumn(),
+                    TextColumn("ETA"),
+                    TimeRemainingColumn(),
+                    console=console,
                 )
                 self._id = self._bar.add_task("tasks", total=total, completed=done)
 
@@ -165,8 +179,15 @@ class _Progress:
 class _Runner:
     """One run: waves of ready tasks on one executor (opened when first needed), fits in between."""
 
-    def __init__(self, campaign: Campaign, reg: Registry, store: RunStore, choice: ExecutorChoice, truth_root: str | None,
-                 progress: _Progress):
+    def __init__(
+        self,
+        campaign: Campaign,
+        reg: Registry,
+        store: RunStore,
+        choice: ExecutorChoice,
+        truth_root: str | None,
+        progress: _Progress,
+    ):
         self.campaign, self.reg, self.store, self.choice = campaign, reg, store, choice
         self.truth_root = truth_root
         self.progress = progress
@@ -184,7 +205,10 @@ class _Runner:
                 ready = [t for t in pending if all((t.study, n) in self.learned for n in t.needs)]
                 if not ready:
                     t = pending[0]
-                    raise ConfigError(f"studies.{t.study}: task {t.id} needs {', '.join(t.needs)}, which no stage of the study can fit")
+                    raise ConfigError(
+                        f"studies.{t.study}: task {t.id} needs {', '.join(t.needs)}, "
+                        "which no stage of the study can fit"
+                    )
                 todo = []
                 for t in ready:
                     digests = {n: self.learned[(t.study, n)][0] for n in t.needs}
@@ -208,15 +232,22 @@ class _Runner:
                 inputs = [t for t in tasks if t.study == name and t.stage in stages]
                 if any(t.id in pending_ids for t in inputs):
                     continue
-                digest = _digest({"inputs": sorted(self.keys[t.id] for t in inputs), "code": code_digest(self.reg.sources[name]),
-                                  "config": self.campaign.results_json(name)})
+                digest = _digest(
+                    {
+                        "inputs": sorted(self.keys[t.id] for t in inputs),
+                        "code": code_digest(self.reg.sources[name]),
+                        "config": self.campaign.results_json(name),
+                    }
+                )
                 got = self.store.read_learned(name, state, digest)
                 if got is None:
                     rows = self.store.read_rows(inputs)
                     rng = generator(named_sequence(self.campaign.seed, name, "fit", state))
                     got = study.fit(state, rows, self.campaign.section(name), rng)
                     if not isinstance(got, pd.DataFrame):
-                        raise TypeError(f"study {name}: fit({state!r}) must return a pandas DataFrame, got {type(got).__name__}")
+                        raise TypeError(
+                            f"study {name}: fit({state!r}) must return a pandas DataFrame, got {type(got).__name__}"
+                        )
                     self.store.write_learned(name, state, digest, got)
                 self.learned[(name, state)] = (digest, got)
 
@@ -236,7 +267,11 @@ class _Runner:
                 if task is None:
                     return
                 learned = {n: parquet_bytes(_arrow(self.learned[(task.study, n)][1])) for n in task.needs}
-                pending[executor.submit(execute_task, task, self.campaign.seed, self.keys[task.id], learned, self.truth_root)] = task
+                pending[
+                    executor.submit(
+                        execute_task, task, self.campaign.seed, self.keys[task.id], learned, self.truth_root
+                    )
+                ] = task
 
         fill()
         while pending:
@@ -270,7 +305,10 @@ def summarize(store: RunStore, campaign: Campaign, reg: Registry, tasks: list[Ta
     """Reduce the stored tables to the metrics document and write the study tables."""
     missing = store.missing(tasks)
     if missing:
-        raise RunDirError(f"{store.root}: {len(missing)} of {len(tasks)} tasks have no result (first: {missing[0]}); rerun to complete")
+        raise RunDirError(
+            f"{store.root}: {len(missing)} of {len(tasks)} tasks have no result (first: {missing[0]}); "
+            "rerun to complete"
+        )
     metrics: dict[str, Any] = {}
     counts: dict[str, int] = {}
     for name, section in campaign.studies.items():
@@ -284,11 +322,18 @@ def summarize(store: RunStore, campaign: Campaign, reg: Registry, tasks: list[Ta
             metrics[f"{name}.{key}"] = value
         store.write_tables(name, summary.tables, to_markdown)
         store.write_exports(name, summary.exports)
-    return {"campaign": campaign.name, "config_hash": campaign.config_hash(), "seed": campaign.seed, "tasks": counts, "metrics": metrics}
+    return {
+        "campaign": campaign.name,
+        "config_hash": campaign.config_hash(),
+        "seed": campaign.seed,
+        "tasks": counts,
+        "metrics": metrics,
+    }
 
 
-def run_campaign(campaign: Campaign, choice: ExecutorChoice, *, out: str | Path | None = None, progress: bool = True,
-                 log=None) -> RunSummary:
+def run_campaign(
+    campaign: Campaign, choice: ExecutorChoice, *, out: str | Path | None = None, progress: bool = True, log=None
+) -> RunSummary:
     """Run (or resume) `campaign` into its run directory and write metrics.json and tables."""
     from aerotruth.truth.store import TruthStore
 
@@ -308,6 +353,8 @@ def run_campaign(campaign: Campaign, choice: ExecutorChoice, *, out: str | Path 
     flown = runner.legs_flown
     if flown:
         removed, freed = truth.evict(int(campaign.truth_store.max_gb * 1e9))
-        log(f"truth store {truth.root}: {flown} legs flown, {truth.size_bytes() / 1e6:.1f} MB"
-            + (f" ({removed} least recently used flights evicted, {freed / 1e6:.1f} MB)" if removed else ""))
+        log(
+            f"truth store {truth.root}: {flown} legs flown, {truth.size_bytes() / 1e6:.1f} MB"
+            + (f" ({removed} least recently used flights evicted, {freed / 1e6:.1f} MB)" if removed else "")
+        )
     return RunSummary(store.root, len(tasks), len(tasks) - runner.ran, runner.ran, time.monotonic() - t0, flown)

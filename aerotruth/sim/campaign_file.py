@@ -41,7 +41,9 @@ class ExecutorConfig(Section):
     """Where tasks run. The command line (--executor, --workers, --scheduler) overrides it."""
 
     kind: Literal["local", "dask"] = "local"
-    workers: StrictInt | None = Field(default=None, ge=1, description="local: processes (default: cores); dask: LocalCluster workers (default 2)")
+    workers: StrictInt | None = Field(
+        default=None, ge=1, description="local: processes (default: cores); dask: LocalCluster workers (default 2)"
+    )
     scheduler: str | None = Field(default=None, description="address of a running Dask scheduler (implies kind: dask)")
 
 
@@ -61,8 +63,9 @@ class Period(Section):
     dates: list[_dt.date] | None = None
     start: _dt.date | None = None
     end: _dt.date | None = None
-    every_days: StrictInt = Field(default=1, ge=1, description="with start/end: keep every N-th day from start "
-                                  "(a long period subsampled)")
+    every_days: StrictInt = Field(
+        default=1, ge=1, description="with start/end: keep every N-th day from start (a long period subsampled)"
+    )
 
     @model_validator(mode="after")
     def _one_form(self) -> Period:
@@ -92,7 +95,9 @@ class Fleet(Section):
 
     name: str = Field(min_length=1)
     aircraft_type: str | None = Field(default=None, description="aircraft model name (default: the project default)")
-    network: str | None = Field(default=None, description="route network for the daily schedule (aerotruth.truth.routes)")
+    network: str | None = Field(
+        default=None, description="route network for the daily schedule (aerotruth.truth.routes)"
+    )
     aircraft: list[str] = Field(description="tail numbers or other unique aircraft ids")
 
     @field_validator("aircraft")
@@ -109,30 +114,44 @@ class Fleet(Section):
 class TruthStoreConfig(Section):
     """Where flown truth is cached (shared by every run and campaign on this machine)."""
 
-    path: str | None = Field(default=None, description="folder (default $AEROTRUTH_CACHE/truth, else the user's cache folder)")
-    max_gb: float = Field(default=20.0, gt=0, description="size cap; least recently used flights are evicted after a run")
+    path: str | None = Field(
+        default=None, description="folder (default $AEROTRUTH_CACHE/truth, else the user's cache folder)"
+    )
+    max_gb: float = Field(
+        default=20.0, gt=0, description="size cap; least recently used flights are evicted after a run"
+    )
 
 
 class Campaign(Section):
     """A whole campaign file."""
 
     name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$", description="also the default run directory runs/<name>")
-    seed: StrictInt = Field(ge=0, description="campaign seed: every task stream is SeedSequence(seed, spawn_key=digest(task))")
+    seed: StrictInt = Field(
+        ge=0, description="campaign seed: every task stream is SeedSequence(seed, spawn_key=digest(task))"
+    )
     description: str = ""
     fleets: list[Fleet] = Field(default_factory=list)
     periods: list[Period] = Field(min_length=1)
-    study_modules: list[str] = Field(default_factory=list, description="extra study modules: importable module names or .py files (relative to the YAML file)")
+    study_modules: list[str] = Field(
+        default_factory=list,
+        description="extra study modules: importable module names or .py files (relative to the YAML file)",
+    )
     studies: dict[str, Any] = Field(description="one section per study, validated by that study's own schema")
     truth_store: TruthStoreConfig = TruthStoreConfig()
     executor: ExecutorConfig = ExecutorConfig()
     outputs: OutputsConfig = OutputsConfig()
     sizes: dict[str, dict[str, Any]] = Field(
-        default_factory=dict, description="named reduced (or other) sizes: overrides merged into the campaign by "
-        "`aerotruth run --size NAME` (mappings merge key by key, lists and values replace)")
+        default_factory=dict,
+        description="named reduced (or other) sizes: overrides merged into the campaign by "
+        "`aerotruth run --size NAME` (mappings merge key by key, lists and values replace)",
+    )
     size: str | None = Field(default=None, description="the size applied (set by --size; not written by hand)")
-    diagnose: dict[str, Any] = Field(default_factory=dict, description="what `aerotruth diagnose` assumes beyond the "
-                                     "studies' sensors (wind: aerotruth.analysis.diagnose.wind.WindModelSpec); written by "
-                                     "diagnose into the extended model")
+    diagnose: dict[str, Any] = Field(
+        default_factory=dict,
+        description="what `aerotruth diagnose` assumes beyond the "
+        "studies' sensors (wind: aerotruth.analysis.diagnose.wind.WindModelSpec); written by "
+        "diagnose into the extended model",
+    )
 
     @field_validator("diagnose")
     @classmethod
@@ -166,8 +185,11 @@ class Campaign(Section):
         """Canonical JSON of what determines results: seed, fleets, periods and the study
         sections (all of them, or only `study`'s); not the executor, outputs, description
         or where truth is cached."""
-        data = self.model_dump(mode="json", by_alias=True, exclude={"executor", "outputs", "description", "truth_store", "study_modules",
-                                                                         "diagnose"})
+        data = self.model_dump(
+            mode="json",
+            by_alias=True,
+            exclude={"executor", "outputs", "description", "truth_store", "study_modules", "diagnose"},
+        )
         if study is not None:
             data["studies"] = {study: data["studies"][study]}
         return json.dumps(data, sort_keys=True, separators=(",", ":"))
@@ -246,7 +268,9 @@ def _line_of(root: yaml.Node | None, loc: tuple[Any, ...]) -> int | None:
     line = node.start_mark.line + 1
     for part in loc:
         if isinstance(node, yaml.MappingNode):
-            match = next(((k, v) for k, v in node.value if isinstance(k, yaml.ScalarNode) and k.value == str(part)), None)
+            match = next(
+                ((k, v) for k, v in node.value if isinstance(k, yaml.ScalarNode) and k.value == str(part)), None
+            )
             if match is None:
                 return line
             line = match[0].start_mark.line + 1
@@ -274,7 +298,9 @@ def _check_duplicate_keys(node: yaml.Node | None, loc: tuple[Any, ...] = ()) -> 
             _check_duplicate_keys(v, loc + (i,))
 
 
-def _one_line(err: ValidationError, root: yaml.Node | None, fields_of: type[BaseModel], prefix: tuple[Any, ...] = ()) -> str:
+def _one_line(
+    err: ValidationError, root: yaml.Node | None, fields_of: type[BaseModel], prefix: tuple[Any, ...] = ()
+) -> str:
     """The first validation error as `path: expected ..., got ... (line N)`; `prefix` is
     the YAML path of the block `fields_of` validated (e.g. ("studies", "truth"))."""
     errors = err.errors(include_url=False)
@@ -302,7 +328,10 @@ def _one_line(err: ValidationError, root: yaml.Node | None, fields_of: type[Base
         bound = next(v for k, v in e["ctx"].items() if k in ("ge", "gt", "le", "lt"))
         text = f"expected a number {_BOUNDS[kind]} {bound}, got {_describe(e.get('input'))}"
     elif kind == "string_pattern_mismatch" and loc == ("name",):
-        text = f"expected a name of letters, digits, '_', '.' and '-' (it names the run directory), got {_describe(e.get('input'))}"
+        text = (
+            "expected a name of letters, digits, '_', '.' and '-' (it names the run directory), "
+            f"got {_describe(e.get('input'))}"
+        )
     elif kind == "value_error":
         text = str(e["ctx"]["error"])
     else:
@@ -405,7 +434,8 @@ def _check_campaign(c: Campaign, root: yaml.Node | None) -> None:
             if f.network is not None and f.network not in known_networks:
                 loc = ("fleets", i, "network")
                 raise ConfigError(
-                    f"{format_path(loc)}: expected a route network ({', '.join(sorted(known_networks))}), got {_describe(f.network)} (line {_line_of(root, loc)})"
+                    f"{format_path(loc)}: expected a route network ({', '.join(sorted(known_networks))}), "
+                    f"got {_describe(f.network)} (line {_line_of(root, loc)})"
                 )
     if any(f.aircraft_type is not None for f in c.fleets):
         from aerotruth.truth.airframes import airframe_names
@@ -415,7 +445,8 @@ def _check_campaign(c: Campaign, root: yaml.Node | None) -> None:
             if f.aircraft_type is not None and f.aircraft_type not in known:
                 loc = ("fleets", i, "aircraft_type")
                 raise ConfigError(
-                    f"{format_path(loc)}: expected an aircraft type ({', '.join(known)}), got {_describe(f.aircraft_type)} (line {_line_of(root, loc)})"
+                    f"{format_path(loc)}: expected an aircraft type ({', '.join(known)}), "
+                    f"got {_describe(f.aircraft_type)} (line {_line_of(root, loc)})"
                 )
 
 
@@ -444,16 +475,21 @@ def _validate_studies(c: Campaign, root: yaml.Node | None, base_dir: Path | None
     except StudyError as e:
         raise ConfigError(f"study_modules: {e}") from None
     if not c.studies:
-        raise ConfigError(f"studies: expected at least one study ({', '.join(reg)}) (line {_line_of(root, ('studies',))})")
+        raise ConfigError(
+            f"studies: expected at least one study ({', '.join(reg)}) (line {_line_of(root, ('studies',))})"
+        )
     sections: dict[str, Section] = {}
     for name, value in c.studies.items():
         loc = ("studies", name)
         if name not in reg:
-            raise ConfigError(f"{format_path(loc)}: unknown study (available: {', '.join(sorted(reg))}) (line {_line_of(root, loc)})")
+            raise ConfigError(
+                f"{format_path(loc)}: unknown study (available: {', '.join(sorted(reg))}) (line {_line_of(root, loc)})"
+            )
         study = reg.get(name)
         try:
-            sections[name] = study.Config.model_validate({} if value is None else value,
-                                                         context={"base_dir": base_dir})  # relative data files: the YAML's folder
+            sections[name] = study.Config.model_validate(
+                {} if value is None else value, context={"base_dir": base_dir}
+            )  # relative data files: the YAML's folder
         except ValidationError as e:
             raise ConfigError(_one_line(e, root, study.Config, prefix=loc)) from None
     c = c.model_copy(update={"studies": sections, "study_modules": [s.split(":", 1)[1] for s in sources]})
@@ -470,8 +506,11 @@ class _CampaignLoader(yaml.SafeLoader):
 
 _NUMBER_TAGS = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
 _CampaignLoader.yaml_implicit_resolvers = {
-    ch: [(tag, rx) for tag, rx in resolvers
-         if tag != "tag:yaml.org,2002:timestamp" and not (tag in _NUMBER_TAGS and ":" in rx.pattern)]
+    ch: [
+        (tag, rx)
+        for tag, rx in resolvers
+        if tag != "tag:yaml.org,2002:timestamp" and not (tag in _NUMBER_TAGS and ":" in rx.pattern)
+    ]
     for ch, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
 }
 # YAML 1.1 ints and floats again, without their base-60 alternatives
@@ -482,7 +521,9 @@ _CampaignLoader.add_implicit_resolver(
 )
 _CampaignLoader.add_implicit_resolver(
     "tag:yaml.org,2002:float",
-    re.compile(r"^(?:[-+]?[0-9][0-9_]*\.[0-9_]*(?:[eE][-+][0-9]+)?|\.[0-9][0-9_]*(?:[eE][-+][0-9]+)?|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"),
+    re.compile(
+        r"^(?:[-+]?[0-9][0-9_]*\.[0-9_]*(?:[eE][-+][0-9]+)?|\.[0-9][0-9_]*(?:[eE][-+][0-9]+)?|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"
+    ),
     list("-+0123456789."),
 )
 
@@ -508,8 +549,10 @@ def _apply_size(data: dict, size: str) -> dict:
         raise ConfigError(f"sizes.{size}: expected a mapping of campaign fields to override, got {_describe(override)}")
     bad = sorted(set(override) - {"fleets", "periods", "studies", "description", "executor", "truth_store", "outputs"})
     if bad:
-        raise ConfigError(f"sizes.{size}: cannot override {', '.join(bad)} (fleets, periods, studies, description, "
-                          "executor, truth_store, outputs)")
+        raise ConfigError(
+            f"sizes.{size}: cannot override {', '.join(bad)} (fleets, periods, studies, description, "
+            "executor, truth_store, outputs)"
+        )
     out = _merged(data, override)  # a new mapping: `data` is left as it was
     out["name"] = f"{data.get('name')}-{size}"
     out["size"] = size

@@ -50,8 +50,15 @@ class ExecutorChoice:
         return f"dask LocalCluster, {self.workers or DEFAULT_DASK_LOCAL_WORKERS} worker processes"
 
 
-def resolve(yaml_kind: str, yaml_workers: int | None, yaml_scheduler: str | None, *, kind: str | None = None,
-            workers: int | None = None, scheduler: str | None = None) -> ExecutorChoice:
+def resolve(
+    yaml_kind: str,
+    yaml_workers: int | None,
+    yaml_scheduler: str | None,
+    *,
+    kind: str | None = None,
+    workers: int | None = None,
+    scheduler: str | None = None,
+) -> ExecutorChoice:
     """Merge command-line options over the campaign's `executor:` block; a scheduler address
     implies dask."""
     if workers is not None and workers < 1:
@@ -60,7 +67,9 @@ def resolve(yaml_kind: str, yaml_workers: int | None, yaml_scheduler: str | None
     k = kind or ("dask" if sched else yaml_kind)
     if sched and k != "dask":
         raise ExecutorError("--scheduler needs --executor dask")
-    return ExecutorChoice(kind=k, workers=workers if workers is not None else yaml_workers, scheduler=sched if k == "dask" else None)
+    return ExecutorChoice(
+        kind=k, workers=workers if workers is not None else yaml_workers, scheduler=sched if k == "dask" else None
+    )
 
 
 @contextmanager
@@ -109,8 +118,12 @@ def open_executor(choice: ExecutorChoice) -> Iterator[tuple[Executor, int]]:
         # (measured: 1.6-1.9 s against 1.3-1.6 s per task). Workers here keep glibc's default,
         # and no statistical profiler (it samples the task thread every 10 ms for a dashboard
         # this cluster does not serve).
-        with dask.config.set({"distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
-                              "distributed.worker.profile.enabled": False}):
+        with dask.config.set(
+            {
+                "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
+                "distributed.worker.profile.enabled": False,
+            }
+        ):
             cluster = LocalCluster(
                 n_workers=choice.workers or DEFAULT_DASK_LOCAL_WORKERS,
                 threads_per_worker=1,

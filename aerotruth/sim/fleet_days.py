@@ -45,7 +45,9 @@ class FlightSelection(Section):
 
     fleets: list[str] = Field(min_length=1)
     periods: list[str] = Field(min_length=1)
-    legs: list[LegSpec] | None = Field(default=None, description="fly these legs every aircraft-day instead of a schedule")
+    legs: list[LegSpec] | None = Field(
+        default=None, description="fly these legs every aircraft-day instead of a schedule"
+    )
     max_legs_per_day: StrictInt | None = Field(default=None, ge=1, description="keep only the first N legs of each day")
     turbulence: StrictBool = False
 
@@ -61,7 +63,10 @@ def check_flights(campaign: Campaign, refs: References, section: FlightSelection
         for i, leg in enumerate(section.legs):
             for key, code in (("from", leg.origin), ("to", leg.destination)):
                 if code not in known:
-                    raise refs.error(prefix + ("legs", i, key), f"expected the ICAO code of an airport in the embedded table, got {refs.value(code)}")
+                    raise refs.error(
+                        prefix + ("legs", i, key),
+                        f"expected the ICAO code of an airport in the embedded table, got {refs.value(code)}",
+                    )
             if leg.origin == leg.destination:
                 raise refs.error(prefix + ("legs", i), f"from and to are the same airport {leg.origin}")
     else:
@@ -73,29 +78,59 @@ def check_networks(campaign: Campaign, refs: References, fleets: list[str], why:
     for name in fleets:
         j = next(k for k, f in enumerate(campaign.fleets) if f.name == name)
         if campaign.fleets[j].network is None:
-            raise refs.error(("fleets", j, "network"), f"required by {refs.where} ({why}), expected a route network name",
-                             absolute=True)
+            raise refs.error(
+                ("fleets", j, "network"),
+                f"required by {refs.where} ({why}), expected a route network name",
+                absolute=True,
+            )
 
 
-def aircraft_days(campaign: Campaign, section: FlightSelection, periods: list[str] | None = None) -> list[tuple[str, AircraftDay]]:
+def aircraft_days(
+    campaign: Campaign, section: FlightSelection, periods: list[str] | None = None
+) -> list[tuple[str, AircraftDay]]:
     """(fleet name, AircraftDay) of every aircraft and day (of `periods`, default the section's)."""
-    legs = None if section.legs is None else tuple(
-        FixedLeg(leg.origin, leg.destination, leg.departure_utc.isoformat(timespec="minutes")) for leg in section.legs)
+    legs = (
+        None
+        if section.legs is None
+        else tuple(
+            FixedLeg(leg.origin, leg.destination, leg.departure_utc.isoformat(timespec="minutes"))
+            for leg in section.legs
+        )
+    )
     out = []
     for name in section.fleets:
         fleet = campaign.fleet(name)
         for aircraft in fleet.aircraft:
             for day in campaign.days(periods or section.periods):
-                out.append((fleet.name, AircraftDay.for_campaign(
-                    campaign.seed, aircraft, day, aircraft_type=fleet.aircraft_type, network=fleet.network, legs=legs,
-                    max_legs=section.max_legs_per_day, turbulence=section.turbulence)))
+                out.append(
+                    (
+                        fleet.name,
+                        AircraftDay.for_campaign(
+                            campaign.seed,
+                            aircraft,
+                            day,
+                            aircraft_type=fleet.aircraft_type,
+                            network=fleet.network,
+                            legs=legs,
+                            max_legs=section.max_legs_per_day,
+                            turbulence=section.turbulence,
+                        ),
+                    )
+                )
     return out
 
 
-def day_task(study: str, fleet: str, day: AircraftDay, *, stage: str = MAIN_STAGE, needs: tuple[str, ...] = (), **params) -> Task:
+def day_task(
+    study: str, fleet: str, day: AircraftDay, *, stage: str = MAIN_STAGE, needs: tuple[str, ...] = (), **params
+) -> Task:
     """The task of one aircraft-day (identity: fleet, aircraft, date)."""
-    return Task(study, (("fleet", fleet), ("aircraft", day.aircraft), ("date", day.date.isoformat())),
-                params={"day": day, **params}, stage=stage, needs=needs)
+    return Task(
+        study,
+        (("fleet", fleet), ("aircraft", day.aircraft), ("date", day.date.isoformat())),
+        params={"day": day, **params},
+        stage=stage,
+        needs=needs,
+    )
 
 
 def flown_legs(ctx, day: AircraftDay) -> list[LegOutcome]:

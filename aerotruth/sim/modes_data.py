@@ -23,8 +23,15 @@ from aerotruth.truth.days import AircraftDay
 from aerotruth.truth.store import TruthStore
 
 
-def simulated_modes_day(day: AircraftDay, *, table_error_deg: float = 0.0, heading_lag_s: float = 0.0,
-                        spec: ModeSSpec | None = None, rng: np.random.Generator, store: TruthStore | None = None) -> Measured:
+def simulated_modes_day(
+    day: AircraftDay,
+    *,
+    table_error_deg: float = 0.0,
+    heading_lag_s: float = 0.0,
+    spec: ModeSSpec | None = None,
+    rng: np.random.Generator,
+    store: TruthStore | None = None,
+) -> Measured:
     """The day's legs as one decoded Mode-S trajectory. table_error_deg: the aircraft's
     variation table minus the true declination (east positive; the reported magnetic
     heading is then that much too small); heading_lag_s: heading samples that old."""
@@ -35,8 +42,12 @@ def simulated_modes_day(day: AircraftDay, *, table_error_deg: float = 0.0, headi
         df = out.track.df
         when = dt.datetime.fromisoformat(out.track.meta["departure_utc"])
         step = 100  # declination every 10 s of flight is plenty: it changes over hundreds of km
-        dec = declination_deg(df["lat_deg"].to_numpy()[::step], df["lon_deg"].to_numpy()[::step],
-                              df["h_ellipsoid_m"].to_numpy()[::step], when.replace(tzinfo=None))
+        dec = declination_deg(
+            df["lat_deg"].to_numpy()[::step],
+            df["lon_deg"].to_numpy()[::step],
+            df["h_ellipsoid_m"].to_numpy()[::step],
+            when.replace(tzinfo=None),
+        )
         dec = np.interp(np.arange(len(df)), np.arange(0, len(df), step), dec)
         av = avionics_from_truth(df, dec + table_error_deg)
         if heading_lag_s:

@@ -42,8 +42,21 @@ from aerotruth.sim.tasks import Task
 from aerotruth.sim.worker import META_TASK_ID, META_TASK_KEY
 
 METRIC_SIGNIFICANT_DIGITS = 10
-_VERSIONED = ("aerotruth", "numpy", "scipy", "pandas", "pyarrow", "pydantic", "jsbsim", "ppigrf", "dask", "distributed", "pyproj",
-              "numba", "llvmlite")
+_VERSIONED = (
+    "aerotruth",
+    "numpy",
+    "scipy",
+    "pandas",
+    "pyarrow",
+    "pydantic",
+    "jsbsim",
+    "ppigrf",
+    "dask",
+    "distributed",
+    "pyproj",
+    "numba",
+    "llvmlite",
+)
 META_INPUT_DIGEST = b"aerotruth.input_digest"
 
 
@@ -119,7 +132,9 @@ class RunStore:
         """Create or reopen the run directory for `campaign`: write the resolved config and
         the manifest, drop temporaries and the tables of tasks the campaign no longer has."""
         if not self.manifest_path.exists() and self.tasks_dir.exists() and any(self.tasks_dir.glob("*.parquet")):
-            raise RunDirError(f"{self.root} has task results but no manifest.json; choose another --out or delete the directory")
+            raise RunDirError(
+                f"{self.root} has task results but no manifest.json; choose another --out or delete the directory"
+            )
         self.tasks_dir.mkdir(parents=True, exist_ok=True)
         remove_stale_temporaries(self.tasks_dir)
         ids = sorted(t.id for t in tasks)
@@ -147,7 +162,9 @@ class RunStore:
         try:
             return json.loads(self.manifest_path.read_text())
         except FileNotFoundError:
-            raise RunDirError(f"{self.root} is not a run directory (no manifest.json); run `aerotruth run CAMPAIGN.yaml` first") from None
+            raise RunDirError(
+                f"{self.root} is not a run directory (no manifest.json); run `aerotruth run CAMPAIGN.yaml` first"
+            ) from None
 
     def campaign(self) -> Campaign:
         """The resolved campaign stored with the run."""
@@ -204,7 +221,7 @@ class RunStore:
         """Every stored state of `study`, by name."""
         out = {}
         for p in sorted(self.learned_dir.glob(f"{study}.*.parquet")) if self.learned_dir.exists() else []:
-            out[p.stem[len(study) + 1:]] = pq.read_table(p).to_pandas()
+            out[p.stem[len(study) + 1 :]] = pq.read_table(p).to_pandas()
         return out
 
     # -- tables ------------------------------------------------------------------------
@@ -282,4 +299,6 @@ class RunStore:
                 raise RunDirError(f"{self.root}: no such run directory") from None
             if not self.config_path.exists():
                 raise RunDirError(f"{self.root} is not a run directory (no config.resolved.yaml)") from None
-            raise RunDirError(f"{self.root} has no metrics.json: the run is unfinished; rerun `aerotruth run` to complete it") from None
+            raise RunDirError(
+                f"{self.root} has no metrics.json: the run is unfinished; rerun `aerotruth run` to complete it"
+            ) from None

@@ -46,7 +46,9 @@ class Task:
     def __post_init__(self) -> None:
         for k, v in self.identity:
             if not isinstance(k, str) or not isinstance(v, (str, int)) or isinstance(v, bool):
-                raise ValueError(f"task identity of {self.study}: expected str keys and str/int values, got {k!r}: {v!r}")
+                raise ValueError(
+                    f"task identity of {self.study}: expected str keys and str/int values, got {k!r}: {v!r}"
+                )
 
     @property
     def identity_json(self) -> str:
@@ -59,7 +61,11 @@ class Task:
     @property
     def id(self) -> str:
         """File-safe, human-readable, unique name: `study--[stage--]value--...--<8 hex digest>`."""
-        parts = [self.study] + ([self.stage] if self.stage != MAIN_STAGE else []) + [_safe(str(v)) for _, v in self.identity]
+        parts = (
+            [self.study]
+            + ([self.stage] if self.stage != MAIN_STAGE else [])
+            + [_safe(str(v)) for _, v in self.identity]
+        )
         return "--".join(parts + [self._digest_hex()[:8]])
 
     def _digest_hex(self) -> str:

@@ -58,18 +58,24 @@ class FleetSensors(Section):
     heading: FluxValveFleetSpec = Field(default_factory=FluxValveFleetSpec)
     air_data: AirDataSpec = Field(default_factory=AirDataSpec)
     heading_input: Literal["magnetic", "true"] = Field(
-        default="magnetic", description="magnetic: a flux-valve system whose magnetic heading the onboard table "
-        "indexes (SAAB 340); true: avionics hand over true heading, offset-only correction (ERJ-145, Table IV)")
+        default="magnetic",
+        description="magnetic: a flux-valve system whose magnetic heading the onboard table "
+        "indexes (SAAB 340); true: avionics hand over true heading, offset-only correction (ERJ-145, Table IV)",
+    )
     references: list[WeatherModelSpec] | None = Field(
-        default=None, min_length=1, description="reference models of this fleet's region (default: the study's), "
-        "e.g. RR alone with sigma_scale 1.4 for Alaska")
+        default=None,
+        min_length=1,
+        description="reference models of this fleet's region (default: the study's), "
+        "e.g. RR alone with sigma_scale 1.4 for Alaska",
+    )
 
 
 class WindSensors(Section):
     """Sensors of every fleet, the reporting rules and the reference models of a wind study."""
 
-    fleets: dict[str, FleetSensors] = Field(default_factory=dict, description="per fleet name; fleets not named "
-                                            "get the defaults")
+    fleets: dict[str, FleetSensors] = Field(
+        default_factory=dict, description="per fleet name; fleets not named get the defaults"
+    )
     reports: ReportSpec = Field(default_factory=ReportSpec)
     references: list[WeatherModelSpec] = Field(default_factory=lambda: [preset("rr"), preset("rtfdda")], min_length=1)
 
@@ -88,17 +94,27 @@ def aircraft_rng(campaign_seed: int, fleet: str, aircraft: str, what: str) -> np
     return seeds.generator(seeds.named_sequence(campaign_seed, "sensor", fleet, aircraft, what))
 
 
-def aircraft_heading(campaign_seed: int, fleet: str, aircraft: str, spec: FluxValveFleetSpec,
-                     fleet_aircraft: tuple[str, ...] | None = None) -> tuple[str, FluxValveSpec]:
+def aircraft_heading(
+    campaign_seed: int,
+    fleet: str,
+    aircraft: str,
+    spec: FluxValveFleetSpec,
+    fleet_aircraft: tuple[str, ...] | None = None,
+) -> tuple[str, FluxValveSpec]:
     """(class "poor" | "healthy", flux valve) of one airframe. With `spec.poor_count` the
     class comes from the whole fleet's draw (`fleet_aircraft`: every aircraft of the fleet)."""
     poor = None
     if spec.poor_count is not None:
         if not fleet_aircraft or aircraft not in fleet_aircraft:
-            raise ValueError(f"heading.poor_count: the aircraft of fleet {fleet!r} are needed to draw which "
-                             f"{spec.poor_count} are poor, and {aircraft!r} is not among {list(fleet_aircraft or [])}")
-        poor = aircraft in poor_valves(fleet_aircraft, spec.poor_count,
-                                       seeds.generator(seeds.named_sequence(campaign_seed, "sensor", fleet, "poor_valves")))
+            raise ValueError(
+                f"heading.poor_count: the aircraft of fleet {fleet!r} are needed to draw which "
+                f"{spec.poor_count} are poor, and {aircraft!r} is not among {list(fleet_aircraft or [])}"
+            )
+        poor = aircraft in poor_valves(
+            fleet_aircraft,
+            spec.poor_count,
+            seeds.generator(seeds.named_sequence(campaign_seed, "sensor", fleet, "poor_valves")),
+        )
     return spec.draw_with_class(aircraft_rng(campaign_seed, fleet, aircraft, "heading"), poor=poor)
 
 
@@ -113,7 +129,7 @@ _ANALYSES: dict[tuple, WeatherModelAnalysis] = {}
 def analysis_of_day(campaign_seed: int, spec: WeatherModelSpec, leg: PlannedLeg) -> WeatherModelAnalysis:
     """The weather model's analysis of the leg's day and region (one error draw per
     (model, date, region), kept per process)."""
-    date = leg.plan.departure_utc.astimezone(dt.timezone.utc).date()
+    date = leg.plan.departure_utc.astimezone(dt.UTC).date()
     key = (campaign_seed, spec.model_dump_json(), date, leg.weather_seed, leg.region)
     if key not in _ANALYSES:
         if len(_ANALYSES) > 32:
@@ -130,29 +146,51 @@ def _field_pressure_hpa(leg: PlannedLeg, arrival: bool, t_s: float) -> float:
     return float(np.asarray(p).ravel()[0]) / HPA
 
 
-def leg_reports(leg: PlannedLeg, track: pd.DataFrame, *, aircraft: str, heading: HeadingSystem, field: GeomagneticField,
-                air: AirDataErrors, report_spec: ReportSpec, rng: np.random.Generator,
-                correction: HeadingCorrection | None = None) -> pd.DataFrame:
+def leg_reports(
+    leg: PlannedLeg,
+    track: pd.DataFrame,
+    *,
+    aircraft: str,
+    heading: HeadingSystem,
+    field: GeomagneticField,
+    air: AirDataErrors,
+    report_spec: ReportSpec,
+    rng: np.random.Generator,
+    correction: HeadingCorrection | None = None,
+) -> pd.DataFrame:
     """The TAMDAR reports of one flown leg (REPORT_COLUMNS plus the heading the system
     measured, its declination and the truth at each report; no reference columns yet)."""
-    departure = leg.plan.departure_utc.astimezone(dt.timezone.utc)
+    departure = leg.plan.departure_utc.astimezone(dt.UTC)
     midnight = departure.replace(hour=0, minute=0, second=0, microsecond=0)
     t0_day = (departure - midnight).total_seconds()
     h = heading.apply(track, field)
     measured = air.apply(track, rng)
     descending = track["phase"].isin(_DESCENDING).to_numpy()
-    ground = np.where(descending, _field_pressure_hpa(leg, True, t0_day + float(track["time_s"].iloc[-1])),
-                      _field_pressure_hpa(leg, False, t0_day))
-    reports = generate_reports(track, h["heading_rad"].to_numpy(), report_spec, ground_pressure_hpa=ground, air=measured,
-                               correction=correction, variation_rad=h["declination_rad"].to_numpy(), aircraft=aircraft,
-                               start_epoch_s=departure.timestamp())
+    ground = np.where(
+        descending,
+        _field_pressure_hpa(leg, True, t0_day + float(track["time_s"].iloc[-1])),
+        _field_pressure_hpa(leg, False, t0_day),
+    )
+    reports = generate_reports(
+        track,
+        h["heading_rad"].to_numpy(),
+        report_spec,
+        ground_pressure_hpa=ground,
+        air=measured,
+        correction=correction,
+        variation_rad=h["declination_rad"].to_numpy(),
+        aircraft=aircraft,
+        start_epoch_s=departure.timestamp(),
+    )
     i = reports["sample_index"].to_numpy()
     dec = np.degrees(h["declination_rad"].to_numpy()[i])
     u, v = track["wind_u_mps"].to_numpy(float)[i], track["wind_v_mps"].to_numpy(float)[i]
     reports["heading_mag_deg"] = np.mod(reports["heading_deg"] - dec, 360.0)
     reports["declination_deg"] = dec
     reports["flight"] = leg.plan.flight_id
-    reports["ground_elevation_m"] = np.where(descending[i], leg.plan.destination.elevation_m, leg.plan.origin.elevation_m)
+    reports["ground_elevation_m"] = np.where(
+        descending[i], leg.plan.destination.elevation_m, leg.plan.origin.elevation_m
+    )
     reports["truth_heading_deg"] = np.mod(np.degrees(track["heading_rad"].to_numpy(float)[i]), 360.0)
     reports["truth_wind_speed_kt"] = np.hypot(u, v) / KT
     reports["truth_wind_dir_deg"] = np.mod(np.degrees(np.arctan2(-u, -v)), 360.0)
@@ -165,9 +203,17 @@ def with_references(reports: pd.DataFrame, analyses: list[WeatherModelAnalysis])
     return pd.concat(frames, ignore_index=True) if frames else reports
 
 
-def day_observations(campaign_seed: int, fleet: str, day: AircraftDay, sensors: WindSensors, ctx, *,
-                     correction: HeadingCorrection | None = None, legs=None,
-                     fleet_aircraft: tuple[str, ...] | None = None) -> pd.DataFrame:
+def day_observations(
+    campaign_seed: int,
+    fleet: str,
+    day: AircraftDay,
+    sensors: WindSensors,
+    ctx,
+    *,
+    correction: HeadingCorrection | None = None,
+    legs=None,
+    fleet_aircraft: tuple[str, ...] | None = None,
+) -> pd.DataFrame:
     """The observation table of an aircraft-day (empty when no leg has truth). `legs`: the
     day's LegOutcomes (from `ctx.truth` when None); `fleet_aircraft`: the fleet's aircraft
     (needed when the fleet's heading spec sets `poor_count`)."""
@@ -186,8 +232,17 @@ def day_observations(campaign_seed: int, fleet: str, day: AircraftDay, sensors: 
     for k, o in enumerate(outcomes):
         if o.track is None:
             continue
-        reports = leg_reports(o.leg, o.track.df, aircraft=day.aircraft, heading=system, field=field, air=air,
-                              report_spec=sensors.reports, rng=ctx.rng("sensor", "air_data", k), correction=correction)
+        reports = leg_reports(
+            o.leg,
+            o.track.df,
+            aircraft=day.aircraft,
+            heading=system,
+            field=field,
+            air=air,
+            report_spec=sensors.reports,
+            rng=ctx.rng("sensor", "air_data", k),
+            correction=correction,
+        )
         if len(reports):
             analyses = [analysis_of_day(campaign_seed, spec, o.leg) for spec in (fs.references or sensors.references)]
             frames.append(with_references(reports, analyses))
@@ -201,8 +256,9 @@ def day_observations(campaign_seed: int, fleet: str, day: AircraftDay, sensors: 
     return obs
 
 
-def simulated_observations(days: list, sensors: WindSensors, sensor_seed: int, *, fleet: str = "fleet",
-                           store=None) -> pd.DataFrame:
+def simulated_observations(
+    days: list, sensors: WindSensors, sensor_seed: int, *, fleet: str = "fleet", store=None
+) -> pd.DataFrame:
     """The observation table aerotruth's sensors make of `days` (AircraftDay, truth from the
     store, flown if missing) with every sensor draw from `sensor_seed`: airframe properties,
     reference-model errors and per-sample noise; the same truth under another seed is another
@@ -223,5 +279,14 @@ def simulated_observations(days: list, sensors: WindSensors, sensor_seed: int, *
     return pd.concat(frames, ignore_index=True)
 
 
-__all__ = ["FleetSensors", "WindSensors", "day_observations", "simulated_observations", "leg_reports", "with_references", "analysis_of_day",
-           "aircraft_heading", "aircraft_air_data"]
+__all__ = [
+    "FleetSensors",
+    "WindSensors",
+    "day_observations",
+    "simulated_observations",
+    "leg_reports",
+    "with_references",
+    "analysis_of_day",
+    "aircraft_heading",
+    "aircraft_air_data",
+]

@@ -39,8 +39,9 @@ def read_parquet_bytes(data: bytes) -> pd.DataFrame:
     return pq.read_table(io.BytesIO(data)).to_pandas()
 
 
-def execute_task(task: Task, campaign_seed: int, task_key: str, learned: dict[str, bytes],
-                 truth_root: str | None) -> tuple[bytes, int]:
+def execute_task(
+    task: Task, campaign_seed: int, task_key: str, learned: dict[str, bytes], truth_root: str | None
+) -> tuple[bytes, int]:
     """Run `task` with its named streams; return its table as Parquet bytes, tagged with
     the task id, identity and key (checked when a run resumes), and the number of legs it
     flew into the truth store (the store's log also holds other processes' flights)."""
@@ -48,7 +49,9 @@ def execute_task(task: Task, campaign_seed: int, task_key: str, learned: dict[st
     ctx = TaskContext(task, campaign_seed, truth_root, {k: read_parquet_bytes(v) for k, v in learned.items()})
     table = as_arrow(study.run(task, ctx))
     meta = dict(table.schema.metadata or {})
-    meta.update({META_TASK_ID: task.id.encode(), META_IDENTITY: task.identity_json.encode(), META_TASK_KEY: task_key.encode()})
+    meta.update(
+        {META_TASK_ID: task.id.encode(), META_IDENTITY: task.identity_json.encode(), META_TASK_KEY: task_key.encode()}
+    )
     return parquet_bytes(table.replace_schema_metadata(meta)), ctx.legs_flown
 
 

@@ -98,8 +98,13 @@ AIRFRAMES["saab340"] = Airframe(
         descent_vs_fpm=-1500.0,
     ),
     fuel_lbs=None,  # the model's default load: 12,000 kg with 1,760 kg of fuel
-    extra_ic={"fcs/gear-cmd-norm": 0.0, "gear/gear-pos-norm": 0.0, "fcs/flap-cmd-norm": 0.0,
-              "fcs/advance-cmd-norm[0]": 1.0, "fcs/advance-cmd-norm[1]": 1.0},
+    extra_ic={
+        "fcs/gear-cmd-norm": 0.0,
+        "gear/gear-pos-norm": 0.0,
+        "fcs/flap-cmd-norm": 0.0,
+        "fcs/advance-cmd-norm[0]": 1.0,
+        "fcs/advance-cmd-norm[1]": 1.0,
+    },
     phase_properties={
         "climb": {"fcs/advance-cmd-norm[0]": 1.0, "fcs/advance-cmd-norm[1]": 1.0},  # 1,384 rpm
         "cruise": {"fcs/advance-cmd-norm[0]": 0.0, "fcs/advance-cmd-norm[1]": 0.0},  # 1,230 rpm
@@ -131,8 +136,9 @@ def _cache_dir() -> Path:
     return root
 
 
-_SYSTEM_LINES = ('    <system file="{gains}"/>\n    <system file="aerotruth_autopilot"/>\n'
-                 '    <system file="aerotruth_imu"/>\n')
+_SYSTEM_LINES = (
+    '    <system file="{gains}"/>\n    <system file="aerotruth_autopilot"/>\n    <system file="aerotruth_imu"/>\n'
+)
 
 
 def with_autopilot(xml: str, gains_file: str) -> str:
@@ -143,8 +149,10 @@ def with_autopilot(xml: str, gains_file: str) -> str:
     if m is None:
         m = re.search(r"^\s*</fdm_config>", xml, flags=re.M)
     if m is None:
-        raise ValueError("aircraft XML: no <flight_control>, <system> or </fdm_config> element to insert the autopilot before")
-    return xml[: m.start()] + "\n" + lines + xml[m.start():]
+        raise ValueError(
+            "aircraft XML: no <flight_control>, <system> or </fdm_config> element to insert the autopilot before"
+        )
+    return xml[: m.start()] + "\n" + lines + xml[m.start() :]
 
 
 _IO_ELEMENTS = (
@@ -209,7 +217,9 @@ def new_fdm(af: Airframe, dt: float, autopilot: bool = True) -> jsbsim.FGFDMExec
         # before loading: JSBSim's FCS components (filters, PIDs, kinematics) take the time
         # step when they are built, and would otherwise keep the default 1/120 s
         fdm.set_dt(dt)
-        ok = fdm.load_model_with_paths(af.model, str(aircraft_root(af, autopilot)), str(engine_dir(af)), str(SYSTEMS_DIR))
+        ok = fdm.load_model_with_paths(
+            af.model, str(aircraft_root(af, autopilot)), str(engine_dir(af)), str(SYSTEMS_DIR)
+        )
     if not ok:
         raise RuntimeError(f"JSBSim could not load aircraft {af.name!r}")
     return fdm

@@ -16,11 +16,11 @@ with the geoid undulation of each airport in one place").
 from __future__ import annotations
 
 import csv
+from collections.abc import Mapping
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import resources
 from types import MappingProxyType
-from typing import Mapping
 
 from aerotruth.units import FT
 
@@ -141,8 +141,25 @@ _NETWORKS: dict[str, Network] = {
         "SAAB 340B",
         {
             "KMSP": (
-                "KDLH", "KRST", "KBRD", "KBJI", "KHIB", "KINL", "KGFK", "KFAR", "KBIS", "KFSD",
-                "KDSM", "KCID", "KLSE", "KEAU", "KCWA", "KRHI", "KGRB", "KATW", "KMSN",
+                "KDLH",
+                "KRST",
+                "KBRD",
+                "KBJI",
+                "KHIB",
+                "KINL",
+                "KGFK",
+                "KFAR",
+                "KBIS",
+                "KFSD",
+                "KDSM",
+                "KCID",
+                "KLSE",
+                "KEAU",
+                "KCWA",
+                "KRHI",
+                "KGRB",
+                "KATW",
+                "KMSN",
             ),
             "KDTW": ("KTVC", "KMBS", "KFNT", "KLAN", "KGRR", "KAZO", "KSAW", "KESC", "KPLN"),
             "KMEM": ("KLIT", "KXNA", "KTYS", "KCHA", "KHSV", "KJAN", "KTUP", "KMLU"),
@@ -166,8 +183,12 @@ _NETWORKS: dict[str, Network] = {
             "KSTL": ("KBNA", "KMKE", "KCLE", "KTYS", "KCHA", "KDSM", "KMCI", "KOMA"),
             "KORD": ("KPIT", "KCLE", "KBNA", "KBUF", "KROC", "KDAY", "KSDF", "KTYS"),
         },
-        {"KIND": "America/Indiana/Indianapolis", "KCMH": "America/New_York", "KSTL": "America/Chicago",
-         "KORD": "America/Chicago"},
+        {
+            "KIND": "America/Indiana/Indianapolis",
+            "KCMH": "America/New_York",
+            "KSTL": "America/Chicago",
+            "KORD": "America/Chicago",
+        },
     ),
 }
 
@@ -182,9 +203,7 @@ def network(name: str) -> Network:
     try:
         return _NETWORKS[name]
     except (KeyError, TypeError):
-        raise ValueError(
-            f"network: unknown network {name!r}; expected one of {', '.join(sorted(_NETWORKS))}"
-        ) from None
+        raise ValueError(f"network: unknown network {name!r}; expected one of {', '.join(sorted(_NETWORKS))}") from None
 
 
 def network_airport_codes() -> tuple[str, ...]:
@@ -259,6 +278,4 @@ def airport(icao: str) -> Airport:
     if code in table:
         return table[code]
     listing = "; ".join(f"{net.name}: {', '.join(net.airports)}" for net in _NETWORKS.values())
-    raise ValueError(
-        f"airport: unknown ICAO code {icao!r}; the embedded table holds the network airports ({listing})"
-    )
+    raise ValueError(f"airport: unknown ICAO code {icao!r}; the embedded table holds the network airports ({listing})")

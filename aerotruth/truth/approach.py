@@ -28,8 +28,8 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass, field
+from datetime import UTC, datetime
 from datetime import date as Date
-from datetime import datetime, timezone
 from typing import TYPE_CHECKING, Any, Protocol
 
 import jsbsim
@@ -126,7 +126,9 @@ class ApproachSpec:
         if self.profile not in PROFILES:
             raise ValueError(f"profile: expected one of {PROFILES}, got {self.profile!r}")
         if not self.start_nm > self.intercept_nm >= 11.0:
-            raise ValueError(f"start_nm/intercept_nm: expected start > intercept >= 11 nm, got {self.start_nm}/{self.intercept_nm}")
+            raise ValueError(
+                f"start_nm/intercept_nm: expected start > intercept >= 11 nm, got {self.start_nm}/{self.intercept_nm}"
+            )
         if "imu" not in self.points_m:
             raise ValueError("points_m: the IMU point is required")
         if not 0.0 <= self.intercept_deg <= 45.0:
@@ -169,21 +171,57 @@ class GlidePath:
         return math.atan2(y, self.loc_x - x) / (0.5 * self.loc_half_sector)
 
 
-INERTIAL_PROPS = tuple(f"imu/v-{a}-fps" for a in "xyz") + tuple(f"imu/theta-{a}-rad" for a in "xyz") + tuple(
-    f"inertia/cg-{a}-in" for a in "xyz")
+INERTIAL_PROPS = (
+    tuple(f"imu/v-{a}-fps" for a in "xyz")
+    + tuple(f"imu/theta-{a}-rad" for a in "xyz")
+    + tuple(f"inertia/cg-{a}-in" for a in "xyz")
+)
 
 
-def _ic(fdm, frame: RunwayFrame, gp: GlidePath, spec: ApproachSpec, af: Airframe, sched: ApproachSchedule,
-        atmosphere: Atmosphere, undulation: float, t0_s: float) -> None:
+def _ic(
+    fdm,
+    frame: RunwayFrame,
+    gp: GlidePath,
+    spec: ApproachSpec,
+    af: Airframe,
+    sched: ApproachSchedule,
+    atmosphere: Atmosphere,
+    undulation: float,
+    t0_s: float,
+) -> None:
     # y is left of the course: from the left (y > 0) the intercept heads right of the course
-    initial_conditions(fdm, frame, -spec.start_nm * NM, spec.offset_nm * NM, gp.height_m(-spec.intercept_nm * NM, 0.0),
-                       frame.course_deg + math.copysign(spec.intercept_deg, spec.offset_nm), af, spec.mass_kg,
-                       sched.initial_ias_kt, 15.0, atmosphere, undulation, t0_s)
+    initial_conditions(
+        fdm,
+        frame,
+        -spec.start_nm * NM,
+        spec.offset_nm * NM,
+        gp.height_m(-spec.intercept_nm * NM, 0.0),
+        frame.course_deg + math.copysign(spec.intercept_deg, spec.offset_nm),
+        af,
+        spec.mass_kg,
+        sched.initial_ias_kt,
+        15.0,
+        atmosphere,
+        undulation,
+        t0_s,
+    )
 
 
-def initial_conditions(fdm, frame: RunwayFrame, x0: float, y0: float, z0: float, track_deg: float, af: Airframe,
-                       mass_kg: float, ias_kt: float, flaps_deg: float, atmosphere: Atmosphere, undulation: float,
-                       t0_s: float) -> None:
+def initial_conditions(
+    fdm,
+    frame: RunwayFrame,
+    x0: float,
+    y0: float,
+    z0: float,
+    track_deg: float,
+    af: Airframe,
+    mass_kg: float,
+    ias_kt: float,
+    flaps_deg: float,
+    atmosphere: Atmosphere,
+    undulation: float,
+    t0_s: float,
+) -> None:
     """JSBSim's initial condition at runway-frame (x0, y0, z0), level, on the ground track
     `track_deg` in the truth wind (heading crabbed into it), at `ias_kt`, with the flaps set."""
     lat, lon, h = (float(v) for v in frame.to_geodetic(x0, y0, z0))
@@ -303,8 +341,17 @@ class _Guide:
         self._set("ap/target/ias-kt", ias)
 
 
-def frame_meta(kind: str, route_suffix: str, af: Airframe, seed_id, spec, runway: Runway, frame: RunwayFrame,
-               undulation_m: float, gp: GlidePath) -> dict:
+def frame_meta(
+    kind: str,
+    route_suffix: str,
+    af: Airframe,
+    seed_id,
+    spec,
+    runway: Runway,
+    frame: RunwayFrame,
+    undulation_m: float,
+    gp: GlidePath,
+) -> dict:
     """The metadata every runway-frame track carries (approaches, missions): what was flown
     where, the runway frame and the nominal ILS geometry."""
     return {
@@ -313,14 +360,19 @@ def frame_meta(kind: str, route_suffix: str, af: Airframe, seed_id, spec, runway
         "aircraft": af.name,
         "seed": seed_id,
         "jsbsim_version": jsbsim.__version__,
-        "departure_utc": spec.start_utc.astimezone(timezone.utc).isoformat(),
+        "departure_utc": spec.start_utc.astimezone(UTC).isoformat(),
         "airport": spec.airport,
         "runway": runway.ident,
         "runway_frame": asdict(frame),
         "runway_length_m": runway.length_m,
         "undulation_m": undulation_m,
-        "glide_path": {"theta_deg": spec.ils.glide_path_deg, "tch_m": spec.ils.tch_m, "gp_x_m": gp.gp_x,
-                       "gp_y_m": gp.gp_y, "loc_x_m": gp.loc_x},
+        "glide_path": {
+            "theta_deg": spec.ils.glide_path_deg,
+            "tch_m": spec.ils.tch_m,
+            "gp_x_m": gp.gp_x,
+            "gp_y_m": gp.gp_y,
+            "loc_x_m": gp.loc_x,
+        },
     }
 
 
@@ -333,9 +385,21 @@ def add_frame_columns(df, frame: RunwayFrame, cg_in: np.ndarray) -> None:
     df["x_m"], df["y_m"], df["z_m"] = xr, yr, zr
 
 
-def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: float, ground_elevation_m: float,
-             step, seed_id, rate_hz: int, extra_props=(), min_height_m: float = 3.0, max_bank_deg: float = 45.0,
-             turbulence: TurbulencePatches | None = None):
+def fly_loop(
+    fdm,
+    frame: RunwayFrame,
+    atmosphere: Atmosphere,
+    und: float,
+    t0_s: float,
+    ground_elevation_m: float,
+    step,
+    seed_id,
+    rate_hz: int,
+    extra_props=(),
+    min_height_m: float = 3.0,
+    max_bank_deg: float = 45.0,
+    turbulence: TurbulencePatches | None = None,
+):
     """The recorded flight loop shared by approaches and inspection missions: every
     second the guidance `step(t, x, y, z, h_ell, vn, ve, vd, vc_kt)` (runway frame, m,
     m/s, KCAS) sets its targets and returns True to stop; the truth wind is fed to the
@@ -353,11 +417,21 @@ def fly_loop(fdm, frame: RunwayFrame, atmosphere: Atmosphere, und: float, t0_s: 
     rec = Recorder(fdm)
     pm = fdm.get_property_manager()
     getters = rec.getters + [pm.get_node(p).get_double_value for p in extra_props]
-    g = {k: pm.get_node(p).get_double_value for k, p in (
-        ("lat", "position/lat-geod-deg"), ("lon", "position/long-gc-deg"), ("h", "position/geod-alt-ft"),
-        ("t", "simulation/sim-time-sec"), ("vn", "velocities/v-north-fps"), ("ve", "velocities/v-east-fps"),
-        ("vd", "velocities/v-down-fps"), ("vc", "velocities/vc-fps"), ("phi", "attitude/phi-rad"),
-        ("theta", "attitude/theta-rad"))}
+    g = {
+        k: pm.get_node(p).get_double_value
+        for k, p in (
+            ("lat", "position/lat-geod-deg"),
+            ("lon", "position/long-gc-deg"),
+            ("h", "position/geod-alt-ft"),
+            ("t", "simulation/sim-time-sec"),
+            ("vn", "velocities/v-north-fps"),
+            ("ve", "velocities/v-east-fps"),
+            ("vd", "velocities/v-down-fps"),
+            ("vc", "velocities/vc-fps"),
+            ("phi", "attitude/phi-rad"),
+            ("theta", "attitude/theta-rad"),
+        )
+    }
     wind_ahead = WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * DT)
     steps_per_sample = int(round(1.0 / (rate_hz * DT)))
     if steps_per_sample % 2 or GUIDE_EVERY % steps_per_sample:
@@ -429,8 +503,9 @@ class IlsSetup:
     fdm: jsbsim.FGFDMExec
 
 
-def ils_setup(spec, seed, aircraft: str | Airframe | None, atmosphere: Atmosphere | None, what: str,
-              why: str = "") -> IlsSetup:
+def ils_setup(
+    spec, seed, aircraft: str | Airframe | None, atmosphere: Atmosphere | None, what: str, why: str = ""
+) -> IlsSetup:
     """The IlsSetup of `spec` (an ApproachSpec or MissionSpec: airport, runway, ils,
     start_utc); only the SAAB 340 flies `what` (its flaps and Vref)."""
     af = aircraft if isinstance(aircraft, Airframe) else airframe(aircraft)
@@ -438,9 +513,17 @@ def ils_setup(spec, seed, aircraft: str | Airframe | None, atmosphere: Atmospher
         raise ValueError(f"aircraft: {what} are flown by the saab340 only{why}, got {af.name!r}")
     runway = find_runway(spec.airport, spec.runway)
     day0 = spec.start_utc.replace(hour=0, minute=0, second=0, microsecond=0)
-    return IlsSetup(af, runway, RunwayFrame.of(runway), GlidePath(spec.ils, runway),
-                    atmosphere if atmosphere is not None else UniformAtmosphere(), np.random.default_rng(seed),
-                    (spec.start_utc - day0).total_seconds(), runway.undulation_m, new_fdm(af, DT))
+    return IlsSetup(
+        af,
+        runway,
+        RunwayFrame.of(runway),
+        GlidePath(spec.ils, runway),
+        atmosphere if atmosphere is not None else UniformAtmosphere(),
+        np.random.default_rng(seed),
+        (spec.start_utc - day0).total_seconds(),
+        runway.undulation_m,
+        new_fdm(af, DT),
+    )
 
 
 def engage(fdm, af: Airframe, leg: GreatCircleLeg, ias_kt: float) -> None:
@@ -449,7 +532,7 @@ def engage(fdm, af: Airframe, leg: GreatCircleLeg, ias_kt: float) -> None:
     before the initial condition is run: JSBSim evaluates the autopilot (filters, rate
     limiters) during initialisation and trim, and stale geometry there would start the
     flight with a full-bank command."""
-    for k, c in zip("xyz", leg.normal):
+    for k, c in zip("xyz", leg.normal, strict=False):
         fdm[f"ap/nav/n{k}"] = float(c)
     fdm["ap/nav/mode"] = 1
     fdm["ap/gain/xtk-to-track"] = 0.00025  # localizer tracking: ~25 s time constant at 130 kt
@@ -463,8 +546,14 @@ def engage(fdm, af: Airframe, leg: GreatCircleLeg, ias_kt: float) -> None:
         fdm[prop] = value
 
 
-def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = None,
-                 atmosphere: Atmosphere | None = None, schedule: ApproachSchedule | None = None) -> TruthTrack:
+def fly_approach(
+    spec: ApproachSpec,
+    *,
+    seed,
+    aircraft: str | Airframe | None = None,
+    atmosphere: Atmosphere | None = None,
+    schedule: ApproachSchedule | None = None,
+) -> TruthTrack:
     """Fly one ILS approach and return its 50 Hz TruthTrack. Raises FlightDiverged."""
     sched = schedule or ApproachSchedule()
     ils = ils_setup(spec, seed, aircraft, atmosphere, "approaches", " (its flaps and Vref)")
@@ -472,12 +561,13 @@ def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = 
     und, t0_s = ils.undulation_m, ils.t0_s
     _ic(fdm, frame, gp, spec, af, sched, atmosphere, und, t0_s)
     imu = spec.points_m["imu"]
-    for axis, value in zip("xyz", imu):
+    for axis, value in zip("xyz", imu, strict=False):
         fdm[f"imu/location-{axis}-in"] = value / IN
     far = frame.to_geodetic(-40 * NM, 0.0, 0.0)
     end = frame.to_geodetic(runway.length_m + 5 * NM, 0.0, 0.0)
-    engage(fdm, af, GreatCircleLeg("LOC", float(far[0]), float(far[1]), float(end[0]), float(end[1])),
-           sched.initial_ias_kt)
+    engage(
+        fdm, af, GreatCircleLeg("LOC", float(far[0]), float(far[1]), float(end[0]), float(end[1])), sched.initial_ias_kt
+    )
     guide = _Guide(fdm, spec, sched, gp, frame)
     fdm["ap/active"] = 1
 
@@ -495,9 +585,20 @@ def fly_approach(spec: ApproachSpec, *, seed, aircraft: str | Airframe | None = 
         return state["end_t"] is not None and t >= state["end_t"]
 
     turb = TurbulencePatches(fdm, ils.rng) if spec.turbulence else None
-    rec, rows, tags = fly_loop(fdm, frame, atmosphere, und, t0_s, runway.elevation_m, step, seed_id,
-                               RATE_HZ, INERTIAL_PROPS, min_height_m=3.0,
-                               turbulence=turb)
+    rec, rows, tags = fly_loop(
+        fdm,
+        frame,
+        atmosphere,
+        und,
+        t0_s,
+        runway.elevation_m,
+        step,
+        seed_id,
+        RATE_HZ,
+        INERTIAL_PROPS,
+        min_height_m=3.0,
+        turbulence=turb,
+    )
     nrec = len(rec.PROPS)
     data = np.asarray(rows, dtype=float)
     extra = data[:, nrec:]
@@ -534,11 +635,14 @@ def dcm_body_to_ned(psi, theta, phi) -> np.ndarray:
     Rz(psi) Ry(theta) Rx(phi) written out (what scipy's Rotation.from_euler("ZYX") gives,
     tests/test_approach.py; 5x faster for the sensors' per-sample use)."""
     cps, sps, cth, sth, cph, sph = np.cos(psi), np.sin(psi), np.cos(theta), np.sin(theta), np.cos(phi), np.sin(phi)
-    return np.stack([
-        np.stack([cth * cps, sph * sth * cps - cph * sps, cph * sth * cps + sph * sps], axis=-1),
-        np.stack([cth * sps, sph * sth * sps + cph * cps, cph * sth * sps - sph * cps], axis=-1),
-        np.stack([-sth, sph * cth, cph * cth], axis=-1),
-    ], axis=-2)
+    return np.stack(
+        [
+            np.stack([cth * cps, sph * sth * cps - cph * sps, cph * sth * cps + sph * sps], axis=-1),
+            np.stack([cth * sps, sph * sth * sps + cph * cps, cph * sth * sps - sph * cps], axis=-1),
+            np.stack([-sth, sph * cth, cph * cth], axis=-1),
+        ],
+        axis=-2,
+    )
 
 
 class TrackSamples(Protocol):
@@ -559,7 +663,9 @@ def point_positions(track: TrackSamples, points_m: dict[str, tuple[float, float,
     df, meta = track.df, track.meta
     points = points_m or {k: tuple(v) for k, v in meta["points_structural_m"].items()}
     frame = RunwayFrame(**meta["runway_frame"])
-    c_nb = dcm_body_to_ned(df["heading_rad"].to_numpy(float), df["pitch_rad"].to_numpy(float), df["roll_rad"].to_numpy(float))
+    c_nb = dcm_body_to_ned(
+        df["heading_rad"].to_numpy(float), df["pitch_rad"].to_numpy(float), df["roll_rad"].to_numpy(float)
+    )
     c_rn = frame.rotation_from_ned(df["lat_deg"].to_numpy(), df["lon_deg"].to_numpy())
     c_rb = np.matmul(c_rn, c_nb)
     cg = np.column_stack([df[c].to_numpy(float) for c in ("cg_x_m", "cg_y_m", "cg_z_m")])
@@ -573,9 +679,9 @@ def point_positions(track: TrackSamples, points_m: dict[str, tuple[float, float,
 
 def approach_spec(airport_icao: str, runway: str, day: Date | datetime, **kw) -> ApproachSpec:
     """An ApproachSpec starting at 15:00 UTC of `day` unless a datetime is given."""
-    when = day if isinstance(day, datetime) else datetime(day.year, day.month, day.day, 15, 0, tzinfo=timezone.utc)
+    when = day if isinstance(day, datetime) else datetime(day.year, day.month, day.day, 15, 0, tzinfo=UTC)
     if when.tzinfo is None:
-        when = when.replace(tzinfo=timezone.utc)
+        when = when.replace(tzinfo=UTC)
     return ApproachSpec(airport=airport_icao.strip().upper(), runway=runway, start_utc=when, **kw)
 
 
@@ -613,8 +719,12 @@ def approach_metrics(track: TruthTrack) -> dict[str, float]:
     out["pitch_threshold_deg"] = float(df["pitch_rad"].iloc[k] / DEG)
     out["roll_threshold_deg"] = float(df["roll_rad"].iloc[k] / DEG)
     out["recorded_past_threshold_s"] = float(t[-1] - t[k]) if k >= 0 else 0.0
-    out["stabilised"] = float(abs(out["loc_dots_1000ft"]) <= 1.0 and abs(out["gs_dots_1000ft"]) <= 1.0
-                              and -5.0 <= out["cas_minus_vref_kt_1000ft"] <= 10.0 and out["sink_fpm_1000ft"] <= 1000.0)
+    out["stabilised"] = float(
+        abs(out["loc_dots_1000ft"]) <= 1.0
+        and abs(out["gs_dots_1000ft"]) <= 1.0
+        and -5.0 <= out["cas_minus_vref_kt_1000ft"] <= 10.0
+        and out["sink_fpm_1000ft"] <= 1000.0
+    )
     return out
 
 
@@ -640,7 +750,12 @@ class PlannedApproach:
     def identity(self) -> dict:
         """The parts that determine the flight, as plain JSON values (the store's key)."""
         d = asdict(self.spec)
-        d["start_utc"] = self.spec.start_utc.astimezone(timezone.utc).isoformat()
+        d["start_utc"] = self.spec.start_utc.astimezone(UTC).isoformat()
         d["ils"] = self.spec.ils.model_dump()
         d["points_m"] = {k: [round(float(v), 6) for v in xyz] for k, xyz in sorted(self.spec.points_m.items())}
-        return {"spec": d, "weather_seed": int(self.weather_seed), "flight_seed": int(self.flight_seed), "region": self.region}
+        return {
+            "spec": d,
+            "weather_seed": int(self.weather_seed),
+            "flight_seed": int(self.flight_seed),
+            "region": self.region,
+        }

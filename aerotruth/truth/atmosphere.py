@@ -8,8 +8,9 @@
   height to a jet maximum (default ~11 km, 23 m/s in summer to 36 m/s in winter at the
   core) and decays above it; the core lies at the season's climatological latitude over
   North America (36 N in mid-February to 51 N in mid-August, HWM14) and meanders day to
-  day, so that a region's mean flow is the climatology's (see WindFieldSpec), plus a few baroclinic waves given by a streamfunction on the
-  sphere, psi_j = A_j(z, t) cos(Theta_j) cos(l_j (lat - lat_j)), with
+  day, so that a region's mean flow is the climatology's (see WindFieldSpec), plus a few
+  baroclinic waves given by a streamfunction on the sphere, psi_j = A_j(z, t) cos(Theta_j)
+  cos(l_j (lat - lat_j)), with
   u = -(1/R) d(psi)/d(lat), v = 1/(R cos lat) d(psi)/d(lon): the synoptic flow is exactly
   non-divergent on the sphere. Waves move east at c_j ~ 10 m/s, grow or decay
   exponentially through the day and tilt westward with height (as baroclinic waves do).
@@ -140,16 +141,25 @@ class WindFieldSpec:
     sea_level_pressure_sd_pa: float = 600.0
 
     def __post_init__(self) -> None:
-        for name in ("jet_speed_winter_ms", "jet_speed_summer_ms", "jet_altitude_m",
-                     "jet_lower_width_m", "jet_lower_width_summer_m", "stratosphere_decay_m", "jet_meridional_width_deg",
-                     "boundary_layer_depth_m", "boundary_layer_exponent"):
+        for name in (
+            "jet_speed_winter_ms",
+            "jet_speed_summer_ms",
+            "jet_altitude_m",
+            "jet_lower_width_m",
+            "jet_lower_width_summer_m",
+            "stratosphere_decay_m",
+            "jet_meridional_width_deg",
+            "boundary_layer_depth_m",
+            "boundary_layer_exponent",
+        ):
             if not (getattr(self, name) > 0):
                 raise ValueError(f"WindFieldSpec.{name} must be > 0, got {getattr(self, name)!r}")
-        if not (0 <= self.surface_geostrophic_ms < min(self.jet_speed_summer_ms,
-                                                       self.jet_speed_winter_ms)
-                * (1 - self.jet_speed_spread)):
-            raise ValueError("WindFieldSpec.surface_geostrophic_ms must be >= 0 and below the "
-                             "lowest jet speed")
+        if not (
+            0
+            <= self.surface_geostrophic_ms
+            < min(self.jet_speed_summer_ms, self.jet_speed_winter_ms) * (1 - self.jet_speed_spread)
+        ):
+            raise ValueError("WindFieldSpec.surface_geostrophic_ms must be >= 0 and below the lowest jet speed")
         if not (0 <= self.jet_speed_spread < 1):
             raise ValueError("WindFieldSpec.jet_speed_spread must be in [0, 1)")
         if not (0 <= self.jet_meridional_contrast < 1):
@@ -158,8 +168,13 @@ class WindFieldSpec:
             raise ValueError("WindFieldSpec.jet_latitude_sd_deg must be >= 0")
         if int(self.n_waves) < 0:
             raise ValueError("WindFieldSpec.n_waves must be >= 0")
-        for name in ("wave_wavelength_m", "wave_meridional_wavelength_m", "wave_amplitude_ms",
-                     "wave_phase_speed_ms", "wave_tilt_rad"):
+        for name in (
+            "wave_wavelength_m",
+            "wave_meridional_wavelength_m",
+            "wave_amplitude_ms",
+            "wave_phase_speed_ms",
+            "wave_tilt_rad",
+        ):
             lo, hi = getattr(self, name)
             if not (lo <= hi):
                 raise ValueError(f"WindFieldSpec.{name} must be (low, high) with low <= high")
@@ -193,8 +208,10 @@ def _resolve_region(region) -> tuple[str, float, float]:
     except (TypeError, ValueError):
         raise ValueError(f"region must be a name or (lat0_deg, lon0_deg), got {region!r}") from None
     if not (15.0 <= lat0 <= 75.0) or not (-180.0 <= lon0 <= 180.0):
-        raise ValueError(f"region (lat0, lon0) must have 15 <= lat0 <= 75 (northern mid-latitude "
-                         f"westerlies) and -180 <= lon0 <= 180, got {region!r}")
+        raise ValueError(
+            f"region (lat0, lon0) must have 15 <= lat0 <= 75 (northern mid-latitude "
+            f"westerlies) and -180 <= lon0 <= 180, got {region!r}"
+        )
     return f"{lat0:.6f},{lon0:.6f}", lat0, lon0
 
 
@@ -219,9 +236,17 @@ class TruthAtmosphere:
     formulas and agree to rounding (~1e-12 relative), not bit for bit.
     """
 
-    def __init__(self, date: _dt.date, region_key: str, lat0: float, lon0: float,
-                 spec: WindFieldSpec, rng_syn: np.random.Generator,
-                 rng_meso: np.random.Generator, rng_thermo: np.random.Generator):
+    def __init__(
+        self,
+        date: _dt.date,
+        region_key: str,
+        lat0: float,
+        lon0: float,
+        spec: WindFieldSpec,
+        rng_syn: np.random.Generator,
+        rng_meso: np.random.Generator,
+        rng_thermo: np.random.Generator,
+    ):
         self.date, self.region_key, self.spec = date, region_key, spec
         self.lat0, self.lon0 = float(lat0), float(lon0)
         s = spec
@@ -234,14 +259,17 @@ class TruthAtmosphere:
         # mean flow
         jet = _seasonal(s.jet_speed_summer_ms, s.jet_speed_winter_ms, self.winterness)
         self.jet_speed_ms = float(jet * (1 + s.jet_speed_spread * rng_syn.uniform(-1, 1)))
-        self.jet_altitude_m = float(s.jet_altitude_m + s.jet_altitude_seasonal_m * (0.5 - self.winterness)
-                                    + rng_syn.uniform(-300.0, 300.0))
+        self.jet_altitude_m = float(
+            s.jet_altitude_m + s.jet_altitude_seasonal_m * (0.5 - self.winterness) + rng_syn.uniform(-300.0, 300.0)
+        )
         self.surface_ms = float(s.surface_geostrophic_ms)
         self.jet_lower_width_m = float(_seasonal(s.jet_lower_width_summer_m, s.jet_lower_width_m, self.winterness))
         self._g0 = math.exp(-((self.jet_altitude_m / self.jet_lower_width_m) ** 2))  # G(z=0)
         southness = _season_weight(doy, s.jet_latitude_southmost_doy)
-        self.jet_lat_deg = float(_seasonal(s.jet_latitude_summer_deg, s.jet_latitude_winter_deg, southness)
-                                 + rng_syn.normal(0.0, s.jet_latitude_sd_deg))
+        self.jet_lat_deg = float(
+            _seasonal(s.jet_latitude_summer_deg, s.jet_latitude_winter_deg, southness)
+            + rng_syn.normal(0.0, s.jet_latitude_sd_deg)
+        )
         # waves: psi_j = A_j cos(Theta_j) cos(l_j (lat - lat_j))
         n = int(s.n_waves)
         lam = rng_syn.uniform(*s.wave_wavelength_m, n)
@@ -255,22 +283,43 @@ class TruthAtmosphere:
         self._wphase = rng_syn.uniform(0.0, 2 * np.pi, n)
         self._wgrowth = rng_syn.uniform(-1.0, 1.0, n) * s.wave_growth_per_day / _DAY_S
         self._wtilt = rng_syn.uniform(*s.wave_tilt_rad, n)
-        self._waves = tuple(zip(*(a.tolist() for a in (self._wa, self._wm, self._wl, self._wlat,
-                                                        self._womega, self._wphase, self._wgrowth,
-                                                        self._wtilt))))
+        self._waves = tuple(
+            zip(
+                *(
+                    a.tolist()
+                    for a in (
+                        self._wa,
+                        self._wm,
+                        self._wl,
+                        self._wlat,
+                        self._womega,
+                        self._wphase,
+                        self._wgrowth,
+                        self._wtilt,
+                    )
+                ),
+                strict=False,
+            )
+        )
 
         self.mesoscale = MesoscaleField.draw(s.mesoscale, rng_meso)
 
         # temperature offset and sea-level pressure
         # the mean flow's shear over the region's centre: u = U(z) M(lat)
-        self.tropospheric_shear_per_s = ((self.jet_speed_ms - self.surface_ms) / self.jet_altitude_m
-                                         * float(self._meridional_shape(math.radians(lat0))))
+        self.tropospheric_shear_per_s = (
+            (self.jet_speed_ms - self.surface_ms)
+            / self.jet_altitude_m
+            * float(self._meridional_shape(math.radians(lat0)))
+        )
         # thermal wind: dT/dy = -(f T / g) dU/dz (Holton 2004 sec. 3.4)
-        self.delta_t_gradient_k_per_m = (-self.f0 * _T_MID_TROPOSPHERE_K / G0
-                                         * self.tropospheric_shear_per_s
-                                         if s.delta_t_thermal_wind else 0.0)
-        self.delta_t_climate_k = float(s.delta_t_at_40n_k + s.delta_t_per_deg_lat_k * (lat0 - 40.0)
-                                       - s.delta_t_seasonal_k * (2 * self.winterness - 1))
+        self.delta_t_gradient_k_per_m = (
+            -self.f0 * _T_MID_TROPOSPHERE_K / G0 * self.tropospheric_shear_per_s if s.delta_t_thermal_wind else 0.0
+        )
+        self.delta_t_climate_k = float(
+            s.delta_t_at_40n_k
+            + s.delta_t_per_deg_lat_k * (lat0 - 40.0)
+            - s.delta_t_seasonal_k * (2 * self.winterness - 1)
+        )
         self.delta_t_offset_k = float(rng_thermo.normal(0.0, s.delta_t_offset_sd_k))
         n_t = 2
         k_t = 2 * np.pi / rng_thermo.uniform(2.0e6, 5.0e6, n_t)
@@ -279,15 +328,20 @@ class TruthAtmosphere:
         self._tomega = -self._tkx * 10.0  # anomalies carried east at 10 m/s
         self._tphase = rng_thermo.uniform(0.0, 2 * np.pi, n_t)
         self._tamp = np.full(n_t, s.delta_t_synoptic_k * np.sqrt(2.0 / n_t))
-        self._tmodes = tuple(zip(*(a.tolist() for a in (self._tkx, self._tky, self._tomega,
-                                                         self._tphase, self._tamp))))
+        self._tmodes = tuple(
+            zip(*(a.tolist() for a in (self._tkx, self._tky, self._tomega, self._tphase, self._tamp)), strict=False)
+        )
         self.sea_level_pressure_offset_pa = float(rng_thermo.normal(0.0, s.sea_level_pressure_sd_pa))
 
     # construction ------------------------------------------------------------------
     @classmethod
-    def for_day(cls, date: _dt.date, seed: int | np.random.SeedSequence,
-                region: str | tuple[float, float], spec: WindFieldSpec | None = None,
-                ) -> "TruthAtmosphere":
+    def for_day(
+        cls,
+        date: _dt.date,
+        seed: int | np.random.SeedSequence,
+        region: str | tuple[float, float],
+        spec: WindFieldSpec | None = None,
+    ) -> TruthAtmosphere:
         """Realization for (date, seed, region): bit-identical for the same triple (and spec).
 
         Stream: SeedSequence(seed, spawn_key=(two words of sha256(date|region))), split
@@ -305,8 +359,7 @@ class TruthAtmosphere:
         key, lat0, lon0 = _resolve_region(region)
         words = _stable_words(f"truth-atmosphere|{date.isoformat()}|{key}")
         if isinstance(seed, np.random.SeedSequence):
-            ss = np.random.SeedSequence(seed.entropy, spawn_key=tuple(seed.spawn_key) + words,
-                                        pool_size=seed.pool_size)
+            ss = np.random.SeedSequence(seed.entropy, spawn_key=tuple(seed.spawn_key) + words, pool_size=seed.pool_size)
         elif isinstance(seed, (int, np.integer)) and not isinstance(seed, bool) and seed >= 0:
             ss = np.random.SeedSequence(int(seed), spawn_key=words)
         else:
@@ -326,8 +379,7 @@ class TruthAtmosphere:
 
     def _plane_xy_point(self, lat: float, lon: float) -> tuple[float, float]:
         dlon = (lon - self.lon0 + 180.0) % 360.0 - 180.0
-        return (EARTH_RADIUS_M * self._coslat0 * math.radians(dlon),
-                EARTH_RADIUS_M * math.radians(lat - self.lat0))
+        return (EARTH_RADIUS_M * self._coslat0 * math.radians(dlon), EARTH_RADIUS_M * math.radians(lat - self.lat0))
 
     # synoptic flow ------------------------------------------------------------------
     def mean_zonal_profile(self, alt_m) -> np.ndarray:
@@ -371,10 +423,13 @@ class TruthAtmosphere:
     def _wave_terms(self, latr, lonr, z, t, uz):
         """Per wave (last axis): amplitude A(z, t), phase Theta, meridional angle."""
         dlon = (lonr - math.radians(self.lon0) + math.pi) % (2 * math.pi) - math.pi
-        amp = (self._wa * np.exp(self._wgrowth * (t[..., None] - _MID_DAY_S))
-               * self._wave_vertical(uz)[..., None])
-        theta = (self._wm * dlon[..., None] - self._womega * t[..., None] + self._wphase
-                 + self._wtilt * self._tilt(z)[..., None])
+        amp = self._wa * np.exp(self._wgrowth * (t[..., None] - _MID_DAY_S)) * self._wave_vertical(uz)[..., None]
+        theta = (
+            self._wm * dlon[..., None]
+            - self._womega * t[..., None]
+            + self._wphase
+            + self._wtilt * self._tilt(z)[..., None]
+        )
         merid = self._wl * (latr[..., None] - self._wlat)
         return amp, theta, merid
 
@@ -394,8 +449,7 @@ class TruthAtmosphere:
         uz = self.mean_zonal_profile(z)
         amp, theta, merid = self._wave_terms(latr, lonr, z, t, uz)
         r = EARTH_RADIUS_M
-        u = uz * self._meridional_shape(latr) + np.sum(
-            amp * (self._wl / r) * np.cos(theta) * np.sin(merid), axis=-1)
+        u = uz * self._meridional_shape(latr) + np.sum(amp * (self._wl / r) * np.cos(theta) * np.sin(merid), axis=-1)
         v = -np.sum(amp * self._wm * np.sin(theta) * np.cos(merid), axis=-1) / (r * np.cos(latr))
         return u, v
 
@@ -424,7 +478,8 @@ class TruthAtmosphere:
         c = self.spec.jet_meridional_contrast
         lj, l0 = math.radians(self.jet_lat_deg), math.radians(self.lat0)
         int_m = (1 - c) * (latr - l0) + c * w * math.sqrt(math.pi) / 2 * (
-            erf((latr - lj) / w) - math.erf((l0 - lj) / w))
+            erf((latr - lj) / w) - math.erf((l0 - lj) / w)
+        )
         u0 = self._mean_zonal_point(0.0)
         z0 = np.zeros(np.shape(latr))
         amp, theta, merid = self._wave_terms(latr, lonr, z0, t, np.full(z0.shape, u0))
@@ -435,7 +490,8 @@ class TruthAtmosphere:
         c = self.spec.jet_meridional_contrast
         lj, l0 = math.radians(self.jet_lat_deg), math.radians(self.lat0)
         int_m = (1 - c) * (latr - l0) + c * w * math.sqrt(math.pi) / 2 * (
-            math.erf((latr - lj) / w) - math.erf((l0 - lj) / w))
+            math.erf((latr - lj) / w) - math.erf((l0 - lj) / w)
+        )
         u0 = self._mean_zonal_point(0.0)
         psi = -EARTH_RADIUS_M * u0 * int_m
         dlon = (lonr - math.radians(self.lon0) + math.pi) % (2 * math.pi) - math.pi
@@ -452,7 +508,8 @@ class TruthAtmosphere:
         public for models derived from the truth (aerotruth.sensors.weather_model)."""
         s = self.spec
         env = s.mesoscale_surface_fraction + (1 - s.mesoscale_surface_fraction) * np.clip(
-            z / self.jet_altitude_m, 0.0, 1.0)
+            z / self.jet_altitude_m, 0.0, 1.0
+        )
         bl = np.clip((z - zg) / s.boundary_layer_depth_m, 0.002, 1.0) ** s.boundary_layer_exponent
         w_taper = np.clip((z - zg) / 500.0, 0.0, 1.0)  # w -> 0 at the ground
         return env, bl, w_taper
@@ -484,8 +541,8 @@ class TruthAtmosphere:
             taper = min(max((z - zg) / 500.0, 0.0), 1.0)
             return bl * (us + env * um), bl * (vs + env * vm), taper * env * wm
         lat, lon, z, t, zg = np.broadcast_arrays(
-            *self._check_arrays(lat_deg, lon_deg, alt_m, t_s),
-            _as_float_array("ground_elevation_m", ground_elevation_m))
+            *self._check_arrays(lat_deg, lon_deg, alt_m, t_s), _as_float_array("ground_elevation_m", ground_elevation_m)
+        )
         us, vs = self.synoptic_wind(lat, lon, z, t)
         x, y = self.plane_xy(lat, lon)
         um, vm, wm = self.mesoscale.wind_xy(x, y, z, t)

@@ -50,7 +50,8 @@ class AircraftDay:
         """The aircraft-day of a campaign: seeds named by ("weather", date) and
         ("truth", aircraft, date), whatever study asks."""
         return cls(
-            aircraft=aircraft, date=date,
+            aircraft=aircraft,
+            date=date,
             weather_seed=seeds.int_seed(seeds.named_sequence(campaign_seed, "weather", date.isoformat())),
             day_seed=seeds.int_seed(seeds.named_sequence(campaign_seed, "truth", aircraft, date.isoformat())),
             **kw,
@@ -75,16 +76,29 @@ class AircraftDay:
             assert self.network is not None  # a day without fixed legs is flown on its network (the campaign check)
             region = NETWORK_REGION[self.network]
             atm = day_atmosphere(self.date, self.weather_seed, region)
-            plans = day_schedule(self.network, self.date, rng, aircraft_id=self.aircraft, surface_wind=surface_wind_from(atm, self.date))
-            out = [PlannedLeg(on_airway(p, self.flight_seed(k)), region, self.weather_seed, self.flight_seed(k))
-                   for k, p in enumerate(plans)]
+            plans = day_schedule(
+                self.network, self.date, rng, aircraft_id=self.aircraft, surface_wind=surface_wind_from(atm, self.date)
+            )
+            out = [
+                PlannedLeg(on_airway(p, self.flight_seed(k)), region, self.weather_seed, self.flight_seed(k))
+                for k, p in enumerate(plans)
+            ]
         else:
             for k, leg in enumerate(self.legs):
-                dep = dt.datetime.combine(self.date, dt.time.fromisoformat(leg.departure_utc), tzinfo=dt.timezone.utc)
+                dep = dt.datetime.combine(self.date, dt.time.fromisoformat(leg.departure_utc), tzinfo=dt.UTC)
                 region = region_for_airport(leg.origin)
-                plan = plan_in_weather(leg.origin, leg.destination, dep, weather_seed=self.weather_seed, region=region, rng=rng,
-                                       flight_id=f"{self.aircraft}-{self.date:%Y%m%d}-{k + 1}")
-                out.append(PlannedLeg(on_airway(plan, self.flight_seed(k)), region, self.weather_seed, self.flight_seed(k)))
+                plan = plan_in_weather(
+                    leg.origin,
+                    leg.destination,
+                    dep,
+                    weather_seed=self.weather_seed,
+                    region=region,
+                    rng=rng,
+                    flight_id=f"{self.aircraft}-{self.date:%Y%m%d}-{k + 1}",
+                )
+                out.append(
+                    PlannedLeg(on_airway(plan, self.flight_seed(k)), region, self.weather_seed, self.flight_seed(k))
+                )
         return out[: self.max_legs] if self.max_legs is not None else out
 
 
@@ -104,10 +118,24 @@ class PlannedLeg:
     def replay_args(self, aircraft_type: str | None, turbulence: bool) -> list[str]:
         """`aerotruth fly` arguments that re-fly exactly this leg."""
         p = self.plan
-        args = ["--from", p.origin.icao, "--to", p.destination.icao,
-                "--date", p.departure_utc.astimezone(dt.timezone.utc).strftime("%Y-%m-%dT%H:%M:%SZ"),
-                "--weather-seed", str(self.weather_seed), "--region", self.region,
-                "--cruise-fl", str(p.cruise_flight_level), "--flight-id", p.flight_id, "--seed", str(self.flight_seed)]
+        args = [
+            "--from",
+            p.origin.icao,
+            "--to",
+            p.destination.icao,
+            "--date",
+            p.departure_utc.astimezone(dt.UTC).strftime("%Y-%m-%dT%H:%M:%SZ"),
+            "--weather-seed",
+            str(self.weather_seed),
+            "--region",
+            self.region,
+            "--cruise-fl",
+            str(p.cruise_flight_level),
+            "--flight-id",
+            p.flight_id,
+            "--seed",
+            str(self.flight_seed),
+        ]
         if aircraft_type is not None:
             args += ["--aircraft", aircraft_type]
         if turbulence:
@@ -138,8 +166,17 @@ def on_airway(plan, flight_seed: int):
     return with_airway(plan, seeds.generator(seeds.child(seeds.seed_sequence(int(flight_seed), ()), "airway")))
 
 
-def plan_in_weather(origin: str, destination: str, departure_utc: dt.datetime, *, weather_seed: int,
-                    region: str | None = None, rng=None, cruise_flight_level: int | None = None, flight_id: str = ""):
+def plan_in_weather(
+    origin: str,
+    destination: str,
+    departure_utc: dt.datetime,
+    *,
+    weather_seed: int,
+    region: str | None = None,
+    rng=None,
+    cruise_flight_level: int | None = None,
+    flight_id: str = "",
+):
     """A LegPlan whose runways face the truth surface wind of the day (the realization of
     `weather_seed` in `region`, by default the origin's); the cruise level is drawn with
     `rng` unless given."""
@@ -149,12 +186,19 @@ def plan_in_weather(origin: str, destination: str, departure_utc: dt.datetime, *
     from aerotruth.truth.weather import region_for_airport, surface_wind_from
 
     region = region or region_for_airport(origin)
-    day = departure_utc.astimezone(dt.timezone.utc).date()
+    day = departure_utc.astimezone(dt.UTC).date()
     wind = surface_wind_from(day_atmosphere(day, weather_seed, region), day)
     org, dst = airport(origin), airport(destination)
     eta = departure_utc + dt.timedelta(seconds=block_time_s(float(geo.inverse(org.lat, org.lon, dst.lat, dst.lon)[2])))
-    plan = plan_leg(org, dst, departure_utc, rng=rng, wind_uv=wind(org, departure_utc), arrival_wind_uv=wind(dst, eta),
-                    cruise_flight_level=cruise_flight_level)
+    plan = plan_leg(
+        org,
+        dst,
+        departure_utc,
+        rng=rng,
+        wind_uv=wind(org, departure_utc),
+        arrival_wind_uv=wind(dst, eta),
+        cruise_flight_level=cruise_flight_level,
+    )
     return dataclasses.replace(plan, flight_id=flight_id) if flight_id else plan
 
 
@@ -164,8 +208,8 @@ def parse_departure(text: str, default_hour: int = 13) -> dt.datetime:
     try:
         if len(text) == 10:
             d = dt.datetime.strptime(text, "%Y-%m-%d")
-            return d.replace(hour=default_hour, tzinfo=dt.timezone.utc)
+            return d.replace(hour=default_hour, tzinfo=dt.UTC)
         d = dt.datetime.fromisoformat(text.replace("Z", "+00:00"))
     except ValueError:
         raise ValueError(f"--date: expected YYYY-MM-DD or an ISO-8601 date-time, got {text!r}") from None
-    return d if d.tzinfo is not None else d.replace(tzinfo=dt.timezone.utc)
+    return d if d.tzinfo is not None else d.replace(tzinfo=dt.UTC)

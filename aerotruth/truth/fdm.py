@@ -98,10 +98,31 @@ class Recorder:
         ("atmosphere/P-psf", PSF),
         ("atmosphere/T-R", RANKINE),
     )
-    COLUMNS = ("time_s", "lat_deg", "lon_deg", "h_ellipsoid_m", "pressure_altitude_m", "vn_mps", "ve_mps",
-               "vd_mps", "roll_rad", "pitch_rad", "heading_rad", "tas_mps", "cas_mps", "alpha_rad", "beta_rad",
-               "p_radps", "q_radps", "r_radps", "wind_u_mps", "wind_v_mps", "wind_w_mps",
-               "static_pressure_pa", "temperature_k")
+    COLUMNS = (
+        "time_s",
+        "lat_deg",
+        "lon_deg",
+        "h_ellipsoid_m",
+        "pressure_altitude_m",
+        "vn_mps",
+        "ve_mps",
+        "vd_mps",
+        "roll_rad",
+        "pitch_rad",
+        "heading_rad",
+        "tas_mps",
+        "cas_mps",
+        "alpha_rad",
+        "beta_rad",
+        "p_radps",
+        "q_radps",
+        "r_radps",
+        "wind_u_mps",
+        "wind_v_mps",
+        "wind_w_mps",
+        "static_pressure_pa",
+        "temperature_k",
+    )
 
     def __init__(self, fdm: jsbsim.FGFDMExec):
         pm = fdm.get_property_manager()
@@ -127,21 +148,44 @@ class WindAhead:
 
     def __init__(self, fdm, atmosphere: Atmosphere, t0_s: float, dt_g: float):
         pm = fdm.get_property_manager()
-        self._nodes = [pm.get_node(f"ap/wind/{k}") for k in
-                       ("t0-sec", "north-fps", "east-fps", "down-fps", "north-rate-fps2", "east-rate-fps2", "down-rate-fps2")]
+        self._nodes = [
+            pm.get_node(f"ap/wind/{k}")
+            for k in (
+                "t0-sec",
+                "north-fps",
+                "east-fps",
+                "down-fps",
+                "north-rate-fps2",
+                "east-rate-fps2",
+                "down-rate-fps2",
+            )
+        ]
         self._prev = (fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"])
         self._atmosphere, self._t0_s, self._dt = atmosphere, t0_s, dt_g
 
-    def update(self, t: float, lat: float, lon: float, h_m: float, undulation_m: float, vn: float, ve: float,
-               vd: float, ground_elevation_m: float) -> None:
+    def update(
+        self,
+        t: float,
+        lat: float,
+        lon: float,
+        h_m: float,
+        undulation_m: float,
+        vn: float,
+        ve: float,
+        vd: float,
+        ground_elevation_m: float,
+    ) -> None:
         """Tick at sim time t (s) from geodetic lat/lon (deg), ellipsoidal height (m), the
         geoid undulation there (m) and NED velocity (m/s)."""
         dt = self._dt
         lat1 = lat + vn * dt / EARTH_RADIUS_M / DEG
         lon1 = lon + ve * dt / (EARTH_RADIUS_M * math.cos(lat * DEG)) / DEG
-        u, v, w = (float(np.asarray(c).ravel()[0]) for c in
-                   self._atmosphere.wind(lat1, lon1, h_m - vd * dt - undulation_m, self._t0_s + t + dt,
-                                         ground_elevation_m=ground_elevation_m))
+        u, v, w = (
+            float(np.asarray(c).ravel()[0])
+            for c in self._atmosphere.wind(
+                lat1, lon1, h_m - vd * dt - undulation_m, self._t0_s + t + dt, ground_elevation_m=ground_elevation_m
+            )
+        )
         nodes, prev = self._nodes, self._prev
         nxt = (v / FPS, u / FPS, -w / FPS)
         nodes[0].set_double_value(t)

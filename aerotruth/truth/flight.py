@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from dataclasses import asdict, dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 
 import jsbsim
 import numpy as np
@@ -68,8 +68,10 @@ class Route:
     @property
     def legs(self) -> list[GreatCircleLeg]:
         w = self.waypoints
-        return [GreatCircleLeg(f"{w[i][0]}-{w[i + 1][0]}", w[i][1], w[i][2], w[i + 1][1], w[i + 1][2])
-                for i in range(len(w) - 1)]
+        return [
+            GreatCircleLeg(f"{w[i][0]}-{w[i + 1][0]}", w[i][1], w[i][2], w[i + 1][1], w[i + 1][2])
+            for i in range(len(w) - 1)
+        ]
 
 
 class _Guide:
@@ -109,10 +111,19 @@ class _Guide:
         self._set("ap/nav/nz", nz)
 
     def distance_to_go_m(self, lat: float, lon: float) -> float:
-        return self.geom[self.leg].to_go_m(lat, lon) + sum(self.lengths[self.leg + 1:])
+        return self.geom[self.leg].to_go_m(lat, lon) + sum(self.lengths[self.leg + 1 :])
 
-    def update(self, t: float, lat: float, lon: float, gs_mps: float, h_ell_m: float, p_alt_m: float,
-               tas_kt: float, cas_kt: float) -> bool:
+    def update(
+        self,
+        t: float,
+        lat: float,
+        lon: float,
+        gs_mps: float,
+        h_ell_m: float,
+        p_alt_m: float,
+        tas_kt: float,
+        cas_kt: float,
+    ) -> bool:
         """Advance legs and phase; set autopilot targets. False once the route is finished.
 
         Cruise begins once the cruise level and the cruise TAS are both captured (or 300 s
@@ -182,9 +193,16 @@ def _initial_conditions(fdm, route: Route, af: Airframe, atmosphere: Atmosphere,
     for k, v in af.extra_ic.items():
         fdm[k] = v
     set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s)
-    u, v, w = (float(np.asarray(c).ravel()[0]) for c in
-               atmosphere.wind(lat, lon, route.start_h_ellipsoid_m - route.undulation_m, t0_s,
-                               ground_elevation_m=route.departure_elevation_msl_m))
+    u, v, w = (
+        float(np.asarray(c).ravel()[0])
+        for c in atmosphere.wind(
+            lat,
+            lon,
+            route.start_h_ellipsoid_m - route.undulation_m,
+            t0_s,
+            ground_elevation_m=route.departure_elevation_msl_m,
+        )
+    )
     fdm["ap/wind/t0-sec"] = 0.0
     fdm["ap/wind/north-fps"], fdm["ap/wind/east-fps"], fdm["ap/wind/down-fps"] = v / FPS, u / FPS, -w / FPS
     # JSBSim 1.3.3's initial condition ignores the wind when it builds the ground velocity
@@ -208,8 +226,16 @@ def _initial_conditions(fdm, route: Route, af: Airframe, atmosphere: Atmosphere,
     fdm["ic/vt-kts"] = math.hypot(math.hypot(gn, ge), climb) / KT
 
 
-def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atmosphere: Atmosphere | None = None,
-              turbulence: bool = False, max_duration_s: float | None = None, meta: dict | None = None) -> TruthTrack:
+def fly_route(
+    route: Route,
+    *,
+    seed,
+    aircraft: str | Airframe | None = None,
+    atmosphere: Atmosphere | None = None,
+    turbulence: bool = False,
+    max_duration_s: float | None = None,
+    meta: dict | None = None,
+) -> TruthTrack:
     """Fly `route` with JSBSim and return its TruthTrack (10 Hz). `turbulence`: the
     disturbances of a real flight (MIL-F-8785C patches, light chop and the autopilot's
     steering wander, aerotruth.truth.steering); without it the flight is calm and its
@@ -235,9 +261,14 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
     # and a 17 deg roll transient
     guide = _Guide(route, af, fdm)
     s = af.schedule
-    for prop, value in (("ap/target/use-pressure-altitude", 1), ("ap/target/altitude-ft", route.cruise_pressure_altitude_m / FT),
-                        ("ap/target/vs-max-fpm", s.climb_vs_fpm), ("ap/target/vs-min-fpm", -1000.0),
-                        ("ap/target/speed-mode", 0), ("ap/target/ias-kt", s.initial_ias_kt)):
+    for prop, value in (
+        ("ap/target/use-pressure-altitude", 1),
+        ("ap/target/altitude-ft", route.cruise_pressure_altitude_m / FT),
+        ("ap/target/vs-max-fpm", s.climb_vs_fpm),
+        ("ap/target/vs-min-fpm", -1000.0),
+        ("ap/target/speed-mode", 0),
+        ("ap/target/ias-kt", s.initial_ias_kt),
+    ):
         fdm[prop] = value
     for prop, value in af.phase_properties.get("climb", {}).items():
         fdm[prop] = value
@@ -254,10 +285,22 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
     run = fdm.run
     pm = fdm.get_property_manager()
     (g_lat, g_lon, g_h, g_palt, g_vn, g_ve, g_vd, g_t, g_vt, g_vc, g_phi, g_theta) = (
-        property_node(pm, p).get_double_value for p in (
-            "position/lat-geod-deg", "position/long-gc-deg", "position/geod-alt-ft", "atmosphere/pressure-altitude",
-            "velocities/v-north-fps", "velocities/v-east-fps", "velocities/v-down-fps", "simulation/sim-time-sec",
-            "velocities/vtrue-fps", "velocities/vc-fps", "attitude/phi-rad", "attitude/theta-rad"))
+        property_node(pm, p).get_double_value
+        for p in (
+            "position/lat-geod-deg",
+            "position/long-gc-deg",
+            "position/geod-alt-ft",
+            "atmosphere/pressure-altitude",
+            "velocities/v-north-fps",
+            "velocities/v-east-fps",
+            "velocities/v-down-fps",
+            "simulation/sim-time-sec",
+            "velocities/vtrue-fps",
+            "velocities/vc-fps",
+            "attitude/phi-rad",
+            "attitude/theta-rad",
+        )
+    )
     g_psi = property_node(pm, "attitude/psi-rad").get_double_value
     wind_ahead = WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * DT)
     max_bank, max_pitch, min_pitch = af.max_bank_deg * DEG, af.max_pitch_deg * DEG, af.min_pitch_deg * DEG
@@ -314,22 +357,29 @@ def fly_route(route: Route, *, seed, aircraft: str | Airframe | None = None, atm
         raise FlightDiverged("NaN in the recorded truth", seed_id)
     meta = dict(meta or {})
     thr, far = route.arrival_threshold, route.arrival_far_point
-    meta.update({
-        "route": route.name,
-        "aircraft": af.name,
-        "seed": seed_id,
-        "jsbsim_version": jsbsim.__version__,
-        "departure_utc": route.departure_utc.astimezone(timezone.utc).isoformat(),
-        "cruise_tas_kt": af.schedule.cruise_tas_kt,
-        "cruise_pressure_altitude_m": route.cruise_pressure_altitude_m,
-        "legs": [asdict(leg) for leg in route.legs],
-        "arrival_runway": {"threshold_lat": thr[0], "threshold_lon": thr[1], "far_lat": far[0], "far_lon": far[1],
-                           "course_deg": route.arrival_course_deg},
-        "turbulence": bool(turbulence),
-        "turbulence_patches": patches.meta() if patches is not None else [],
-        "chop_patches": [[round(a, 1), round(sw, 3)] for a, sw in chop.patches] if chop is not None else [],
-        "rate_hz": 1.0 / (DT * RECORD_EVERY),
-    })
+    meta.update(
+        {
+            "route": route.name,
+            "aircraft": af.name,
+            "seed": seed_id,
+            "jsbsim_version": jsbsim.__version__,
+            "departure_utc": route.departure_utc.astimezone(UTC).isoformat(),
+            "cruise_tas_kt": af.schedule.cruise_tas_kt,
+            "cruise_pressure_altitude_m": route.cruise_pressure_altitude_m,
+            "legs": [asdict(leg) for leg in route.legs],
+            "arrival_runway": {
+                "threshold_lat": thr[0],
+                "threshold_lon": thr[1],
+                "far_lat": far[0],
+                "far_lon": far[1],
+                "course_deg": route.arrival_course_deg,
+            },
+            "turbulence": bool(turbulence),
+            "turbulence_patches": patches.meta() if patches is not None else [],
+            "chop_patches": [[round(a, 1), round(sw, 3)] for a, sw in chop.patches] if chop is not None else [],
+            "rate_hz": 1.0 / (DT * RECORD_EVERY),
+        }
+    )
     meta["config_hash"] = params_digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})
     return TruthTrack(df, meta)
 
@@ -359,8 +409,15 @@ def route_from_plan(plan) -> Route:
     )
 
 
-def fly_leg(plan, *, seed, aircraft: str | Airframe | None = None, turbulence: bool = False,
-            atmosphere: Atmosphere | None = None, region: str | None = None) -> TruthTrack:
+def fly_leg(
+    plan,
+    *,
+    seed,
+    aircraft: str | Airframe | None = None,
+    turbulence: bool = False,
+    atmosphere: Atmosphere | None = None,
+    region: str | None = None,
+) -> TruthTrack:
     """Fly a routes.LegPlan through the day's truth atmosphere (unless one is given).
     `seed` (int or SeedSequence) selects the atmosphere realization of the day and the
     flight's own draws (turbulence, chop, steering wander). Raises FlightDiverged."""
@@ -369,9 +426,15 @@ def fly_leg(plan, *, seed, aircraft: str | Airframe | None = None, turbulence: b
 
         atmosphere = truth_atmosphere_for(plan, seed, region)
     atm = atmosphere
-    meta = {"origin": plan.origin.icao, "destination": plan.destination.icao,
-            "departure_runway": plan.departure_runway.ident, "arrival_runway_ident": plan.arrival_runway.ident,
-            "flight_id": plan.flight_id, "cruise_flight_level": plan.cruise_flight_level,
-            "atmosphere": getattr(atm, "region_key", type(atm).__name__)}
-    return fly_route(route_from_plan(plan), seed=seed, aircraft=aircraft, atmosphere=atm,
-                     turbulence=turbulence, meta=meta)
+    meta = {
+        "origin": plan.origin.icao,
+        "destination": plan.destination.icao,
+        "departure_runway": plan.departure_runway.ident,
+        "arrival_runway_ident": plan.arrival_runway.ident,
+        "flight_id": plan.flight_id,
+        "cruise_flight_level": plan.cruise_flight_level,
+        "atmosphere": getattr(atm, "region_key", type(atm).__name__),
+    }
+    return fly_route(
+        route_from_plan(plan), seed=seed, aircraft=aircraft, atmosphere=atm, turbulence=turbulence, meta=meta
+    )

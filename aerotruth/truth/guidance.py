@@ -86,8 +86,7 @@ class GreatCircleLeg:
         lo = np.radians(lon_deg)
         pc = geocentric_lat_rad(lat_deg)
         east = -np.sin(lo) * t[..., 0] + np.cos(lo) * t[..., 1]
-        north = (-np.sin(pc) * np.cos(lo) * t[..., 0] - np.sin(pc) * np.sin(lo) * t[..., 1]
-                 + np.cos(pc) * t[..., 2])
+        north = -np.sin(pc) * np.cos(lo) * t[..., 0] - np.sin(pc) * np.sin(lo) * t[..., 1] + np.cos(pc) * t[..., 2]
         return np.degrees(np.arctan2(east, north)) % 360.0
 
 

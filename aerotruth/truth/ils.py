@@ -1,5 +1,6 @@
-"""The ILS signal in space (the ground installation the aircraft flies: part of the world): localizer and glide-path deviations seen by the aircraft's receiver, from the true
-position of its antennas in the runway frame, with the facility's own errors.
+"""The ILS signal in space (the ground installation the aircraft flies: part of the world):
+localizer and glide-path deviations seen by the aircraft's receiver, from the true position
+of its antennas in the runway frame, with the facility's own errors.
 
 Runway frame (docs/conventions.md): origin at the threshold centre at runway elevation, x along the
 approach course (an approaching aircraft has x < 0, the runway is 0 <= x <= length),
@@ -82,11 +83,15 @@ class IlsFacilitySpec(Section):
     loc_setback_m: float = Field(default=300.0, ge=0, description="localizer array beyond the stop end")
     gp_offset_m: float = Field(default=120.0, description="glide-path mast to the side of the centreline (+ left)")
     alignment_m: float = Field(default=3.0, description="localizer course displacement at the threshold (+ left)")
-    loc_sensitivity_rel: float = Field(default=0.10, gt=-0.9, description="localizer displacement-sensitivity error (relative)")
+    loc_sensitivity_rel: float = Field(
+        default=0.10, gt=-0.9, description="localizer displacement-sensitivity error (relative)"
+    )
     gp_angle_error_deg: float = Field(default=0.05, description="glide-path angle error")
     gp_sensitivity_rel: float = Field(default=0.0, gt=-0.9, description="glide-path sensitivity error (relative)")
     bend_amplitude_deg: float = Field(default=0.02, ge=0, description="localizer course-bend amplitude")
-    bend_wavelength_m: tuple[float, float] = Field(default=(1000.0, 2000.0), description="bend wavelength range along x (drawn)")
+    bend_wavelength_m: tuple[float, float] = Field(
+        default=(1000.0, 2000.0), description="bend wavelength range along x (drawn)"
+    )
     loc_noise_ddm: float = Field(default=0.0005, ge=0, description="receiver noise, 1 sigma (about 0.5 uA)")
     gs_noise_ddm: float = Field(default=0.0005, ge=0, description="receiver noise, 1 sigma")
 
@@ -125,7 +130,9 @@ class IlsFacility:
 
     def bend_rad(self, x) -> np.ndarray:
         """Course bends along the approach (angular, radians)."""
-        return math.radians(self.spec.bend_amplitude_deg) * np.sin(2 * np.pi * np.asarray(x, float) / self.bend_wavelength_m + self.bend_phase_rad)
+        return math.radians(self.spec.bend_amplitude_deg) * np.sin(
+            2 * np.pi * np.asarray(x, float) / self.bend_wavelength_m + self.bend_phase_rad
+        )
 
     def localizer_angle_rad(self, x, y) -> np.ndarray:
         """Angular deviation from the radiated course, + left (before bends are added)."""
@@ -135,7 +142,12 @@ class IlsFacility:
 
     def localizer_ddm(self, x, y) -> np.ndarray:
         """Noise-free localizer DDM at antenna positions (+ left of course)."""
-        ddm = LOC_HALF_SECTOR_DDM * (1 + self.spec.loc_sensitivity_rel) * self.localizer_angle_rad(x, y) / self.loc_half_sector_rad
+        ddm = (
+            LOC_HALF_SECTOR_DDM
+            * (1 + self.spec.loc_sensitivity_rel)
+            * self.localizer_angle_rad(x, y)
+            / self.loc_half_sector_rad
+        )
         return np.clip(ddm, -LOC_CLEARANCE_DDM * 2, LOC_CLEARANCE_DDM * 2)
 
     def elevation_rad(self, x, y, z) -> np.ndarray:
@@ -146,7 +158,12 @@ class IlsFacility:
     def glide_slope_ddm(self, x, y, z) -> np.ndarray:
         """Noise-free glide-path DDM (+ above the path)."""
         th = self.path_angle_rad
-        return GS_HALF_SECTOR_DDM * (1 + self.spec.gp_sensitivity_rel) * (self.elevation_rad(x, y, z) - th) / (GS_HALF_SECTOR_FRACTION * th)
+        return (
+            GS_HALF_SECTOR_DDM
+            * (1 + self.spec.gp_sensitivity_rel)
+            * (self.elevation_rad(x, y, z) - th)
+            / (GS_HALF_SECTOR_FRACTION * th)
+        )
 
     def measure(self, x, y, z, rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
         """(localizer DDM, glide-path DDM) as the receiver reads them, with its noise; x, y, z
@@ -159,8 +176,15 @@ class IlsFacility:
 def nominal(facility: IlsFacility) -> IlsFacility:
     """The same installation with no facility errors: what a truth system's position is
     compared against (measured deviation minus nominal deviation = ILS error)."""
-    spec = facility.spec.model_copy(update={"alignment_m": 0.0, "loc_sensitivity_rel": 0.0, "gp_angle_error_deg": 0.0,
-                                            "gp_sensitivity_rel": 0.0, "bend_amplitude_deg": 0.0})
+    spec = facility.spec.model_copy(
+        update={
+            "alignment_m": 0.0,
+            "loc_sensitivity_rel": 0.0,
+            "gp_angle_error_deg": 0.0,
+            "gp_sensitivity_rel": 0.0,
+            "bend_amplitude_deg": 0.0,
+        }
+    )
     return IlsFacility(spec, facility.runway_length_m, facility.bend_wavelength_m, facility.bend_phase_rad)
 
 

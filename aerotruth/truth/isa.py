@@ -33,8 +33,9 @@ H_BASE_M = (0.0, 11000.0, 20000.0, 32000.0)  # layer bases, geopotential m
 LAPSE_K_PER_M = (-6.5e-3, 0.0, 1.0e-3, 2.8e-3)
 H_TOP_M = 47000.0
 H_BOTTOM_M = -5000.0
-T_BASE_K = tuple(ISA_T0_K + sum(LAPSE_K_PER_M[j] * (H_BASE_M[j + 1] - H_BASE_M[j]) for j in range(i))
-                 for i in range(len(H_BASE_M)))
+T_BASE_K = tuple(
+    ISA_T0_K + sum(LAPSE_K_PER_M[j] * (H_BASE_M[j + 1] - H_BASE_M[j]) for j in range(i)) for i in range(len(H_BASE_M))
+)
 
 _HB = np.array(H_BASE_M)
 _L = np.array(LAPSE_K_PER_M)
@@ -78,8 +79,7 @@ def check_geopotential(h) -> None:
     """Raise ValueError unless every H is finite and within the tabulated ISA range."""
     h = np.asarray(h, dtype=float)
     if not np.all(np.isfinite(h)) or np.any(h < H_BOTTOM_M) or np.any(h > H_TOP_M):
-        raise ValueError(f"altitude: geopotential height must be finite and within "
-                         f"[{H_BOTTOM_M:.0f}, {H_TOP_M:.0f}] m")
+        raise ValueError(f"altitude: geopotential height must be finite and within [{H_BOTTOM_M:.0f}, {H_TOP_M:.0f}] m")
 
 
 def _layer_index(h: np.ndarray) -> np.ndarray:
@@ -99,8 +99,7 @@ def isa_pressure_pa(h_geopotential_m, delta_t_k=0.0, p_sea_level_pa=ISA_P0_PA):
     pressure at H = 0 is p_sea_level_pa (hypsometric equation per layer)."""
     h = np.asarray(h_geopotential_m, dtype=float)
     check_geopotential(h)
-    h, dt, psl = np.broadcast_arrays(h, np.asarray(delta_t_k, dtype=float),
-                                     np.asarray(p_sea_level_pa, dtype=float))
+    h, dt, psl = np.broadcast_arrays(h, np.asarray(delta_t_k, dtype=float), np.asarray(p_sea_level_pa, dtype=float))
     i = _layer_index(h)
     base = np.ones(h.shape)
     for j in range(_HB.size - 1):  # pressure ratio at the base of each point's layer
@@ -117,16 +116,18 @@ def isa_pressure_pa(h_geopotential_m, delta_t_k=0.0, p_sea_level_pa=ISA_P0_PA):
     return psl * base * within
 
 
-def isa_point(h_geopotential_m: float, delta_t_k: float = 0.0,
-              p_sea_level_pa: float = ISA_P0_PA) -> tuple[float, float]:
+def isa_point(
+    h_geopotential_m: float, delta_t_k: float = 0.0, p_sea_level_pa: float = ISA_P0_PA
+) -> tuple[float, float]:
     """(temperature K, pressure Pa) of the ISA + delta_t column at one height; floats. The
     one-point form of isa_temperature_k and isa_pressure_pa for the truth loop's per-step
     calls, where numpy's per-call overhead made the array form ~150x slower on one point;
     equal to it to the last bit (tests/test_atmosphere.py)."""
     h = float(h_geopotential_m)
     if not (H_BOTTOM_M <= h <= H_TOP_M):
-        raise ValueError(f"altitude: geopotential height must be finite and within "
-                         f"[{H_BOTTOM_M:.0f}, {H_TOP_M:.0f}] m, got {h!r}")
+        raise ValueError(
+            f"altitude: geopotential height must be finite and within [{H_BOTTOM_M:.0f}, {H_TOP_M:.0f}] m, got {h!r}"
+        )
     j = 0
     while j + 1 < len(H_BASE_M) and h >= H_BASE_M[j + 1]:
         j += 1
@@ -143,8 +144,7 @@ def pressure_altitude_m(p_pa):
     of `isa_pressure_pa` with delta_t = 0 and p_sl = 101325 Pa."""
     p = np.asarray(p_pa, dtype=float)
     if not np.all(np.isfinite(p)) or np.any(p < P_TOP_PA) or np.any(p > P_BOTTOM_PA):
-        raise ValueError(f"pressure_altitude_m: p_pa must be finite and within "
-                         f"[{P_TOP_PA:.1f}, {P_BOTTOM_PA:.1f}] Pa")
+        raise ValueError(f"pressure_altitude_m: p_pa must be finite and within [{P_TOP_PA:.1f}, {P_BOTTOM_PA:.1f}] Pa")
     pb_all = np.array(_P_BASE_STD)
     i = np.clip(np.searchsorted(-pb_all, -p, side="right") - 1, 0, _HB.size - 1)
     tb, lapse, pb = _TB[i], _L[i], pb_all[i]

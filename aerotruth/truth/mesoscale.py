@@ -51,7 +51,10 @@ _CHUNK = 2048  # points per block: bounds the (points x modes) work array to a f
 
 
 def nastrom_gage_spectrum(
-    k_rad_per_m, c3: float = NG_C3, c53: float = NG_C53, slope_large: float = -3.0,
+    k_rad_per_m,
+    c3: float = NG_C3,
+    c53: float = NG_C53,
+    slope_large: float = -3.0,
     slope_small: float = -5.0 / 3.0,
 ) -> np.ndarray:
     """Horizontal kinetic-energy spectrum E(k) (m^3 s^-2) at wavenumber k (rad/m).
@@ -94,9 +97,17 @@ class MesoscaleSpec:
     w_modes: int = 48
 
     def __post_init__(self) -> None:
-        positive = ("c3", "c53", "energy_scale", "max_wavelength_m", "min_wavelength_m",
-                    "vertical_scale_m", "lifetime_factor", "w_max_wavelength_m",
-                    "w_min_wavelength_m")
+        positive = (
+            "c3",
+            "c53",
+            "energy_scale",
+            "max_wavelength_m",
+            "min_wavelength_m",
+            "vertical_scale_m",
+            "lifetime_factor",
+            "w_max_wavelength_m",
+            "w_min_wavelength_m",
+        )
         for name in positive:
             if not (getattr(self, name) > 0):
                 raise ValueError(f"MesoscaleSpec.{name} must be > 0, got {getattr(self, name)!r}")
@@ -133,19 +144,17 @@ class MesoscaleField:
         self.rms_ms = float(rms_ms)
         self.w_rms_ms = float(w_rms_ms)
         # rows multiply (x, y, z, t, 1): Phi = [x y z t 1] @ coef
-        self._coef = np.ascontiguousarray(
-            np.stack([self.kx, self.ky, self.kz, self.omega, self.phase]))
+        self._coef = np.ascontiguousarray(np.stack([self.kx, self.ky, self.kz, self.omega, self.phase]))
 
     @classmethod
-    def draw(cls, spec: MesoscaleSpec, rng: np.random.Generator) -> "MesoscaleField":
+    def draw(cls, spec: MesoscaleSpec, rng: np.random.Generator) -> MesoscaleField:
         """Draw mode wavenumbers, directions, phases and frequencies from `rng`."""
         n_sh, n_dir = int(spec.shells), int(spec.directions)
-        k_edges = np.geomspace(2 * np.pi / spec.max_wavelength_m,
-                               2 * np.pi / spec.min_wavelength_m, n_sh + 1)
+        k_edges = np.geomspace(2 * np.pi / spec.max_wavelength_m, 2 * np.pi / spec.min_wavelength_m, n_sh + 1)
         k_lo, k_hi = k_edges[:-1], k_edges[1:]
         shell_energy = spec.energy_scale * (
-            _band_energy(k_lo, k_hi, spec.c3, spec.slope_large)
-            + _band_energy(k_lo, k_hi, spec.c53, spec.slope_small))
+            _band_energy(k_lo, k_hi, spec.c3, spec.slope_large) + _band_energy(k_lo, k_hi, spec.c53, spec.slope_small)
+        )
         # Each mode: KE = a^2/4 (u'^2+v'^2 = a^2/2), so a shell's n_dir modes carry its energy.
         a_shell = 2.0 * np.sqrt(shell_energy / n_dir)
         # wavenumber log-uniform inside its shell; directions stratified over [0, pi)
@@ -154,8 +163,7 @@ class MesoscaleField:
         theta = (rng.random((n_sh, 1)) + np.arange(n_dir)[None, :]) * (np.pi / n_dir)
         phase_h = rng.uniform(0.0, 2 * np.pi, (n_sh, n_dir))
         kz_h = rng.normal(0.0, 1.0 / spec.vertical_scale_m, (n_sh, n_dir))
-        e_k = spec.energy_scale * nastrom_gage_spectrum(k, spec.c3, spec.c53, spec.slope_large,
-                                                        spec.slope_small)
+        e_k = spec.energy_scale * nastrom_gage_spectrum(k, spec.c3, spec.c53, spec.slope_large, spec.slope_small)
         tau = spec.lifetime_factor / np.sqrt(k**3 * e_k)  # eddy turnover time, s
         om_h = rng.normal(0.0, 1.0, (n_sh, n_dir)) / tau
         amp_h = np.broadcast_to(a_shell[:, None], (n_sh, n_dir))
@@ -168,13 +176,13 @@ class MesoscaleField:
         amp_h = amp_h.ravel()
 
         n_w = int(spec.w_modes)
-        kw = np.exp(rng.uniform(np.log(2 * np.pi / spec.w_max_wavelength_m),
-                                np.log(2 * np.pi / spec.w_min_wavelength_m), n_w))
+        kw = np.exp(
+            rng.uniform(np.log(2 * np.pi / spec.w_max_wavelength_m), np.log(2 * np.pi / spec.w_min_wavelength_m), n_w)
+        )
         thw = rng.uniform(0.0, 2 * np.pi, n_w)
         phase_w = rng.uniform(0.0, 2 * np.pi, n_w)
         kz_w = rng.normal(0.0, 1.0 / spec.vertical_scale_m, n_w)
-        e_kw = spec.energy_scale * nastrom_gage_spectrum(kw, spec.c3, spec.c53, spec.slope_large,
-                                                         spec.slope_small)
+        e_kw = spec.energy_scale * nastrom_gage_spectrum(kw, spec.c3, spec.c53, spec.slope_large, spec.slope_small)
         om_w = rng.normal(0.0, 1.0, n_w) * np.sqrt(kw**3 * e_kw) / spec.lifetime_factor
         b = np.full(n_w, spec.w_rms_ms * np.sqrt(2.0 / n_w))  # sum b^2/2 = w_rms^2
         kx_w, ky_w = kw * np.cos(thw), kw * np.sin(thw)
@@ -187,9 +195,17 @@ class MesoscaleField:
         th_full = theta.ravel()
         amplitude[: amp_h.size, 0] = -amp_h * np.sin(th_full)
         amplitude[: amp_h.size, 1] = amp_h * np.cos(th_full)
-        amplitude[amp_h.size:, 2] = b
-        return cls(kx, ky, np.concatenate([kz_h.ravel(), kz_w]), omega,
-                   np.concatenate([phase_h.ravel(), phase_w]), amplitude, rms, spec.w_rms_ms)
+        amplitude[amp_h.size :, 2] = b
+        return cls(
+            kx,
+            ky,
+            np.concatenate([kz_h.ravel(), kz_w]),
+            omega,
+            np.concatenate([phase_h.ravel(), phase_w]),
+            amplitude,
+            rms,
+            spec.w_rms_ms,
+        )
 
     def wind_xy(self, x_m, y_m, z_m, t_s) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
         """(u, v, w) in m/s at tangent-plane points (x east, y north, z up; m) and times (s).

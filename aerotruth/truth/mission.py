@@ -74,7 +74,9 @@ class MissionRun(Section):
     """One run of an inspection mission (module docstring)."""
 
     type: Literal["level_run", "arc", "crossing", "approach", "low_pass"]
-    height_ft: float = Field(default=2200.0, gt=300, lt=10000, description="above the threshold (approaches: before the glide path)")
+    height_ft: float = Field(
+        default=2200.0, gt=300, lt=10000, description="above the threshold (approaches: before the glide path)"
+    )
     from_nm: float = Field(default=15.0, gt=0, le=30, description="level run / approach start, before the threshold")
     to_nm: float = Field(default=2.0, ge=0, description="level run end, before the threshold")
     radius_nm: float = Field(default=10.0, gt=1, le=25, description="arc radius about the localizer antenna")
@@ -124,7 +126,9 @@ def run_path(run: MissionRun, gp: GlidePath, length_m: float) -> list[tuple[floa
 class _MissionGuide:
     """1 Hz guidance through the runs (module docstring)."""
 
-    def __init__(self, fdm, spec: MissionSpec, gp: GlidePath, frame: RunwayFrame, length_m: float, sched: ApproachSchedule):
+    def __init__(
+        self, fdm, spec: MissionSpec, gp: GlidePath, frame: RunwayFrame, length_m: float, sched: ApproachSchedule
+    ):
         self.fdm, self.spec, self.gp, self.frame, self.length = fdm, spec, gp, frame, length_m
         self.sched = sched
         self.vapp = sched.vref_kt(spec.mass_kg) + sched.additive_kt
@@ -150,7 +154,7 @@ class _MissionGuide:
         la, lo_a, _ = self.frame.to_geodetic(a[0], a[1], 0.0)
         lb, lo_b, _ = self.frame.to_geodetic(b[0], b[1], 0.0)
         n = GreatCircleLeg("M", float(la), float(lo_a), float(lb), float(lo_b)).normal
-        for k, c in zip("xyz", n):
+        for k, c in zip("xyz", n, strict=False):
             self._set(f"ap/nav/n{k}", c)
 
     def plan_run(self, x: float, y: float, first: bool = False) -> None:
@@ -167,7 +171,7 @@ class _MissionGuide:
         if not first:
             legs += [((x, y), base, "position"), (base, lead, "position")]
         legs += [(lead, path[0], "position")]
-        legs += [(p, q, "run") for p, q in zip(path[:-1], path[1:])]
+        legs += [(p, q, "run") for p, q in zip(path[:-1], path[1:], strict=False)]
         self.legs, self.leg_i = legs, 0
         self._set_leg(*legs[0][:2])
         self.vmode = "level"
@@ -182,7 +186,9 @@ class _MissionGuide:
         r = gs**2 / (G0 * math.tan(BANK_DEG * DEG))
         return min(r * math.tan(min(dpsi, 2.6) / 2.0), 3.0 * r)
 
-    def update(self, t: float, x: float, y: float, z: float, h_ell: float, vn: float, ve: float, vd: float, cas_kt: float) -> None:
+    def update(
+        self, t: float, x: float, y: float, z: float, h_ell: float, vn: float, ve: float, vd: float, cas_kt: float
+    ) -> None:
         run = self.spec.runs[self.run_k]
         a, b, kind = self.legs[self.leg_i]
         d = math.hypot(b[0] - a[0], b[1] - a[1])
@@ -225,7 +231,9 @@ class _MissionGuide:
                         flaps = 35.0 if cas_kt <= self.sched.vfe35_kt else 20.0
                     target_z = z_gp
                     vx = vn * math.cos(self.frame.course_deg * DEG) + ve * math.sin(self.frame.course_deg * DEG)
-                    rate = vx * self.gp.tan * (x - self.gp.gp_x) / max(math.hypot(x - self.gp.gp_x, y - self.gp.gp_y), 1.0)
+                    rate = (
+                        vx * self.gp.tan * (x - self.gp.gp_x) / max(math.hypot(x - self.gp.gp_x, y - self.gp.gp_y), 1.0)
+                    )
                     if run.type == "approach" and z <= run.decision_height_ft * FT:
                         self.vmode = "climb"
                     if run.type == "low_pass" and z - run.pass_height_ft * FT <= max(vd, 0.0) * 60.0 / 4.0:
@@ -248,8 +256,9 @@ class _MissionGuide:
         self._set("fcs/flap-cmd-norm", flaps / 35.0)
 
 
-def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = None,
-                atmosphere: Atmosphere | None = None) -> TruthTrack:
+def fly_mission(
+    spec: MissionSpec, *, seed, aircraft: str | Airframe | None = None, atmosphere: Atmosphere | None = None
+) -> TruthTrack:
     """Fly the mission's runs in order and return the 10 Hz TruthTrack (module docstring)."""
     sched = ApproachSchedule()
     ils = ils_setup(spec, seed, aircraft, atmosphere, "missions")
@@ -263,8 +272,21 @@ def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = No
     start = (x0 - 3.0 * NM * ux, y0 - 3.0 * NM * uy)
     track_deg = frame.course_deg - math.degrees(math.atan2(uy, ux))  # y is left: a left-going path turns the track left
     ias0 = sched.initial_ias_kt if first.type in ("approach", "low_pass") else first.ias_kt
-    initial_conditions(fdm, frame, start[0], start[1], first.height_ft * FT, track_deg, af, spec.mass_kg, ias0,
-                       15.0 if first.type in ("approach", "low_pass") else 0.0, atmosphere, und, t0_s)
+    initial_conditions(
+        fdm,
+        frame,
+        start[0],
+        start[1],
+        first.height_ft * FT,
+        track_deg,
+        af,
+        spec.mass_kg,
+        ias0,
+        15.0 if first.type in ("approach", "low_pass") else 0.0,
+        atmosphere,
+        und,
+        t0_s,
+    )
     guide = _MissionGuide(fdm, spec, gp, frame, runway.length_m, sched)
     guide.plan_run(start[0], start[1], first=True)
     a, b, _ = guide.legs[0]
@@ -285,13 +307,25 @@ def fly_mission(spec: MissionSpec, *, seed, aircraft: str | Airframe | None = No
 
     turb = TurbulencePatches(fdm, ils.rng) if spec.turbulence else None
     cg_props = tuple(f"inertia/cg-{a}-in" for a in "xyz")
-    rec, rows, tags = fly_loop(fdm, frame, atmosphere, und, t0_s, runway.elevation_m, step, seed_id, RATE_HZ, cg_props,
-                               min_height_m=3.0, turbulence=turb)
+    rec, rows, tags = fly_loop(
+        fdm,
+        frame,
+        atmosphere,
+        und,
+        t0_s,
+        runway.elevation_m,
+        step,
+        seed_id,
+        RATE_HZ,
+        cg_props,
+        min_height_m=3.0,
+        turbulence=turb,
+    )
     nrec = len(rec.PROPS)
     data = np.asarray(rows, dtype=float)
     df = rec.frame(data[:, :nrec], tags)
-    add_frame_columns(df, frame, data[:, nrec:nrec + 3])
-    run_idx = np.asarray(run_tags[:len(df)], dtype=np.int16)
+    add_frame_columns(df, frame, data[:, nrec : nrec + 3])
+    run_idx = np.asarray(run_tags[: len(df)], dtype=np.int16)
     df["run"] = run_idx
     names = np.array(["position"] + [r.type for r in spec.runs], dtype=object)
     df["run_type"] = names[run_idx + 1]

@@ -24,9 +24,10 @@ deterministic given the inputs; random choices come only from the Generator pass
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 from dataclasses import dataclass, replace
-from datetime import date, datetime, time, timedelta, timezone
-from typing import Callable, overload
+from datetime import UTC, date, datetime, time, timedelta
+from typing import overload
 from zoneinfo import ZoneInfo
 
 import numpy as np
@@ -160,16 +161,20 @@ def cross_track_to_centreline_m(runway: Runway, lat, lon):
     return runway_frame_xy_m(runway, lat, lon)[1]
 
 
-def semicircular_altitude_ft(altitude_ft: float, true_course_deg: float, *, floor_ft: float,
-                             ceiling_ft: float) -> float:
+def semicircular_altitude_ft(
+    altitude_ft: float, true_course_deg: float, *, floor_ft: float, ceiling_ft: float
+) -> float:
     """Nearest whole thousand of feet obeying the semicircular rule (courses 0-179 deg:
     odd thousands; 180-359: even), within [floor, ceiling]; ties go to the lower level.
     The rule is stated for magnetic course; the true course is used here (magnetic
     variation on these networks is 0-20 deg, so only legs within that of north or south
     can differ)."""
     odd = float(wrap360(true_course_deg)) < 180.0
-    levels = [k * 1000.0 for k in range(int(math.ceil(floor_ft / 1000.0)), int(ceiling_ft // 1000.0) + 1)
-              if (k % 2 == 1) == odd]
+    levels = [
+        k * 1000.0
+        for k in range(int(math.ceil(floor_ft / 1000.0)), int(ceiling_ft // 1000.0) + 1)
+        if (k % 2 == 1) == odd
+    ]
     if not levels:
         raise ValueError(
             f"semicircular_altitude_ft: no {'odd' if odd else 'even'} thousand in [{floor_ft}, {ceiling_ft}] ft"
@@ -177,8 +182,7 @@ def semicircular_altitude_ft(altitude_ft: float, true_course_deg: float, *, floo
     return min(levels, key=lambda lv: (abs(lv - altitude_ft), lv))
 
 
-def cruise_altitude_ft(distance_m: float, true_course_deg: float, *, rng: np.random.Generator | None = None
-                       ) -> float:
+def cruise_altitude_ft(distance_m: float, true_course_deg: float, *, rng: np.random.Generator | None = None) -> float:
     """Cruise pressure altitude (ft) by leg length, FL140-FL250, on the semicircular
     rule. With rng, the level is moved by -2000, 0 or +2000 ft (equally likely) before
     the rule is applied, as traffic and winds move real levels."""
@@ -262,8 +266,7 @@ class LegPlan:
         return -np.asarray(s) * np.sin(np.radians(np.asarray(az) - course))
 
     @staticmethod
-    def descent_distance_m(from_height_m: float, to_height_m: float, path_angle_deg: float = DESCENT_PATH_DEG
-                           ) -> float:
+    def descent_distance_m(from_height_m: float, to_height_m: float, path_angle_deg: float = DESCENT_PATH_DEG) -> float:
         """Ground distance (m) to descend between two heights on a fixed path angle
         (3 deg: 318 ft per nm)."""
         return max(from_height_m - to_height_m, 0.0) / math.tan(math.radians(path_angle_deg))
@@ -292,8 +295,7 @@ def _lateral_path(origin: Airport, dep: Runway, arr: Runway) -> list[Waypoint]:
     inbound_az = float(wrap360(arr.true_course_deg + 180.0))  # from threshold out along the approach
     # forward's back azimuth at the IF is the centreline's landing course there (it differs
     # from the threshold's by the meridian convergence, ~0.2 deg at 12 nm and 45 N)
-    lat, lon, final_course_at_fix = forward(arr.threshold_lat, arr.threshold_lon, inbound_az,
-                                            INTERMEDIATE_FIX_NM * NM)
+    lat, lon, final_course_at_fix = forward(arr.threshold_lat, arr.threshold_lon, inbound_az, INTERMEDIATE_FIX_NM * NM)
     fix = Waypoint("IF", float(lat), float(lon))
     lat, lon, _ = forward(arr.threshold_lat, arr.threshold_lon, inbound_az, FINAL_POINT_NM * NM)
     final = Waypoint("FINAL", float(lat), float(lon))
@@ -332,7 +334,7 @@ def plan_leg(
         raise ValueError(f"destination: must differ from origin, both are {org.icao}")
     if not isinstance(departure_utc, datetime) or departure_utc.utcoffset() is None:
         raise ValueError(f"departure_utc: expected a timezone-aware datetime, got {departure_utc!r}")
-    departure_utc = departure_utc.astimezone(timezone.utc)
+    departure_utc = departure_utc.astimezone(UTC)
     dep_wind = _check_wind(wind_uv, "wind_uv")
     if arrival_wind_uv is SAME_AS_DEPARTURE:
         arr_wind = dep_wind
@@ -344,12 +346,14 @@ def plan_leg(
     course, _, distance = inverse(org.lat, org.lon, dst.lat, dst.lon)
     course = float(wrap360(course))
     path = _lateral_path(org, dep, arr)
-    segments = tuple(float(inverse(a.lat, a.lon, b.lat, b.lon)[2]) for a, b in zip(path[:-1], path[1:]))
+    segments = tuple(float(inverse(a.lat, a.lon, b.lat, b.lon)[2]) for a, b in zip(path[:-1], path[1:], strict=False))
 
     far = org.runway(dep.reciprocal_ident)
     initial_msl_ft = far.elevation_m / FT + INITIAL_HEIGHT_AGL_FT
     arrival_msl_ft = arr.elevation_m / FT + ARRIVAL_HEIGHT_AGL_FT
-    cruise_ft = cruise_altitude_ft(distance, course, rng=rng) if cruise_flight_level is None else 100.0 * cruise_flight_level
+    cruise_ft = (
+        cruise_altitude_ft(distance, course, rng=rng) if cruise_flight_level is None else 100.0 * cruise_flight_level
+    )
     ceiling_ft = feasible_cruise_ceiling_ft(sum(segments), initial_msl_ft, arrival_msl_ft)
     if cruise_ft > ceiling_ft:
         if ceiling_ft < LOWEST_CRUISE_FT + 2000.0:
@@ -408,13 +412,13 @@ def with_airway(plan: LegPlan, rng: np.random.Generator) -> LegPlan:
     y = np.concatenate([[0.0], np.cumsum(np.diff(bounds) * np.tan(theta))])
     y -= y[-1] * bounds / bounds[-1]  # closes onto the arrival fix
     fixes = []
-    for k, (x, yk) in enumerate(zip(xs, y[1:-1]), start=1):
+    for k, (x, yk) in enumerate(zip(xs, y[1:-1], strict=False), start=1):
         lat, lon, back = forward(a.lat, a.lon, course, x)
         # the course there is back + 180, so its right is back - 90; y > 0: right of the path
         lat, lon, _ = forward(lat, lon, float(back) - 90.0, float(yk))
         fixes.append(Waypoint(f"AWY{k}", float(lat), float(lon)))
-    path = list(plan.waypoints[: i + 1]) + fixes + list(plan.waypoints[i + 1:])
-    segments = tuple(float(inverse(p.lat, p.lon, q.lat, q.lon)[2]) for p, q in zip(path[:-1], path[1:]))
+    path = list(plan.waypoints[: i + 1]) + fixes + list(plan.waypoints[i + 1 :])
+    segments = tuple(float(inverse(p.lat, p.lon, q.lat, q.lon)[2]) for p, q in zip(path[:-1], path[1:], strict=False))
     return replace(plan, waypoints=tuple(path), segment_lengths_m=segments)
 
 
@@ -467,7 +471,7 @@ def day_schedule(
     spokes = net.spokes_by_hub[hub]
     n_legs = int(rng.integers(4, 9))
     local_first = datetime.combine(day, time(6, 0)) + timedelta(minutes=5 * int(rng.integers(0, 25)))
-    t = local_first.replace(tzinfo=hub_timezone(net, hub)).astimezone(timezone.utc)
+    t = local_first.replace(tzinfo=hub_timezone(net, hub)).astimezone(UTC)
     legs: list[LegPlan] = []
     here = hub
     for k in range(n_legs):
@@ -476,8 +480,15 @@ def day_schedule(
         dep_wind = surface_wind(org, t) if surface_wind is not None else None
         eta = t + timedelta(seconds=block_time_s(float(inverse(org.lat, org.lon, dst.lat, dst.lon)[2])))
         arr_wind = surface_wind(dst, eta) if surface_wind is not None else None
-        leg = plan_leg(org, dst, t, rng=rng, wind_uv=dep_wind, arrival_wind_uv=arr_wind,
-                       flight_id=f"{aircraft_id}-{day:%Y%m%d}-{k + 1}")
+        leg = plan_leg(
+            org,
+            dst,
+            t,
+            rng=rng,
+            wind_uv=dep_wind,
+            arrival_wind_uv=arr_wind,
+            flight_id=f"{aircraft_id}-{day:%Y%m%d}-{k + 1}",
+        )
         legs.append(leg)
         t = t + timedelta(seconds=leg.block_time_s) + timedelta(minutes=5 * int(rng.integers(6, 13)))
         here = there

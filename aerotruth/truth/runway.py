@@ -37,8 +37,12 @@ class RunwayFrame:
 
     @classmethod
     def of(cls, runway: Runway) -> RunwayFrame:
-        return cls(float(runway.threshold_lat), float(runway.threshold_lon), float(runway.threshold_height_ellipsoid_m),
-                   float(runway.true_course_deg))
+        return cls(
+            float(runway.threshold_lat),
+            float(runway.threshold_lon),
+            float(runway.threshold_height_ellipsoid_m),
+            float(runway.true_course_deg),
+        )
 
     @cached_property
     def _cs(self) -> tuple[float, float]:

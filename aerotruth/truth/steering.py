@@ -67,8 +67,7 @@ class SteeringWander:
     """Gauss-Markov wander of the autopilot's bank command, set into JSBSim every
     STEER_DT_S (module docstring)."""
 
-    def __init__(self, fdm, rng: np.random.Generator, sigma_rad: float = STEER_SIGMA_RAD,
-                 tau_s: float = STEER_TAU_S):
+    def __init__(self, fdm, rng: np.random.Generator, sigma_rad: float = STEER_SIGMA_RAD, tau_s: float = STEER_TAU_S):
         self.rng = rng
         self.node = fdm.get_property_manager().get_node(STEER_PROPERTY, True)
         self.a = math.exp(-STEER_DT_S / tau_s)

@@ -29,7 +29,7 @@ import json
 import os
 import time
 from dataclasses import dataclass
-from datetime import timezone
+from datetime import UTC
 from pathlib import Path
 
 from aerotruth.digests import code_digest
@@ -56,9 +56,11 @@ def plan_identity(plan) -> dict:
     """The parts of a LegPlan that determine its flight."""
     return {
         "flight_id": plan.flight_id,
-        "origin": plan.origin.icao, "destination": plan.destination.icao,
-        "departure_runway": plan.departure_runway.ident, "arrival_runway": plan.arrival_runway.ident,
-        "departure_utc": plan.departure_utc.astimezone(timezone.utc).isoformat(),
+        "origin": plan.origin.icao,
+        "destination": plan.destination.icao,
+        "departure_runway": plan.departure_runway.ident,
+        "arrival_runway": plan.arrival_runway.ident,
+        "departure_utc": plan.departure_utc.astimezone(UTC).isoformat(),
         "cruise_pressure_altitude_m": round(float(plan.cruise_pressure_altitude_m), 3),
         "waypoints": [(w.name, round(float(w.lat), 9), round(float(w.lon), 9)) for w in plan.waypoints],
         "initial_height_m": round(float(plan.initial_height_m), 3),
@@ -117,38 +119,72 @@ class TruthStore:
         same missing leg (e.g. two studies of one aircraft-day) fly it once: the second
         waits on the leg's lock file and then reads it."""
         key = truth_key(leg, aircraft_type, turbulence)
-        track, diverged, now = self._cached(key, leg.plan.flight_id, lambda: fly_leg(
-            leg.plan, seed=leg.flight_seed, aircraft=aircraft_type, turbulence=turbulence, atmosphere=leg.atmosphere()))
+        track, diverged, now = self._cached(
+            key,
+            leg.plan.flight_id,
+            lambda: fly_leg(
+                leg.plan,
+                seed=leg.flight_seed,
+                aircraft=aircraft_type,
+                turbulence=turbulence,
+                atmosphere=leg.atmosphere(),
+            ),
+        )
         return LegOutcome(leg, key, track, diverged, now)
 
     def approach(self, planned: PlannedApproach, *, aircraft_type: str | None = None) -> ApproachOutcome:
         """An approach's 50 Hz truth from the store, flown now if missing (same locking,
         divergence record and compact storage as `leg`)."""
-        ident = {"approach": planned.identity(), "aircraft": dataclasses.asdict(airframe(aircraft_type)),
-                 "code": code_digest(TRUTH_CODE)}
+        ident = {
+            "approach": planned.identity(),
+            "aircraft": dataclasses.asdict(airframe(aircraft_type)),
+            "code": code_digest(TRUTH_CODE),
+        }
         key = "a" + hashlib.sha256(json.dumps(ident, sort_keys=True, default=str).encode()).hexdigest()[:31]
-        label = f"{planned.spec.airport}-{planned.spec.runway}-{planned.spec.start_utc:%Y%m%dT%H%M}-{planned.flight_seed}"
-        track, diverged, now = self._cached(key, label, lambda: fly_approach(
-            planned.spec, seed=planned.flight_seed, aircraft=aircraft_type, atmosphere=planned.atmosphere()))
+        label = (
+            f"{planned.spec.airport}-{planned.spec.runway}-{planned.spec.start_utc:%Y%m%dT%H%M}-{planned.flight_seed}"
+        )
+        track, diverged, now = self._cached(
+            key,
+            label,
+            lambda: fly_approach(
+                planned.spec, seed=planned.flight_seed, aircraft=aircraft_type, atmosphere=planned.atmosphere()
+            ),
+        )
         return ApproachOutcome(planned, key, track, diverged, now)
 
-    def mission(self, spec, *, weather_seed: int, flight_seed: int, region: str | None,
-                aircraft_type: str | None = None) -> tuple[str, TruthTrack | None, FlightDiverged | None]:
+    def mission(
+        self, spec, *, weather_seed: int, flight_seed: int, region: str | None, aircraft_type: str | None = None
+    ) -> tuple[str, TruthTrack | None, FlightDiverged | None]:
         """An inspection mission's 10 Hz truth (aerotruth.truth.mission), flown if missing:
         (key, track or None, divergence or None)."""
         from aerotruth.truth.days import day_atmosphere
         from aerotruth.truth.mission import fly_mission
 
-        ident = {"mission": {"airport": spec.airport, "runway": spec.runway, "start_utc": spec.start_utc.isoformat(),
-                             "runs": [r.model_dump() for r in spec.runs], "mass_kg": spec.mass_kg,
-                             "turbulence": spec.turbulence, "ils": spec.ils.model_dump(),
-                             "points_m": {k: list(v) for k, v in sorted(spec.points_m.items())}},
-                 "weather_seed": int(weather_seed), "flight_seed": int(flight_seed), "region": region,
-                 "aircraft": dataclasses.asdict(airframe(aircraft_type)), "code": code_digest(TRUTH_CODE)}
+        ident = {
+            "mission": {
+                "airport": spec.airport,
+                "runway": spec.runway,
+                "start_utc": spec.start_utc.isoformat(),
+                "runs": [r.model_dump() for r in spec.runs],
+                "mass_kg": spec.mass_kg,
+                "turbulence": spec.turbulence,
+                "ils": spec.ils.model_dump(),
+                "points_m": {k: list(v) for k, v in sorted(spec.points_m.items())},
+            },
+            "weather_seed": int(weather_seed),
+            "flight_seed": int(flight_seed),
+            "region": region,
+            "aircraft": dataclasses.asdict(airframe(aircraft_type)),
+            "code": code_digest(TRUTH_CODE),
+        }
         key = "m" + hashlib.sha256(json.dumps(ident, sort_keys=True, default=str).encode()).hexdigest()[:31]
         atm = None if region is None else day_atmosphere(spec.start_utc.date(), weather_seed, region)
-        track, diverged, _ = self._cached(key, f"{spec.airport}-{spec.runway}-mission-{flight_seed}",
-                                          lambda: fly_mission(spec, seed=flight_seed, aircraft=aircraft_type, atmosphere=atm))
+        track, diverged, _ = self._cached(
+            key,
+            f"{spec.airport}-{spec.runway}-mission-{flight_seed}",
+            lambda: fly_mission(spec, seed=flight_seed, aircraft=aircraft_type, atmosphere=atm),
+        )
         return key, track, diverged
 
     def _cached(self, key: str, label: str, fly) -> tuple[TruthTrack | None, FlightDiverged | None, bool]:
@@ -185,8 +221,12 @@ class TruthStore:
 
     def _log_line(self, key: str, flight_id: str, seconds: float, what: str) -> None:
         self.root.mkdir(parents=True, exist_ok=True)
-        line = json.dumps({"key": key, "flight_id": flight_id, "what": what, "seconds": round(seconds, 3), "pid": os.getpid()})
-        with open(self.root / "flown.log", "a", encoding="utf-8") as f:  # O_APPEND: lines from several workers do not interleave
+        line = json.dumps(
+            {"key": key, "flight_id": flight_id, "what": what, "seconds": round(seconds, 3), "pid": os.getpid()}
+        )
+        with open(
+            self.root / "flown.log", "a", encoding="utf-8"
+        ) as f:  # O_APPEND: lines from several workers do not interleave
             f.write(line + "\n")
 
     def flown_count(self) -> int:
@@ -205,7 +245,9 @@ class TruthStore:
     def evict(self, max_bytes: int) -> tuple[int, int]:
         """Delete least recently used flights until at most `max_bytes` remain; returns
         (files removed, bytes freed)."""
-        files = sorted(((p.stat().st_mtime, p.stat().st_size, p) for p in self.files()), key=lambda x: (x[0], str(x[2])))
+        files = sorted(
+            ((p.stat().st_mtime, p.stat().st_size, p) for p in self.files()), key=lambda x: (x[0], str(x[2]))
+        )
         total = sum(s for _, s, _ in files)
         removed = freed = 0
         for _, size, p in files:

@@ -87,11 +87,19 @@ class TruthTrack:
         floats = [c for c in table.column_names if pa.types.is_floating(table.schema.field(c).type)]
         # byte-stream-split + zstd without dictionaries: 2.0 MB per flight-hour at 10 Hz
         # (4.7 MB with pyarrow's defaults, whose dictionaries blow up on unique floats)
-        atomic_write(path, lambda tmp: pq.write_table(table, tmp, compression="zstd", use_byte_stream_split=floats,
-                                                      use_dictionary=[c for c in table.column_names if c not in floats]))
+        atomic_write(
+            path,
+            lambda tmp: pq.write_table(
+                table,
+                tmp,
+                compression="zstd",
+                use_byte_stream_split=floats,
+                use_dictionary=[c for c in table.column_names if c not in floats],
+            ),
+        )
 
     @classmethod
-    def read_parquet(cls, path: str | Path) -> "TruthTrack":
+    def read_parquet(cls, path: str | Path) -> TruthTrack:
         table = pq.read_table(path)
         raw = (table.schema.metadata or {}).get(_META_KEY)
         if raw is None:
@@ -143,7 +151,10 @@ class TruthTrack:
             out["cruise_xtrack_max_nm"] = float("nan")
         rwy = self.meta.get("arrival_runway")
         if rwy is not None:
-            centre = GreatCircleLeg("centreline", rwy["far_lat"], rwy["far_lon"], rwy["threshold_lat"], rwy["threshold_lon"])
+            centre = GreatCircleLeg(
+                "centreline", rwy["far_lat"], rwy["far_lon"], rwy["threshold_lat"], rwy["threshold_lon"]
+            )
             out["arrival_centreline_offset_nm"] = float(
-                abs(centre.cross_track_m(df["lat_deg"].iloc[-1], df["lon_deg"].iloc[-1])) / NM)
+                abs(centre.cross_track_m(df["lat_deg"].iloc[-1], df["lon_deg"].iloc[-1])) / NM
+            )
         return out

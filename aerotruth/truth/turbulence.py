@@ -72,8 +72,20 @@ def severity_of(u: float) -> int:
 
 # MIL-F-8785C Figure 7: rms gust intensity (ft/s) of the probability-of-exceedance curves
 # (rows: severity 1..7 = POE 2e-1 .. 1e-6) at these altitudes (ft)
-POE_ALTITUDES_FT = (500.0, 1750.0, 3750.0, 7500.0, 15000.0, 25000.0, 35000.0, 45000.0, 55000.0, 65000.0,
-                    75000.0, 80000.0)
+POE_ALTITUDES_FT = (
+    500.0,
+    1750.0,
+    3750.0,
+    7500.0,
+    15000.0,
+    25000.0,
+    35000.0,
+    45000.0,
+    55000.0,
+    65000.0,
+    75000.0,
+    80000.0,
+)
 POE_CURVES_FPS = (
     (3.2, 2.2, 1.5, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
     (4.2, 3.6, 3.3, 1.6, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
@@ -103,14 +115,18 @@ def mil8785_intensity(h_ft: float, w20_fps: float, severity: int) -> tuple[float
     if h <= 1000.0:
         f = 0.177 + 0.000823 * h
         sw = 0.1 * w20_fps
-        return sw / f ** 0.4, sw, h / f ** 1.2, h
+        return sw / f**0.4, sw, h / f**1.2, h
     high = _interp(h, POE_ALTITUDES_FT, POE_CURVES_FPS[severity - 1])
     if h >= 2000.0:
         return high, high, 1750.0, 1750.0
     lo = mil8785_intensity(1000.0, w20_fps, severity)
     r = (h - 1000.0) / 1000.0
-    return (lo[0] + r * (high - lo[0]), lo[1] + r * (high - lo[1]), lo[2] + r * (1750.0 - lo[2]),
-            lo[3] + r * (1750.0 - lo[3]))
+    return (
+        lo[0] + r * (high - lo[0]),
+        lo[1] + r * (high - lo[1]),
+        lo[2] + r * (1750.0 - lo[2]),
+        lo[3] + r * (1750.0 - lo[3]),
+    )
 
 
 class TurbulencePatches:
@@ -128,12 +144,15 @@ class TurbulencePatches:
         """Whether the current patch has been flown at `path_m` (m along the path)."""
         return path_m >= self.next_m
 
-    def update_from(self, path_m: float, atmosphere, lat_deg: float, lon_deg: float, ground_m: float,
-                    t_s: float) -> None:
+    def update_from(
+        self, path_m: float, atmosphere, lat_deg: float, lon_deg: float, ground_m: float, t_s: float
+    ) -> None:
         """`update` with the wind at 20 ft over `ground_m` (m above MSL) at (lat, lon) and
         time `t_s` (s after 0 UTC) taken from the truth `atmosphere`."""
-        u20, v20, _ = (float(np.asarray(c).ravel()[0]) for c in
-                       atmosphere.wind(lat_deg, lon_deg, ground_m + W20_HEIGHT_M, t_s, ground_elevation_m=ground_m))
+        u20, v20, _ = (
+            float(np.asarray(c).ravel()[0])
+            for c in atmosphere.wind(lat_deg, lon_deg, ground_m + W20_HEIGHT_M, t_s, ground_elevation_m=ground_m)
+        )
         self.update(path_m, math.hypot(u20, v20))
 
     def meta(self) -> list[list]:
@@ -171,8 +190,10 @@ class ChopGusts:
         self.rng = rng
         self.lb = math.sqrt(CHOP_SCALE_M * span_m)  # sqrt(L b): the rolling gust's scale
         pm = fdm.get_property_manager()
-        self.nodes = [pm.get_node(p) for p in ("atmosphere/gust-north-fps", "atmosphere/gust-east-fps",
-                                              "atmosphere/gust-down-fps")]
+        self.nodes = [
+            pm.get_node(p)
+            for p in ("atmosphere/gust-north-fps", "atmosphere/gust-east-fps", "atmosphere/gust-down-fps")
+        ]
         self.p_node = pm.get_node("atmosphere/chop/p-rad_sec", True)
         self.x = np.zeros(4)  # u, v, w (m/s), p (rad/s)
         self.sigma_w = 0.0
@@ -207,7 +228,7 @@ class ChopGusts:
         self.x = a * self.x + self.sig * np.sqrt(1.0 - a * a) * self.rng.standard_normal(4)
         u, vv, w, p = self.x
         c, s = math.cos(psi_rad), math.sin(psi_rad)
-        for node, val in zip(self.nodes, (u * c - vv * s, u * s + vv * c, w)):
+        for node, val in zip(self.nodes, (u * c - vv * s, u * s + vv * c, w), strict=False):
             node.set_double_value(val / FT)
         self.p_node.set_double_value(p)
 
@@ -225,8 +246,10 @@ class Mil8785Gusts:
         self.b_ft = span_m / FT
         fdm["atmosphere/turb-type"] = 0
         pm = fdm.get_property_manager()
-        self.nodes = [pm.get_node(p) for p in ("atmosphere/gust-north-fps", "atmosphere/gust-east-fps",
-                                              "atmosphere/gust-down-fps")]
+        self.nodes = [
+            pm.get_node(p)
+            for p in ("atmosphere/gust-north-fps", "atmosphere/gust-east-fps", "atmosphere/gust-down-fps")
+        ]
         self.p_node = pm.get_node("atmosphere/chop/p-rad_sec", True)
         self.x = [0.0, 0.0, 0.0, 0.0]  # u, v, w (ft/s), p (rad/s)
         self._normals: list[float] = []
@@ -265,12 +288,26 @@ class Mil8785Gusts:
         su, sw, lu, lw = mil8785_intensity(h_agl_m / FT, self.patches.w20_mps / FT, self.patches.severity)
         v = max(tas_mps, 30.0) / FT  # ft/s
         out = []
-        for sig, tau in ((su, lu / v), (su, lu / (2 * v)), (sw, lw / (2 * v)),
-                         (1.9 * sw / math.sqrt(lw * self.b_ft), math.sqrt(lw * self.b_ft) / 2.6 / v)):
+        for sig, tau in (
+            (su, lu / v),
+            (su, lu / (2 * v)),
+            (sw, lw / (2 * v)),
+            (1.9 * sw / math.sqrt(lw * self.b_ft), math.sqrt(lw * self.b_ft) / 2.6 / v),
+        ):
             a = math.exp(-dt_s / tau)
             out.append((a, sig * math.sqrt(1.0 - a * a)))
         return out
 
 
-__all__ = ["Mil8785Gusts", "mil8785_intensity", "CHOP_QUANTILE_PROBS", "CHOP_SIGMA_W_QUANTILES", "ChopGusts", "POE_OF_SEVERITY", "PATCH_MEAN_M",
-           "TurbulencePatches", "chop_sigma_w", "severity_of"]
+__all__ = [
+    "Mil8785Gusts",
+    "mil8785_intensity",
+    "CHOP_QUANTILE_PROBS",
+    "CHOP_SIGMA_W_QUANTILES",
+    "ChopGusts",
+    "POE_OF_SEVERITY",
+    "PATCH_MEAN_M",
+    "TurbulencePatches",
+    "chop_sigma_w",
+    "severity_of",
+]

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from collections.abc import Callable
 from dataclasses import dataclass
-from datetime import datetime, timezone
+from datetime import UTC, datetime
 from typing import TYPE_CHECKING, Protocol
 
 import numpy as np
@@ -49,8 +49,9 @@ class UniformAtmosphere:
         return np.full(np.shape(lat_deg), self.delta_t_k)
 
     def static_pressure(self, lat_deg, lon_deg, alt_m, t_s):
-        return isa_pressure_pa(geopotential_altitude_m(np.asarray(alt_m, dtype=float)), self.delta_t_k,
-                              self.sea_level_pressure_pa)
+        return isa_pressure_pa(
+            geopotential_altitude_m(np.asarray(alt_m, dtype=float)), self.delta_t_k, self.sea_level_pressure_pa
+        )
 
 
 NETWORK_REGION = {"mesaba": "upper_midwest", "penair": "alaska", "chautauqua": "eastern_us"}
@@ -80,11 +81,12 @@ def truth_atmosphere_for(plan, seed, region: str | None = None):
 def surface_wind_from(atmosphere, day) -> Callable[[Airport, datetime], tuple[float, float]]:
     """A routes.SurfaceWind: the truth 10 m wind (towards, m/s) at an airport and UTC time,
     used to choose runways into the wind."""
-    day0 = datetime(day.year, day.month, day.day, tzinfo=timezone.utc)
+    day0 = datetime(day.year, day.month, day.day, tzinfo=UTC)
 
     def wind(apt: Airport, when: datetime) -> tuple[float, float]:
-        u, v, _ = atmosphere.wind(apt.lat, apt.lon, apt.elevation_m + 10.0, (when - day0).total_seconds(),
-                                  ground_elevation_m=apt.elevation_m)
+        u, v, _ = atmosphere.wind(
+            apt.lat, apt.lon, apt.elevation_m + 10.0, (when - day0).total_seconds(), ground_elevation_m=apt.elevation_m
+        )
         return float(np.asarray(u)), float(np.asarray(v))
 
     return wind

@@ -52,13 +52,25 @@ class ToyOffset(Study):
         for stage in ("before", "after"):
             needs = ("offset",) if stage == "after" and cfg.correct else ()
             for fleet, day in aircraft_days(campaign, cfg.flights, [getattr(cfg, stage)]):
-                tasks.append(day_task(self.name, fleet, day, stage=stage, needs=needs,
-                                      bias_sigma_deg=cfg.bias_sigma_deg, noise_deg=cfg.noise_deg))
+                tasks.append(
+                    day_task(
+                        self.name,
+                        fleet,
+                        day,
+                        stage=stage,
+                        needs=needs,
+                        bias_sigma_deg=cfg.bias_sigma_deg,
+                        noise_deg=cfg.noise_deg,
+                    )
+                )
         return tasks
 
     def run(self, task, ctx):
         day, p = task.params["day"], task.params
-        bias = p["bias_sigma_deg"] * seeds.generator(seeds.named_sequence(ctx.campaign_seed, "toy_bias", day.aircraft)).standard_normal()
+        bias = (
+            p["bias_sigma_deg"]
+            * seeds.generator(seeds.named_sequence(ctx.campaign_seed, "toy_bias", day.aircraft)).standard_normal()
+        )
         noise_rng = ctx.rng("sensor", "heading")
         offset = ctx.learned.get("offset")
         correction = 0.0
@@ -71,11 +83,18 @@ class ToyOffset(Study):
             noise = p["noise_deg"] * noise_rng.standard_normal(len(true))
             measured = true + bias + noise - correction
             err = measured - true
-            rows.append({"aircraft": day.aircraft, "flight_id": out.leg.plan.flight_id, "n": len(err),
-                         "mean_error_deg": float(np.mean(err)), "rms_error_deg": float(np.sqrt(np.mean(err**2))),
-                         "correction_deg": correction,
-                         "truth_digest": hashlib.sha256(out.track.df["heading_rad"].to_numpy().tobytes()).hexdigest(),
-                         "noise_digest": hashlib.sha256(noise.tobytes()).hexdigest()})
+            rows.append(
+                {
+                    "aircraft": day.aircraft,
+                    "flight_id": out.leg.plan.flight_id,
+                    "n": len(err),
+                    "mean_error_deg": float(np.mean(err)),
+                    "rms_error_deg": float(np.sqrt(np.mean(err**2))),
+                    "correction_deg": correction,
+                    "truth_digest": hashlib.sha256(out.track.df["heading_rad"].to_numpy().tobytes()).hexdigest(),
+                    "noise_digest": hashlib.sha256(noise.tobytes()).hexdigest(),
+                }
+            )
         return pd.DataFrame(rows)
 
     def fit(self, name, rows, section, rng):

@@ -129,10 +129,16 @@ class FitsModel:
             if name in campaign.studies:
                 s = campaign.studies[name]
                 ins = s.sensors.ins[0]
-                return cls(period_s=s.sensors.waas.cyclic_period_s, grade=ins.grade,
-                           dgps_offset_m=tuple(s.sensors.dgps.survey_offset_m), vertical=ins.vertical,
-                           baro_loop_tau_s=ins.baro_loop_time_constant_s, baro_gm_sigma_m=ins.baro_gm_sigma_m,
-                           baro_gm_tau_s=ins.baro_gm_tau_s, baro_white_sigma_m=ins.baro_white_sigma_m)
+                return cls(
+                    period_s=s.sensors.waas.cyclic_period_s,
+                    grade=ins.grade,
+                    dgps_offset_m=tuple(s.sensors.dgps.survey_offset_m),
+                    vertical=ins.vertical,
+                    baro_loop_tau_s=ins.baro_loop_time_constant_s,
+                    baro_gm_sigma_m=ins.baro_gm_sigma_m,
+                    baro_gm_tau_s=ins.baro_gm_tau_s,
+                    baro_white_sigma_m=ins.baro_white_sigma_m,
+                )
         return cls()
 
 
@@ -179,7 +185,7 @@ def _halves(aps: list) -> tuple[list, list]:
 
 def _power_at(f: np.ndarray, p: np.ndarray, period: float) -> float:
     i = int(np.argmin(np.abs(f - 1.0 / period)))
-    return float(p[max(i - 1, 0):i + 2].max())
+    return float(p[max(i - 1, 0) : i + 2].max())
 
 
 def _detrended(ap: _Approach) -> np.ndarray | None:
@@ -252,24 +258,43 @@ def _frame_effect(aps: list[_Approach]) -> Finding | None:
     if fe is None:
         return None
     held = []
-    for fit, test in zip(_halves(aps), _halves(aps)[::-1]):
+    for fit, test in zip(_halves(aps), _halves(aps)[::-1], strict=False):
         g = ins_frame.frame_error(fit)
         p_fit = g.q if g is not None else np.eye(3)
-        held.append((ins_frame.beyond_drift_rms(test), ins_frame.beyond_drift_rms([ins_frame.in_frame(ap, p_fit) for ap in test])))
+        held.append(
+            (
+                ins_frame.beyond_drift_rms(test),
+                ins_frame.beyond_drift_rms([ins_frame.in_frame(ap, p_fit) for ap in test]),
+            )
+        )
     ax = ins_frame.AXES
-    return Finding("ins_frame",
-                   f"The INS positions are not in the runway frame (x along the course, y left, z up): {'; '.join(fe.said())}. "
-                   f"Beyond a drift (a cubic in time per approach), the INS follows the aircraft's motion as the WAAS sees "
-                   f"it with loadings {fe.loads()} (1 in the frame; the WAAS noise shrinks them a little). The FITS's filter "
-                   "then takes the motion for WAAS noise. Put the INS columns in the runway frame.",
-                   {f"F_{ax[i]}{ax[j]}": {"value": float(fe.f[i, j]), "se": float(fe.se[i, j])} for j in fe.cols for i in range(3)},
-                   {"frame": fe.q.tolist(), "motion_rms_m": [float(v) for v in fe.motion_m],
-                    "axes_tested": [ax[j] for j in fe.cols], "approaches": len(aps), "z": fe.z,
-                    "score": float(np.log10(max(fe.z, 1.0)) + 1.0)},
-                   {"before": fe.rms_m, "after": fe.rms_in_frame_m,
-                    "held_out_before": float(np.mean([h[0] for h in held])),
-                    "held_out_after": float(np.mean([h[1] for h in held])),
-                    "unit": "m (WAAS - INS beyond the drift polynomial, RMS)"})
+    return Finding(
+        "ins_frame",
+        f"The INS positions are not in the runway frame (x along the course, y left, z up): {'; '.join(fe.said())}. "
+        f"Beyond a drift (a cubic in time per approach), the INS follows the aircraft's motion as the WAAS sees "
+        f"it with loadings {fe.loads()} (1 in the frame; the WAAS noise shrinks them a little). The FITS's filter "
+        "then takes the motion for WAAS noise. Put the INS columns in the runway frame.",
+        {
+            f"F_{ax[i]}{ax[j]}": {"value": float(fe.f[i, j]), "se": float(fe.se[i, j])}
+            for j in fe.cols
+            for i in range(3)
+        },
+        {
+            "frame": fe.q.tolist(),
+            "motion_rms_m": [float(v) for v in fe.motion_m],
+            "axes_tested": [ax[j] for j in fe.cols],
+            "approaches": len(aps),
+            "z": fe.z,
+            "score": float(np.log10(max(fe.z, 1.0)) + 1.0),
+        },
+        {
+            "before": fe.rms_m,
+            "after": fe.rms_in_frame_m,
+            "held_out_before": float(np.mean([h[0] for h in held])),
+            "held_out_after": float(np.mean([h[1] for h in held])),
+            "unit": "m (WAAS - INS beyond the drift polynomial, RMS)",
+        },
+    )
 
 
 def _period_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
@@ -282,27 +307,47 @@ def _period_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
         if fd is None:
             return [model.period_s]
         return [fd[1]] if fd[0] == "period" else [model.period_s, fd[1]]
+
     a, b = _halves(aps)
     before = _periodic_rms(aps, [model.period_s])
     after = _periodic_rms(aps, periods_of(found))
     ho_before = np.mean([_periodic_rms(h, [model.period_s]) for h in (a, b)])
     ho_after = np.mean([_periodic_rms(test, periods_of(_detect_period(fit, model))) for fit, test in ((a, b), (b, a))])
-    gain = {"before": before, "after": after, "held_out_before": float(ho_before), "held_out_after": float(ho_after),
-            "unit": "m (RMS of WAAS - INS not explained by the cyclic model)"}
+    gain = {
+        "before": before,
+        "after": after,
+        "held_out_before": float(ho_before),
+        "held_out_after": float(ho_after),
+        "unit": "m (RMS of WAAS - INS not explained by the cyclic model)",
+    }
     resolution = period**2 * (1.0 / 40.0)  # one bin of a 40-s-resolution periodogram, in period
     if kind == "period":
-        cause = (f"The WAAS cyclic noise repeats every {period:.1f} s, not the model's {model.period_s:g} s: the fast "
-                 f"corrections arrive every {period / 2:.1f} s.")
+        cause = (
+            f"The WAAS cyclic noise repeats every {period:.1f} s, not the model's {model.period_s:g} s: the fast "
+            f"corrections arrive every {period / 2:.1f} s."
+        )
         if model.period_s % round(period) == 0:
-            cause += (f" The FITS filter with T = {model.period_s:g} already removes it (a harmonic of its period); the "
-                      "simulation's WAAS sensor model is what must change.")
+            cause += (
+                f" The FITS filter with T = {model.period_s:g} already removes it (a harmonic of its period); the "
+                "simulation's WAAS sensor model is what must change."
+            )
     else:
-        cause = (f"Besides the {main:.1f} s cycle the WAAS noise has a second period of {period:.1f} s (another "
-                 "correction stream); a FITS filter with one period leaves it in the position.")
-    return Finding("cyclic_period" if kind == "period" else "second_cyclic_period", cause,
-                   {"period_s": {"value": float(period), "se": float(resolution)}},
-                   {"power_ratio": float(ratio), "model_period_s": model.period_s, "peak_period_s": float(main),
-                    "score": float(np.log10(ratio))}, gain)
+        cause = (
+            f"Besides the {main:.1f} s cycle the WAAS noise has a second period of {period:.1f} s (another "
+            "correction stream); a FITS filter with one period leaves it in the position."
+        )
+    return Finding(
+        "cyclic_period" if kind == "period" else "second_cyclic_period",
+        cause,
+        {"period_s": {"value": float(period), "se": float(resolution)}},
+        {
+            "power_ratio": float(ratio),
+            "model_period_s": model.period_s,
+            "peak_period_s": float(main),
+            "score": float(np.log10(ratio)),
+        },
+        gain,
+    )
 
 
 def _offset_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
@@ -323,21 +368,33 @@ def _offset_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
     a, b = _halves(aps)
     off = {}
     for fit, test in ((a, b), (b, a)):
-        mm = np.mean([((ap.dgps_w - np.asarray(model.dgps_offset_m)) - _fits(ap, model.period_s).xyz_m)[
-            np.isfinite(ap.dgps_w).all(axis=1)].mean(axis=0) for ap in fit], axis=0)
+        mm = np.mean(
+            [
+                ((ap.dgps_w - np.asarray(model.dgps_offset_m)) - _fits(ap, model.period_s).xyz_m)[
+                    np.isfinite(ap.dgps_w).all(axis=1)
+                ].mean(axis=0)
+                for ap in fit
+            ],
+            axis=0,
+        )
         mm[0] = 0.0
         off[id(test)] = mm
     before = np.mean([_err_rms(h, model.period_s, model.dgps_offset_m) for h in (a, b)])
     held = np.mean([_err_rms(h, model.period_s, np.asarray(model.dgps_offset_m) + off[id(h)]) for h in (a, b)])
     mu_all = np.array([0.0, mu[1], mu[2]])
     after = _err_rms(aps, model.period_s, np.asarray(model.dgps_offset_m) + mu_all)
-    return Finding("dgps_offset",
-                   f"FITS minus DGPS holds a constant {mu[1]:+.2f} m cross-track and {mu[2]:+.2f} m vertical on every approach: "
-                   "the DGPS reference station's surveyed position is off by that much (a common radar-altimeter/TVPS bias "
-                   "would look the same; the along-track part is the pilot's mark and is not estimated).",
-                   {"offset_y_m": {"value": float(mu[1]), "se": float(se[1])}, "offset_z_m": {"value": float(mu[2]), "se": float(se[2])}},
-                   {"z": [float(v) for v in z], "approaches": len(m), "score": float(np.log10(max(z.max(), 1.0)) + 1.0)},
-                   {"before": before, "after": after, "held_out_before": before, "held_out_after": held, "unit": "m"})
+    return Finding(
+        "dgps_offset",
+        f"FITS minus DGPS holds a constant {mu[1]:+.2f} m cross-track and {mu[2]:+.2f} m vertical on every approach: "
+        "the DGPS reference station's surveyed position is off by that much (a common radar-altimeter/TVPS bias "
+        "would look the same; the along-track part is the pilot's mark and is not estimated).",
+        {
+            "offset_y_m": {"value": float(mu[1]), "se": float(se[1])},
+            "offset_z_m": {"value": float(mu[2]), "se": float(se[2])},
+        },
+        {"z": [float(v) for v in z], "approaches": len(m), "score": float(np.log10(max(z.max(), 1.0)) + 1.0)},
+        {"before": before, "after": after, "held_out_before": before, "held_out_after": held, "unit": "m"},
+    )
 
 
 TVPS_MIN_SPREAD_M = 0.5  # sd of the approaches' threshold readings below which a TVPS scale is an offset
@@ -382,25 +439,41 @@ def _tvps_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
         return None
     k = 1.0 / (1.0 - s)
     held = []
-    for fit, test in zip(_halves(aps), _halves(aps)[::-1]):
+    for fit, test in zip(_halves(aps), _halves(aps)[::-1], strict=False):
         g = _tvps_fit(fit, model, min_approaches=3)
         k_fit = 1.0 / (1.0 - g[0]) if g is not None and abs(1.0 - g[0]) > 1e-6 else 1.0
-        held.append((_err_rms(test, model.period_s, model.dgps_offset_m),
-                     _err_rms([_rescaled(ap, k_fit) for ap in test], model.period_s, model.dgps_offset_m)))
-    what = ("has the opposite sign to the runway frame's y (positive left of the centreline)"
-            if k < 0 else f"is {k:.3g}x the camera's cross-track position (its scale: focal length, pixel size)")
-    return Finding("tvps_scale",
-                   f"The TVPS cross-track reading {what}: across the approaches, FITS minus DGPS cross-track follows the "
-                   f"TVPS reading at the threshold with slope {s:+.2f} (1 - 1/k), since eq. 18 fixes the cross-track bias "
-                   f"on that reading. Dividing `tvps_y_m` by {k:.3g} removes it. A common DGPS or TVPS offset is the "
-                   "intercept, not this slope.",
-                   {"tvps_scale": {"value": k, "se": se / (1.0 - s) ** 2}, "slope": {"value": s, "se": se}},
-                   {"z": abs(s) / se, "approaches": len(y), "threshold_y_sd_m": float(np.std(y, ddof=1)),
-                    "score": float(np.log10(max(abs(s) / se, 1.0)) + 1.0)},
-                   {"before": _err_rms(aps, model.period_s, model.dgps_offset_m),
-                    "after": _err_rms([_rescaled(ap, k) for ap in aps], model.period_s, model.dgps_offset_m),
-                    "held_out_before": float(np.mean([h[0] for h in held])),
-                    "held_out_after": float(np.mean([h[1] for h in held])), "unit": "m"})
+        held.append(
+            (
+                _err_rms(test, model.period_s, model.dgps_offset_m),
+                _err_rms([_rescaled(ap, k_fit) for ap in test], model.period_s, model.dgps_offset_m),
+            )
+        )
+    what = (
+        "has the opposite sign to the runway frame's y (positive left of the centreline)"
+        if k < 0
+        else f"is {k:.3g}x the camera's cross-track position (its scale: focal length, pixel size)"
+    )
+    return Finding(
+        "tvps_scale",
+        f"The TVPS cross-track reading {what}: across the approaches, FITS minus DGPS cross-track follows the "
+        f"TVPS reading at the threshold with slope {s:+.2f} (1 - 1/k), since eq. 18 fixes the cross-track bias "
+        f"on that reading. Dividing `tvps_y_m` by {k:.3g} removes it. A common DGPS or TVPS offset is the "
+        "intercept, not this slope.",
+        {"tvps_scale": {"value": k, "se": se / (1.0 - s) ** 2}, "slope": {"value": s, "se": se}},
+        {
+            "z": abs(s) / se,
+            "approaches": len(y),
+            "threshold_y_sd_m": float(np.std(y, ddof=1)),
+            "score": float(np.log10(max(abs(s) / se, 1.0)) + 1.0),
+        },
+        {
+            "before": _err_rms(aps, model.period_s, model.dgps_offset_m),
+            "after": _err_rms([_rescaled(ap, k) for ap in aps], model.period_s, model.dgps_offset_m),
+            "held_out_before": float(np.mean([h[0] for h in held])),
+            "held_out_after": float(np.mean([h[1] for h in held])),
+            "unit": "m",
+        },
+    )
 
 
 LATENCY_MIN_S = 0.02  # smaller latencies move the FITS by < 7 cm on a 3-deg glide path: not worth a finding
@@ -417,7 +490,9 @@ def _latency_fit(aps: list[_Approach], model: FitsModel) -> tuple[float, float, 
     for ap in aps:
         r = _fits(ap, model.period_s)
         e = (r.xyz_m - (ap.dgps_w - np.asarray(model.dgps_offset_m)))[:, 1:]
-        v = (at_times(ap.t_rows, ap.dgps_rows, ap.t_w + 0.5) - at_times(ap.t_rows, ap.dgps_rows, ap.t_w - 0.5))[:, 1:]  # m/s
+        v = (at_times(ap.t_rows, ap.dgps_rows, ap.t_w + 0.5) - at_times(ap.t_rows, ap.dgps_rows, ap.t_w - 0.5))[
+            :, 1:
+        ]  # m/s
         ok = np.isfinite(e).all(axis=1) & np.isfinite(v).all(axis=1)
         if ok.sum() < 30:
             continue
@@ -442,19 +517,30 @@ def _latency_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
     held = []
     for fit, test in ((a, b), (b, a)):
         t_fit = _latency_fit(fit, model)[0]
-        held.append((_err_rms(test, model.period_s, model.dgps_offset_m),
-                     _err_rms([retagged(ap, t_fit) for ap in test], model.period_s, model.dgps_offset_m)))
+        held.append(
+            (
+                _err_rms(test, model.period_s, model.dgps_offset_m),
+                _err_rms([retagged(ap, t_fit) for ap in test], model.period_s, model.dgps_offset_m),
+            )
+        )
     before = _err_rms(aps, model.period_s, model.dgps_offset_m)
     after = _err_rms([retagged(ap, tau) for ap in aps], model.period_s, model.dgps_offset_m)
-    return Finding("waas_latency",
-                   f"The WAAS positions are stamped {1000 * tau:.0f} ms late against the log's time base (RA, TVPS, DGPS): "
-                   "FITS minus DGPS follows the aircraft's velocity (minus its value at the threshold fix), cross-track and "
-                   "vertically, which the FITS paper's eq. 3 assumes away. Re-tagging the WAAS epochs (`aerotruth fits "
-                   f"--waas-latency {tau:.2f}`) removes it. A DGPS stamped that early would look the same.",
-                   {"latency_s": {"value": tau, "se": se}},
-                   {"z": abs(tau) / se, "approaches": n, "score": float(np.log10(max(abs(tau) / se, 1.0)) + 1.0)},
-                   {"before": before, "after": after, "held_out_before": float(np.mean([h[0] for h in held])),
-                    "held_out_after": float(np.mean([h[1] for h in held])), "unit": "m"})
+    return Finding(
+        "waas_latency",
+        f"The WAAS positions are stamped {1000 * tau:.0f} ms late against the log's time base (RA, TVPS, DGPS): "
+        "FITS minus DGPS follows the aircraft's velocity (minus its value at the threshold fix), cross-track and "
+        "vertically, which the FITS paper's eq. 3 assumes away. Re-tagging the WAAS epochs (`aerotruth fits "
+        f"--waas-latency {tau:.2f}`) removes it. A DGPS stamped that early would look the same.",
+        {"latency_s": {"value": tau, "se": se}},
+        {"z": abs(tau) / se, "approaches": n, "score": float(np.log10(max(abs(tau) / se, 1.0)) + 1.0)},
+        {
+            "before": before,
+            "after": after,
+            "held_out_before": float(np.mean([h[0] for h in held])),
+            "held_out_after": float(np.mean([h[1] for h in held])),
+            "unit": "m",
+        },
+    )
 
 
 def _jump_effects(aps: list[_Approach], model: FitsModel) -> list[Finding]:
@@ -467,7 +553,11 @@ def _jump_effects(aps: list[_Approach], model: FitsModel) -> list[Finding]:
             continue
         bb = b[ok]
         n = len(bb)
-        sig = 1.4826 * np.median(np.abs(np.diff(bb, axis=0) - np.median(np.diff(bb, axis=0), axis=0)), axis=0) / math.sqrt(2)
+        sig = (
+            1.4826
+            * np.median(np.abs(np.diff(bb, axis=0) - np.median(np.diff(bb, axis=0), axis=0)), axis=0)
+            / math.sqrt(2)
+        )
         cs = np.vstack([np.zeros(3), np.cumsum(bb, axis=0)])
         k = np.arange(STEP_WINDOW, n - STEP_WINDOW)
         after = (cs[k + STEP_WINDOW] - cs[k]) / STEP_WINDOW
@@ -482,21 +572,33 @@ def _jump_effects(aps: list[_Approach], model: FitsModel) -> list[Finding]:
         i = int(np.argmax(score))
         mag = float(np.linalg.norm(step[i]))
         epoch = int(np.flatnonzero(ok)[k[i]])
-        if score[i] < 8.0 * math.sqrt(3) or mag < 0.5 or ap.flags[max(epoch - 2, 0):epoch + 3].any():
+        if score[i] < 8.0 * math.sqrt(3) or mag < 0.5 or ap.flags[max(epoch - 2, 0) : epoch + 3].any():
             continue
         flags = np.zeros(len(ap.t_w), np.int8)
         flags[epoch] = 1
         before_rms = _err_rms([ap], model.period_s)
         after_rms = _err_rms([ap], model.period_s, flags={ap.name: flags})
-        out.append(Finding("waas_jump",
-                           f"Approach {ap.name}: the WAAS bias steps by {mag:.2f} m at t = {ap.t_w[epoch]:.0f} s without a "
-                           "satellite-set or ionosphere flag from the receiver; the FITS carries it into every position after it. "
-                           "Flagging the epoch lets the FITS compensate it (section IV-C).",
-                           {"step_m": {"value": mag, "se": float(np.linalg.norm(sig) * math.sqrt(2.0 / STEP_WINDOW))},
-                            "time_s": {"value": float(ap.t_w[epoch]), "se": 1.0}},
-                           {"score_sigma": float(score[i]), "approach": str(ap.name), "score": float(np.log10(score[i]))},
-                           {"before": before_rms, "after": after_rms, "held_out_before": before_rms, "held_out_after": after_rms,
-                            "unit": "m", "note": "a single event: measured on its own approach"}))
+        out.append(
+            Finding(
+                "waas_jump",
+                f"Approach {ap.name}: the WAAS bias steps by {mag:.2f} m at t = {ap.t_w[epoch]:.0f} s without a "
+                "satellite-set or ionosphere flag from the receiver; the FITS carries it into every position after it. "
+                "Flagging the epoch lets the FITS compensate it (section IV-C).",
+                {
+                    "step_m": {"value": mag, "se": float(np.linalg.norm(sig) * math.sqrt(2.0 / STEP_WINDOW))},
+                    "time_s": {"value": float(ap.t_w[epoch]), "se": 1.0},
+                },
+                {"score_sigma": float(score[i]), "approach": str(ap.name), "score": float(np.log10(score[i]))},
+                {
+                    "before": before_rms,
+                    "after": after_rms,
+                    "held_out_before": before_rms,
+                    "held_out_after": after_rms,
+                    "unit": "m",
+                    "note": "a single event: measured on its own approach",
+                },
+            )
+        )
     return out
 
 
@@ -525,7 +627,11 @@ def _ins_bias_effect(aps: list[_Approach], model: FitsModel, rng_seed: int = 0) 
             continue
         est.append(b_ap)
         for _ in range(10):  # the model's own estimator spread on these epochs
-            null.append(_drift_biases(ap.t_w, InertialErrors.draw(InertialErrorSpec(grade=model.grade), rng, ap.t_w).error_ned_m))
+            null.append(
+                _drift_biases(
+                    ap.t_w, InertialErrors.draw(InertialErrorSpec(grade=model.grade), rng, ap.t_w).error_ned_m
+                )
+            )
     if len(est) < 3:
         return None
     b = np.asarray(est).ravel()
@@ -542,14 +648,22 @@ def _ins_bias_effect(aps: list[_Approach], model: FitsModel, rng_seed: int = 0) 
 
     def nll(x, s2):
         return float(np.mean(0.5 * x**2 / s2 + 0.5 * np.log(s2)))
-    return Finding("ins_bias",
-                   f"The INS drifts {k:.1f} times faster than its grade allows: accelerometer biases of "
-                   f"{k * model.accel_bias_ug:.0f} ug RMS against the model's {model.accel_bias_ug:g} ug (from the INS minus "
-                   "DGPS drift over each approach, net of what the grade's own noise puts into that estimate).",
-                   {"bias_scale": {"value": k, "se": k / math.sqrt(2 * len(b))}},
-                   {"chi2": chi2, "dof": len(b), "p": p, "score": float(min(-math.log10(max(p, 1e-300)), 300.0) / 10.0)},
-                   {"before": nll(b, v0), "after": nll(b, k**2 * sigma**2 + noise2), "held_out_before": nll(test, v0),
-                    "held_out_after": nll(test, k_fit**2 * sigma**2 + noise2), "unit": "negative log-likelihood per bias (nats)"})
+
+    return Finding(
+        "ins_bias",
+        f"The INS drifts {k:.1f} times faster than its grade allows: accelerometer biases of "
+        f"{k * model.accel_bias_ug:.0f} ug RMS against the model's {model.accel_bias_ug:g} ug (from the INS minus "
+        "DGPS drift over each approach, net of what the grade's own noise puts into that estimate).",
+        {"bias_scale": {"value": k, "se": k / math.sqrt(2 * len(b))}},
+        {"chi2": chi2, "dof": len(b), "p": p, "score": float(min(-math.log10(max(p, 1e-300)), 300.0) / 10.0)},
+        {
+            "before": nll(b, v0),
+            "after": nll(b, k**2 * sigma**2 + noise2),
+            "held_out_before": nll(test, v0),
+            "held_out_after": nll(test, k_fit**2 * sigma**2 + noise2),
+            "unit": "negative log-likelihood per bias (nats)",
+        },
+    )
 
 
 def _baro_psd_model(f: np.ndarray, model: FitsModel, tau: float) -> np.ndarray:
@@ -616,14 +730,21 @@ def _baro_effect(aps: list[_Approach], model: FitsModel) -> Finding | None:
     hb, ha = (float(np.mean([h[0] for h in held])), float(np.mean([h[1] for h in held]))) if held else (m0, m1)
     i = int(np.argmin(np.abs(_TAUS - tau)))
     step = float(_TAUS[min(i + 1, len(_TAUS) - 1)] - _TAUS[max(i - 1, 0)]) / 2.0
-    return Finding("baro_coupling",
-                   f"The INS height follows its barometer through a loop of time constant {tau:.0f} s, not the model's "
-                   f"{model.baro_loop_tau_s:g} s: its bandwidth is {1.0 / ratio:.1f}x the model's, so more barometer noise "
-                   "reaches the vertical channel (and the FITS's vertical cyclic-noise estimate).",
-                   {"loop_tau_s": {"value": tau, "se": step}},
-                   {"misfit_model": m0, "misfit_fitted": m1, "score": float(np.log10(m0 / max(m1, 1e-9)) + 1.0)},
-                   {"before": m0, "after": m1, "held_out_before": hb, "held_out_after": ha,
-                    "unit": "mean squared log-PSD misfit of INS - DGPS height"})
+    return Finding(
+        "baro_coupling",
+        f"The INS height follows its barometer through a loop of time constant {tau:.0f} s, not the model's "
+        f"{model.baro_loop_tau_s:g} s: its bandwidth is {1.0 / ratio:.1f}x the model's, so more barometer noise "
+        "reaches the vertical channel (and the FITS's vertical cyclic-noise estimate).",
+        {"loop_tau_s": {"value": tau, "se": step}},
+        {"misfit_model": m0, "misfit_fitted": m1, "score": float(np.log10(m0 / max(m1, 1e-9)) + 1.0)},
+        {
+            "before": m0,
+            "after": m1,
+            "held_out_before": hb,
+            "held_out_after": ha,
+            "unit": "mean squared log-PSD misfit of INS - DGPS height",
+        },
+    )
 
 
 def diagnose_log(path, df: pd.DataFrame, model: FitsModel) -> tuple[list[Finding], dict]:
@@ -659,5 +780,3 @@ def diagnose_log(path, df: pd.DataFrame, model: FitsModel) -> tuple[list[Finding
         findings += _jump_effects(aps, m2)
     findings.sort(key=lambda x: -x.evidence.get("score", 0.0))
     return findings, baseline
-
-

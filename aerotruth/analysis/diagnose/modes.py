@@ -46,12 +46,15 @@ from aerotruth.analysis.wind.modes_wind import EFFECT_COLUMNS, fit, predict_rms
 from aerotruth.units import KT
 
 CAUSES = {
-    "heading_offset": "the reported heading is off by a constant: a stale or wrong magnetic-variation table, or an alignment/mounting error",
-    "heading_deviation_1psi": "the heading error goes once round with the heading: a compass (flux-valve) deviation, as the wind paper's hard iron",
+    "heading_offset": "the reported heading is off by a constant: a stale or wrong magnetic-variation table, or an "
+    "alignment/mounting error",
+    "heading_deviation_1psi": "the heading error goes once round with the heading: a compass (flux-valve) deviation, "
+    "as the wind paper's hard iron",
     "tas_scale": "the true airspeed is off by a constant factor: air-data calibration (static source, temperature)",
-    "heading_time_offset": "heading and ground track are sampled at different instants: registers held for different times",
-    "heading_slaving_lag": "the compass deviation reaches the heading through a slow slaving loop: after each turn the error "
-                           "moves to the new heading's deviation with the time constant tau (a slaved directional gyro)",
+    "heading_time_offset": "heading and ground track are sampled at different instants: registers held for different "
+    "times",
+    "heading_slaving_lag": "the compass deviation reaches the heading through a slow slaving loop: after each turn the "
+    "error moves to the new heading's deviation with the time constant tau (a slaved directional gyro)",
 }
 DBIC_THRESHOLD = -10.0
 JACKKNIFE_GROUPS = 8
@@ -61,18 +64,32 @@ JACKKNIFE_GROUPS = 8
 RESOLUTION = {"D_s": 0.5, "tau_s": 2.0}  # tau: the lag grid's first value (modes_wind.SLAVING_TAU_GRID_S)
 ALPHA = 0.02  # family-wise over the candidates (Bonferroni): also a jackknife Wald test (_jackknife_p), since
 # BIC counts 1-s samples of held registers as independent (it found 78 effects in 100 null days)
-MIN_HELD_OUT_GAIN = 0.0  # any drop of the held-out RMS (the dBIC carries the evidence; 1 % refused a true 2-deg offset on a 4-leg day)
+MIN_HELD_OUT_GAIN = (
+    0.0  # any drop of the held-out RMS (the dBIC carries the evidence; 1 % refused a true 2-deg offset on a 4-leg day)
+)
 # identifiability: a heading effect is told from the wind only across turns; a one-cycle
 # deviation needs headings spread round the compass (the wind method refuses it otherwise)
-MIN_OCTANTS = {"heading_offset": 2, "heading_deviation_1psi": 6, "tas_scale": 2, "heading_time_offset": 1,
-               "heading_slaving_lag": 6}
+MIN_OCTANTS = {
+    "heading_offset": 2,
+    "heading_deviation_1psi": 6,
+    "tas_scale": 2,
+    "heading_time_offset": 1,
+    "heading_slaving_lag": 6,
+}
 # a time offset between heading and track shows only while the heading changes: samples
 # turning faster than TURN_RATE_DEG_S, at least MIN_TURN_SAMPLES of them (the CDG flight's
 # level samples fly one heading, p99 0.14 deg/s: a "1.8-s offset" with dBIC -154 was noise)
 TURN_RATE_DEG_S = 0.5
 MIN_TURN_SAMPLES = 30
 OCTANT_MIN_SHARE = 0.03
-PLAUSIBLE = {"A_deg": 20.0, "B_deg": 10.0, "C_deg": 10.0, "k": 0.1, "D_s": 10.0, "tau_s": 299.0}  # beyond: a model failure, not an effect
+PLAUSIBLE = {
+    "A_deg": 20.0,
+    "B_deg": 10.0,
+    "C_deg": 10.0,
+    "k": 0.1,
+    "D_s": 10.0,
+    "tau_s": 299.0,
+}  # beyond: a model failure, not an effect
 PARABOLA_FPM = 1500.0  # vertical rates of a zero-g parabola; level and normal climbs stay far below
 PARABOLA_MARGIN_S = 60.0
 LEVEL_FPM = 500.0
@@ -125,8 +142,9 @@ def _cv_rms(track: pd.DataFrame, effects: tuple[str, ...], knot_s: float, folds:
     return math.sqrt(sq / n)
 
 
-def _jackknife_p(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], eff: str, f: dict, t: np.ndarray,
-                 block_s: float) -> tuple[float, np.ndarray]:
+def _jackknife_p(
+    track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], eff: str, f: dict, t: np.ndarray, block_s: float
+) -> tuple[float, np.ndarray]:
     """p-value of `eff`'s parameters = 0 and their standard errors: a Wald test with the
     delete-one-group jackknife covariance, groups JACKKNIFE_GROUPS interleaved blocks of
     `block_s`, F(q, J - 1). The errors that matter are not the samples' noise but what
@@ -153,8 +171,9 @@ def _jackknife_p(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], e
     return float(stats.f.sf(w / q, q, J - 1)), np.sqrt(np.diag(np.atleast_2d(cov)))
 
 
-def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float = 900.0, k: int = 4,
-                   start: tuple[str, ...] = ()) -> tuple[list[Finding], dict]:
+def diagnose_track(
+    track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float = 900.0, k: int = 4, start: tuple[str, ...] = ()
+) -> tuple[list[Finding], dict]:
     """Forward selection of effects on a wind frame (see the module docstring). `start`: the
     effects the model already has, free (e.g. a compass deviation for a slaved compass);
     the slaving lag is a candidate only once the deviation is in the model."""
@@ -166,8 +185,12 @@ def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float
     current: tuple[str, ...] = tuple(start)
     base_fit = fit(track, knot_s, current)
     base_cv = _cv_rms(track, current, knot_s, folds, k)
-    baseline = {"rms_kt": base_fit["rms"] / KT, "held_out_rms_kt": base_cv / KT, "equations": base_fit["n"],
-                "model_effects": list(current)}
+    baseline = {
+        "rms_kt": base_fit["rms"] / KT,
+        "held_out_rms_kt": base_cv / KT,
+        "equations": base_fit["n"],
+        "model_effects": list(current),
+    }
     findings: list[Finding] = []
     cur_fit, cur_cv = base_fit, base_cv
     octant = (np.floor((np.degrees(track["heading_rad"].to_numpy()) % 360) / 45.0)).astype(int)
@@ -183,11 +206,15 @@ def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float
             if eff in current or (eff == "heading_slaving_lag" and "heading_deviation_1psi" not in current):
                 continue
             if occupied < MIN_OCTANTS[eff]:
-                tried[eff] = {"outcome": f"not identifiable: {occupied} heading octant(s) occupied, needs {MIN_OCTANTS[eff]}"}
+                tried[eff] = {
+                    "outcome": f"not identifiable: {occupied} heading octant(s) occupied, needs {MIN_OCTANTS[eff]}"
+                }
                 continue
             if eff == "heading_time_offset" and turning < MIN_TURN_SAMPLES:
-                tried[eff] = {"outcome": f"not identifiable: {turning} samples turning faster than {TURN_RATE_DEG_S} deg/s, "
-                              f"needs {MIN_TURN_SAMPLES}"}
+                tried[eff] = {
+                    "outcome": f"not identifiable: {turning} samples turning faster than {TURN_RATE_DEG_S} deg/s, "
+                    f"needs {MIN_TURN_SAMPLES}"
+                }
                 continue
             trial = current + (eff,)
             f = fit(track, knot_s, trial)
@@ -203,28 +230,54 @@ def diagnose_track(track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float
             cv = _cv_rms(track, trial, knot_s, folds, k)
             p, jk_se = _jackknife_p(track, knot_s, trial, eff, f, t, jk_block_s)
             ok = dbic < DBIC_THRESHOLD and p < ALPHA / len(EFFECT_COLUMNS) and cv < (1 - MIN_HELD_OUT_GAIN) * cur_cv
-            ses = dict(zip(EFFECT_COLUMNS[eff], map(float, jk_se)))  # the block jackknife's, as the test
-            tried[eff] = {"outcome": "passes" if ok else "not significant", "values": vals, "se": ses,
-                          "delta_bic": float(dbic), "p_value": p, "held_out_before_kt": cur_cv / KT,
-                          "held_out_after_kt": cv / KT}
+            ses = dict(zip(EFFECT_COLUMNS[eff], map(float, jk_se), strict=False))  # the block jackknife's, as the test
+            tried[eff] = {
+                "outcome": "passes" if ok else "not significant",
+                "values": vals,
+                "se": ses,
+                "delta_bic": float(dbic),
+                "p_value": p,
+                "held_out_before_kt": cur_cv / KT,
+                "held_out_after_kt": cv / KT,
+            }
             if ok and (best is None or dbic < best[1]):
                 best = (eff, dbic, f, cv, p, ses)
         baseline["rounds"].append(tried)
         if best is None:
             break
         eff, dbic, f, cv, p, ses = best
-        params = {name: {"value": float(f["coef"][f["names"].index(name)]), "se": ses[name]} for name in EFFECT_COLUMNS[eff]}
-        findings.append(Finding(
-            effect=eff, cause=CAUSES[eff], parameters=params,
-            evidence={"delta_bic": float(dbic), "p_value": p, "alpha": ALPHA / len(EFFECT_COLUMNS), "held_out_folds": k,
-                      "fold_block_s": block_s},
-            gain={"metric": "wind-vector residual RMS per component (kt)", "before": cur_fit["rms"] / KT, "after": f["rms"] / KT,
-                  "held_out": cv / KT, "held_out_before": cur_cv / KT, "held_out_after": cv / KT}))
+        params = {
+            name: {"value": float(f["coef"][f["names"].index(name)]), "se": ses[name]} for name in EFFECT_COLUMNS[eff]
+        }
+        findings.append(
+            Finding(
+                effect=eff,
+                cause=CAUSES[eff],
+                parameters=params,
+                evidence={
+                    "delta_bic": float(dbic),
+                    "p_value": p,
+                    "alpha": ALPHA / len(EFFECT_COLUMNS),
+                    "held_out_folds": k,
+                    "fold_block_s": block_s,
+                },
+                gain={
+                    "metric": "wind-vector residual RMS per component (kt)",
+                    "before": cur_fit["rms"] / KT,
+                    "after": f["rms"] / KT,
+                    "held_out": cv / KT,
+                    "held_out_before": cur_cv / KT,
+                    "held_out_after": cv / KT,
+                },
+            )
+        )
         current, cur_fit, cur_cv = current + (eff,), f, cv
     return findings, baseline
 
 
-def variation_table_epoch(offset_deg: float, track: pd.DataFrame, lat: float, lon: float, alt_m: float, when: dt.datetime) -> dict:
+def variation_table_epoch(
+    offset_deg: float, track: pd.DataFrame, lat: float, lon: float, alt_m: float, when: dt.datetime
+) -> dict:
     """For a heading-offset finding on magnetic heading: the variation the aircraft's own
     table must hold (today's IGRF declination + the offset) and the IGRF epoch in which
     the declination there had that value (a stale table is a real, common error)."""
@@ -240,5 +293,3 @@ def variation_table_epoch(offset_deg: float, track: pd.DataFrame, lat: float, lo
         i = between[-1]
         out["igrf_epoch_with_that_variation"] = float(years[i] + (implied - decs[i]) / (decs[i + 1] - decs[i]))
     return out
-
-

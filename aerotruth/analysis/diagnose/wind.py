@@ -132,21 +132,29 @@ MIN_BLOCKS = 20  # fewest weather blocks (independent clusters) for any test: CR
 MIN_REL_GAIN = 0.002
 # candidates tested by a scan of each aircraft's series of mean offsets (p-values Bonferroni over aircraft),
 # not by the Wald test of their fitted columns (chosen by the scan, those would over-reject)
-SCANNED = {"recalibration": "sup-CUSUM of flight means, Kolmogorov, Bonferroni over aircraft",
-           "offset_drift": "trend of the aircraft's 6-h weather-block means (slope, Bartlett-weighted variance), "
-                           "Bonferroni over aircraft"}
+SCANNED = {
+    "recalibration": "sup-CUSUM of flight means, Kolmogorov, Bonferroni over aircraft",
+    "offset_drift": "trend of the aircraft's 6-h weather-block means (slope, Bartlett-weighted variance), "
+    "Bonferroni over aircraft",
+}
 
 CAUSES = {
-    "soft_iron": "the heading error goes twice round with the heading (2z): soft iron magnetised by the horizontal field",
-    "field_scaling": "the once-round deviation grows where the horizontal field is weak (~1/H): permanent (hard-iron) magnetism",
-    "tas_scale": "the true airspeed reads off by a constant factor: air-data calibration (static source, temperature probe)",
-    "stale_declination": "the receiver converts magnetic to true heading with an old declination model: the error follows "
-                         "the field's secular change across the network",
-    "reference_bias": "a reference model's wind is biased along the wind (too strong or too weak): the reference, not the aircraft",
-    "recalibration": "an aircraft's heading offset changed at one time: a recalibration, a swung compass or a replaced valve",
+    "soft_iron": "the heading error goes twice round with the heading (2z): soft iron magnetised by the horizontal "
+    "field",
+    "field_scaling": "the once-round deviation grows where the horizontal field is weak (~1/H): permanent (hard-iron) "
+    "magnetism",
+    "tas_scale": "the true airspeed reads off by a constant factor: air-data calibration (static source, temperature "
+    "probe)",
+    "stale_declination": "the receiver converts magnetic to true heading with an old declination model: the error "
+    "follows the field's secular change across the network",
+    "reference_bias": "a reference model's wind is biased along the wind (too strong or too weak): the reference, not "
+    "the aircraft",
+    "recalibration": "an aircraft's heading offset changed at one time: a recalibration, a swung compass or a replaced "
+    "valve",
     "offset_drift": "an aircraft's heading offset changes steadily with time: a deviation that is not stationary (wind "
-                    "paper section 8), e.g. slowly changing airframe magnetism or a degrading compass system",
-    "quantization": "the reports' latitude and longitude are rounded to a coarser grid than the model's: noisier ground tracks",
+    "paper section 8), e.g. slowly changing airframe magnetism or a degrading compass system",
+    "quantization": "the reports' latitude and longitude are rounded to a coarser grid than the model's: noisier "
+    "ground tracks",
 }
 
 
@@ -157,19 +165,25 @@ def cause(eff: str, params: dict) -> str:
     if eff == "field_scaling":
         g, g0 = params["gamma"]["value"], params["gamma"]["model"]
         if g < g0:
-            return (f"the once-round deviation depends on the horizontal field less than the model says (gamma {g:.2f} "
-                    f"against the model's {g0:g}; 1: hard iron, ~1/H; 0: the same at every field): part of it is not "
-                    "magnetic, e.g. an error of the heading system's synchro or resolver transmission")
+            return (
+                f"the once-round deviation depends on the horizontal field less than the model says (gamma {g:.2f} "
+                f"against the model's {g0:g}; 1: hard iron, ~1/H; 0: the same at every field): part of it is not "
+                "magnetic, e.g. an error of the heading system's synchro or resolver transmission"
+            )
         return CAUSES[eff] + f" (gamma {g:.2f} against the model's {g0:g})"
     if eff == "reference_bias":
         name, x = max(params["bias_kt"].items(), key=lambda kv: abs(kv[1]["value"]))
         if x["form"] == "scale":
-            return (f"a reference model's wind is too {'strong' if x['scale']['value'] > 0 else 'weak'} in proportion to "
-                    f"its speed ({name}: {100 * x['scale']['value']:+.1f} %, a scale fits its rows better than an offset "
-                    "along the wind): the reference, not the aircraft")
+            return (
+                f"a reference model's wind is too {'strong' if x['scale']['value'] > 0 else 'weak'} in proportion to "
+                f"its speed ({name}: {100 * x['scale']['value']:+.1f} %, a scale fits its rows better than an offset "
+                "along the wind): the reference, not the aircraft"
+            )
     if eff == "quantization" and params["lat_lon_step_deg"]["value"] < params["lat_lon_step_deg"]["model"]:
-        return ("the reports' latitude and longitude are rounded to a finer grid than the model's: the model's ground "
-                "tracks are noisier than the data's")
+        return (
+            "the reports' latitude and longitude are rounded to a finer grid than the model's: the model's ground "
+            "tracks are noisier than the data's"
+        )
     return CAUSES[eff]
 
 
@@ -185,50 +199,99 @@ def _parameters(eff: str, d: WindData, fit: Fit, dgamma: float, st: State) -> di
     r2d = 1 / DEG
     per: dict[str, dict[str, Any]]  # per aircraft (per reference model): the effect's numbers and words
     if eff == "soft_iron":
-        per = {d.names[b.aircraft]: {"D_deg": float(be[0] * r2d), "E_deg": float(be[1] * r2d),
-                                     "D_se_deg": float(standard_errors(v)[0] * r2d), "E_se_deg": float(standard_errors(v)[1] * r2d)} for b, be, v in parts}
+        per = {
+            d.names[b.aircraft]: {
+                "D_deg": float(be[0] * r2d),
+                "E_deg": float(be[1] * r2d),
+                "D_se_deg": float(standard_errors(v)[0] * r2d),
+                "E_se_deg": float(standard_errors(v)[1] * r2d),
+            }
+            for b, be, v in parts
+        }
         a2 = np.mean([x["D_deg"] ** 2 + x["E_deg"] ** 2 for x in per.values()])
         s2 = np.mean([x["D_se_deg"] ** 2 + x["E_se_deg"] ** 2 for x in per.values()])
         amp = math.sqrt(max(float(a2 - s2), 0.0))
-        return {"amplitude_deg": {"value": amp, "se": math.sqrt(s2 / max(len(per), 1)),
-                                  "meaning": "RMS over aircraft of the 2z amplitude sqrt(D^2 + E^2), noise-debiased"},
-                "aircraft": per}
+        return {
+            "amplitude_deg": {
+                "value": amp,
+                "se": math.sqrt(s2 / max(len(per), 1)),
+                "meaning": "RMS over aircraft of the 2z amplitude sqrt(D^2 + E^2), noise-debiased",
+            },
+            "aircraft": per,
+        }
     if eff == "field_scaling":
         se = float(standard_errors(parts[0][2])[0])
-        return {"gamma": {"value": st.gamma + dgamma, "se": se, "model": st.gamma,
-                          "meaning": "B, C ~ (H0/H)^gamma, H0 the median horizontal field of the reports"},
-                "H_ratio_range": [float(1 / d.h_ratio.max()), float(1 / d.h_ratio.min())]}
+        return {
+            "gamma": {
+                "value": st.gamma + dgamma,
+                "se": se,
+                "model": st.gamma,
+                "meaning": "B, C ~ (H0/H)^gamma, H0 the median horizontal field of the reports",
+            },
+            "H_ratio_range": [float(1 / d.h_ratio.max()), float(1 / d.h_ratio.min())],
+        }
     if eff == "tas_scale":
         per = {d.names[b.aircraft]: {"k": float(be[0]), "se": float(standard_errors(v)[0])} for b, be, v in parts}
         ks = np.array([x["k"] for x in per.values()])
         ses = np.array([x["se"] for x in per.values()])
-        return {"k_median": {"value": float(np.median(ks)), "se": float(1.2533 * np.sqrt(np.mean(ses**2) / len(ks))),
-                             "meaning": "TAS reads (1 + k) x true"}, "aircraft": per}
+        return {
+            "k_median": {
+                "value": float(np.median(ks)),
+                "se": float(1.2533 * np.sqrt(np.mean(ses**2) / len(ks))),
+                "meaning": "TAS reads (1 + k) x true",
+            },
+            "aircraft": per,
+        }
     if eff == "stale_declination":
         be, v = parts[0][1], parts[0][2]
-        return {"age_yr": {"value": float(be[0]) + st.spec.declination_age_yr, "se": float(standard_errors(v)[0]),
-                           "meaning": "the receivers' declination model is this many years older than the data"},
-                "identifiable_share": declination_identifiable(d)}
+        return {
+            "age_yr": {
+                "value": float(be[0]) + st.spec.declination_age_yr,
+                "se": float(standard_errors(v)[0]),
+                "meaning": "the receivers' declination model is this many years older than the data",
+            },
+            "identifiable_share": declination_identifiable(d),
+        }
     if eff == "reference_bias":
         per = {}
         for b, be, v in parts:
-            per[b.label] = {"value": float(be[0]), "se": float(standard_errors(v)[0]),
-                            **_bias_or_scale(d, fit, d.sources.index(b.label), float(be[0]))}
-        return {"bias_kt": per, "meaning": "reference wind = truth + b along the wind; or truth x (1 + s), `form` the "
-                                           "one of the two that fits the model's rows better"}
+            per[b.label] = {
+                "value": float(be[0]),
+                "se": float(standard_errors(v)[0]),
+                **_bias_or_scale(d, fit, d.sources.index(b.label), float(be[0])),
+            }
+        return {
+            "bias_kt": per,
+            "meaning": "reference wind = truth + b along the wind; or truth x (1 + s), `form` the "
+            "one of the two that fits the model's rows better",
+        }
     if eff == "offset_drift":
         per = {}
         for b, be, v in parts:
             t = d.time_s[d.aircraft == b.aircraft]
             days = float((t.max() - t.min()) / 86400.0)
             rate, se = float(be[0] * r2d), float(standard_errors(v)[0] * r2d)
-            per[d.names[b.aircraft]] = {"rate_deg_per_day": rate, "se_deg_per_day": se, "days": days,
-                                        "change_deg": rate * days, "from_utc": _iso(float(t.min())), "to_utc": _iso(float(t.max()))}
+            per[d.names[b.aircraft]] = {
+                "rate_deg_per_day": rate,
+                "se_deg_per_day": se,
+                "days": days,
+                "change_deg": rate * days,
+                "from_utc": _iso(float(t.min())),
+                "to_utc": _iso(float(t.max())),
+            }
         return {"aircraft": per, "meaning": "offset A = A_mid + rate x (t - middle of the aircraft's data)"}
     if eff == "recalibration":
-        return {"steps": {d.names[b.aircraft]: {"time_utc": _iso(float(b.label.split("@")[1])), "time_s": float(b.label.split("@")[1]),
-                                                "step_deg": float(be[0] * r2d), "se_deg": float(standard_errors(v)[0] * r2d)}
-                          for b, be, v in parts}}
+        return {
+            "steps": {
+                d.names[b.aircraft]: {
+                    "time_utc": _iso(float(b.label.split("@")[1])),
+                    "time_s": float(b.label.split("@")[1]),
+                    "step_deg": float(be[0] * r2d),
+                    "se_deg": float(standard_errors(v)[0] * r2d),
+                }
+                for b, be, v in parts
+            }
+        }
     raise KeyError(eff)
 
 
@@ -251,32 +314,49 @@ def _bias_or_scale(d: WindData, fit: Fit, m: int, bias_kt: float) -> dict:
     s, e, sxx = fitted(x := reference_scale_column(d, m)[rows])
     se, _ = clustered_se(x * e, fit.clusters[rows], sxx)
     ratio = float(e @ e) / float(e_off @ e_off)
-    return {"scale": {"value": s, "se": se, "meaning": "reference wind = truth x (1 + s)"},
-            "form": "scale" if ratio < 1 else "offset", "rss_scale_over_offset": ratio}
+    return {
+        "scale": {"value": s, "se": se, "meaning": "reference wind = truth x (1 + s)"},
+        "form": "scale" if ratio < 1 else "offset",
+        "rss_scale_over_offset": ratio,
+    }
 
 
 def _forms_chosen(d: WindData, st: State, y: np.ndarray, clusters: np.ndarray, base: list[Fit], per: dict) -> dict:
     """The reference error tested and held out as the extended model carries it: each
     reference in the form (`per[src]["form"]`) that fits its rows (the library's candidate,
     whose test and gain the finding reports, is the offset along the wind)."""
-    blocks = [Block("reference_bias", src, (reference_scale_column if per[src]["form"] == "scale"
-                                            else reference_bias_column)(d, m)[:, None])
-              for m, src in enumerate(d.sources) if src in per]
+    blocks = [
+        Block(
+            "reference_bias",
+            src,
+            (reference_scale_column if per[src]["form"] == "scale" else reference_bias_column)(d, m)[:, None],
+        )
+        for m, src in enumerate(d.sources)
+        if src in per
+    ]
     fit, _ = fit_with(d, st, y, clusters, "reference_bias", blocks)
     b_ho, a_ho = held_out(d, st, y, clusters, "reference_bias", (blocks, CHANNEL["reference_bias"]), base)
-    return {"forms": {src: x["form"] for src, x in per.items()}, "p_value": block_p(fit, "reference_bias", d),
-            "held_out_before": b_ho, "held_out_after": a_ho,
-            "test": "cluster-robust Wald on 6-h weather blocks; held out as the finding's gain"}
+    return {
+        "forms": {src: x["form"] for src, x in per.items()},
+        "p_value": block_p(fit, "reference_bias", d),
+        "held_out_before": b_ho,
+        "held_out_after": a_ho,
+        "test": "cluster-robust Wald on 6-h weather blocks; held out as the finding's gain",
+    }
 
 
 def _size(eff: str, params: dict) -> float:
     """One number for the effect's size (what the tests compare)."""
-    return {"soft_iron": lambda p: p["amplitude_deg"]["value"], "field_scaling": lambda p: p["gamma"]["value"],
-            "tas_scale": lambda p: p["k_median"]["value"], "stale_declination": lambda p: p["age_yr"]["value"],
-            "reference_bias": lambda p: max((x["value"] for x in p["bias_kt"].values()), key=abs),
-            "recalibration": lambda p: max((x["step_deg"] for x in p["steps"].values()), key=abs),
-            "offset_drift": lambda p: max((x["rate_deg_per_day"] for x in p["aircraft"].values()), key=abs),
-            "quantization": lambda p: p["lat_lon_step_deg"]["value"]}[eff](params)
+    return {
+        "soft_iron": lambda p: p["amplitude_deg"]["value"],
+        "field_scaling": lambda p: p["gamma"]["value"],
+        "tas_scale": lambda p: p["k_median"]["value"],
+        "stale_declination": lambda p: p["age_yr"]["value"],
+        "reference_bias": lambda p: max((x["value"] for x in p["bias_kt"].values()), key=abs),
+        "recalibration": lambda p: max((x["step_deg"] for x in p["steps"].values()), key=abs),
+        "offset_drift": lambda p: max((x["rate_deg_per_day"] for x in p["aircraft"].values()), key=abs),
+        "quantization": lambda p: p["lat_lon_step_deg"]["value"],
+    }[eff](params)
 
 
 def _plot_data(d: WindData, fit0: Fit, fit1: Fit, eff: str, channel: str) -> dict:
@@ -285,7 +365,7 @@ def _plot_data(d: WindData, fit0: Fit, fit1: Fit, eff: str, channel: str) -> dic
     fleet shows those aircraft's rows (the others' term is 0 and would fill the view)."""
     term = np.zeros(2 * d.n)
     concerned = set()
-    for b, s in zip(fit1.blocks, fit1.slices):
+    for b, s in zip(fit1.blocks, fit1.slices, strict=False):
         if b.effect in (eff, "screen"):
             term += b.cols @ fit1.beta[s]
             concerned.add(b.aircraft)
@@ -295,8 +375,13 @@ def _plot_data(d: WindData, fit0: Fit, fit1: Fit, eff: str, channel: str) -> dic
     scale = np.r_[d.tas, np.full(d.n, KT)][m]
     unit = "deg" if channel != "along" else "kt"
     conv = (1 / DEG) if unit == "deg" else 1.0
-    return {"x": term[m] / scale * conv, "before": fit0.resid[m] / scale * conv,
-            "after": fit1.resid[m] / scale * conv, "unit": unit, "channel": "transverse" if channel == "both" else channel}
+    return {
+        "x": term[m] / scale * conv,
+        "before": fit0.resid[m] / scale * conv,
+        "after": fit1.resid[m] / scale * conv,
+        "unit": unit,
+        "channel": "transverse" if channel == "both" else channel,
+    }
 
 
 def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, dict]:
@@ -333,16 +418,40 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
             else:
                 p = block_p(fit1, eff, d)
             b_ho, a_ho = held_out(d, st, y, clusters, eff, base=base)
-            cands.append({"effect": eff, "p": p, "held_out": (b_ho, a_ho), "fit": fit1, "dgamma": dg,
-                          "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0})
+            cands.append(
+                {
+                    "effect": eff,
+                    "p": p,
+                    "held_out": (b_ho, a_ho),
+                    "fit": fit1,
+                    "dgamma": dg,
+                    "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0,
+                }
+            )
         q = None if "quantization" in st.entered else quantization_candidate(d, spec.lat_lon_step_deg)
         if q is not None:
-            cands.append({"effect": "quantization", "p": 10 ** max(q["log10_p"], -300), "log10_p": q["log10_p"], "q": q,
-                          "held_out": (q["gain"]["held_out_before"], q["gain"]["held_out_after"]), "rel": q["relative_gain"]})
+            cands.append(
+                {
+                    "effect": "quantization",
+                    "p": 10 ** max(q["log10_p"], -300),
+                    "log10_p": q["log10_p"],
+                    "q": q,
+                    "held_out": (q["gain"]["held_out_before"], q["gain"]["held_out_after"]),
+                    "rel": q["relative_gain"],
+                }
+            )
         level = ALPHA_LIBRARY / n_lib
         ok = [c for c in cands if c["p"] < level and c["rel"] >= MIN_REL_GAIN]
-        rounds.append({c["effect"]: {"p": c["p"], "held_out_before_kt": c["held_out"][0], "held_out_after_kt": c["held_out"][1]}
-                       for c in cands})
+        rounds.append(
+            {
+                c["effect"]: {
+                    "p": c["p"],
+                    "held_out_before_kt": c["held_out"][0],
+                    "held_out_after_kt": c["held_out"][1],
+                }
+                for c in cands
+            }
+        )
         if not ok:
             break
         best = max(ok, key=lambda c: c["rel"])
@@ -350,27 +459,48 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         if eff == "quantization":
             qq = best["q"]
             params: dict[str, Any] = {
-                "lat_lon_step_deg": {"value": qq["step"], "se": 0.0, "model": spec.lat_lon_step_deg,
-                                     "meaning": "grid of the reported lat/lon"},
-                "share_on_model_grid": qq["share_on_model_grid"]}
-            evidence = {"test": "binomial: coordinates on the coarser grid vs the share the model's grid puts there",
-                        "log10_p": qq["log10_p"], "alpha": level}
+                "lat_lon_step_deg": {
+                    "value": qq["step"],
+                    "se": 0.0,
+                    "model": spec.lat_lon_step_deg,
+                    "meaning": "grid of the reported lat/lon",
+                },
+                "share_on_model_grid": qq["share_on_model_grid"],
+            }
+            evidence = {
+                "test": "binomial: coordinates on the coarser grid vs the share the model's grid puts there",
+                "log10_p": qq["log10_p"],
+                "alpha": level,
+            }
             gain = qq["gain"]
         else:
             fit1 = best["fit"]
             params = _parameters(eff, d, fit1, best["dgamma"], st)
             ch = CHANNEL[eff]
-            evidence = {"test": SCANNED.get(eff, "cluster-robust Wald on 6-h weather blocks"), "p_value": best["p"], "alpha": level,
-                        "flights": int(len(np.unique(d.flight))), "rows": int(d.n)}
+            evidence = {
+                "test": SCANNED.get(eff, "cluster-robust Wald on 6-h weather blocks"),
+                "p_value": best["p"],
+                "alpha": level,
+                "flights": int(len(np.unique(d.flight))),
+                "rows": int(d.n),
+            }
             if eff == "stale_declination":
-                evidence["aliased_with_A"] = f"{100 * (1 - declination_identifiable(d)):.0f} % of the regressor is a per-aircraft constant"
+                evidence["aliased_with_A"] = (
+                    f"{100 * (1 - declination_identifiable(d)):.0f} % of the regressor is a per-aircraft constant"
+                )
             if eff == "reference_bias" and any(x["form"] == "scale" for x in params["bias_kt"].values()):
                 assert base is not None  # a library effect entered: the data were testable
                 evidence["forms_chosen"] = _forms_chosen(d, st, y, clusters, base, params["bias_kt"])
-            gain = {"metric": f"RMS of the {ch} wind residual (kt)" if ch != "both" else "RMS of the wind residual vector components (kt)",
-                    "before": rms_of_kt(fit0.resid, d.n, ch), "after": rms_of_kt(fit1.resid, d.n, ch),
-                    "held_out_before": best["held_out"][0], "held_out_after": best["held_out"][1],
-                    "held_out": "6-h weather blocks alternate between two folds; learned on one, measured on the other"}
+            gain = {
+                "metric": f"RMS of the {ch} wind residual (kt)"
+                if ch != "both"
+                else "RMS of the wind residual vector components (kt)",
+                "before": rms_of_kt(fit0.resid, d.n, ch),
+                "after": rms_of_kt(fit1.resid, d.n, ch),
+                "held_out_before": best["held_out"][0],
+                "held_out_after": best["held_out"][1],
+                "held_out": "6-h weather blocks alternate between two folds; learned on one, measured on the other",
+            }
             plots[eff] = _plot_data(d, fit0, fit1, eff, ch)
         params["size"] = _size(eff, params)
         findings.append(Finding(eff, cause(eff, params), params, evidence, gain))
@@ -386,27 +516,49 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         findings.extend(screen(d, st, y, clusters, plots))
     fit_end = solve(current_blocks(d, st), y, clusters)
     assert fit_start is not None  # set in the first round (MAX_ROUNDS >= 1)
-    free = {b.label[5:]: {"slope": float(be[0]), "se": float(standard_errors(v)[0]),
-                          "unit": "deg per unit" if b.label.startswith("free:transverse") else "kt per unit"}
-            for b, be, v in fit_end.coef("base", -1) if b.label.startswith("free:")}
-    baseline = {"rounds": rounds, "model_fit": model_fit(d, st, fit_end), "free_terms": free,
-                "residual_rms_kt": {"transverse_before": rms_of_kt(fit_start.resid, d.n, "transverse"),
-                                    "transverse_after": rms_of_kt(fit_end.resid, d.n, "transverse"),
-                                    "along_before": rms_of_kt(fit_start.resid, d.n, "along"),
-                                    "along_after": rms_of_kt(fit_end.resid, d.n, "along")},
-                "alpha": {"library": ALPHA_LIBRARY, "screening": ALPHA_SCREEN, "family_wise": ALPHA_LIBRARY + ALPHA_SCREEN},
-                "not_identifiable": ([] if declination_identifiable(d) >= 0.01 else
-                                     ["stale_declination: aliased with the per-aircraft offset A (the declination change across "
-                                      f"this network is {100 * declination_identifiable(d):.1f} % outside per-aircraft constants)"]),
-                "reports": int(len(np.unique(np.c_[d.aircraft, d.time_s], axis=0))), "rows": int(d.n),
-                "aircraft": len(d.names), "flights": int(len(np.unique(d.flight))),
-                "weather_blocks": n_blocks, "data": d.table}
+    free = {
+        b.label[5:]: {
+            "slope": float(be[0]),
+            "se": float(standard_errors(v)[0]),
+            "unit": "deg per unit" if b.label.startswith("free:transverse") else "kt per unit",
+        }
+        for b, be, v in fit_end.coef("base", -1)
+        if b.label.startswith("free:")
+    }
+    baseline = {
+        "rounds": rounds,
+        "model_fit": model_fit(d, st, fit_end),
+        "free_terms": free,
+        "residual_rms_kt": {
+            "transverse_before": rms_of_kt(fit_start.resid, d.n, "transverse"),
+            "transverse_after": rms_of_kt(fit_end.resid, d.n, "transverse"),
+            "along_before": rms_of_kt(fit_start.resid, d.n, "along"),
+            "along_after": rms_of_kt(fit_end.resid, d.n, "along"),
+        },
+        "alpha": {"library": ALPHA_LIBRARY, "screening": ALPHA_SCREEN, "family_wise": ALPHA_LIBRARY + ALPHA_SCREEN},
+        "not_identifiable": (
+            []
+            if declination_identifiable(d) >= 0.01
+            else [
+                "stale_declination: aliased with the per-aircraft offset A (the declination change across "
+                f"this network is {100 * declination_identifiable(d):.1f} % outside per-aircraft constants)"
+            ]
+        ),
+        "reports": int(len(np.unique(np.c_[d.aircraft, d.time_s], axis=0))),
+        "rows": int(d.n),
+        "aircraft": len(d.names),
+        "flights": int(len(np.unique(d.flight))),
+        "weather_blocks": n_blocks,
+        "data": d.table,
+    }
     if not testable:
-        baseline["not_tested"] = (f"the data span {n_blocks} independent 6-h weather blocks, fewer than {MIN_BLOCKS}: "
-                                  "cluster-robust tests on so few clusters reject too often (aerotruth's own null "
-                                  "reports on 15 blocks: 10 false findings in 100 datasets), so no effect is tested; the "
-                                  "quantization check (no test statistic on clusters) still runs. More days of data "
-                                  "are needed.")
+        baseline["not_tested"] = (
+            f"the data span {n_blocks} independent 6-h weather blocks, fewer than {MIN_BLOCKS}: "
+            "cluster-robust tests on so few clusters reject too often (aerotruth's own null "
+            "reports on 15 blocks: 10 false findings in 100 datasets), so no effect is tested; the "
+            "quantization check (no test statistic on clusters) still runs. More days of data "
+            "are needed."
+        )
     return findings, baseline, st, plots
 
 
@@ -434,26 +586,44 @@ def model_fit(d: WindData, st: State, fit: Fit) -> dict:
             row["status"], row["reason"] = "fitted", ""
         else:
             row["status"] = "offset_only"
-            row["reason"] = (f"heading coverage cannot identify the sinusoid (spread {spread:.2f} < {MIN_COVERAGE}): "
-                             "offset A only; one heading cannot tell an offset from a sinusoid")
+            row["reason"] = (
+                f"heading coverage cannot identify the sinusoid (spread {spread:.2f} < {MIN_COVERAGE}): "
+                "offset A only; one heading cannot tell an offset from a sinusoid"
+            )
         out[name] = row
     return out
 
 
 # ----------------------------------------------------------------------------- screening
 
-UNITS = {"pressure_altitude_ft": "1000 ft", "tas_kt": "kt", "lat": "deg latitude", "time_days": "day", "roll_deg": "deg roll",
-         "turn_deg_s": "deg/s of turn", "const": "(constant)"}
+UNITS = {
+    "pressure_altitude_ft": "1000 ft",
+    "tas_kt": "kt",
+    "lat": "deg latitude",
+    "time_days": "day",
+    "roll_deg": "deg roll",
+    "turn_deg_s": "deg/s of turn",
+    "const": "(constant)",
+}
 
 
 def _screen_tests(d: WindData, spec: WindModelSpec | None = None) -> list[tuple[str, list[str]]]:
     """(channel, covariates) of every screening test; covariates the spec's free terms
     already carry in a channel are not tested again there."""
     common = ["pressure_altitude_ft", "lat", "time_days", "turn_deg_s"] + (["roll_deg"] if d.roll is not None else [])
-    tests = [("transverse", ["sin3", "cos3"]), ("transverse", ["phase_ascent", "phase_descent"]), ("transverse", ["tas_kt"])]
+    tests = [
+        ("transverse", ["sin3", "cos3"]),
+        ("transverse", ["phase_ascent", "phase_descent"]),
+        ("transverse", ["tas_kt"]),
+    ]
     tests += [("transverse", [c]) for c in common]
-    tests += [("along", ["const"]), ("along", ["sin1", "cos1"]), ("along", ["sin2", "cos2"]), ("along", ["sin3", "cos3"]),
-              ("along", ["phase_ascent", "phase_descent"])]
+    tests += [
+        ("along", ["const"]),
+        ("along", ["sin1", "cos1"]),
+        ("along", ["sin2", "cos2"]),
+        ("along", ["sin3", "cos3"]),
+        ("along", ["phase_ascent", "phase_descent"]),
+    ]
     tests += [("along", [c]) for c in common]
     free = {(t["channel"], t["covariate"]) for t in spec.free_terms} if spec is not None else set()
     tests = [(ch, [c for c in covs if (ch, c) not in free]) for ch, covs in tests]
@@ -461,9 +631,13 @@ def _screen_tests(d: WindData, spec: WindModelSpec | None = None) -> list[tuple[
 
 
 def _screen_blocks(d: WindData, channel: str, covs: list[str]) -> tuple[list[Block], list[dict]]:
-    sigs = [{"channel": channel, "covariate": c, "center": 0.0 if c == "const" else float(np.mean(covariate(d, c)))}
-            for c in covs]
-    return [Block("screen", f"{channel}:{'+'.join(covs)}", np.column_stack([signature_column(d, s) for s in sigs]))], sigs
+    sigs = [
+        {"channel": channel, "covariate": c, "center": 0.0 if c == "const" else float(np.mean(covariate(d, c)))}
+        for c in covs
+    ]
+    return [
+        Block("screen", f"{channel}:{'+'.join(covs)}", np.column_stack([signature_column(d, s) for s in sigs]))
+    ], sigs
 
 
 def _periodic(d: WindData, fit: Fit) -> tuple[float, int] | None:
@@ -498,13 +672,22 @@ def _signature_text(sig: list[dict], beta: np.ndarray) -> str:
         k = covs[0][3]
         return f"{ch} residual varies as {k}z with the heading, amplitude {math.hypot(*beta[:2]):.2f} {unit}"
     if covs[0].startswith("phase_"):
-        return f"{ch} residual depends on the flight phase: ascent {beta[0]:+.2f} {unit}, descent {beta[1]:+.2f} {unit} vs level"
+        return (
+            f"{ch} residual depends on the flight phase: ascent {beta[0]:+.2f} {unit}, "
+            f"descent {beta[1]:+.2f} {unit} vs level"
+        )
     if covs[0].startswith("period_"):
-        return f"{ch} residual is periodic, period {float(covs[0].split('_')[1]) / 3600:.1f} h, amplitude {math.hypot(*beta[:2]):.2f} {unit}"
+        return (
+            f"{ch} residual is periodic, period {float(covs[0].split('_')[1]) / 3600:.1f} h, "
+            f"amplitude {math.hypot(*beta[:2]):.2f} {unit}"
+        )
     if covs[0].startswith("fleet_step_"):
         return f"{ch} residual of the whole fleet steps by {beta[0]:+.2f} {unit} at {_iso(float(covs[0][11:]))}"
     if covs[0] == "const":
-        return f"{ch} residual has a constant offset {beta[0]:+.2f} {unit} (an airspeed or reference bias not in the library)"
+        return (
+            f"{ch} residual has a constant offset {beta[0]:+.2f} {unit} "
+            "(an airspeed or reference bias not in the library)"
+        )
     return f"{ch} residual ~ {covs[0]}, {beta[0]:+.3g} {unit} per {UNITS.get(covs[0], covs[0])}"
 
 
@@ -525,16 +708,25 @@ def screen(d: WindData, st: State, y, clusters, plots: dict) -> list:
         # blocks, for the periodogram's period times the M frequencies searched; the fleet
         # step by the sup-CUSUM of the block means
         tests: list[tuple[str, list[str], str, Callable[..., float]]] = [  # p_of(fit1): some bind defaults
-            (ch, covs, f"{ch}:{'+'.join(covs)}", lambda f1: block_p(f1, "screen", d)) for ch, covs in untested]
+            (ch, covs, f"{ch}:{'+'.join(covs)}", lambda f1: block_p(f1, "screen", d)) for ch, covs in untested
+        ]
         per = _periodic(d, fit0)
         if per is not None and "periodic" not in done:
             period, M = per
-            tests.append(("transverse", [f"period_{period:.0f}_sin", f"period_{period:.0f}_cos"], "periodic",
-                          lambda f1, M=M: min(1.0, M * block_p(f1, "screen", d))))
+            tests.append(
+                (
+                    "transverse",
+                    [f"period_{period:.0f}_sin", f"period_{period:.0f}_cos"],
+                    "periodic",
+                    lambda f1, M=M: min(1.0, M * block_p(f1, "screen", d)),
+                )
+            )
         bm, t0, t1 = group_means(d, fit0.resid[: d.n], d.cluster)
         p_cp, k = kolmogorov_cusum(bm)
         if p_cp < level and len(bm) > 1 and "fleet_step" not in done:
-            tests.append(("transverse", [f"fleet_step_{0.5 * (t1[k] + t0[k + 1]):.0f}"], "fleet_step", lambda f1, p=p_cp: p))
+            tests.append(
+                ("transverse", [f"fleet_step_{0.5 * (t1[k] + t0[k + 1]):.0f}"], "fleet_step", lambda f1, p=p_cp: p)
+            )
         cands = []
         for ch, covs, key, p_of in tests:
             blocks, sigs = _screen_blocks(d, ch, covs)
@@ -551,21 +743,39 @@ def screen(d: WindData, st: State, y, clusters, plots: dict) -> list:
         (ch, covs, p, blocks, sigs, fit1, key), b_ho, a_ho = max(ok, key=lambda x: (x[1] - x[2]) / x[1])
         beta = fit1.coef("screen")[0][1]
         cov = fit1.coef("screen")[0][2]
-        for s, b in zip(sigs, beta):  # deg per unit (transverse), kt per unit (along): the columns' scaling
+        # deg per unit (transverse), kt per unit (along): the columns' scaling
+        for s, b in zip(sigs, beta, strict=False):
             s["slope"] = float(b)
         text = _signature_text(sigs, beta)
-        params: dict[str, Any] = {"signature": text,
-                                  "terms": [dict(s, se=float(e)) for s, e in zip(sigs, standard_errors(cov))]}
+        params: dict[str, Any] = {
+            "signature": text,
+            "terms": [dict(s, se=float(e)) for s, e in zip(sigs, standard_errors(cov), strict=False)],
+        }
         params["size"] = float(beta[0]) if len(beta) == 1 else float(math.hypot(*beta[:2]))
-        evidence = {"test": "cluster-robust Wald on 6-h weather blocks (screening)" if not key.startswith(("periodic", "fleet_step")) else
-                    ("strongest period of the flight means' periodogram; cluster-robust Wald on weather blocks x M frequencies"
-                     if key == "periodic" else "sup-CUSUM of the fleet's weather-block means"),
-                    "p_value": p, "alpha": level}
-        gain = {"metric": f"RMS of the {ch} wind residual (kt)", "before": rms_of_kt(fit0.resid, d.n, ch),
-                "after": rms_of_kt(fit1.resid, d.n, ch), "held_out_before": b_ho, "held_out_after": a_ho,
-                "held_out": "6-h weather blocks alternate between two folds; learned on one, measured on the other"}
+        evidence = {
+            "test": "cluster-robust Wald on 6-h weather blocks (screening)"
+            if not key.startswith(("periodic", "fleet_step"))
+            else (
+                "strongest period of the flight means' periodogram; cluster-robust Wald on weather blocks x M "
+                "frequencies"
+                if key == "periodic"
+                else "sup-CUSUM of the fleet's weather-block means"
+            ),
+            "p_value": p,
+            "alpha": level,
+        }
+        gain = {
+            "metric": f"RMS of the {ch} wind residual (kt)",
+            "before": rms_of_kt(fit0.resid, d.n, ch),
+            "after": rms_of_kt(fit1.resid, d.n, ch),
+            "held_out_before": b_ho,
+            "held_out_after": a_ho,
+            "held_out": "6-h weather blocks alternate between two folds; learned on one, measured on the other",
+        }
         name = f"unexplained:{key}"
-        out.append(Finding(name, "not in the effects library; described by its signature: " + text, params, evidence, gain))
+        out.append(
+            Finding(name, "not in the effects library; described by its signature: " + text, params, evidence, gain)
+        )
         plots[name] = _plot_data(d, fit0, fit1, "screen", ch)
         st.signatures.extend(sigs)
         done.add(key)
@@ -585,15 +795,30 @@ def extended_spec(spec: WindModelSpec, findings: list, d: WindData, st: State) -
         elif f.effect == "field_scaling":
             up["field_scaling"] = float(np.clip(p["gamma"]["value"], -3, 3))
         elif f.effect == "tas_scale":
-            up["tas_scale"] = {**spec.tas_scale, **{a: spec.tas_scale.get(a, 0.0) + v["k"] for a, v in p["aircraft"].items()}}
+            up["tas_scale"] = {
+                **spec.tas_scale,
+                **{a: spec.tas_scale.get(a, 0.0) + v["k"] for a, v in p["aircraft"].items()},
+            }
         elif f.effect == "stale_declination":
             up["declination_age_yr"] = float(p["age_yr"]["value"])
         elif f.effect == "reference_bias":  # each model in the form that fits it better
             forms = {s: v.get("form", "offset") for s, v in p["bias_kt"].items()}
-            up["reference_bias_kt"] = {**spec.reference_bias_kt, **{s: spec.reference_bias_kt.get(s, 0.0) + v["value"]
-                                                                   for s, v in p["bias_kt"].items() if forms[s] == "offset"}}
-            up["reference_scale"] = {**spec.reference_scale, **{s: spec.reference_scale.get(s, 0.0) + v["scale"]["value"]
-                                                               for s, v in p["bias_kt"].items() if forms[s] == "scale"}}
+            up["reference_bias_kt"] = {
+                **spec.reference_bias_kt,
+                **{
+                    s: spec.reference_bias_kt.get(s, 0.0) + v["value"]
+                    for s, v in p["bias_kt"].items()
+                    if forms[s] == "offset"
+                },
+            }
+            up["reference_scale"] = {
+                **spec.reference_scale,
+                **{
+                    s: spec.reference_scale.get(s, 0.0) + v["scale"]["value"]
+                    for s, v in p["bias_kt"].items()
+                    if forms[s] == "scale"
+                },
+            }
         elif f.effect == "recalibration":
             rec = {a: list(ts) for a, ts in spec.recalibrations.items()}
             for a, s in p["steps"].items():
@@ -607,5 +832,3 @@ def extended_spec(spec: WindModelSpec, findings: list, d: WindData, st: State) -
             up.setdefault("signatures", list(spec.signatures))
             up["signatures"] += [{k: t[k] for k in ("channel", "covariate", "center", "slope")} for t in p["terms"]]
     return spec.model_copy(update=up)
-
-

@@ -117,8 +117,14 @@ def _jitter(df: pd.DataFrame, first: np.ndarray) -> dict:
     # segment velocities as the wind paper's ground track has them (one displacement per segment,
     # at its mid latitude: metres from per-point scales, lon x m_lon(lat), carried lon x dm_lon)
     de, dn = segment_displacements(lat * DEG, lon * DEG)
-    ok = (ac[2:] == ac[:-2]) & (np.diff(t)[:-1] > 0) & (np.diff(t)[1:] > 0) & (np.diff(t)[:-1] <= 600) & (np.diff(t)[1:] <= 600)
-    ok &= (np.abs(alt[2:] - alt[:-2]) < 100.0)  # level: the true velocity changes little
+    ok = (
+        (ac[2:] == ac[:-2])
+        & (np.diff(t)[:-1] > 0)
+        & (np.diff(t)[1:] > 0)
+        & (np.diff(t)[:-1] <= 600)
+        & (np.diff(t)[1:] <= 600)
+    )
+    ok &= np.abs(alt[2:] - alt[:-2]) < 100.0  # level: the true velocity changes little
     dt1, dt2 = np.diff(t)[:-1], np.diff(t)[1:]
     with np.errstate(divide="ignore", invalid="ignore"):
         v1 = np.column_stack([de[:-1] / dt1, dn[:-1] / dt1])
@@ -127,8 +133,13 @@ def _jitter(df: pd.DataFrame, first: np.ndarray) -> dict:
     dv = (v2 - v1)[ok]
     speed = np.hypot(*v1[ok].T)
     ok2 = np.all(np.isfinite(dv), axis=1) & (speed > 30.0) & (np.hypot(*dv.T) < 0.3 * speed)  # turns are not jitter
-    return {"dv": dv[ok2], "c": c[ok][ok2], "m_lat": m_lat[1:-1][ok][ok2], "m_lon": m_lon[1:-1][ok][ok2],
-            "aircraft": ac[1:-1][ok][ok2]}
+    return {
+        "dv": dv[ok2],
+        "c": c[ok][ok2],
+        "m_lat": m_lat[1:-1][ok][ok2],
+        "m_lon": m_lon[1:-1][ok][ok2],
+        "aircraft": ac[1:-1][ok][ok2],
+    }
 
 
 def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpec | None = None) -> WindData:
@@ -139,24 +150,32 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
             v = df[col].to_numpy()
             v = v[np.isfinite(v)]
             if len(v) >= 20 and v.max() <= 2 * np.pi + 1e-6:
-                raise DataError(f"{source}: column '{col}' lies within [0, {v.max():.2f}]: radians? expected degrees 0-360")
+                raise DataError(
+                    f"{source}: column '{col}' lies within [0, {v.max():.2f}]: radians? expected degrees 0-360"
+                )
     alt = df["pressure_altitude_ft"].to_numpy()
     alt = alt[np.isfinite(alt)]
     if len(alt) >= 20 and 100.0 <= alt.min() and alt.max() <= 1100.0 and alt.max() - alt.min() >= 300.0:
         # reports from near the ground to cruise span thousands of feet; 100-1100 is a pressure
-        raise DataError(f"{source}: column 'pressure_altitude_ft' lies within [{alt.min():.0f}, {alt.max():.0f}]: "
-                        f"pressure in hPa? expected feet")
+        raise DataError(
+            f"{source}: column 'pressure_altitude_ft' lies within [{alt.min():.0f}, {alt.max():.0f}]: "
+            f"pressure in hPa? expected feet"
+        )
     rows = heading_errors(df, TRACK_GATES if gates is None else gates, source)
     used = (rows["gate"] == "used").to_numpy()
     if used.sum() < 20:
         counts = rows["gate"].value_counts().to_dict()
-        raise DataError(f"{source}: only {int(used.sum())} report rows pass the ground-track gates (need 20); "
-                        f"gates: {counts}")
+        raise DataError(
+            f"{source}: only {int(used.sum())} report rows pass the ground-track gates (need 20); gates: {counts}"
+        )
     r = rows[used]
-    table = {"rows_read": int(len(obs)), "rows_dropped_empty": int(df.attrs.get("dropped_empty", 0)),
-             "rows_dropped_duplicate": int(df.attrs.get("dropped_duplicates", 0)),
-             "reports": int(rows["report"].nunique()),
-             "row_gates": {str(k): int(v) for k, v in rows["gate"].value_counts().items() if v}}
+    table = {
+        "rows_read": int(len(obs)),
+        "rows_dropped_empty": int(df.attrs.get("dropped_empty", 0)),
+        "rows_dropped_duplicate": int(df.attrs.get("dropped_duplicates", 0)),
+        "reports": int(rows["report"].nunique()),
+        "row_gates": {str(k): int(v) for k, v in rows["gate"].value_counts().items() if v},
+    }
     z = r["heading_deg"].to_numpy() * DEG
     dv_e, dv_n = -r["dw_e"].to_numpy(), -r["dw_n"].to_numpy()
     trans = dv_e * np.cos(z) - dv_n * np.sin(z)
@@ -189,7 +208,9 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     ac_cat = r["aircraft"].astype("category")
     names = [str(c) for c in ac_cat.cat.categories]
     ac = ac_cat.cat.codes.to_numpy()
-    src_cat = r["ref_source"].astype("category").cat.remove_unused_categories()  # not the empty cells' fill "ref" when none is
+    src_cat = (
+        r["ref_source"].astype("category").cat.remove_unused_categories()
+    )  # not the empty cells' fill "ref" when none is
     flight = r["flight"].to_numpy()
     cluster, fold = weather_blocks(flight, t)
     # turn rate and flight phase: heading and altitude change between a flight's adjacent
@@ -207,11 +228,33 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     turn, phase, climb = turn_rep[back], ph_rep[back], rate[back]
     roll = df["roll_deg"].to_numpy()[used] if "roll_deg" in df.columns else None
     first = _report_rows(df)
-    return WindData(aircraft=ac, names=names, source=src_cat.cat.codes.to_numpy(), sources=[str(c) for c in src_cat.cat.categories],
-                    flight=flight, time_s=t, z=z, tas=r["tas_ms"].to_numpy(), trans=trans, along=along, wref_e=ue, wref_n=un,
-                    wref_speed=np.nan_to_num(sp),
-                    lat=lat, lon=lon, alt_ft=alt, h_ratio=h_ratio, sv_deg_yr=sv, roll=roll, phase=phase, turn_deg_s=turn, climb_fpm=climb,
-                    cluster=cluster, fold=fold, report_lat=df["lat"].to_numpy()[first], report_lon=df["lon"].to_numpy()[first],
-                    jitter=_jitter(df, first), table=table)
-
-
+    return WindData(
+        aircraft=ac,
+        names=names,
+        source=src_cat.cat.codes.to_numpy(),
+        sources=[str(c) for c in src_cat.cat.categories],
+        flight=flight,
+        time_s=t,
+        z=z,
+        tas=r["tas_ms"].to_numpy(),
+        trans=trans,
+        along=along,
+        wref_e=ue,
+        wref_n=un,
+        wref_speed=np.nan_to_num(sp),
+        lat=lat,
+        lon=lon,
+        alt_ft=alt,
+        h_ratio=h_ratio,
+        sv_deg_yr=sv,
+        roll=roll,
+        phase=phase,
+        turn_deg_s=turn,
+        climb_fpm=climb,
+        cluster=cluster,
+        fold=fold,
+        report_lat=df["lat"].to_numpy()[first],
+        report_lon=df["lon"].to_numpy()[first],
+        jitter=_jitter(df, first),
+        table=table,
+    )

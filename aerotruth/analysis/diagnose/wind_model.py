@@ -33,28 +33,48 @@ class WindModelSpec(Section):
     """What `aerotruth diagnose` assumes about the wind sensors behind an observation table
     (campaign YAML `diagnose: {wind: ...}`; the extended model it writes sets these)."""
 
-    deviation_terms: int = Field(default=3, description="3: A, B, C (wind paper eq. 2 as the method fits it); 5: + D, E (soft iron)")
+    deviation_terms: int = Field(
+        default=3, description="3: A, B, C (wind paper eq. 2 as the method fits it); 5: + D, E (soft iron)"
+    )
     field_scaling: float = Field(default=0.0, ge=-3, le=3, description="gamma of B, C ~ (H0/H)^gamma (hard iron: 1)")
-    tas_bias: bool = Field(default=False, description="each aircraft has its own constant TAS bias, fitted (the "
-                           "campaign's air_data.tas_bias_sigma_kt > 0): a free along-channel offset per aircraft")
-    tas_scale: dict[str, float] = Field(default_factory=dict, description="per aircraft TAS scale factor (0.01 = reads 1 % high)")
-    tas_along_path: bool = Field(default=False, description="the reported TAS is the airspeed along the air path (3-D), "
-                                 "which eq. 1 takes as horizontal: in climb and descent the along residual is "
-                                 "TAS (1 - cos gamma), gamma from the reports' altitude rate")
+    tas_bias: bool = Field(
+        default=False,
+        description="each aircraft has its own constant TAS bias, fitted (the "
+        "campaign's air_data.tas_bias_sigma_kt > 0): a free along-channel offset per aircraft",
+    )
+    tas_scale: dict[str, float] = Field(
+        default_factory=dict, description="per aircraft TAS scale factor (0.01 = reads 1 % high)"
+    )
+    tas_along_path: bool = Field(
+        default=False,
+        description="the reported TAS is the airspeed along the air path (3-D), "
+        "which eq. 1 takes as horizontal: in climb and descent the along residual is "
+        "TAS (1 - cos gamma), gamma from the reports' altitude rate",
+    )
     declination_age_yr: float = Field(default=0.0, ge=-50, le=50, description="age of the receivers' declination model")
-    reference_bias_kt: dict[str, float] = Field(default_factory=dict, description="per reference model, bias along its wind (kt)")
-    reference_scale: dict[str, float] = Field(default_factory=dict, description="per reference model, scale error of "
-                                              "its wind: reference = truth x (1 + s)")
-    recalibrations: dict[str, list[float]] = Field(default_factory=dict, description="per aircraft, UTC epoch seconds after "
-                                                   "which its offset A is new")
-    offset_drifts: list[str] = Field(default_factory=list, description="aircraft whose offset A changes linearly with "
-                                     "time (rate fitted)")
+    reference_bias_kt: dict[str, float] = Field(
+        default_factory=dict, description="per reference model, bias along its wind (kt)"
+    )
+    reference_scale: dict[str, float] = Field(
+        default_factory=dict, description="per reference model, scale error of its wind: reference = truth x (1 + s)"
+    )
+    recalibrations: dict[str, list[float]] = Field(
+        default_factory=dict, description="per aircraft, UTC epoch seconds after which its offset A is new"
+    )
+    offset_drifts: list[str] = Field(
+        default_factory=list, description="aircraft whose offset A changes linearly with time (rate fitted)"
+    )
     lat_lon_step_deg: float = Field(default=0.01, gt=0, description="quantization of reported lat/lon")
-    signatures: list[dict[str, Any]] = Field(default_factory=list, description="linear terms found by screening: "
-                                             "{channel, covariate, slope} (an effect outside the library)")
-    free_terms: list[dict[str, str]] = Field(default_factory=list, description="fleet-wide linear terms the sensors are "
-                                             "known to have, size fitted: {channel, covariate} (e.g. a pendulous valve's "
-                                             "turning error: transverse, turn_deg_s)")
+    signatures: list[dict[str, Any]] = Field(
+        default_factory=list,
+        description="linear terms found by screening: {channel, covariate, slope} (an effect outside the library)",
+    )
+    free_terms: list[dict[str, str]] = Field(
+        default_factory=list,
+        description="fleet-wide linear terms the sensors are "
+        "known to have, size fitted: {channel, covariate} (e.g. a pendulous valve's "
+        "turning error: transverse, turn_deg_s)",
+    )
 
     @field_validator("free_terms")
     @classmethod
@@ -112,8 +132,14 @@ def model_of_sensors(sensors, fleets: list[str], days: list | None = None) -> Wi
     Per-airframe draws (hard iron, mounting, soft iron) are free parameters, not known
     values: the model states which terms exist, the fit finds their size."""
     specs = [sensors.of(f) for f in fleets] or [sensors.of("")]
-    hard = any(max(s.heading.poor_hard_iron_sigma_nT * (s.heading.poor_fraction > 0),
-                   s.heading.healthy_hard_iron_sigma_nT * (s.heading.poor_fraction < 1)) > 0 for s in specs)
+    hard = any(
+        max(
+            s.heading.poor_hard_iron_sigma_nT * (s.heading.poor_fraction > 0),
+            s.heading.healthy_hard_iron_sigma_nT * (s.heading.poor_fraction < 1),
+        )
+        > 0
+        for s in specs
+    )
     soft = any(s.heading.soft_iron_sigma > 0 for s in specs)
     tas_bias = any(s.air_data.tas_bias_sigma_kt > 0 or s.air_data.tas_bias_kt != 0 for s in specs)
     epochs = {s.heading.declination_epoch for s in specs} - {"truth"}
@@ -121,9 +147,15 @@ def model_of_sensors(sensors, fleets: list[str], days: list | None = None) -> Wi
     if epochs and days:
         mid = days[len(days) // 2]
         age = float(np.mean([(mid - e).days / 365.25 for e in epochs]))
-    return WindModelSpec(deviation_terms=5 if soft else 3, field_scaling=1.0 if hard else 0.0, tas_bias=tas_bias, tas_along_path=True,
-                         declination_age_yr=age, lat_lon_step_deg=float(sensors.reports.lat_lon_step_deg),
-                         free_terms=[{"channel": "transverse", "covariate": c} for c in SENSOR_DYNAMICS])
+    return WindModelSpec(
+        deviation_terms=5 if soft else 3,
+        field_scaling=1.0 if hard else 0.0,
+        tas_bias=tas_bias,
+        tas_along_path=True,
+        declination_age_yr=age,
+        lat_lon_step_deg=float(sensors.reports.lat_lon_step_deg),
+        free_terms=[{"channel": "transverse", "covariate": c} for c in SENSOR_DYNAMICS],
+    )
 
 
 # ----------------------------------------------------------------------------- model
@@ -204,7 +236,11 @@ def reference_scale_column(d: WindData, m: int) -> np.ndarray:
 def signature_column(d: WindData, sig: dict) -> np.ndarray:
     """A screening term: deg per unit of the covariate (transverse), kt per unit (along)."""
     x = covariate(d, sig["covariate"]) - float(sig.get("center", 0.0))
-    return stack_channels(d.tas * x * DEG, None, d.n) if sig["channel"] == "transverse" else stack_channels(None, x * KT, d.n)
+    return (
+        stack_channels(d.tas * x * DEG, None, d.n)
+        if sig["channel"] == "transverse"
+        else stack_channels(None, x * KT, d.n)
+    )
 
 
 def known_offsets(d: WindData, spec: WindModelSpec) -> np.ndarray:
@@ -231,13 +267,16 @@ def _coverage_ok(z: np.ndarray, harmonic: int) -> bool:
 def base_blocks(d: WindData, st: State) -> list[Block]:
     """The deviation model per aircraft (A; B, C where identified; D, E when in the model)."""
     n, out = d.n, []
-    s = d.h_ratio ** st.gamma
+    s = d.h_ratio**st.gamma
     for i in range(len(d.names)):
         sel = d.aircraft == i
         one = sel.astype(float) * d.tas
         times = sorted(st.steps.get(i, []))
         edges = [-np.inf, *times, np.inf]
-        cols = [stack_channels(one * ((d.time_s >= lo) & (d.time_s < hi)), None, n) for lo, hi in zip(edges[:-1], edges[1:])]
+        cols = [
+            stack_channels(one * ((d.time_s >= lo) & (d.time_s < hi)), None, n)
+            for lo, hi in zip(edges[:-1], edges[1:], strict=False)
+        ]
         out.append(Block("base", "A", np.column_stack(cols), i))
         if i in st.drifts:
             out.append(Block("base", "drift", drift_column(d, i)[:, None], i))
@@ -245,11 +284,27 @@ def base_blocks(d: WindData, st: State) -> list[Block]:
             out.append(Block("base", "T", stack_channels(None, sel.astype(float), n)[:, None], i))
         zi = d.z[sel]
         if _coverage_ok(zi, 1):
-            out.append(Block("base", "BC", np.column_stack([stack_channels(one * s * np.sin(d.z), None, n),
-                                                            stack_channels(one * s * np.cos(d.z), None, n)]), i))
+            out.append(
+                Block(
+                    "base",
+                    "BC",
+                    np.column_stack(
+                        [stack_channels(one * s * np.sin(d.z), None, n), stack_channels(one * s * np.cos(d.z), None, n)]
+                    ),
+                    i,
+                )
+            )
         if (st.spec.deviation_terms == 5 or "soft_iron" in st.entered) and _coverage_ok(zi, 2):
-            out.append(Block("soft_iron" if "soft_iron" in st.entered else "base", "DE",
-                             np.column_stack([stack_channels(one * np.sin(2 * d.z), None, n), stack_channels(one * np.cos(2 * d.z), None, n)]), i))
+            out.append(
+                Block(
+                    "soft_iron" if "soft_iron" in st.entered else "base",
+                    "DE",
+                    np.column_stack(
+                        [stack_channels(one * np.sin(2 * d.z), None, n), stack_channels(one * np.cos(2 * d.z), None, n)]
+                    ),
+                    i,
+                )
+            )
     return out
 
 
@@ -317,12 +372,16 @@ class Fit:
     clusters: np.ndarray
 
     def coef(self, effect: str, aircraft: int | None = None) -> list[tuple[Block, np.ndarray, np.ndarray]]:
-        return [(b, self.beta[s], self.cov[s, s]) for b, s in zip(self.blocks, self.slices)
-                if b.effect == effect and (aircraft is None or b.aircraft == aircraft)]
+        return [
+            (b, self.beta[s], self.cov[s, s])
+            for b, s in zip(self.blocks, self.slices, strict=False)
+            if b.effect == effect and (aircraft is None or b.aircraft == aircraft)
+        ]
 
 
-def solve(blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.ndarray | None = None,
-          with_cov: bool = True) -> Fit:
+def solve(
+    blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.ndarray | None = None, with_cov: bool = True
+) -> Fit:
     """OLS on the stacked channels (rows: a mask of the 2n rows), CR1 covariance on the clusters."""
     X = np.column_stack([b.cols for b in blocks])
     slices, k = [], 0
@@ -370,7 +429,7 @@ def block_p(fit: Fit, effect: str, d: WindData) -> float:
     ps = []
     if fleet:
         be = np.concatenate([x[1] for x in fleet])
-        sl = [s for b, s in zip(fit.blocks, fit.slices) if b.effect == effect and b.aircraft < 0]
+        sl = [s for b, s in zip(fit.blocks, fit.slices, strict=False) if b.effect == effect and b.aircraft < 0]
         idx = np.concatenate([np.arange(s.start, s.stop) for s in sl])
         ps.append(_wald_p(be, fit.cov[np.ix_(idx, idx)], G - 1))
     if per:
@@ -414,8 +473,16 @@ def cand_soft_iron(d: WindData, st: State, fit: Fit | None) -> list[Block]:
         sel = d.aircraft == i
         if _enough(d, i) and _coverage_ok(d.z[sel], 2):
             one = sel * d.tas
-            out.append(Block("soft_iron", "DE", np.column_stack([stack_channels(one * np.sin(2 * d.z), None, n),
-                                                                 stack_channels(one * np.cos(2 * d.z), None, n)]), i))
+            out.append(
+                Block(
+                    "soft_iron",
+                    "DE",
+                    np.column_stack(
+                        [stack_channels(one * np.sin(2 * d.z), None, n), stack_channels(one * np.cos(2 * d.z), None, n)]
+                    ),
+                    i,
+                )
+            )
     return out
 
 
@@ -465,7 +532,7 @@ def kolmogorov_cusum(x: np.ndarray) -> tuple[float, int]:
     k = int(np.argmax(np.abs(s)))
     # the long-run variance from the residuals about the two segments' means (about the
     # overall mean, a real step would inflate it and hide itself)
-    r = np.r_[x[: k + 1] - x[: k + 1].mean(), x[k + 1:] - x[k + 1:].mean()]
+    r = np.r_[x[: k + 1] - x[: k + 1].mean(), x[k + 1 :] - x[k + 1 :].mean()]
     lrv = np.mean(r**2) + 2 * sum((1 - j / 3) * np.mean(r[j:] * r[:-j]) for j in (1, 2))
     if lrv <= 0:
         return 1.0, 0
@@ -473,8 +540,9 @@ def kolmogorov_cusum(x: np.ndarray) -> tuple[float, int]:
     return float(stats.kstwobign.sf(stat)), k
 
 
-def group_means(d: WindData, resid_trans: np.ndarray, groups: np.ndarray,
-                sel: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def group_means(
+    d: WindData, resid_trans: np.ndarray, groups: np.ndarray, sel: np.ndarray | None = None
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Mean transverse residual (as a heading angle, rad), first and last time of each group
     (flights: d.flight; weather blocks: d.cluster) of the rows in `sel`, in time order."""
     s = np.ones(d.n, dtype=bool) if sel is None else sel
@@ -554,8 +622,11 @@ def cand_offset_drift(d: WindData, st: State, fit: Fit | None, rows: np.ndarray 
     aircraft): a free rate of its offset A (the recalibration's ramp counterpart)."""
     if fit is None:
         return []
-    return [Block("offset_drift", "rate", drift_column(d, i)[:, None], i, p=q)
-            for i, q in _selected(drift_scan(d, fit, rows)).items() if i not in st.drifts]
+    return [
+        Block("offset_drift", "rate", drift_column(d, i)[:, None], i, p=q)
+        for i, q in _selected(drift_scan(d, fit, rows)).items()
+        if i not in st.drifts
+    ]
 
 
 # (d, st, fit) -> blocks; recalibration and offset_drift take the training rows too
@@ -568,9 +639,15 @@ CANDIDATES: dict[str, Callable[..., list[Block]]] = {
     "recalibration": cand_recalibration,
     "offset_drift": cand_offset_drift,
 }
-CHANNEL = {"soft_iron": "transverse", "field_scaling": "transverse", "tas_scale": "along", "stale_declination": "transverse",
-           "reference_bias": "both", "recalibration": "transverse",
-           "offset_drift": "transverse"}
+CHANNEL = {
+    "soft_iron": "transverse",
+    "field_scaling": "transverse",
+    "tas_scale": "along",
+    "stale_declination": "transverse",
+    "reference_bias": "both",
+    "recalibration": "transverse",
+    "offset_drift": "transverse",
+}
 
 
 # ----------------------------------------------------------------------------- quantization
@@ -625,12 +702,22 @@ def quantization_candidate(d: WindData, model_step: float) -> dict | None:
         meas_all += meas
     meas, pred0 = _jitter_rms_kt(d.jitter, model_step, np.ones(len(ac), dtype=bool))
     _, pred1 = _jitter_rms_kt(d.jitter, step, np.ones(len(ac), dtype=bool))
-    return {"step": step, "log10_p": log10_p, "share_on_model_grid": share_model,
-            "gain": {"metric": "ground-track jitter: |predicted - measured| RMS of segment-velocity differences (kt)",
-                     "measured_kt": meas, "predicted_before_kt": pred0, "predicted_after_kt": pred1,
-                     "before": abs(pred0 - meas), "after": abs(pred1 - meas), "held_out_before": before / 2,
-                     "held_out_after": after / 2},
-            "relative_gain": (before - after) / max(meas_all, 1e-9)}
+    return {
+        "step": step,
+        "log10_p": log10_p,
+        "share_on_model_grid": share_model,
+        "gain": {
+            "metric": "ground-track jitter: |predicted - measured| RMS of segment-velocity differences (kt)",
+            "measured_kt": meas,
+            "predicted_before_kt": pred0,
+            "predicted_after_kt": pred1,
+            "before": abs(pred0 - meas),
+            "after": abs(pred1 - meas),
+            "held_out_before": before / 2,
+            "held_out_after": after / 2,
+        },
+        "relative_gain": (before - after) / max(meas_all, 1e-9),
+    }
 
 
 # ----------------------------------------------------------------------------- fitting a candidate
@@ -646,7 +733,9 @@ def build_blocks(eff: str, d: WindData, st: State, fit: Fit, rows: np.ndarray | 
     return CANDIDATES[eff](d, st, fit)
 
 
-def fit_with(d: WindData, st: State, y, clusters, eff: str, blocks: list[Block], rows=None, with_cov=True) -> tuple[Fit, float]:
+def fit_with(
+    d: WindData, st: State, y, clusters, eff: str, blocks: list[Block], rows=None, with_cov=True
+) -> tuple[Fit, float]:
     """The current model plus `blocks`; for field_scaling, Gauss-Newton on gamma (returns
     the total change of gamma; 0 otherwise)."""
     cur = current_blocks(d, st)
@@ -670,7 +759,7 @@ def fit_with(d: WindData, st: State, y, clusters, eff: str, blocks: list[Block],
     # the test of gamma = the model's is the first linearisation's (coefficient and its
     # covariance); the estimate and the residuals are the converged Gauss-Newton's
     beta = first.beta.copy()
-    k = next(s for b, s in zip(first.blocks, first.slices) if b.effect == "field_scaling")
+    k = next(s for b, s in zip(first.blocks, first.slices, strict=False) if b.effect == "field_scaling")
     beta[k] = total
     return Fit(first.blocks, beta, first.cov, fit.resid, first.slices, first.clusters), total
 
@@ -680,7 +769,9 @@ def fold_fits(d: WindData, st: State, y, clusters) -> list[Fit]:
     return [solve(current_blocks(d, st), y, clusters, rows_of_fold(d, 1 - k), False) for k in (0, 1)]
 
 
-def held_out(d: WindData, st: State, y, clusters, eff: str, build=None, base: list[Fit] | None = None) -> tuple[float, float]:
+def held_out(
+    d: WindData, st: State, y, clusters, eff: str, build=None, base: list[Fit] | None = None
+) -> tuple[float, float]:
     """RMS (kt) of the effect's channel on held-out flights, without and with the effect
     (parameters learned on the other fold; both ways). `base`: fold_fits of the current
     model, when the caller has them."""

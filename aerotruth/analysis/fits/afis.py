@@ -46,8 +46,12 @@ class AfisSpec(Section):
 
     accel_bias_ug: float = Field(default=25.0, ge=0, description="accelerometer bias, 1 sigma")
     gyro_bias_deg_h: float = Field(default=0.01, ge=0, description="gyro bias, 1 sigma")
-    accel_white_ug2_hz: float = Field(default=25.0, ge=0, description="accelerometer white noise, one-sided PSD (5 ug/sqrt(Hz))")
-    gyro_white_deg2_s2_hz: float = Field(default=1e-10, ge=0, description="gyro white noise, one-sided PSD ((deg/s)^2/Hz)")
+    accel_white_ug2_hz: float = Field(
+        default=25.0, ge=0, description="accelerometer white noise, one-sided PSD (5 ug/sqrt(Hz))"
+    )
+    gyro_white_deg2_s2_hz: float = Field(
+        default=1e-10, ge=0, description="gyro white noise, one-sided PSD ((deg/s)^2/Hz)"
+    )
     initial_position_m: float = Field(default=30.0, gt=0, description="1 sigma at the start of the approach, per axis")
     initial_velocity_mps: float = Field(default=0.1, gt=0)
     initial_tilt_urad: float = Field(default=25.0, gt=0, description="levelling error ~ accel bias / g")
@@ -68,8 +72,17 @@ def horizontal_model(spec: AfisSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray
     G = np.zeros((5, 2))
     G[1, 0] = G[2, 1] = 1.0
     Qc = np.diag([spec.accel_white_ug2_hz * MICRO_G**2 / 2, spec.gyro_white_deg2_s2_hz * math.radians(1.0) ** 2 / 2])
-    P0 = np.diag(np.square([spec.initial_position_m, spec.initial_velocity_mps, spec.initial_tilt_urad * 1e-6,
-                            spec.accel_bias_ug * MICRO_G, spec.gyro_bias_deg_h * DEG_PER_H]))
+    P0 = np.diag(
+        np.square(
+            [
+                spec.initial_position_m,
+                spec.initial_velocity_mps,
+                spec.initial_tilt_urad * 1e-6,
+                spec.accel_bias_ug * MICRO_G,
+                spec.gyro_bias_deg_h * DEG_PER_H,
+            ]
+        )
+    )
     return F, G, Qc, P0
 
 
@@ -82,12 +95,26 @@ def vertical_model(spec: AfisSpec) -> tuple[np.ndarray, np.ndarray, np.ndarray, 
     G = np.zeros((4, 2))
     G[1, 0] = G[3, 1] = 1.0
     Qc = np.diag([spec.accel_white_ug2_hz * MICRO_G**2 / 2, 2 * spec.baro_sigma_m**2 / spec.baro_tau_s])
-    P0 = np.diag(np.square([spec.initial_position_m, spec.initial_velocity_mps, spec.accel_bias_ug * MICRO_G, spec.baro_sigma_m]))
+    P0 = np.diag(
+        np.square([spec.initial_position_m, spec.initial_velocity_mps, spec.accel_bias_ug * MICRO_G, spec.baro_sigma_m])
+    )
     return F, G, Qc, P0
 
 
-def afis_trajectory(t_s, ins_xyz, baro_z, ra_z, tvps_y, events, ground_speed_mps, runway_length_m: float,
-                    spec: AfisSpec, *, smooth: bool = True, event_times_s=None) -> tuple[np.ndarray, np.ndarray]:
+def afis_trajectory(
+    t_s,
+    ins_xyz,
+    baro_z,
+    ra_z,
+    tvps_y,
+    events,
+    ground_speed_mps,
+    runway_length_m: float,
+    spec: AfisSpec,
+    *,
+    smooth: bool = True,
+    event_times_s=None,
+) -> tuple[np.ndarray, np.ndarray]:
     """AFIS estimate of the trajectory (n, 3) and its 1-sigma (n, 3) at the epochs t_s.
 
     ins_xyz: INS-indicated runway-frame positions; baro_z: barometric height in the runway
@@ -116,13 +143,17 @@ def afis_trajectory(t_s, ins_xyz, baro_z, ra_z, tvps_y, events, ground_speed_mps
         marks = np.clip(np.searchsorted(t, te), 0, n - 1)
         marks = np.where((marks > 0) & (np.abs(t[marks - 1] - te) < np.abs(t[marks] - te)), marks - 1, marks)
         shift = (t[marks] - te) * np.asarray(ground_speed_mps, float)[marks]  # the aircraft moved on since the mark
-    for k, end, dx in zip(marks, ends, shift):
+    for k, end, dx in zip(marks, ends, shift, strict=False):
         r = (float(ground_speed_mps[k]) * spec.event_sigma_s) ** 2 + 0.25**2  # plus the surveyed end's own 0.25 m
         meas_x[int(k)] = Measurement(np.array([ins[k, 0] - (end + dx)]), np.array([[1.0, 0, 0, 0, 0]]), np.array([[r]]))
     # cross-track: TVPS
     tv = np.asarray(tvps_y, float)
-    meas_y = {int(k): Measurement(np.array([ins[k, 1] - tv[k]]), np.array([[1.0, 0, 0, 0, 0]]), np.array([[spec.tvps_sigma_m**2]]))
-              for k in np.flatnonzero(np.isfinite(tv))}
+    meas_y = {
+        int(k): Measurement(
+            np.array([ins[k, 1] - tv[k]]), np.array([[1.0, 0, 0, 0, 0]]), np.array([[spec.tvps_sigma_m**2]])
+        )
+        for k in np.flatnonzero(np.isfinite(tv))
+    }
     F, G, Qc, P0 = horizontal_model(spec)
     for axis, meas in ((0, meas_x), (1, meas_y)):
         xs, Ps = kalman_rts(t, F, G, Qc, np.zeros(5), P0, meas, smooth=smooth)
@@ -134,10 +165,15 @@ def afis_trajectory(t_s, ins_xyz, baro_z, ra_z, tvps_y, events, ground_speed_mps
     meas_z = {}
     for k in range(n):
         if np.isfinite(ra[k]):
-            meas_z[k] = Measurement(np.array([ins[k, 2] - bz[k], ins[k, 2] - ra[k]]),
-                                    np.array([[1.0, 0, 0, -1.0], [1.0, 0, 0, 0]]), np.diag([spec.baro_white_m**2, spec.ra_sigma_m**2]))
+            meas_z[k] = Measurement(
+                np.array([ins[k, 2] - bz[k], ins[k, 2] - ra[k]]),
+                np.array([[1.0, 0, 0, -1.0], [1.0, 0, 0, 0]]),
+                np.diag([spec.baro_white_m**2, spec.ra_sigma_m**2]),
+            )
         elif np.isfinite(bz[k]):
-            meas_z[k] = Measurement(np.array([ins[k, 2] - bz[k]]), np.array([[1.0, 0, 0, -1.0]]), np.array([[spec.baro_white_m**2]]))
+            meas_z[k] = Measurement(
+                np.array([ins[k, 2] - bz[k]]), np.array([[1.0, 0, 0, -1.0]]), np.array([[spec.baro_white_m**2]])
+            )
     F, G, Qc, P0 = vertical_model(spec)
     xs, Ps = kalman_rts(t, F, G, Qc, np.zeros(4), P0, meas_z, smooth=smooth)
     est[:, 2] = ins[:, 2] - xs[:, 0]

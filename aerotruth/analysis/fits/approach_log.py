@@ -48,13 +48,25 @@ EVENT_CODES = ("thr", "end")
 # Ground-antenna positions when the log carries no runway geometry (runway frame): a
 # localizer 300 m beyond the stop end of a 3000 m runway, the glide-path mast 300 m in and
 # 120 m aside.
-DEFAULT_RUNWAY = {"length_m": 3000.0, "loc_x_m": 3300.0, "gp_x_m": 300.0, "gp_y_m": -120.0, "glide_path_deg": 3.0,
-                  "tch_m": 15.0}
+DEFAULT_RUNWAY = {
+    "length_m": 3000.0,
+    "loc_x_m": 3300.0,
+    "gp_x_m": 300.0,
+    "gp_y_m": -120.0,
+    "glide_path_deg": 3.0,
+    "tch_m": 15.0,
+}
 # plausible ranges (runway frame, m and deg): a runway 0.5-6 km long, the localizer beyond
 # its far threshold, the glide path antenna beside the touchdown zone, ICAO Annex 10 path
 # angles and threshold crossing heights with margin
-RUNWAY_RANGES = {"length_m": (500.0, 6000.0), "loc_x_m": (0.0, 8000.0), "gp_x_m": (0.0, 2000.0),
-                 "gp_y_m": (-500.0, 500.0), "glide_path_deg": (1.0, 10.0), "tch_m": (0.0, 50.0)}
+RUNWAY_RANGES = {
+    "length_m": (500.0, 6000.0),
+    "loc_x_m": (0.0, 8000.0),
+    "gp_x_m": (0.0, 2000.0),
+    "gp_y_m": (-500.0, 500.0),
+    "glide_path_deg": (1.0, 10.0),
+    "tch_m": (0.0, 50.0),
+}
 # An approach's median ground speed (m/s) from its WAAS epochs: flight-inspection aircraft fly
 # approaches at 90-200 kt (46-103 m/s); a log in km, or in feet, moves 1000x or 3.3x off
 APPROACH_SPEED_MS = (10.0, 130.0)
@@ -66,9 +78,11 @@ RA_MIN_M = -3.0
 RA_WAAS_MAX_M = 10.0
 OPTIONAL_NUMERIC = APPROACH_LOG_OPTIONAL_NUMERIC
 
+
 def event_codes(values: pd.Series, where: str) -> pd.Series:
     """The `event` column as codes: '' on ordinary rows, 'thr' or 'end' on marks, '1' for
     a legacy numeric mark (see the module docstring)."""
+
     def code(v) -> str:
         if v is None or (isinstance(v, float) and np.isnan(v)):
             return ""
@@ -80,6 +94,7 @@ def event_codes(values: pd.Series, where: str) -> pd.Series:
         if t in EVENT_CODES:
             return t
         raise DataError(f"{where}: column 'event': expected empty, 'thr' or 'end' (or 0/1), got {v!r}")
+
     return values.map(code)
 
 
@@ -108,8 +123,10 @@ def check_approach(p, a, g: pd.DataFrame) -> None:
     dtt = np.diff(tt)
     if len(tt) < 2 or (dtt <= 0).any():
         i = int(np.flatnonzero(dtt <= 0)[0]) + 1 if len(tt) >= 2 else 0
-        raise DataError(f"{where}: column 'time_s' must increase strictly (data row {g.index[i] + 1}: {tt[i]:g} after "
-                        f"{tt[max(i - 1, 0)]:g})")
+        raise DataError(
+            f"{where}: column 'time_s' must increase strictly (data row {g.index[i] + 1}: {tt[i]:g} after "
+            f"{tt[max(i - 1, 0)]:g})"
+        )
     marks = g["event"].isin(["thr", "1"]).any()
     g, _ = split_events(g)
     t = g["time_s"].to_numpy()
@@ -119,7 +136,9 @@ def check_approach(p, a, g: pd.DataFrame) -> None:
     step = float(np.median(dt))
     if (dt > 1.5 * step).any():
         i = int(np.argmax(dt > 1.5 * step))
-        raise DataError(f"{where}: column 'time_s' has a gap of {dt[i]:g} s after t = {t[i]:g} s (rows every {step:g} s)")
+        raise DataError(
+            f"{where}: column 'time_s' has a gap of {dt[i]:g} s after t = {t[i]:g} s (rows every {step:g} s)"
+        )
     w = g[["waas_x_m", "waas_y_m", "waas_z_m"]].to_numpy()
     fin = np.isfinite(w)
     if (fin.any(axis=1) != fin.all(axis=1)).any():
@@ -137,34 +156,44 @@ def check_approach(p, a, g: pd.DataFrame) -> None:
     fin_i = np.isfinite(ins).all(axis=1)
     if not fin_i.all():
         i = int(np.flatnonzero(~fin_i)[0])
-        raise DataError(f"{where}: columns ins_*: data row {g.index[i] + 1} (t = {t[i]:g} s): the INS position must be "
-                        f"finite on every row (event rows of their own excepted)")
+        raise DataError(
+            f"{where}: columns ins_*: data row {g.index[i] + 1} (t = {t[i]:g} s): the INS position must be "
+            f"finite on every row (event rows of their own excepted)"
+        )
     ww = w[fin[:, 0]]  # WAAS, not the INS: a poor INS may drift by kilometres in an approach
     held = (np.diff(ww, axis=0) == 0).all(axis=1)  # a moving aircraft's fixes never repeat exactly
     if held.mean() > 0.5:
-        raise DataError(f"{where}: columns waas_*: the WAAS position repeats unchanged on {100 * held.mean():.0f} % of "
-                        f"its rows (held between the receiver's epochs?); expected values at the WAAS epochs only "
-                        f"and NaN between them")
+        raise DataError(
+            f"{where}: columns waas_*: the WAAS position repeats unchanged on {100 * held.mean():.0f} % of "
+            f"its rows (held between the receiver's epochs?); expected values at the WAAS epochs only "
+            f"and NaN between them"
+        )
     speed = float(np.median(np.hypot(np.diff(ww[:, 0]), np.diff(ww[:, 1])) / dtw))
     lo, hi = APPROACH_SPEED_MS
     if not lo <= speed <= hi:
-        raise DataError(f"{where}: columns waas_x_m/waas_y_m: the aircraft moves at {speed:.3g} m/s (median over the "
-                        f"WAAS epochs); expected an approach at {lo:g}-{hi:g} m/s: are the positions in metres?")
+        raise DataError(
+            f"{where}: columns waas_x_m/waas_y_m: the aircraft moves at {speed:.3g} m/s (median over the "
+            f"WAAS epochs); expected an approach at {lo:g}-{hi:g} m/s: are the positions in metres?"
+        )
     ra = g["ra_m"].to_numpy()
     with np.errstate(invalid="ignore"):
         low = ra < RA_MIN_M
     if low.any():
         i = int(np.flatnonzero(low)[0])
-        raise DataError(f"{where}: column 'ra_m' data row {g.index[i] + 1}: {ra[i]:g} m; a radar-altimeter height "
-                        f"above the runway cannot be below {RA_MIN_M:g} m (sign? units?)")
+        raise DataError(
+            f"{where}: column 'ra_m' data row {g.index[i] + 1}: {ra[i]:g} m; a radar-altimeter height "
+            f"above the runway cannot be below {RA_MIN_M:g} m (sign? units?)"
+        )
     lever = g["ra_lever_arm_m"].to_numpy(dtype=float) if "ra_lever_arm_m" in g.columns else np.zeros(len(g))
     both = fin[:, 2] & np.isfinite(ra) & np.isfinite(lever)
     if both.sum() >= 3:  # the WAAS height over the runway against the RA's: WAAS is good to metres
         gap = float(np.median(w[both, 2] - ra[both] - lever[both]))
         if abs(gap) > RA_WAAS_MAX_M:
-            raise DataError(f"{where}: column 'ra_m': the WAAS height is {gap:+.1f} m off the radar altimeter's over the "
-                            f"runway (median of {int(both.sum())} epochs); WAAS is good to a few metres: is ra_m in feet, "
-                            f"or the log's z not from the threshold?")
+            raise DataError(
+                f"{where}: column 'ra_m': the WAAS height is {gap:+.1f} m off the radar altimeter's over the "
+                f"runway (median of {int(both.sum())} epochs); WAAS is good to a few metres: is ra_m in feet, "
+                f"or the log's z not from the threshold?"
+            )
     if not marks:
         raise DataError(f"{where}: column 'event': no threshold mark ('thr')")
 
@@ -194,8 +223,22 @@ class ApproachInputs:
 def approach_inputs(g: pd.DataFrame) -> ApproachInputs:
     """The FITS inputs of one approach's rows (already checked; event rows of their own allowed)."""
     ev = g["event"].to_numpy(dtype=object)
-    col = {c: g[c].to_numpy(dtype=float) for c in ("time_s", "waas_x_m", "waas_y_m", "waas_z_m", "ins_x_m", "ins_y_m",
-                                                    "ins_z_m", "ra_m", "tvps_y_m", "sv_change", "iono_update")}
+    col = {
+        c: g[c].to_numpy(dtype=float)
+        for c in (
+            "time_s",
+            "waas_x_m",
+            "waas_y_m",
+            "waas_z_m",
+            "ins_x_m",
+            "ins_y_m",
+            "ins_z_m",
+            "ra_m",
+            "tvps_y_m",
+            "sv_change",
+            "iono_update",
+        )
+    }
     ins = np.column_stack([col["ins_x_m"], col["ins_y_m"], col["ins_z_m"]])
     waas = np.column_stack([col["waas_x_m"], col["waas_y_m"], col["waas_z_m"]])
     keep = (ev == "") | np.isfinite(np.hstack([ins, waas])).any(axis=1)  # event rows of their own off
@@ -213,10 +256,24 @@ def approach_inputs(g: pd.DataFrame) -> ApproachInputs:
     t_mark = float(col["time_s"][first]) - (0.5 * row_dt if ev[first] == "1" else 0.0)
     ra_lever = g["ra_lever_arm_m"].to_numpy(dtype=float)[keep] if "ra_lever_arm_m" in g.columns else None
     tvps_lever = g["tvps_lever_arm_m"].to_numpy(dtype=float)[keep] if "tvps_lever_arm_m" in g.columns else None
-    dgps = (g[list(DGPS)].to_numpy(dtype=float)[keep] if all(c in g.columns for c in DGPS)
-            else np.full((len(t), 3), np.nan))
-    return ApproachInputs(tw, waas[is_w], ins[is_w], flags, t, ins, col["ra_m"][keep], col["tvps_y_m"][keep], t_mark,
-                          ra_lever, tvps_lever, dgps[is_w], dgps)
+    dgps = (
+        g[list(DGPS)].to_numpy(dtype=float)[keep] if all(c in g.columns for c in DGPS) else np.full((len(t), 3), np.nan)
+    )
+    return ApproachInputs(
+        tw,
+        waas[is_w],
+        ins[is_w],
+        flags,
+        t,
+        ins,
+        col["ra_m"][keep],
+        col["tvps_y_m"][keep],
+        t_mark,
+        ra_lever,
+        tvps_lever,
+        dgps[is_w],
+        dgps,
+    )
 
 
 def at_times(t_rows: np.ndarray, rows: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -244,8 +301,20 @@ def fits_of(a: ApproachInputs, spec: FitsSpec, extra_flags: np.ndarray | None = 
     """The FITS (analysis.fits.fits_approach) on an approach's inputs; `extra_flags` adds
     flagged WAAS epochs (a jump diagnose found)."""
     flags = a.flags if extra_flags is None else np.maximum(a.flags, extra_flags)
-    return fits_approach(a.t_w, a.waas, a.ins_w, flags, a.t_rows, a.ins_rows, a.ra, a.tvps, a.t_mark, spec,
-                         ra_lever_m=a.ra_lever, tvps_lever_m=a.tvps_lever)
+    return fits_approach(
+        a.t_w,
+        a.waas,
+        a.ins_w,
+        flags,
+        a.t_rows,
+        a.ins_rows,
+        a.ra,
+        a.tvps,
+        a.t_mark,
+        spec,
+        ra_lever_m=a.ra_lever,
+        tvps_lever_m=a.tvps_lever,
+    )
 
 
 def run_approach(g: pd.DataFrame, spec: FitsSpec) -> FitsResult:

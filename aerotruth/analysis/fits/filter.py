@@ -54,10 +54,11 @@ jump is not compensated.
 Threshold fix (eq. 18): positions between WAAS epochs are carried by the INS (the
 WAAS - INS correction interpolated linearly, plus the INS position). The threshold time
 is the event mark minus the mean pilot reaction (a log's legacy numeric mark lands on
-the first row after the press: the log reader takes half a row off). Along-track: B_x = x_nl(t_threshold) (the threshold is
-x = 0). Vertical: the mean of z_nl - (h_RA + RA lever arm) over the radar-altimeter
-readings within `fix_window_s` of the threshold time (runway surface flat at z = 0).
-Cross-track: the mean of y_nl - y_TVPS over the TVPS readings in the same window.
+the first row after the press: the log reader takes half a row off). Along-track:
+B_x = x_nl(t_threshold) (the threshold is x = 0). Vertical: the mean of z_nl - (h_RA + RA
+lever arm) over the radar-altimeter readings within `fix_window_s` of the threshold time
+(runway surface flat at z = 0). Cross-track: the mean of y_nl - y_TVPS over the TVPS
+readings in the same window.
 """
 
 from __future__ import annotations
@@ -77,14 +78,30 @@ class FitsSpec(Section):
     period_s: float = Field(default=12.0, gt=0, description="cyclic-noise period (2 x 6 s fast corrections, Fig. 6)")
     edge_fit_periods: int = Field(default=4, ge=2, description="edge model fitted over this many periods at each end")
     jump_window_periods: int = Field(default=2, ge=1, description="jump steps fitted over +- this many periods")
-    fix_window_s: float = Field(default=3.0, gt=0, description="RA/TVPS readings within this time of the threshold fix the bias")
-    event_delay_s: float = Field(default=0.2, ge=0, description="mean delay of the pilot's event mark after the crossing")
-    ra_lever_arm_m: float = Field(default=0.0, ge=-10.0, le=10.0, description="height of the position reference point "
-                                  "above the RA antenna (m): within an airframe's height")
+    fix_window_s: float = Field(
+        default=3.0, gt=0, description="RA/TVPS readings within this time of the threshold fix the bias"
+    )
+    event_delay_s: float = Field(
+        default=0.2, ge=0, description="mean delay of the pilot's event mark after the crossing"
+    )
+    ra_lever_arm_m: float = Field(
+        default=0.0,
+        ge=-10.0,
+        le=10.0,
+        description="height of the position reference point above the RA antenna (m): within an airframe's height",
+    )
     grid_rate_hz: float = Field(default=8.0, gt=0, description="output grid (FITS paper section V: 8 Hz)")
-    waas_latency_s: float = Field(default=0.0, ge=-2.0, le=2.0, description="WAAS positions stamped this late (s): the "
-                                  "receiver's output latency left in its time tags; the FITS puts each epoch at its time "
-                                  "minus this (FITS paper eq. 3 assumes the WAAS - INS delay insignificant)")
+    waas_latency_s: float = Field(
+        default=0.0,
+        ge=-2.0,
+        le=2.0,
+        description="WAAS positions stamped this late (s): the "
+        "receiver's output latency left in its time tags; the FITS puts each epoch at its time "
+        "minus this (FITS paper eq. 3 assumes the WAAS - INS delay insignificant)",
+    )
+
+
+DEFAULT_SPEC = FitsSpec()  # the default settings (FitsSpec is frozen: one shared instance is safe)
 
 
 def triangular_lowpass(T: int) -> np.ndarray:
@@ -230,11 +247,13 @@ def period_samples(t_s: np.ndarray, period_s: float) -> int:
     dt = float(np.median(np.diff(t_s)))
     T = period_s / dt
     if abs(T - round(T)) > 1e-6 * T or round(T) < 2:
-        raise ValueError(f"WAAS epochs every {dt:g} s: the cyclic period {period_s:g} s must be a whole number (>= 2) of epochs")
+        raise ValueError(
+            f"WAAS epochs every {dt:g} s: the cyclic period {period_s:g} s must be a whole number (>= 2) of epochs"
+        )
     return int(round(T))
 
 
-def waas_noiseless(t_s, waas_xyz, ins_xyz, jump_flags, spec: FitsSpec = FitsSpec()) -> Noiseless:
+def waas_noiseless(t_s, waas_xyz, ins_xyz, jump_flags, spec: FitsSpec = DEFAULT_SPEC) -> Noiseless:
     """Noiseless WAAS (eq. 17) at the WAAS epochs, from WAAS and INS positions (n, 3) on
     the same epochs and the receiver's jump flags (n,) (sv_change or iono_update)."""
     t = np.asarray(t_s, dtype=float)
@@ -259,8 +278,17 @@ def waas_noiseless(t_s, waas_xyz, ins_xyz, jump_flags, spec: FitsSpec = FitsSpec
     return Noiseless(t, flags, steps, n_hat, waas_c - n_hat)  # eq. 17
 
 
-def threshold_bias(nl: Noiseless, t_rows, ins_rows, ra_m, tvps_y_m, t_mark_s: float, spec: FitsSpec = FitsSpec(),
-                   ra_lever_m=None, tvps_lever_m=None) -> np.ndarray:
+def threshold_bias(
+    nl: Noiseless,
+    t_rows,
+    ins_rows,
+    ra_m,
+    tvps_y_m,
+    t_mark_s: float,
+    spec: FitsSpec = DEFAULT_SPEC,
+    ra_lever_m=None,
+    tvps_lever_m=None,
+) -> np.ndarray:
     """B_hat (3,) of eq. 18 from the event mark (along-track), the radar altimeter
     (vertical) and the TVPS (cross-track) near the threshold; the log's rows (times,
     INS positions, RA heights, TVPS cross-track) at any rate >= the WAAS rate. The mark
@@ -276,15 +304,19 @@ def threshold_bias(nl: Noiseless, t_rows, ins_rows, ra_m, tvps_y_m, t_mark_s: fl
     near = np.abs(t_rows - t_thr) <= spec.fix_window_s
     use_ra, use_tv = near & np.isfinite(ra) & np.isfinite(lev_ra), near & np.isfinite(tv) & np.isfinite(lev_tv)
     if not use_ra.any():
-        raise ValueError(f"ra_m: no radar-altimeter reading within {spec.fix_window_s:g} s of the threshold (t = {t_thr:.2f} s)")
+        raise ValueError(
+            f"ra_m: no radar-altimeter reading within {spec.fix_window_s:g} s of the threshold (t = {t_thr:.2f} s)"
+        )
     if not use_tv.any():
-        raise ValueError(f"tvps_y_m: no TVPS reading within {spec.fix_window_s:g} s of the threshold (t = {t_thr:.2f} s)")
+        raise ValueError(
+            f"tvps_y_m: no TVPS reading within {spec.fix_window_s:g} s of the threshold (t = {t_thr:.2f} s)"
+        )
     tq = np.concatenate([[t_thr], t_rows[use_ra], t_rows[use_tv]])
     p = carry_with_ins(tq, nl.t_s, nl.noiseless, t_rows, ins_rows)
     n_ra = int(use_ra.sum())
     b_x = p[0, 0]  # eq. 18, along-track: threshold at x = 0
-    b_z = np.mean(p[1:1 + n_ra, 2] - (ra[use_ra] + lev_ra[use_ra]))  # eq. 18, vertical
-    b_y = np.mean(p[1 + n_ra:, 1] - (tv[use_tv] + lev_tv[use_tv]))  # eq. 18, cross-track
+    b_z = np.mean(p[1 : 1 + n_ra, 2] - (ra[use_ra] + lev_ra[use_ra]))  # eq. 18, vertical
+    b_y = np.mean(p[1 + n_ra :, 1] - (tv[use_tv] + lev_tv[use_tv]))  # eq. 18, cross-track
     return np.array([b_x, b_y, b_z])
 
 
@@ -304,8 +336,20 @@ class FitsResult:
         return t, carry_with_ins(t, t_w, self.xyz_m, np.asarray(t_ins, float), np.asarray(ins_xyz, float))
 
 
-def fits_approach(t_s, waas_xyz, ins_xyz, jump_flags, t_rows, ins_rows, ra_m, tvps_y_m, t_mark_s: float,
-                  spec: FitsSpec = FitsSpec(), ra_lever_m=None, tvps_lever_m=None) -> FitsResult:
+def fits_approach(
+    t_s,
+    waas_xyz,
+    ins_xyz,
+    jump_flags,
+    t_rows,
+    ins_rows,
+    ra_m,
+    tvps_y_m,
+    t_mark_s: float,
+    spec: FitsSpec = DEFAULT_SPEC,
+    ra_lever_m=None,
+    tvps_lever_m=None,
+) -> FitsResult:
     """The whole FITS on one approach: eqs. 3, 8-17 on the WAAS epochs, eq. 18 at the
     threshold from the log rows, eq. 19."""
     nl = waas_noiseless(t_s, waas_xyz, ins_xyz, jump_flags, spec)

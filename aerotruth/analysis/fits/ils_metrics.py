@@ -47,11 +47,17 @@ def approach_errors(x, est, truth, *, loc_x_m: float, gp_x_m: float, gp_y_m: flo
     err = est - truth
     r_loc = loc_x_m - x
     r_gp = np.hypot(x - gp_x_m, truth[:, 1] - gp_y_m)
-    out = {"x_m": x, "distance_to_threshold_m": -x,
-           "along_m": err[:, 0], "cross_m": err[:, 1], "vertical_m": err[:, 2],
-           "range_loc_m": r_loc, "range_gp_m": r_gp,
-           "cross_deg": np.degrees(np.arctan2(err[:, 1], r_loc)),
-           "vertical_deg": np.degrees(np.arctan2(err[:, 2], r_gp))}
+    out = {
+        "x_m": x,
+        "distance_to_threshold_m": -x,
+        "along_m": err[:, 0],
+        "cross_m": err[:, 1],
+        "vertical_m": err[:, 2],
+        "range_loc_m": r_loc,
+        "range_gp_m": r_gp,
+        "cross_deg": np.degrees(np.arctan2(err[:, 1], r_loc)),
+        "vertical_deg": np.degrees(np.arctan2(err[:, 2], r_gp)),
+    }
     for name, alpha in REQUIREMENTS.items():
         out[f"cross_meets_{name}"] = np.abs(err[:, 1]) <= required_error_m(r_loc, alpha, FLOOR_HORIZONTAL_M)
         out[f"vertical_meets_{name}"] = np.abs(err[:, 2]) <= required_error_m(r_gp, alpha, FLOOR_VERTICAL_M)
@@ -71,7 +77,9 @@ def approach_verdict(errors: pd.DataFrame, from_nm: float = 10.0) -> dict[str, f
         for name in REQUIREMENTS:
             ok = errors[f"{axis}_meets_{name}"].to_numpy(bool)[seg]
             out[f"{axis}_meets_{name}"] = bool(len(ok) and ok.all())
-            out[f"{axis}_{name}_met_beyond_nm"] = float(d[~ok].max() / NM) if (~ok).any() else (0.0 if len(ok) else from_nm)
+            out[f"{axis}_{name}_met_beyond_nm"] = (
+                float(d[~ok].max() / NM) if (~ok).any() else (0.0 if len(ok) else from_nm)
+            )
     return out
 
 
@@ -84,6 +92,12 @@ def percentile_by_distance(errors: pd.DataFrame, column: str, edges_nm, q: float
     rows = []
     for i in range(len(edges) - 1):
         sel = idx == i
-        rows.append({"from_nm": edges[i], "to_nm": edges[i + 1], "n": int(sel.sum()),
-                     f"{column}_p{q:g}": float(np.percentile(v[sel], q)) if sel.any() else float("nan")})
+        rows.append(
+            {
+                "from_nm": edges[i],
+                "to_nm": edges[i + 1],
+                "n": int(sel.sum()),
+                f"{column}_p{q:g}": float(np.percentile(v[sel], q)) if sel.any() else float("nan"),
+            }
+        )
     return pd.DataFrame(rows)

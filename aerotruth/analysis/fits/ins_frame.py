@@ -47,7 +47,8 @@ def loadings(aps: list):
     beyond the drift, least squares over the approaches' WAAS epochs, standard errors
     clustered by approach. An INS logging Q x the runway-frame position (Q orthogonal: an
     axis flipped, two swapped, axes turned) gives F = Q, each column shrunk by the WAAS
-    noise w (m^2 / (m^2 + w^2), ~0.85 at m = 1 m of motion). `aps`: approach_log.ApproachInputs (t_w, waas, ins_w, flags)."""
+    noise w (m^2 / (m^2 + w^2), ~0.85 at m = 1 m of motion). `aps`:
+    approach_log.ApproachInputs (t_w, waas, ins_w, flags)."""
     xs, ys, grps = [], [], []
     for i, ap in enumerate(aps):
         ok = _usable(ap)
@@ -99,8 +100,10 @@ class FrameError:
         out = self._frame()
         guessed = [j for j in range(3) if j not in self.cols and abs(self.q[j, j] - 1.0) > 0.02]
         if guessed:  # its column of Q only completes the tested ones (orthogonal): which sign, the data cannot say
-            out.append(f"the runway frame's {'/'.join(AXES[j] for j in guessed)} moves too little beyond the drift to be "
-                       f"tested ({', '.join(f'{self.motion_m[j]:.2f} m' for j in guessed)}): its sign here is a guess")
+            out.append(
+                f"the runway frame's {'/'.join(AXES[j] for j in guessed)} moves too little beyond the drift to be "
+                f"tested ({', '.join(f'{self.motion_m[j]:.2f} m' for j in guessed)}): its sign here is a guess"
+            )
         return out
 
     def _frame(self) -> list[str]:
@@ -120,16 +123,22 @@ class FrameError:
             mirrored = np.linalg.det(h) < 0
             g = h @ np.diag([1.0, -1.0]) if mirrored else h  # a rotation
             deg = math.degrees(math.atan2(g[1, 0], g[0, 0]))
-            out.append(f"ins_x_m/ins_y_m are the runway frame's x{', -y' if mirrored else ', y'} turned by {deg:+.1f} deg "
-                       "about the vertical (a north-east frame, or one turned by a magnetic course for the true one?)")
+            out.append(
+                f"ins_x_m/ins_y_m are the runway frame's x{', -y' if mirrored else ', y'} turned by {deg:+.1f} deg "
+                "about the vertical (a north-east frame, or one turned by a magnetic course for the true one?)"
+            )
             if q[2, 2] < 0:
                 out.append("ins_z_m has the opposite sign")
             return out
         return ["INS = Q r with Q = " + np.array2string(q, precision=2, suppress_small=True).replace("\n", "")]
 
     def loads(self) -> str:
-        return ", ".join(f"ins_{AXES[i]} on waas_{AXES[j]} {self.f[i, j]:+.2f}" for j in self.cols for i in range(3)
-                         if abs(self.q[i, j]) > 0.1)
+        return ", ".join(
+            f"ins_{AXES[i]} on waas_{AXES[j]} {self.f[i, j]:+.2f}"
+            for j in self.cols
+            for i in range(3)
+            if abs(self.q[i, j]) > 0.1
+        )
 
 
 def frame_error(aps: list) -> FrameError | None:

@@ -43,9 +43,18 @@ from aerotruth.truth.ils import (
 )
 
 
-def inspect_approach(loc_xyz, gs_xyz, loc_ddm, gs_ddm, facility: IlsFacility, *,
-                     alignment_window_m: float = 1050.0, path_segment_m: tuple[float, float] = (1050.0, 7400.0),
-                     bend_segment_m: tuple[float, float] = (0.0, 7400.0), loc_sensitivity_rel: float = 0.0) -> dict[str, float]:
+def inspect_approach(
+    loc_xyz,
+    gs_xyz,
+    loc_ddm,
+    gs_ddm,
+    facility: IlsFacility,
+    *,
+    alignment_window_m: float = 1050.0,
+    path_segment_m: tuple[float, float] = (1050.0, 7400.0),
+    bend_segment_m: tuple[float, float] = (0.0, 7400.0),
+    loc_sensitivity_rel: float = 0.0,
+) -> dict[str, float]:
     """Facility estimates from one approach. loc_xyz, gs_xyz: the truth system's (n, 3)
     runway-frame positions of the localizer and glide-slope antennas; loc_ddm, gs_ddm: the
     receiver's readings; `facility` gives the installation geometry (its errors are not

@@ -42,8 +42,14 @@ def epoch_rows(result: FitsResult, truth: pd.DataFrame, geometry: dict, waas_xyz
         raise ValueError("truth: expected a row at every WAAS epoch")
     p_true = truth[["x_m", "y_m", "z_m"]].to_numpy()[i]
     n_true = truth[["cyclic_x_m", "cyclic_y_m", "cyclic_z_m"]].to_numpy()[i]
-    errors = approach_errors(p_true[:, 0], result.xyz_m, p_true, loc_x_m=geometry["loc_x_m"], gp_x_m=geometry["gp_x_m"],
-                             gp_y_m=geometry["gp_y_m"])
+    errors = approach_errors(
+        p_true[:, 0],
+        result.xyz_m,
+        p_true,
+        loc_x_m=geometry["loc_x_m"],
+        gp_x_m=geometry["gp_x_m"],
+        gp_y_m=geometry["gp_y_m"],
+    )
     k = np.arange(len(nl.t_s))
     more = {"edge": (k < 2 * T) | (k >= len(k) - 2 * T)}
     for j, a in enumerate(AXES):
@@ -84,8 +90,14 @@ def tost_paired(a: np.ndarray, b: np.ndarray, margin: float, alpha: float = 0.05
     d = d[np.isfinite(d)]
     n = len(d)
     if n < 3:
-        return {"pairs": n, "mean_diff_m": float("nan"), "ci90_low_m": float("nan"), "ci90_high_m": float("nan"),
-                "p_value": float("nan"), "equivalent": False}
+        return {
+            "pairs": n,
+            "mean_diff_m": float("nan"),
+            "ci90_low_m": float("nan"),
+            "ci90_high_m": float("nan"),
+            "p_value": float("nan"),
+            "equivalent": False,
+        }
     m, se = float(d.mean()), float(d.std(ddof=1) / np.sqrt(n))
     if se == 0.0:
         p = 0.0 if abs(m) < margin else 1.0
@@ -94,4 +106,11 @@ def tost_paired(a: np.ndarray, b: np.ndarray, margin: float, alpha: float = 0.05
         p_high = stats.t.cdf((m - margin) / se, n - 1)  # H0: mean >= +margin
         p = float(max(p_low, p_high))
     q = stats.t.ppf(1 - alpha, n - 1) * se  # the (1 - 2 alpha) interval TOST is equivalent to
-    return {"pairs": n, "mean_diff_m": m, "ci90_low_m": m - q, "ci90_high_m": m + q, "p_value": p, "equivalent": bool(p < alpha)}
+    return {
+        "pairs": n,
+        "mean_diff_m": m,
+        "ci90_low_m": m - q,
+        "ci90_high_m": m + q,
+        "p_value": p,
+        "equivalent": bool(p < alpha),
+    }

@@ -15,9 +15,20 @@ from aerotruth.analysis.wind.metrics import heading_turn, wind_errors_before_aft
 from aerotruth.errors import DataError
 from aerotruth.units import DEG, KT
 
-APPLY_COLUMNS = ("aircraft", "status", "n_scored", "rms_before_kt", "rms_after_kt", "longitudinal_before_kt",
-                 "longitudinal_after_kt", "transverse_before_kt", "transverse_after_kt", "valid_from", "valid_to",
-                 "in_sample")
+APPLY_COLUMNS = (
+    "aircraft",
+    "status",
+    "n_scored",
+    "rms_before_kt",
+    "rms_after_kt",
+    "longitudinal_before_kt",
+    "longitudinal_after_kt",
+    "transverse_before_kt",
+    "transverse_after_kt",
+    "valid_from",
+    "valid_to",
+    "in_sample",
+)
 
 
 def table_frame(fleet: FleetHeadingFit) -> str:
@@ -25,8 +36,9 @@ def table_frame(fleet: FleetHeadingFit) -> str:
     return next(iter(fleet.fits_.values())).heading if fleet.fits_ else "true"
 
 
-def corrected_wind(wt_e: np.ndarray, wt_n: np.ndarray, va_e: np.ndarray, va_n: np.ndarray,
-                   correction_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def corrected_wind(
+    wt_e: np.ndarray, wt_n: np.ndarray, va_e: np.ndarray, va_n: np.ndarray, correction_deg: np.ndarray
+) -> tuple[np.ndarray, np.ndarray]:
     """The wind (towards east, north; the units of the inputs) recomputed with the heading
     turned clockwise by c: V_W' = V_W + V_A - R(c) V_A (wind paper eq. 1)."""
     c = np.asarray(correction_deg, dtype=float) * DEG
@@ -39,8 +51,9 @@ def _speed_from(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.hypot(u, v) / KT, np.degrees(np.arctan2(-u, -v)) % 360.0
 
 
-def heading_apply(obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "observation table"
-                  ) -> tuple[pd.DataFrame, pd.DataFrame]:
+def heading_apply(
+    obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "observation table"
+) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(the rows of `obs`, validated and in its order, with the correction columns; the
     per-aircraft scores, APPLY_COLUMNS). `obs` as validate_observations returns it."""
     rows = heading_errors(obs, source=source)
@@ -50,8 +63,10 @@ def heading_apply(obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "obse
     z = rows[col].to_numpy()
     used = (rows["gate"] == "used").to_numpy()
     if frame == "magnetic" and not np.isfinite(z[used]).any():
-        raise DataError(f"{source}: the tables are indexed by magnetic heading (heading_frame magnetic); the table needs "
-                        "a 'heading_mag_deg' or 'declination_deg' column")
+        raise DataError(
+            f"{source}: the tables are indexed by magnetic heading (heading_frame magnetic); the table needs "
+            "a 'heading_mag_deg' or 'declination_deg' column"
+        )
     names = obs["aircraft"].astype(str).to_numpy()
     has_table = np.isin(names, [n for n, f in fleet.fits_.items() if f.status_ != "refused"])
     ok = used & np.isfinite(z) & has_table
@@ -66,10 +81,16 @@ def heading_apply(obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "obse
     wt_e, wt_n = towards_from_report(obs["wind_speed_kt"].to_numpy(), obs["wind_dir_deg"].to_numpy())
     we, wn = corrected_wind(wt_e, wt_n, va_e, va_n, corr)
     speed, direction = _speed_from(we, wn)
-    out = pd.DataFrame({"gate": rows["gate"].astype(str).to_numpy(), "corrected": ok,
-                        "table_heading_deg": np.where(ok, z, np.nan), "correction_deg": corr,
-                        "wind_speed_kt_corrected": np.where(ok, speed, obs["wind_speed_kt"].to_numpy()),
-                        "wind_dir_deg_corrected": np.where(ok, direction, obs["wind_dir_deg"].to_numpy())})
+    out = pd.DataFrame(
+        {
+            "gate": rows["gate"].astype(str).to_numpy(),
+            "corrected": ok,
+            "table_heading_deg": np.where(ok, z, np.nan),
+            "correction_deg": corr,
+            "wind_speed_kt_corrected": np.where(ok, speed, obs["wind_speed_kt"].to_numpy()),
+            "wind_dir_deg_corrected": np.where(ok, direction, obs["wind_dir_deg"].to_numpy()),
+        }
+    )
     # scores on the reports the method uses: wind error against the reference, before and
     # after (the method's rows with this V_A)
     scored = rows[["heading_deg", "dw_e", "dw_n"]].assign(va_e=va_e, va_n=va_n)
@@ -82,14 +103,27 @@ def heading_apply(obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "obse
         t = obs["time_s"].to_numpy()[sel]
         in_sample: str | bool = ""  # "" without a table or scored reports
         if fit is not None and len(t):
-            lo, hi = pd.Timestamp(fit.valid_from_, tz="UTC"), pd.Timestamp(fit.valid_to_, tz="UTC") + pd.Timedelta(days=1)
+            lo, hi = (
+                pd.Timestamp(fit.valid_from_, tz="UTC"),
+                pd.Timestamp(fit.valid_to_, tz="UTC") + pd.Timedelta(days=1),
+            )
             first, last = pd.Timestamp(t.min(), unit="s", tz="UTC"), pd.Timestamp(t.max(), unit="s", tz="UTC")
             in_sample = bool(first < hi and last >= lo)
-        status = (fit.status_ if fit is not None else ("" if whole_fleet else "no table"))
-        scores.append({"aircraft": name, "status": status, "n_scored": int(sel.sum()),
-                       "rms_before_kt": b["rms_kt"], "rms_after_kt": a["rms_kt"],
-                       "longitudinal_before_kt": b["longitudinal_kt"], "longitudinal_after_kt": a["longitudinal_kt"],
-                       "transverse_before_kt": b["transverse_kt"], "transverse_after_kt": a["transverse_kt"],
-                       "valid_from": fit.valid_from_ if fit is not None else "",
-                       "valid_to": fit.valid_to_ if fit is not None else "", "in_sample": in_sample})
+        status = fit.status_ if fit is not None else ("" if whole_fleet else "no table")
+        scores.append(
+            {
+                "aircraft": name,
+                "status": status,
+                "n_scored": int(sel.sum()),
+                "rms_before_kt": b["rms_kt"],
+                "rms_after_kt": a["rms_kt"],
+                "longitudinal_before_kt": b["longitudinal_kt"],
+                "longitudinal_after_kt": a["longitudinal_kt"],
+                "transverse_before_kt": b["transverse_kt"],
+                "transverse_after_kt": a["transverse_kt"],
+                "valid_from": fit.valid_from_ if fit is not None else "",
+                "valid_to": fit.valid_to_ if fit is not None else "",
+                "in_sample": in_sample,
+            }
+        )
     return out, pd.DataFrame(scores, columns=list(APPLY_COLUMNS))

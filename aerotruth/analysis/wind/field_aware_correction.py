@@ -75,8 +75,15 @@ def report_field(df: pd.DataFrame) -> tuple[np.ndarray, np.ndarray]:
 class FieldAwareDeviationFit:
     """Per aircraft: the field-dependent deviation above, learned from reports."""
 
-    def __init__(self, heading: str = "magnetic", robust: bool = True, gates: GateSpec | None = None,
-                 min_reports: int = 30, min_flights: int = 5, max_scale_correlation: float = 0.95):
+    def __init__(
+        self,
+        heading: str = "magnetic",
+        robust: bool = True,
+        gates: GateSpec | None = None,
+        min_reports: int = 30,
+        min_flights: int = 5,
+        max_scale_correlation: float = 0.95,
+    ):
         if heading not in ("true", "magnetic"):
             raise ValueError(f"heading: expected 'true' or 'magnetic', got {heading!r}")
         self.heading, self.robust, self.gates = heading, robust, gates
@@ -123,8 +130,13 @@ class FieldAwareDeviationFit:
             X = self._design(zdeg[order], h[order], zf[order], terms)
             w = (tas[order] / np.median(tas[order])) ** 2
             f = robust_fit(X, rows["error_deg"].to_numpy()[order], w, rows["flight"].to_numpy()[order], self.robust)
-            self.fits_[str(ac)] = {"status": "fitted", "terms": terms, "beta": f.beta, "se": np.sqrt(np.diag(f.cov)),
-                                   "scale_correlation": float(corr)}
+            self.fits_[str(ac)] = {
+                "status": "fitted",
+                "terms": terms,
+                "beta": f.beta,
+                "se": np.sqrt(np.diag(f.cov)),
+                "scale_correlation": float(corr),
+            }
         self.heading_col_ = col
         return self
 
@@ -157,8 +169,9 @@ class FieldAwareDeviationFit:
         return pd.DataFrame(rows)
 
 
-def compare_on(fit_obs: pd.DataFrame, test_obs: pd.DataFrame, heading: str = "magnetic",
-               gates: GateSpec | None = None) -> pd.DataFrame:
+def compare_on(
+    fit_obs: pd.DataFrame, test_obs: pd.DataFrame, heading: str = "magnetic", gates: GateSpec | None = None
+) -> pd.DataFrame:
     """Constant 8-point tables (the paper's method) against the field-aware correction,
     both fitted on `fit_obs` and applied ground-side to the uncorrected reports of
     `test_obs`: per aircraft and overall, RMS vector difference (kt) uncorrected, with the
@@ -180,6 +193,6 @@ def compare_on(fit_obs: pd.DataFrame, test_obs: pd.DataFrame, heading: str = "ma
         r = {"aircraft": name, "n": int(sel.sum())}
         for label, c in (("uncorrected", np.zeros(len(rows))), ("constant_table", c_const), ("field_aware", c_aware)):
             e, n_ = corrected_wind_error(rows[sel], c[sel])
-            r[f"{label}_rms_kt"] = float(np.sqrt(np.mean(e ** 2 + n_ ** 2)) / KT)
+            r[f"{label}_rms_kt"] = float(np.sqrt(np.mean(e**2 + n_**2)) / KT)
         out.append(r)
     return pd.DataFrame(out)

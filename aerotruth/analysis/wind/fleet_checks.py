@@ -42,32 +42,45 @@ def magnetic_heading_warnings(obs: pd.DataFrame, rows: pd.DataFrame) -> list[str
     used = rows["gate"].to_numpy() == "used"
     r = rows.loc[used]
     psi = np.degrees(np.arctan2(r["va_e"].to_numpy(), r["va_n"].to_numpy()))
-    diff = pd.Series((r["heading_deg"].to_numpy() - psi + 180.0) % 360.0 - 180.0).groupby(r["aircraft"].to_numpy()).median()
+    diff = (
+        pd.Series((r["heading_deg"].to_numpy() - psi + 180.0) % 360.0 - 180.0)
+        .groupby(r["aircraft"].to_numpy())
+        .median()
+    )
     out = []
     ac = obs["aircraft"].to_numpy()
     for name, off in diff[diff.abs() >= MAGNETIC_SUSPECT_MIN_DEG - MAGNETIC_SUSPECT_TOL_DEG].items():  # IGRF only
         mine = obs.loc[ac == name]  # for those that could be magnetic (ppigrf reads its coefficients each call)
         when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(mine["time_s"].median()))
-        d = float(declination_deg(mine["lat"].median(), mine["lon"].median(),
-                                  mine["pressure_altitude_ft"].median() * 0.3048, when)[0])
+        d = float(
+            declination_deg(
+                mine["lat"].median(), mine["lon"].median(), mine["pressure_altitude_ft"].median() * 0.3048, when
+            )[0]
+        )
         if abs(d) >= MAGNETIC_SUSPECT_MIN_DEG and abs(off + d) <= MAGNETIC_SUSPECT_TOL_DEG:
-            out.append(f"aircraft {name}: `heading_deg` is {off:+.1f} deg from the heading of its reports' air vector "
-                       f"(eq. 3), about minus the declination there ({d:+.1f} deg, IGRF): is it magnetic? It should be "
-                       "true heading (a magnetic heading goes in `heading_mag_deg`); as given, the table is indexed by "
-                       "magnetic heading")
+            out.append(
+                f"aircraft {name}: `heading_deg` is {off:+.1f} deg from the heading of its reports' air vector "
+                f"(eq. 3), about minus the declination there ({d:+.1f} deg, IGRF): is it magnetic? It should be "
+                "true heading (a magnetic heading goes in `heading_mag_deg`); as given, the table is indexed by "
+                "magnetic heading"
+            )
         elif abs(off) >= OFFSET_SUSPECT_DEG:
-            out.append(f"aircraft {name}: `heading_deg` is {off:+.1f} deg from the heading of its reports' air vector "
-                       f"(eq. 3; the declination there {d:+.1f} deg, IGRF): is it the heading the reported wind was "
-                       f"computed with? As given, the table is indexed by it")
+            out.append(
+                f"aircraft {name}: `heading_deg` is {off:+.1f} deg from the heading of its reports' air vector "
+                f"(eq. 3; the declination there {d:+.1f} deg, IGRF): is it the heading the reported wind was "
+                f"computed with? As given, the table is indexed by it"
+            )
     return out
 
 
 def require_used_reports(rows: pd.DataFrame, source: str) -> None:
     """DataError when no report of `heading_errors` rows passes the gates (nothing to fit or score)."""
     if not (rows["gate"] == "used").any():
-        raise DataError(f"{source}: no report passes the ground-track gates (three adjacent reports of one flight, "
-                        "collinear and at constant speed beyond what the 0.01-deg position step can fake, <= 10 min apart): "
-                        "columns 'time', 'lat', 'lon' may not be one aircraft's sequence")
+        raise DataError(
+            f"{source}: no report passes the ground-track gates (three adjacent reports of one flight, "
+            "collinear and at constant speed beyond what the 0.01-deg position step can fake, <= 10 min apart): "
+            "columns 'time', 'lat', 'lon' may not be one aircraft's sequence"
+        )
 
 
 CI_COLUMNS = ("aircraft", "quantity", "estimate", "lo", "hi", "boot_se", "level", "n_boot")

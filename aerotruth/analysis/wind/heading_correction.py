@@ -88,16 +88,26 @@ from aerotruth.analysis.wind.robust_fit import (
 TERM_NAMES = ("A", "B", "C", "D", "E")
 LUT_HEADINGS_DEG = np.arange(0.0, 360.0, 45.0)
 LUT_COLUMNS = tuple(f"lut_{int(h):03d}_deg" for h in LUT_HEADINGS_DEG)
-TABLE_COLUMNS = ("aircraft", "status", "reason", "n_used", *(f"{t}_deg" for t in TERM_NAMES),
-                 *(f"{t}_se_deg" for t in TERM_NAMES), *LUT_COLUMNS, "valid_from", "valid_to")
+TABLE_COLUMNS = (
+    "aircraft",
+    "status",
+    "reason",
+    "n_used",
+    *(f"{t}_deg" for t in TERM_NAMES),
+    *(f"{t}_se_deg" for t in TERM_NAMES),
+    *LUT_COLUMNS,
+    "valid_from",
+    "valid_to",
+)
 STATUSES = ("fitted", "offset_only", "refused")
 
 
 def heading_axes(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1) -> tuple[np.ndarray, np.ndarray]:
     """Eigenvalues (ascending) and unit eigenvectors (columns, in (sin nz, cos nz)) of the
     weighted covariance of (sin nz, cos nz) of the headings, n = `harmonic` (1 or 2)."""
-    return _gram_axes(weighted_gram_t(design_t(np.asarray(heading_deg, dtype=float), 5), np.asarray(w, dtype=float)),
-                      harmonic)
+    return _gram_axes(
+        weighted_gram_t(design_t(np.asarray(heading_deg, dtype=float), 5), np.asarray(w, dtype=float)), harmonic
+    )
 
 
 def _gram_axes(gram: np.ndarray, harmonic: int) -> tuple[np.ndarray, np.ndarray]:
@@ -116,7 +126,9 @@ def heading_spread(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1) ->
 
 def octants_occupied(heading_deg: np.ndarray, min_share: float = 0.03) -> int:
     """45-deg heading sectors holding at least `min_share` of the reports."""
-    o = np.floor(np.asarray(heading_deg, dtype=float) / 45.0).astype(np.intp) & 7  # mod 8 (not float % and //: 5x slower)
+    o = (
+        np.floor(np.asarray(heading_deg, dtype=float) / 45.0).astype(np.intp) & 7
+    )  # mod 8 (not float % and //: 5x slower)
     return int(np.sum(np.bincount(o, minlength=8) >= min_share * max(len(o), 1)))
 
 
@@ -152,7 +164,7 @@ def _lut_interp(lut: np.ndarray, rows: np.ndarray, h: np.ndarray, out: np.ndarra
 
 
 def _iso_date(t: float) -> str:
-    return dt.datetime.fromtimestamp(t, tz=dt.timezone.utc).date().isoformat()
+    return dt.datetime.fromtimestamp(t, tz=dt.UTC).date().isoformat()
 
 
 # ----------------------------------------------------------------------------- estimator
@@ -164,11 +176,20 @@ def _used_arrays(rows: pd.DataFrame, heading: str) -> dict:
     z = rows[col].to_numpy()
     used = (rows["gate"].cat.codes.to_numpy() == 0) & np.isfinite(z)
     if heading == "magnetic" and not np.isfinite(z).any():
-        raise ValueError("heading='magnetic' needs a heading_mag_deg or declination_deg column in the observation table")
+        raise ValueError(
+            "heading='magnetic' needs a heading_mag_deg or declination_deg column in the observation table"
+        )
     src = pd.Categorical(rows["ref_source"])
-    return {"used": used, "z": z, "y": rows["error_deg"].to_numpy(), "tas": rows["tas_ms"].to_numpy(),
-            "g": rows["flight"].to_numpy(), "t": rows["time_s"].to_numpy(), "src": src.codes.astype(np.int64),
-            "src_names": list(src.categories)}
+    return {
+        "used": used,
+        "z": z,
+        "y": rows["error_deg"].to_numpy(),
+        "tas": rows["tas_ms"].to_numpy(),
+        "g": rows["flight"].to_numpy(),
+        "t": rows["time_s"].to_numpy(),
+        "src": src.codes.astype(np.int64),
+        "src_names": list(src.categories),
+    }
 
 
 # a lookup-table entry read from a file may not exceed the largest heading error the method
@@ -188,10 +209,20 @@ class HeadingDeviationFit:
     valid_from_, valid_to_, terms_, scale_deg_, coverage_, octants_, consistency_.
     """
 
-    def __init__(self, terms: str = "auto", robust: bool = True, heading: str = "true", offset_only: bool = False,
-                 huber_c: float = 1.345, min_coverage: float = 0.1, de_level: float = 0.001,
-                 consistency_level: float = 0.01, min_reports: int = 30, min_flights: int = 5,
-                 gates: GateSpec | None = None):
+    def __init__(
+        self,
+        terms: str = "auto",
+        robust: bool = True,
+        heading: str = "true",
+        offset_only: bool = False,
+        huber_c: float = 1.345,
+        min_coverage: float = 0.1,
+        de_level: float = 0.001,
+        consistency_level: float = 0.01,
+        min_reports: int = 30,
+        min_flights: int = 5,
+        gates: GateSpec | None = None,
+    ):
         self.terms = terms
         self.robust = robust
         self.heading = heading
@@ -214,7 +245,9 @@ class HeadingDeviationFit:
         if not 0 <= self.min_coverage <= 0.5:
             raise ValueError(f"min_coverage: expected 0..0.5 (0.5 = uniform headings), got {self.min_coverage!r}")
         if self.min_flights < 2:
-            raise ValueError(f"min_flights: expected >= 2 (standard errors come from flight clusters), got {self.min_flights!r}")
+            raise ValueError(
+                f"min_flights: expected >= 2 (standard errors come from flight clusters), got {self.min_flights!r}"
+            )
 
     # -- fitting
     def fit(self, obs: pd.DataFrame) -> HeadingDeviationFit:
@@ -251,15 +284,20 @@ class HeadingDeviationFit:
         self.de_p_ = math.nan
         if self.n_used_ < self.min_reports or self.n_flights_ < self.min_flights:
             flights = "flight" if self.n_flights_ == 1 else "flights"
-            return self._refuse(f"too little data: {self.n_used_} usable reports in {self.n_flights_} {flights} "
-                                f"(need {self.min_reports} in {self.min_flights})")
+            return self._refuse(
+                f"too little data: {self.n_used_} usable reports in {self.n_flights_} {flights} "
+                f"(need {self.min_reports} in {self.min_flights})"
+            )
         reason = []
         full = None
         T = None  # fitted parameters -> A..E (None: the first k terms themselves)
         if self.offset_only or self.terms == "offset":
             k = 1
-            reason.append("aircraft gives true heading: only an offset can be corrected" if self.offset_only
-                          else "offset only, as asked")
+            reason.append(
+                "aircraft gives true heading: only an offset can be corrected"
+                if self.offset_only
+                else "offset only, as asked"
+            )
         elif self.coverage_ < self.min_coverage:
             k = 1
             lam, vec = _gram_axes(gram, 1)
@@ -269,12 +307,16 @@ class HeadingDeviationFit:
                 T = np.zeros((5, 2))
                 T[0, 0], T[1, 1], T[2, 1] = 1.0, u[0], u[1]
                 za = math.degrees(math.atan2(u[0], u[1])) % 180.0
-                reason.append(f"headings on one axis ({za:.0f}/{za + 180:.0f} deg; spread {self.coverage_:.2f} < "
-                              f"{self.min_coverage}): sinusoid fitted along that axis only, its perpendicular part "
-                              f"(not identifiable) set to 0")
+                reason.append(
+                    f"headings on one axis ({za:.0f}/{za + 180:.0f} deg; spread {self.coverage_:.2f} < "
+                    f"{self.min_coverage}): sinusoid fitted along that axis only, its perpendicular part "
+                    f"(not identifiable) set to 0"
+                )
             else:
-                reason.append(f"heading coverage cannot identify the sinusoid (spread {self.coverage_:.2f} < "
-                              f"{self.min_coverage}, {self.octants_} of 8 octants occupied): offset only fitted")
+                reason.append(
+                    f"heading coverage cannot identify the sinusoid (spread {self.coverage_:.2f} < "
+                    f"{self.min_coverage}, {self.octants_} of 8 octants occupied): offset only fitted"
+                )
         else:
             k = 5 if self.terms == "full" else 3
             if self.terms in ("auto", "full"):
@@ -296,8 +338,16 @@ class HeadingDeviationFit:
         if k == 5 and full is not None:
             f = full
         elif full is not None:  # D, E dropped: the 5-term fit's A, B, C are a near start
-            f = robust_fit_t(self._fit_design(), self._y, self._w, self._g, self.robust, self.huber_c,
-                             beta0=full.beta[:k], scale_guess=full.scale)
+            f = robust_fit_t(
+                self._fit_design(),
+                self._y,
+                self._w,
+                self._g,
+                self.robust,
+                self.huber_c,
+                beta0=full.beta[:k],
+                scale_guess=full.scale,
+            )
         else:
             f = robust_fit_t(self._fit_design(), self._y, self._w, self._g, self.robust, self.huber_c)
         self._fit = f
@@ -319,8 +369,8 @@ class HeadingDeviationFit:
         """The (p, n) design of the fitted parameters, T^T X^T (X^T's first k rows when the
         parameters are the first k terms), of all used rows or of `rows` (indices)."""
         T = self._T
-        if np.array_equal(T, np.eye(5)[:, :T.shape[1]]):
-            XT = self._XT[:T.shape[1]]
+        if np.array_equal(T, np.eye(5)[:, : T.shape[1]]):
+            XT = self._XT[: T.shape[1]]
             return XT if rows is None else XT.take(rows, axis=1)
         return T.T @ (self._XT if rows is None else self._XT.take(rows, axis=1))
 
@@ -344,8 +394,16 @@ class HeadingDeviationFit:
         fits = {}
         for s in srcs:
             m = np.flatnonzero(self._src == self._src_names.index(s))  # indices: faster gathers than a mask
-            f = fit_from_t(self._fit_design(m), self._y.take(m), self._w.take(m), self._g.take(m), self._fit.beta, self._fit.scale,
-                           self.robust, self.huber_c)
+            f = fit_from_t(
+                self._fit_design(m),
+                self._y.take(m),
+                self._w.take(m),
+                self._g.take(m),
+                self._fit.beta,
+                self._fit.scale,
+                self.robust,
+                self.huber_c,
+            )
             infl = np.zeros((len(flights), self._T.shape[1]))
             infl[np.searchsorted(flights, f.groups)] = f.influence
             fits[s] = (f.beta, infl)
@@ -354,7 +412,7 @@ class HeadingDeviationFit:
         zz = design(np.arange(360.0), 5) @ self._T
         worst = None
         for i, a in enumerate(srcs):
-            for b in srcs[i + 1:]:
+            for b in srcs[i + 1 :]:
                 delta = fits[a][0] - fits[b][0]
                 dh = fits[a][1] - fits[b][1]
                 V = dh.T @ dh * G / max(G - 1, 1)
@@ -369,8 +427,10 @@ class HeadingDeviationFit:
         self.consistency_p_ = worst[1]
         self.consistency_max_diff_deg_ = worst[2]
         if worst[1] < self.consistency_level:
-            reason.append(f"reference models disagree ({worst[0]}: p = {worst[1]:.1e}, curves differ by up to "
-                          f"{worst[2]:.2f} deg): check the models for bias")
+            reason.append(
+                f"reference models disagree ({worst[0]}: p = {worst[1]:.1e}, curves differ by up to "
+                f"{worst[2]:.2f} deg): check the models for bias"
+            )
         else:
             reason.append(f"reference models agree ({worst[0]}: p = {worst[1]:.2f})")
 
@@ -392,8 +452,13 @@ class HeadingDeviationFit:
         return (h + self.correction(h)) % 360.0
 
     # -- uncertainty
-    def bootstrap(self, n_boot: int = 1000, rng: np.random.Generator | None = None, level: float = 0.95,
-                  method: str = "studentized") -> pd.DataFrame:
+    def bootstrap(
+        self,
+        n_boot: int = 1000,
+        rng: np.random.Generator | None = None,
+        level: float = 0.95,
+        method: str = "studentized",
+    ) -> pd.DataFrame:
         """Intervals for the fitted coefficients and the 8 table entries from resampling whole
         flights with replacement (terms fixed to the fitted ones). Each quantity q = L b is
         linear in the fitted parameters b (a coefficient: one parameter times a constant; a
@@ -430,8 +495,15 @@ class HeadingDeviationFit:
                 if method == "percentile":
                     est[b] = huber_t(XT[:, idx], self._y[idx], self._w[idx], self.robust, self.huber_c)[0]
                     continue
-                f = robust_fit_t(XT[:, idx], self._y[idx], self._w[idx], np.repeat(np.arange(G), lens), self.robust,
-                                 self.huber_c, beta0=beta)
+                f = robust_fit_t(
+                    XT[:, idx],
+                    self._y[idx],
+                    self._w[idx],
+                    np.repeat(np.arange(G), lens),
+                    self.robust,
+                    self.huber_c,
+                    beta0=beta,
+                )
                 est[b], covs[b] = f.beta, f.cov
             except np.linalg.LinAlgError:  # a resample whose flights cannot identify the terms: left out
                 est[b], covs[b] = np.nan, np.nan
@@ -462,12 +534,21 @@ class HeadingDeviationFit:
         row = {"aircraft": self.aircraft_, "status": self.status_, "reason": self.reason_, "n_used": self.n_used_}
         row.update({f"{t}_deg": self.coef_[t] for t in TERM_NAMES})
         row.update({f"{t}_se_deg": self.se_[t] for t in TERM_NAMES})
-        row.update(dict(zip(LUT_COLUMNS, map(float, self.lut_))))
-        row.update(valid_from=self.valid_from_, valid_to=self.valid_to_, heading_frame=self.heading_frame_,
-                   terms="".join(self.terms_), n_flights=self.n_flights_, residual_scale_deg=self.scale_deg_,
-                   heading_spread=self.coverage_, octants_occupied=self.octants_, de_wald_p=self.de_p_,
-                   ref_sources=" ".join(self.ref_sources_), consistency_p=getattr(self, "consistency_p_", math.nan),
-                   consistency_max_diff_deg=getattr(self, "consistency_max_diff_deg_", math.nan))
+        row.update(dict(zip(LUT_COLUMNS, map(float, self.lut_), strict=False)))
+        row.update(
+            valid_from=self.valid_from_,
+            valid_to=self.valid_to_,
+            heading_frame=self.heading_frame_,
+            terms="".join(self.terms_),
+            n_flights=self.n_flights_,
+            residual_scale_deg=self.scale_deg_,
+            heading_spread=self.coverage_,
+            octants_occupied=self.octants_,
+            de_wald_p=self.de_p_,
+            ref_sources=" ".join(self.ref_sources_),
+            consistency_p=getattr(self, "consistency_p_", math.nan),
+            consistency_max_diff_deg=getattr(self, "consistency_max_diff_deg_", math.nan),
+        )
         return pd.DataFrame([row])
 
     @classmethod
@@ -484,10 +565,15 @@ class HeadingDeviationFit:
             try:
                 return float(row[c])
             except (TypeError, ValueError):
-                raise ValueError(f"table: aircraft {row['aircraft']!r}, column '{c}': expected a number, "
-                                 f"got {row[c]!r}") from None
+                raise ValueError(
+                    f"table: aircraft {row['aircraft']!r}, column '{c}': expected a number, got {row[c]!r}"
+                ) from None
 
-        self = cls(heading=str(row.get("heading_frame", "true")) if isinstance(row.get("heading_frame", "true"), str) else "true")
+        self = cls(
+            heading=str(row.get("heading_frame", "true"))
+            if isinstance(row.get("heading_frame", "true"), str)
+            else "true"
+        )
         self.aircraft_ = str(row["aircraft"])
         self.status_, self.reason_ = str(row["status"]), ("" if pd.isna(row["reason"]) else str(row["reason"]))
         n_used = num("n_used")
@@ -497,14 +583,18 @@ class HeadingDeviationFit:
         self.lut_ = np.array([num(c) for c in LUT_COLUMNS])
         if self.status_ != "refused" and not np.isfinite(self.lut_).all():
             c = LUT_COLUMNS[int(np.flatnonzero(~np.isfinite(self.lut_))[0])]
-            raise ValueError(f"table: aircraft {self.aircraft_!r} ({self.status_}), column '{c}': empty; a table "
-                             f"that is not refused needs all eight corrections")
+            raise ValueError(
+                f"table: aircraft {self.aircraft_!r} ({self.status_}), column '{c}': empty; a table "
+                f"that is not refused needs all eight corrections"
+            )
         big = np.flatnonzero(np.abs(self.lut_) > _MAX_TABLE_CORRECTION_DEG)
         if len(big):  # no heading error the method takes as a measurement is this large
             c = LUT_COLUMNS[int(big[0])]
-            raise ValueError(f"table: aircraft {self.aircraft_!r}, column '{c}': {self.lut_[big[0]]:g} deg; a "
-                             f"correction beyond +-{_MAX_TABLE_CORRECTION_DEG:g} deg exceeds any heading error the "
-                             f"method accepts (larger ones are gross errors): expected degrees")
+            raise ValueError(
+                f"table: aircraft {self.aircraft_!r}, column '{c}': {self.lut_[big[0]]:g} deg; a "
+                f"correction beyond +-{_MAX_TABLE_CORRECTION_DEG:g} deg exceeds any heading error the "
+                f"method accepts (larger ones are gross errors): expected degrees"
+            )
         self.valid_from_, self.valid_to_ = str(row["valid_from"]), str(row["valid_to"])
         self.heading_frame_ = self.heading
         self.terms_ = tuple(t for t in TERM_NAMES if np.isfinite(self.se_[t]))
@@ -530,14 +620,16 @@ class FleetHeadingFit:
         codes = ac.codes
         t, g = rows["time_s"].to_numpy(), arrays["g"]
         dc, dg, dt_ = np.diff(codes), np.diff(g), np.diff(t)
-        if np.all((dc > 0) | ((dc == 0) & ((dg > 0) | ((dg == 0) & (dt_ >= 0))))):  # heading_errors output: in order already
+        if np.all(
+            (dc > 0) | ((dc == 0) & ((dg > 0) | ((dg == 0) & (dt_ >= 0))))
+        ):  # heading_errors output: in order already
             order = np.arange(len(codes))
         else:
             order = np.lexsort((t, g, codes))
         starts = cluster_starts(codes[order])
         ends = np.r_[starts[1:], len(order)]
         true_input = rows["true_heading_input"].to_numpy()
-        for s, e in zip(starts, ends):
+        for s, e in zip(starts, ends, strict=False):
             sel = order[s:e]
             p = dict(self.params)
             p["offset_only"] = bool(p.get("offset_only", False) or true_input[sel].any())
@@ -577,4 +669,3 @@ class FleetHeadingFit:
             idx[cat.codes < 0] = -1
         idx = np.where(idx < 0, len(names), idx).reshape(h.shape)  # no fit -> the zero row
         return lut_correction(luts, h, table=idx)
-

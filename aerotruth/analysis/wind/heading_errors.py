@@ -65,15 +65,22 @@ class GateSpec(Section):
 
     max_gap_s: float = Field(600.0, gt=0, description="largest time between adjacent reports of a triple")
     min_baseline_km: float = Field(0.0, ge=0, description="shortest distance from report i-1 to i+1 (0: none)")
-    max_course_change_deg: float = Field(10.0, gt=0, description="collinearity: course i-1->i vs i->i+1, beyond "
-                                         "what the position step can fake")
-    max_speed_change: float = Field(0.10, gt=0, description="constant speed: |gs2 - gs1| / mean(gs), beyond what "
-                                    "the position step can fake")
-    max_track_noise: float = Field(0.5, gt=0, description="baseline: the rounding error of V_G from the position "
-                                   "step (sd) over |V_G| at most this")
+    max_course_change_deg: float = Field(
+        10.0, gt=0, description="collinearity: course i-1->i vs i->i+1, beyond what the position step can fake"
+    )
+    max_speed_change: float = Field(
+        0.10, gt=0, description="constant speed: |gs2 - gs1| / mean(gs), beyond what the position step can fake"
+    )
+    max_track_noise: float = Field(
+        0.5, gt=0, description="baseline: the rounding error of V_G from the position step (sd) over |V_G| at most this"
+    )
     position_step_deg: float = Field(0.01, ge=0, description="the reports' lat/lon resolution (TAMDAR: 0.01 deg)")
-    noise_sigmas: float = Field(3.0, ge=0, description="the collinearity and speed limits widen by this many "
-                                "standard deviations of the change the position step alone makes")
+    noise_sigmas: float = Field(
+        3.0,
+        ge=0,
+        description="the collinearity and speed limits widen by this many "
+        "standard deviations of the change the position step alone makes",
+    )
     max_roll_deg: float = Field(10.0, gt=0, description="reports banked more are dropped (wind paper section 4)")
     flight_gap_s: float = Field(1800.0, gt=0, description="a longer pause between reports starts a new flight")
     min_tas_kt: float = Field(60.0, ge=0, description="|V_A| below this is implausible")
@@ -135,8 +142,17 @@ def segment_displacements(lat_rad: np.ndarray, lon_rad: np.ndarray) -> tuple[np.
 _MAX_STEP_NOISE_M = math.sqrt(2.0 * 2.0) * A_M / (1 - E2) * math.radians(1.0) / math.sqrt(12.0)
 
 
-def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, span: np.ndarray, gs1: np.ndarray,
-               gs2: np.ndarray, t1: np.ndarray, t2: np.ndarray, step_deg: float) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def step_noise(
+    lat_rad: np.ndarray,
+    span_e: np.ndarray,
+    span_n: np.ndarray,
+    span: np.ndarray,
+    gs1: np.ndarray,
+    gs2: np.ndarray,
+    t1: np.ndarray,
+    t2: np.ndarray,
+    step_deg: float,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Standard deviations of the course change (deg), of the relative ground-speed change
     and of V_G relative to |V_G| that positions rounded to `step_deg` make by themselves at
     interior reports k of a track: segments k-1 and k around report k (ground speeds gs1,
@@ -151,13 +167,15 @@ def step_noise(lat_rad: np.ndarray, span_e: np.ndarray, span_n: np.ndarray, span
     and s_a, over the mean ground speed; V_G's error is its two end points' over the span,
     sqrt(2 (s_e^2 + s_n^2)) / |span|."""
     sin_lat, cos_lat = sin_cos(lat_rad)
-    args = np.broadcast_arrays(*(np.asarray(v, dtype=float) for v in (sin_lat, cos_lat, span_e, span_n, span, gs1, gs2,
-                                                                        t1, t2)))
+    args = np.broadcast_arrays(
+        *(np.asarray(v, dtype=float) for v in (sin_lat, cos_lat, span_e, span_n, span, gs1, gs2, t1, t2))
+    )
     shape = args[0].shape
     out = np.empty((3, args[0].size))
     f_sin, f_cos, f_se, f_sn, f_span, f_gs1, f_gs2, f_t1, f_t2 = (np.ascontiguousarray(a).reshape(-1) for a in args)
-    _step_noise_all(f_sin, f_cos, f_se, f_sn, f_span, f_gs1, f_gs2, f_t1, f_t2,
-                    math.radians(step_deg) / math.sqrt(12.0), out)
+    _step_noise_all(
+        f_sin, f_cos, f_se, f_sn, f_span, f_gs1, f_gs2, f_t1, f_t2, math.radians(step_deg) / math.sqrt(12.0), out
+    )
     return out[0].reshape(shape), out[1].reshape(shape), out[2].reshape(shape)
 
 
@@ -165,8 +183,18 @@ _radii = njit(cache=True, nogil=True, inline="always")(radii_from_sin)  # aerotr
 
 
 @njit(cache=True, nogil=True, error_model="numpy", inline="always")
-def _step_noise1(sin_lat: float, cos_lat: float, span_e: float, span_n: float, span: float, gs1: float, gs2: float,
-                 t1: float, t2: float, s: float) -> tuple[float, float, float]:
+def _step_noise1(
+    sin_lat: float,
+    cos_lat: float,
+    span_e: float,
+    span_n: float,
+    span: float,
+    gs1: float,
+    gs2: float,
+    t1: float,
+    t2: float,
+    s: float,
+) -> tuple[float, float, float]:
     """step_noise of one report, `s` = step (rad) / sqrt(12)."""
     rm, rn = _radii(sin_lat)
     s_n, s_e = rm * s, rn * cos_lat * s
@@ -182,8 +210,9 @@ def _step_noise1(sin_lat: float, cos_lat: float, span_e: float, span_n: float, s
 @njit(cache=True, nogil=True, error_model="numpy")
 def _step_noise_all(sin_lat, cos_lat, span_e, span_n, span, gs1, gs2, t1, t2, s, out):
     for i in range(len(sin_lat)):
-        out[0, i], out[1, i], out[2, i] = _step_noise1(sin_lat[i], cos_lat[i], span_e[i], span_n[i], span[i], gs1[i],
-                                                        gs2[i], t1[i], t2[i], s)
+        out[0, i], out[1, i], out[2, i] = _step_noise1(
+            sin_lat[i], cos_lat[i], span_e[i], span_n[i], span[i], gs1[i], gs2[i], t1[i], t2[i], s
+        )
 
 
 def running_count(flags: np.ndarray) -> np.ndarray:
@@ -194,7 +223,9 @@ def running_count(flags: np.ndarray) -> np.ndarray:
     return np.cumsum(flags, dtype=np.int64)
 
 
-def report_flights(aircraft: np.ndarray, t: np.ndarray, flight_gap_s: float, flight: np.ndarray | None = None) -> np.ndarray:
+def report_flights(
+    aircraft: np.ndarray, t: np.ndarray, flight_gap_s: float, flight: np.ndarray | None = None
+) -> np.ndarray:
     """Flight index (0, 1, ...) of each report, the reports in time order within each
     aircraft (`aircraft`: codes): a new flight where the aircraft changes, its reports are
     more than `flight_gap_s` apart or (when given) the `flight` label changes."""
@@ -217,8 +248,9 @@ class GroundTrack:
     gate: np.ndarray
 
 
-def ground_track(t: np.ndarray, lat_rad: np.ndarray, lon_rad: np.ndarray, flight: np.ndarray,
-                 gates: GateSpec) -> GroundTrack:
+def ground_track(
+    t: np.ndarray, lat_rad: np.ndarray, lon_rad: np.ndarray, flight: np.ndarray, gates: GateSpec
+) -> GroundTrack:
     """V_G = (p[k+1] - p[k-1]) / (t[k+1] - t[k-1]) of every report k of a flight from its
     neighbours and the gates of `gates` (module docstring) on it; reports in time order
     within each flight (`flight`, as report_flights gives), positions on the tangent plane
@@ -234,15 +266,48 @@ def ground_track(t: np.ndarray, lat_rad: np.ndarray, lon_rad: np.ndarray, flight
         # the widened gates pass whatever it is (V_G's rounding error is at most
         # _MAX_STEP_NOISE_M * step in metres per degree: the span gate passes above that)
         safe_span = _MAX_STEP_NOISE_M * g.position_step_deg / max(g.max_track_noise, 1e-300)
-        _track_gates(np.asarray(t, dtype=float), de, dn, np.asarray(flight), sin_lat, cos_lat, g.max_gap_s,
-                     g.min_baseline_km * 1000.0, g.max_course_change_deg, g.max_speed_change, g.max_track_noise,
-                     g.noise_sigmas, math.radians(g.position_step_deg) / math.sqrt(12.0), safe_span, vg_e, vg_n, gate)
+        _track_gates(
+            np.asarray(t, dtype=float),
+            de,
+            dn,
+            np.asarray(flight),
+            sin_lat,
+            cos_lat,
+            g.max_gap_s,
+            g.min_baseline_km * 1000.0,
+            g.max_course_change_deg,
+            g.max_speed_change,
+            g.max_track_noise,
+            g.noise_sigmas,
+            math.radians(g.position_step_deg) / math.sqrt(12.0),
+            safe_span,
+            vg_e,
+            vg_n,
+            gate,
+        )
     return GroundTrack(vg_e, vg_n, gate)
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _track_gates(t, de, dn, flight, sin_lat, cos_lat, max_gap_s, min_baseline_m, max_course, max_speed, max_noise,
-                 sigmas, s, safe_span, vg_e, vg_n, gate) -> None:
+def _track_gates(
+    t,
+    de,
+    dn,
+    flight,
+    sin_lat,
+    cos_lat,
+    max_gap_s,
+    min_baseline_m,
+    max_course,
+    max_speed,
+    max_noise,
+    sigmas,
+    s,
+    safe_span,
+    vg_e,
+    vg_n,
+    gate,
+) -> None:
     """ground_track's loop over m >= 2 reports (segments de, dn from report k to k + 1):
     V_G into vg_e, vg_n; the first failed gate's code into `gate` (given as 1, no_neighbours;
     the ends keep it)."""
@@ -289,9 +354,11 @@ def _check_tas_units(tas_col_ms: np.ndarray, tas_triangle_ms: np.ndarray, ok: np
     if lo <= med <= hi:
         return
     unit = next((u for u, f in _TAS_UNITS if abs(med / f - 1) < 0.05), None)
-    raise DataError(f"{source}: column 'tas_kt' is {med:.3f}x the airspeed of the wind triangle (ground track minus "
-                    f"reported wind, wind paper eq. 3; median over {len(r)} reports): "
-                    f"{'in ' + unit + '? ' if unit else ''}expected knots")
+    raise DataError(
+        f"{source}: column 'tas_kt' is {med:.3f}x the airspeed of the wind triangle (ground track minus "
+        f"reported wind, wind paper eq. 3; median over {len(r)} reports): "
+        f"{'in ' + unit + '? ' if unit else ''}expected knots"
+    )
 
 
 # Wind speed columns in other units than knots. The aircraft's airspeed |V_A| = |V_G - V_W|
@@ -342,8 +409,17 @@ class _Sample:
     flight: np.ndarray
 
     @classmethod
-    def of(cls, ok: np.ndarray, va_e: np.ndarray, va_n: np.ndarray, wt_e: np.ndarray, wt_n: np.ndarray,
-           ac: np.ndarray, alt_ft: np.ndarray, flight: np.ndarray) -> _Sample:
+    def of(
+        cls,
+        ok: np.ndarray,
+        va_e: np.ndarray,
+        va_n: np.ndarray,
+        wt_e: np.ndarray,
+        wt_n: np.ndarray,
+        ac: np.ndarray,
+        alt_ft: np.ndarray,
+        flight: np.ndarray,
+    ) -> _Sample:
         idx = np.flatnonzero(ok)
         idx = idx[:: max(1, len(idx) // _UNIT_CHECK_MAX_REPORTS)]
         ve, vn = va_e.take(idx), va_n.take(idx)
@@ -353,8 +429,9 @@ class _Sample:
         return cls(idx, ve, vn, va, along, ac.take(idx), alt_ft.take(idx), flight.take(idx))
 
 
-def _band_slope(x: np.ndarray, y: np.ndarray, ac: np.ndarray, alt_ft: np.ndarray,
-                flight: np.ndarray) -> tuple[float, float, int] | None:
+def _band_slope(
+    x: np.ndarray, y: np.ndarray, ac: np.ndarray, alt_ft: np.ndarray, flight: np.ndarray
+) -> tuple[float, float, int] | None:
     """Slope of y on x (any consistent units) with the means of each aircraft and 2,000-ft
     band removed (TAS and wind both change with height: with the aircraft's means alone the
     reported-wind slope in knots was -0.13 to +0.17 on simulated and generated tables, with
@@ -394,20 +471,26 @@ def _check_wind_units(sample: _Sample, source: str) -> None:
     f = 1.0 / (1.0 + b)
 
     def what(columns: str) -> str:
-        return (f"{source}: {columns}: the airspeed of the wind triangle (ground track minus reported wind, wind "
-                f"paper eq. 3) changes by {b:+.2f} ± {se:.2g} kt per kt of along-track wind over {flights} flights, "
-                f"as if the reported wind were {f:.3f}x the wind: ")
+        return (
+            f"{source}: {columns}: the airspeed of the wind triangle (ground track minus reported wind, wind "
+            f"paper eq. 3) changes by {b:+.2f} ± {se:.2g} kt per kt of along-track wind over {flights} flights, "
+            f"as if the reported wind were {f:.3f}x the wind: "
+        )
 
     if _unit_named(f):
         raise DataError(what("column 'wind_speed_kt'") + f"{_unit_named(f)}expected knots")
     # |V_G - f V_W| with f ~ -1: the wind's direction reversed (slope -2); a longitude of the
     # wrong sign mirrors V_G east-west, which under a zonal wind reads the same (-1.8 measured)
     if abs(f + 1.0) < 0.35:
-        raise DataError(what("column 'wind_dir_deg'") + "a direction the wind blows to? expected the direction it "
-                        "blows from (meteorological convention); or, in a mostly east-west wind, the ground track "
-                        "mirrored east-west: 'lon' of the wrong sign?")
-    raise DataError(what("columns 'wind_speed_kt', 'wind_dir_deg'") + "check the speed unit (knots) and the "
-                    "direction convention (degrees clockwise from north, where the wind blows from)")
+        raise DataError(
+            what("column 'wind_dir_deg'") + "a direction the wind blows to? expected the direction it "
+            "blows from (meteorological convention); or, in a mostly east-west wind, the ground track "
+            "mirrored east-west: 'lon' of the wrong sign?"
+        )
+    raise DataError(
+        what("columns 'wind_speed_kt', 'wind_dir_deg'") + "check the speed unit (knots) and the "
+        "direction convention (degrees clockwise from north, where the wind blows from)"
+    )
 
 
 # `heading_deg` is the measured true heading the reported wind was computed with, so it is the
@@ -434,15 +517,26 @@ def _check_heading_column(h: np.ndarray, psi: np.ndarray, names: pd.Index, sampl
     c = int(bad.index[0])
     mine = hh[a == c]
     hint = " (all within ±2 pi: in radians?)" if np.all(np.abs(mine) <= 2 * math.pi) else ""
-    raise DataError(f"{source}: column 'heading_deg': aircraft {names[c]}'s headings differ from the heading of its "
-                    f"reports' air vector (ground track minus reported wind, wind paper eq. 3) by a median of "
-                    f"{bad.iloc[0]:.1f} deg over {int(n[c])} reports{hint}: expected the measured true heading (deg) "
-                    "the reported wind was computed with (if it is, 'lat'/'lon' swapped or of the wrong sign turn "
-                    "the ground track)")
+    raise DataError(
+        f"{source}: column 'heading_deg': aircraft {names[c]}'s headings differ from the heading of its "
+        f"reports' air vector (ground track minus reported wind, wind paper eq. 3) by a median of "
+        f"{bad.iloc[0]:.1f} deg over {int(n[c])} reports{hint}: expected the measured true heading (deg) "
+        "the reported wind was computed with (if it is, 'lat'/'lon' swapped or of the wrong sign turn "
+        "the ground track)"
+    )
 
 
-def _check_reference_units(sample: _Sample, wt_e: np.ndarray, wt_n: np.ndarray, wr_e: np.ndarray, wr_n: np.ndarray,
-                           first: np.ndarray, rep_of_row: np.ndarray, ref: pd.Categorical, source: str) -> None:
+def _check_reference_units(
+    sample: _Sample,
+    wt_e: np.ndarray,
+    wt_n: np.ndarray,
+    wr_e: np.ndarray,
+    wr_n: np.ndarray,
+    first: np.ndarray,
+    rep_of_row: np.ndarray,
+    ref: pd.Categorical,
+    source: str,
+) -> None:
     """DataError when a reference model's wind is not in the reported wind's units and
     convention, each reference model on its own, over the rows of the sample's reports (per
     report the reported wind; per row the reference wind; `first` each report's first row,
@@ -472,8 +566,9 @@ def _check_reference_units(sample: _Sample, wt_e: np.ndarray, wt_n: np.ndarray, 
         sel = codes == c
         i, k = rows[sel], k_of_row[sel]
         j = rep.take(k)
-        dv = hypot(sample.va_e.take(k) + wt_e.take(j) - wr_e.take(i),
-                   sample.va_n.take(k) + wt_n.take(j) - wr_n.take(i)) - sample.va.take(k)  # |V_A'| - |V_A|
+        dv = hypot(
+            sample.va_e.take(k) + wt_e.take(j) - wr_e.take(i), sample.va_n.take(k) + wt_n.take(j) - wr_n.take(i)
+        ) - sample.va.take(k)  # |V_A'| - |V_A|
         fitted = _band_slope(sample.along.take(k), dv, sample.ac.take(k), sample.alt_ft.take(k), sample.flight.take(k))
         if fitted is None:
             continue
@@ -483,18 +578,26 @@ def _check_reference_units(sample: _Sample, wt_e: np.ndarray, wt_n: np.ndarray, 
         if lo <= a <= hi or abs(a - 1.0) < UNIT_SIGMAS * se or flights < MIN_UNIT_FLIGHTS:
             continue
         name = f" (reference '{ref.categories[c]}')" if len(ref.categories) > 1 else ""
-        what = (f"the airspeed it implies (ground track minus its wind, wind paper eq. 4) changes by {slope:+.2f} ± "
-                f"{se:.2g} kt per kt of the reported along-track wind over {flights} flights, as if the reference wind "
-                f"were {a:.3f}x the wind")
+        what = (
+            f"the airspeed it implies (ground track minus its wind, wind paper eq. 4) changes by {slope:+.2f} ± "
+            f"{se:.2g} kt per kt of the reported along-track wind over {flights} flights, as if the reference wind "
+            f"were {a:.3f}x the wind"
+        )
         if -hi <= a <= -lo:
-            raise DataError(f"{source}: column 'ref_wind_dir_deg'{name}: {what}: a direction the wind blows to? "
-                            "expected the direction it blows from, as 'wind_dir_deg' (meteorological convention)")
+            raise DataError(
+                f"{source}: column 'ref_wind_dir_deg'{name}: {what}: a direction the wind blows to? "
+                "expected the direction it blows from, as 'wind_dir_deg' (meteorological convention)"
+            )
         if a > 0.3:
-            raise DataError(f"{source}: column 'ref_wind_speed_kt'{name}: {what}: {_unit_named(a)}expected knots, as "
-                            "'wind_speed_kt'")
-        raise DataError(f"{source}: columns 'ref_wind_speed_kt', 'ref_wind_dir_deg'{name}: {what}, i.e. it does not "
-                        "follow the wind: check its speed unit (knots) and direction convention (degrees clockwise "
-                        "from north, where the wind blows from)")
+            raise DataError(
+                f"{source}: column 'ref_wind_speed_kt'{name}: {what}: {_unit_named(a)}expected knots, as "
+                "'wind_speed_kt'"
+            )
+        raise DataError(
+            f"{source}: columns 'ref_wind_speed_kt', 'ref_wind_dir_deg'{name}: {what}, i.e. it does not "
+            "follow the wind: check its speed unit (knots) and direction convention (degrees clockwise "
+            "from north, where the wind blows from)"
+        )
 
 
 def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str = "observation table") -> pd.DataFrame:
@@ -516,11 +619,15 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     rt, rac = t.take(first), ac.take(first)  # gathers (take: faster than fancy indexing)
     lat = df["lat"].to_numpy().take(first) * DEG
     lon = df["lon"].to_numpy().take(first) * DEG
-    flight = report_flights(rac, rt, g.flight_gap_s, df["flight"].cat.codes.to_numpy().take(first) if "flight" in df.columns else None)
+    flight = report_flights(
+        rac, rt, g.flight_gap_s, df["flight"].cat.codes.to_numpy().take(first) if "flight" in df.columns else None
+    )
     track = ground_track(rt, lat, lon, flight, g)
     vg_e, vg_n, gate = track.vg_e, track.vg_n, track.gate.copy()
     # the aircraft's side, once per report (validate_observations checked its rows agree)
-    wt_e, wt_n = towards_from_report(df["wind_speed_kt"].to_numpy().take(first), df["wind_dir_deg"].to_numpy().take(first))
+    wt_e, wt_n = towards_from_report(
+        df["wind_speed_kt"].to_numpy().take(first), df["wind_dir_deg"].to_numpy().take(first)
+    )
     va_e_r, va_n_r = vg_e - wt_e, vg_n - wt_n  # wind paper eq. 3
     psi = np.degrees(arctan2(va_e_r, va_n_r))
     psi += 360.0 * (psi < 0)
@@ -556,23 +663,44 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
         row_gate = gate.take(rep_of_row)
         row_gate[(row_gate == 0) & ~(np.abs(d) <= g.max_heading_error_deg)] = implausible
     tas = tas.take(rep_of_row)
-    true_input = (df["heading_input"] == "true").to_numpy() if "heading_input" in df.columns else np.zeros(n, dtype=bool)
-    out = pd.DataFrame(copy=False, data={  # copy=False: not consolidated into one block (a full copy)
-        "aircraft": df["aircraft"].array, "ref_source": df["ref_source"].array, "flight": flight.take(rep_of_row),
-        "report": rep_of_row, "time_s": t, "heading_deg": heading.take(rep_of_row),
-        "heading_mag_deg": heading_mag.take(rep_of_row), "error_deg": d,
-        "tas_ms": tas, "va_e": va_e, "va_n": va_n, "dw_e": dw_e, "dw_n": dw_n,
-        # pandas-stubs want an Index for `categories`; pandas takes any list-like
-        "gate": pd.Categorical.from_codes(row_gate, GATE_NAMES),  # type: ignore[call-overload]
-        "true_heading_input": true_input,
-    })
+    true_input = (
+        (df["heading_input"] == "true").to_numpy() if "heading_input" in df.columns else np.zeros(n, dtype=bool)
+    )
+    out = pd.DataFrame(
+        copy=False,
+        data={  # copy=False: not consolidated into one block (a full copy)
+            "aircraft": df["aircraft"].array,
+            "ref_source": df["ref_source"].array,
+            "flight": flight.take(rep_of_row),
+            "report": rep_of_row,
+            "time_s": t,
+            "heading_deg": heading.take(rep_of_row),
+            "heading_mag_deg": heading_mag.take(rep_of_row),
+            "error_deg": d,
+            "tas_ms": tas,
+            "va_e": va_e,
+            "va_n": va_n,
+            "dw_e": dw_e,
+            "dw_n": dw_n,
+            # pandas-stubs want an Index for `categories`; pandas takes any list-like
+            "gate": pd.Categorical.from_codes(row_gate, GATE_NAMES),  # type: ignore[call-overload]
+            "true_heading_input": true_input,
+        },
+    )
     out.attrs.update(df.attrs)
     return out
 
 
 @njit(cache=True, nogil=True, fastmath={"contract"}, error_model="numpy")
-def _row_errors(rep: np.ndarray, va_e_r: np.ndarray, va_n_r: np.ndarray, wt_e: np.ndarray, wt_n: np.ndarray,
-                wr_e: np.ndarray, wr_n: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def _row_errors(
+    rep: np.ndarray,
+    va_e_r: np.ndarray,
+    va_n_r: np.ndarray,
+    wt_e: np.ndarray,
+    wt_n: np.ndarray,
+    wr_e: np.ndarray,
+    wr_n: np.ndarray,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Per (report, model) row i of report rep[i]: V_A (eq. 3, the report's), dw = V_W,TAM -
     V_W,REF and d = psi - psi' (deg, (-180, 180]): the angle from V_A' = V_A + dw (eq. 4) to
     V_A, clockwise, atan2 of cross(V_A', V_A) = va_e dw_n - va_n dw_e and

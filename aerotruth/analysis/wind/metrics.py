@@ -40,7 +40,8 @@ row per pair (same report, different `ref_source`) summarised without `ref_sourc
 from __future__ import annotations
 
 import math
-from typing import Literal, Sequence
+from collections.abc import Sequence
+from typing import Literal
 
 import numpy as np
 import pandas as pd
@@ -110,20 +111,34 @@ def wind_errors(obs: pd.DataFrame, axis: str = "air_track", gates: GateSpec = ME
     if axis == "reported_heading" and "heading_deg" not in obs.columns:
         raise ValueError("axis='reported_heading' needs a heading_deg column")
     t = _epoch_seconds(obs["time"])
-    u_rep, v_rep = wind_components(obs["wind_speed_kt"].to_numpy(dtype=float), obs["wind_dir_deg"].to_numpy(dtype=float) * DEG)
-    u_ref, v_ref = wind_components(obs["ref_wind_speed_kt"].to_numpy(dtype=float),
-                                   obs["ref_wind_dir_deg"].to_numpy(dtype=float) * DEG)
+    u_rep, v_rep = wind_components(
+        obs["wind_speed_kt"].to_numpy(dtype=float), obs["wind_dir_deg"].to_numpy(dtype=float) * DEG
+    )
+    u_ref, v_ref = wind_components(
+        obs["ref_wind_speed_kt"].to_numpy(dtype=float), obs["ref_wind_dir_deg"].to_numpy(dtype=float) * DEG
+    )
     du, dv = u_rep - u_ref, v_rep - v_ref
 
     if axis == "reported_heading":
         axis_rad = obs["heading_deg"].to_numpy(dtype=float) * DEG
         usable = np.isfinite(axis_rad)
     else:
-        rows = pd.DataFrame({"aircraft": obs["aircraft"].to_numpy(), "t": t, "lat": obs["lat"].to_numpy(dtype=float),
-                             "lon": obs["lon"].to_numpy(dtype=float)})
-        reports = rows.drop_duplicates(["aircraft", "t"]).sort_values(["aircraft", "t"], kind="stable").reset_index(drop=True)
-        lookup = rows[["aircraft", "t"]].merge(reports[["aircraft", "t"]].reset_index(), on=["aircraft", "t"],
-                                               how="left")["index"].to_numpy()
+        rows = pd.DataFrame(
+            {
+                "aircraft": obs["aircraft"].to_numpy(),
+                "t": t,
+                "lat": obs["lat"].to_numpy(dtype=float),
+                "lon": obs["lon"].to_numpy(dtype=float),
+            }
+        )
+        reports = (
+            rows.drop_duplicates(["aircraft", "t"]).sort_values(["aircraft", "t"], kind="stable").reset_index(drop=True)
+        )
+        lookup = (
+            rows[["aircraft", "t"]]
+            .merge(reports[["aircraft", "t"]].reset_index(), on=["aircraft", "t"], how="left")["index"]
+            .to_numpy()
+        )
         rt = reports["t"].to_numpy()
         flight = report_flights(pd.factorize(reports["aircraft"])[0], rt, gates.flight_gap_s)
         gt = ground_track(rt, reports["lat"].to_numpy() * DEG, reports["lon"].to_numpy() * DEG, flight, gates)
@@ -135,8 +150,13 @@ def wind_errors(obs: pd.DataFrame, axis: str = "air_track", gates: GateSpec = ME
             axis_rad = air_track_heading(speed_kt * np.sin(track), speed_kt * np.cos(track), u_rep, v_rep)
     axis_rad = np.where(usable, axis_rad, np.nan)
     lon_kt, tra_kt = longitudinal_transverse(du, dv, axis_rad)
-    out = pd.DataFrame({c: obs[c].to_numpy() for c in ("aircraft", "fleet", "phase", "ref_source", "pressure_altitude_ft")
-                        if c in obs.columns})
+    out = pd.DataFrame(
+        {
+            c: obs[c].to_numpy()
+            for c in ("aircraft", "fleet", "phase", "ref_source", "pressure_altitude_ft")
+            if c in obs.columns
+        }
+    )
     out["time_s"] = t
     out["du_kt"], out["dv_kt"], out["error_kt"] = du, dv, np.hypot(du, dv)
     out["axis_deg"] = np.degrees(axis_rad)
@@ -145,8 +165,12 @@ def wind_errors(obs: pd.DataFrame, axis: str = "air_track", gates: GateSpec = ME
     return out
 
 
-def wind_error_summary(errors: pd.DataFrame, by: Sequence[str] = (), altitude_bands_ft: Sequence[float] | None = None,
-                       total_over: Literal["all", "track_subset"] = "all") -> pd.DataFrame:
+def wind_error_summary(
+    errors: pd.DataFrame,
+    by: Sequence[str] = (),
+    altitude_bands_ft: Sequence[float] | None = None,
+    total_over: Literal["all", "track_subset"] = "all",
+) -> pd.DataFrame:
     """RMS vector error and its longitudinal/transverse RMS per group of `wind_errors` rows.
 
     by: any of GROUPINGS ("altitude_band" needs `altitude_bands_ft`, ascending edges; a band
@@ -166,12 +190,18 @@ def wind_error_summary(errors: pd.DataFrame, by: Sequence[str] = (), altitude_ba
     for b in by:
         if b == "altitude_band":
             if altitude_bands_ft is None or len(altitude_bands_ft) < 2 or np.any(np.diff(altitude_bands_ft) <= 0):
-                raise ValueError("altitude_bands_ft: expected at least two ascending edges (ft) to group by altitude_band")
+                raise ValueError(
+                    "altitude_bands_ft: expected at least two ascending edges (ft) to group by altitude_band"
+                )
             edges = np.asarray(altitude_bands_ft, dtype=float)
-            labels = [f"{lo:g}-{hi:g}" for lo, hi in zip(edges[:-1], edges[1:])]
+            labels = [f"{lo:g}-{hi:g}" for lo, hi in zip(edges[:-1], edges[1:], strict=False)]
             # pandas-stubs take no ndarray `bins` with a Series; pandas takes any array-like
-            df[b] = pd.cut(errors["pressure_altitude_ft"], edges,  # type: ignore[call-overload]
-                           right=False, labels=labels)
+            df[b] = pd.cut(
+                errors["pressure_altitude_ft"],
+                edges,  # type: ignore[call-overload]
+                right=False,
+                labels=labels,
+            )
         elif b not in errors.columns:
             raise ValueError(f"by: column {b!r} is not in the errors table")
         else:
@@ -183,8 +213,17 @@ def wind_error_summary(errors: pd.DataFrame, by: Sequence[str] = (), altitude_ba
     if by:
         g = df.groupby(by, observed=True, sort=True).agg(**agg).reset_index()
     else:
-        g = pd.DataFrame([{"n": int(df["e2"].count()), "e2": df["e2"].mean(), "n_components": int(df["l2"].count()),
-                           "l2": df["l2"].mean(), "t2": df["t2"].mean()}])
+        g = pd.DataFrame(
+            [
+                {
+                    "n": int(df["e2"].count()),
+                    "e2": df["e2"].mean(),
+                    "n_components": int(df["l2"].count()),
+                    "l2": df["l2"].mean(),
+                    "t2": df["t2"].mean(),
+                }
+            ]
+        )
     g["rms_kt"] = np.sqrt(g.pop("e2"))
     g["longitudinal_rms_kt"] = np.sqrt(g.pop("l2"))
     g["transverse_rms_kt"] = np.sqrt(g.pop("t2"))
@@ -261,15 +300,25 @@ def wind_errors_before_after(rows: pd.DataFrame, correction_deg: np.ndarray) -> 
     run -= 1  # each row's run
     sz, cz = sin_cos(z.take(first) * DEG)
     sc, cc = sin_cos(c.take(first) * DEG)
-    dw_e, dw_n, va_e, va_n = (np.ascontiguousarray(rows[k].to_numpy(), dtype=float)
-                              for k in ("dw_e", "dw_n", "va_e", "va_n"))
+    dw_e, dw_n, va_e, va_n = (
+        np.ascontiguousarray(rows[k].to_numpy(), dtype=float) for k in ("dw_e", "dw_n", "va_e", "va_n")
+    )
     tb, ab, ta, aa = _before_after_sums(dw_e, dw_n, va_e, va_n, sz, cz, sc, cc, run)
     return _rms_parts(tb, ab, len(z)), _rms_parts(ta, aa, len(z))
 
 
 @njit(cache=True, nogil=True, fastmath={"reassoc", "contract"}, error_model="numpy")
-def _before_after_sums(dw_e: np.ndarray, dw_n: np.ndarray, va_e: np.ndarray, va_n: np.ndarray, sz: np.ndarray,
-                       cz: np.ndarray, sc: np.ndarray, cc: np.ndarray, run: np.ndarray) -> tuple[float, float, float, float]:
+def _before_after_sums(
+    dw_e: np.ndarray,
+    dw_n: np.ndarray,
+    va_e: np.ndarray,
+    va_n: np.ndarray,
+    sz: np.ndarray,
+    cz: np.ndarray,
+    sc: np.ndarray,
+    cc: np.ndarray,
+    run: np.ndarray,
+) -> tuple[float, float, float, float]:
     """Sums of squares of the wind error and of its longitudinal component, as reported and
     after the heading turn (heading_turn; the heading's sine and cosine of row i at run[i],
     the correction's likewise): (total, along) before, then after."""

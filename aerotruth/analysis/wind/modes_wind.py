@@ -85,8 +85,12 @@ def declination_history_deg(lat: float, lon: float, alt_m: float, dates: list[dt
 ALPHA_LAW_SAAB340 = (-3.40, 30352.0)  # a0 deg, a1 deg Pa; residual sd 0.10 deg
 
 
-def alpha_deg(tas_mps: np.ndarray, pressure_altitude_m: np.ndarray, law: tuple[float, float] = ALPHA_LAW_SAAB340,
-              roll_rad: np.ndarray | float = 0.0) -> np.ndarray:
+def alpha_deg(
+    tas_mps: np.ndarray,
+    pressure_altitude_m: np.ndarray,
+    law: tuple[float, float] = ALPHA_LAW_SAAB340,
+    roll_rad: np.ndarray | float = 0.0,
+) -> np.ndarray:
     """Angle of attack (deg) of the model's aircraft at this TAS, pressure altitude and bank
     (a level turn needs lift / cos(roll): load factor n = 1 / cos(roll))."""
     from aerotruth.truth.isa import isa_pressure_pa, isa_temperature_k
@@ -129,7 +133,7 @@ def _spline_basis(t: np.ndarray, knot_s: float) -> np.ndarray:
         basis = np.zeros((len(t), sum(b.shape[1] for b in blocks)))
         r = c = 0
         for b in blocks:
-            basis[order[r:r + len(b)], c:c + b.shape[1]] = b
+            basis[order[r : r + len(b)], c : c + b.shape[1]] = b
             r, c = r + len(b), c + b.shape[1]
         basis.flags.writeable = False
         if len(_BASES) >= 4:
@@ -163,8 +167,9 @@ def slaving_lag(t: np.ndarray, x: np.ndarray, tau_s: float) -> np.ndarray:
     return out
 
 
-def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...],
-           tau_s: float = 0.0) -> tuple[np.ndarray, np.ndarray, list[str]]:
+def design(
+    track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], tau_s: float = 0.0
+) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """(X, y, names) of the stacked north/east equations for the chosen effects (with
     `tau_s` > 0 the deviation reaches the heading through the gyro's slaving lag).
     track: time_s, tas_mps, heading_rad (true), vn_mps, ve_mps, heading_rate_rad_s."""
@@ -201,15 +206,17 @@ def design(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...],
     # [[basis, 0], [0, basis]] for the north and east wind, then the effects: filled in place
     X = np.zeros((2 * n, 2 * nb + sum(e.shape[1] for e in extra)))
     X[:n, :nb] = basis
-    X[n:, nb:2 * nb] = basis
+    X[n:, nb : 2 * nb] = basis
     c = 2 * nb
     for e in extra:
-        X[:, c:c + e.shape[1]] = e
+        X[:, c : c + e.shape[1]] = e
         c += e.shape[1]
     return X, y, names
 
 
-def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (), rows: np.ndarray | None = None) -> dict:
+def fit(
+    track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (), rows: np.ndarray | None = None
+) -> dict:
     """Least-squares fit of the smooth wind and the chosen effects (on `rows` if given):
     coefficients with standard errors, residual RMS (m/s, per component) and the number
     of equations. The standard errors are the least-squares ones scaled by the residual
@@ -227,7 +234,7 @@ def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (
             # the RSS profile's parabola in ln tau through the grid minimum and its neighbours:
             # its vertex is the estimate (continuous, so jackknife replicates differ), its
             # curvature the standard error (Delta RSS = s^2, AR(1)-inflated)
-            x, yv = np.log(np.array(grid[j - 1:j + 2])), np.array([f["rss"] for f in fits[j - 1:j + 2]])
+            x, yv = np.log(np.array(grid[j - 1 : j + 2])), np.array([f["rss"] for f in fits[j - 1 : j + 2]])
             c2, c1, _ = np.polyfit(x, yv, 2)
             if c2 > 0:
                 tau = float(np.exp(np.clip(-c1 / (2 * c2), x[0], x[2])))
@@ -243,7 +250,9 @@ def fit(track: pd.DataFrame, knot_s: float = 600.0, effects: tuple[str, ...] = (
     return _fit_linear(track, knot_s, effects, rows, 0.0)
 
 
-def _fit_linear(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], rows: np.ndarray | None, tau_s: float) -> dict:
+def _fit_linear(
+    track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], rows: np.ndarray | None, tau_s: float
+) -> dict:
     X, y, names = design(track, knot_s, effects, tau_s)
     if rows is not None:
         sel = np.r_[rows, rows]
@@ -255,12 +264,23 @@ def _fit_linear(track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], ro
     cov = s2 * np.linalg.pinv(xtx)
     half = len(res) // 2
     r_n, r_e = res[:half], res[half:]
-    rho = float(np.mean([np.corrcoef(r[:-1], r[1:])[0, 1] for r in (r_n, r_e) if len(r) > 3 and np.std(r) > 0] or [0.0]))
+    rho = float(
+        np.mean([np.corrcoef(r[:-1], r[1:])[0, 1] for r in (r_n, r_e) if len(r) > 3 and np.std(r) > 0] or [0.0])
+    )
     rho = min(max(rho, 0.0), 0.95)
     inflate = (1 + rho) / (1 - rho)
     se = np.sqrt(np.maximum(np.diag(cov), 0.0) * inflate)
-    return {"names": names, "coef": coef, "se": se, "rms": float(np.sqrt(np.mean(res**2))), "n": len(y), "p": X.shape[1],
-            "rss": float(res @ res), "inflate": inflate, "tau_s": float(tau_s)}
+    return {
+        "names": names,
+        "coef": coef,
+        "se": se,
+        "rms": float(np.sqrt(np.mean(res**2))),
+        "n": len(y),
+        "p": X.shape[1],
+        "rss": float(res @ res),
+        "inflate": inflate,
+        "tau_s": float(tau_s),
+    }
 
 
 def predict_rms(track: pd.DataFrame, fitted: dict, knot_s: float, effects: tuple[str, ...], rows: np.ndarray) -> float:
@@ -270,7 +290,7 @@ def predict_rms(track: pd.DataFrame, fitted: dict, knot_s: float, effects: tuple
     sel = np.r_[rows, rows]
     X, y = X[sel], y[sel]
     eff = [i for i, n in enumerate(names) if not n.startswith("wind_")]
-    y_adj = y - (X[:, eff] @ fitted["coef"][:X.shape[1]][eff] if eff else 0.0)
+    y_adj = y - (X[:, eff] @ fitted["coef"][: X.shape[1]][eff] if eff else 0.0)
     wind = [i for i, n in enumerate(names) if n.startswith("wind_")]
     coef, _ = ols(X[:, wind], y_adj)
     res = y_adj - X[:, wind] @ coef
@@ -282,8 +302,9 @@ def central_rate(t: np.ndarray, x: np.ndarray, half_window_s: float = RATE_HALF_
     return (np.interp(t + half_window_s, t, x) - np.interp(t - half_window_s, t, x)) / (2 * half_window_s)
 
 
-def modes_track_to_wind_frame(df: pd.DataFrame, when: dt.datetime,
-                              alpha_law: tuple[float, float] | None = ALPHA_LAW_SAAB340) -> pd.DataFrame:
+def modes_track_to_wind_frame(
+    df: pd.DataFrame, when: dt.datetime, alpha_law: tuple[float, float] | None = ALPHA_LAW_SAAB340
+) -> pd.DataFrame:
     """A Mode-S trajectory (decoded fields in knots/degrees, heading magnetic) as the
     table `design` needs, in SI, with true heading and heading rate (rows sorted by time,
     repeated times dropped); with roll (BDS 5,0) and an angle-of-attack law, the air
@@ -298,8 +319,17 @@ def modes_track_to_wind_frame(df: pd.DataFrame, when: dt.datetime,
     # heading rate over +-RATE_HALF_WINDOW_S: a held, quantized heading differenced
     # sample to sample is a staircase, and a noisy regressor biases D towards zero
     rate = central_rate(t, psi_u)
-    out = pd.DataFrame({"time_s": t, "tas_mps": df["TAS"].to_numpy(float) * KT, "heading_rad": psi, "vn_mps": gs * np.cos(trk),
-                        "ve_mps": gs * np.sin(trk), "heading_rate_rad_s": rate, "declination_deg": dec})
+    out = pd.DataFrame(
+        {
+            "time_s": t,
+            "tas_mps": df["TAS"].to_numpy(float) * KT,
+            "heading_rad": psi,
+            "vn_mps": gs * np.cos(trk),
+            "ve_mps": gs * np.sin(trk),
+            "heading_rate_rad_s": rate,
+            "declination_deg": dec,
+        }
+    )
     if alpha_law is not None and "roll" in df and df["roll"].notna().all():
         roll = np.radians(df["roll"].to_numpy(float))
         a = np.radians(alpha_deg(out["tas_mps"].to_numpy(), df["altitude"].to_numpy(float) * 0.3048, alpha_law, roll))

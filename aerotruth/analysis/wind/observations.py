@@ -47,8 +47,10 @@ def _times(df: pd.DataFrame, source: str) -> np.ndarray:
         v = df["time"].iloc[i]
         v = v.item() if isinstance(v, np.generic) else v
         hint = " (milliseconds?)" if t[i] > _TIME_RANGE_S[1] else ""
-        raise DataError(f"{source}: column 'time', data row {i + 1}: {v!r} is not a time between 1950 and "
-                        f"2200 in UTC epoch seconds{hint}")
+        raise DataError(
+            f"{source}: column 'time', data row {i + 1}: {v!r} is not a time between 1950 and "
+            f"2200 in UTC epoch seconds{hint}"
+        )
     return t
 
 
@@ -66,16 +68,28 @@ def _parse_times(df: pd.DataFrame, source: str) -> np.ndarray:
         bad = ts.isna() & num.isna() & s.notna()
         if bad.any():
             i = int(np.flatnonzero(bad.to_numpy())[0])
-            raise DataError(f"{source}: column 'time', data row {i + 1}: {s.iloc[i]!r} is neither UTC epoch seconds nor ISO-8601")
+            raise DataError(
+                f"{source}: column 'time', data row {i + 1}: {s.iloc[i]!r} is neither UTC epoch seconds nor ISO-8601"
+            )
         iso = ((ts - pd.Timestamp("1970-01-01", tz="UTC")) / pd.Timedelta(1, "s")).to_numpy(dtype=float)
         return np.where(num.notna().to_numpy(), num.to_numpy(dtype=float), iso)
     return ((ts - pd.Timestamp("1970-01-01", tz="UTC")) / pd.Timedelta(1, "s")).to_numpy(dtype=float)
 
 
-_RANGES = {"lat": (-90.0, 90.0), "lon": (-180.0, 360.0), "wind_speed_kt": (0.0, 500.0), "ref_wind_speed_kt": (0.0, 500.0),
-           "wind_dir_deg": (-180.0, 360.0), "ref_wind_dir_deg": (-180.0, 360.0), "pressure_altitude_ft": (-2000.0, 70000.0),
-           "tas_kt": (0.0, 1000.0), "heading_deg": (-180.0, 360.0), "heading_mag_deg": (-180.0, 360.0),
-           "declination_deg": (-180.0, 180.0), "roll_deg": (-180.0, 180.0)}
+_RANGES = {
+    "lat": (-90.0, 90.0),
+    "lon": (-180.0, 360.0),
+    "wind_speed_kt": (0.0, 500.0),
+    "ref_wind_speed_kt": (0.0, 500.0),
+    "wind_dir_deg": (-180.0, 360.0),
+    "ref_wind_dir_deg": (-180.0, 360.0),
+    "pressure_altitude_ft": (-2000.0, 70000.0),
+    "tas_kt": (0.0, 1000.0),
+    "heading_deg": (-180.0, 360.0),
+    "heading_mag_deg": (-180.0, 360.0),
+    "declination_deg": (-180.0, 180.0),
+    "roll_deg": (-180.0, 180.0),
+}
 # directions read either way round: [0, 360] or signed [-180, 180] (ARINC 429 carries
 # heading and wind angle as signed binary, labels 314, 320 and 322), kept as [0, 360]
 DIRECTIONS = ("wind_dir_deg", "ref_wind_dir_deg", "heading_deg", "heading_mag_deg")
@@ -108,8 +122,10 @@ def _check_degrees(v: np.ndarray, col: str, source: str) -> None:
         return
     lo, hi = float(fin.min()), float(fin.max())
     if 0.0 <= lo and hi <= 2 * math.pi and hi - lo > 0.2:
-        raise DataError(f"{source}: column '{col}': all {len(fin)} values lie within [{lo:.3g}, {hi:.3g}]: in radians? "
-                        "expected degrees")
+        raise DataError(
+            f"{source}: column '{col}': all {len(fin)} values lie within [{lo:.3g}, {hi:.3g}]: in radians? "
+            "expected degrees"
+        )
 
 
 def _labels(values: pd.Series, fill: str | None = None, lower: bool = False) -> pd.Categorical:
@@ -133,7 +149,9 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
         raise DataError(f"{source}: expected a pandas DataFrame, got {type(obs).__name__}")
     missing = [c for c in REQUIRED_COLUMNS if c not in obs.columns]
     if missing:
-        raise DataError(f"{source}: missing column '{missing[0]}' (an observation table needs {', '.join(REQUIRED_COLUMNS)})")
+        raise DataError(
+            f"{source}: missing column '{missing[0]}' (an observation table needs {', '.join(REQUIRED_COLUMNS)})"
+        )
     if len(obs) == 0:
         raise DataError(f"{source}: no rows")
     # the columns: np.ndarray for numbers and times, pd.Categorical for labels
@@ -153,7 +171,9 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
                 _check_degrees(out[c], c, source)
             if (out[c] < 0).any():
                 out[c] = np.where(out[c] < 0, out[c] + 360.0, out[c])
-    out["ref_source"] = _labels(obs["ref_source"], "ref") if "ref_source" in obs.columns else pd.Categorical(np.full(len(obs), "ref"))
+    out["ref_source"] = (
+        _labels(obs["ref_source"], "ref") if "ref_source" in obs.columns else pd.Categorical(np.full(len(obs), "ref"))
+    )
     if "flight" in obs.columns:  # `phase` is not used by the method
         out["flight"] = _labels(obs["flight"], "")
     if "heading_input" in obs.columns:  # a word, in any case ("TRUE", "Magnetic")
@@ -176,8 +196,9 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
     if len(order) == len(obs) and np.array_equal(order, np.arange(len(order))):  # already in order: no copies
         df = pd.DataFrame(out, copy=False)
     else:
-        df = pd.DataFrame({k: (v[order] if isinstance(v, np.ndarray) else v.take(order)) for k, v in out.items()},
-                          copy=False)  # copy=False: no consolidation into one block (a copy of every column)
+        df = pd.DataFrame(
+            {k: (v[order] if isinstance(v, np.ndarray) else v.take(order)) for k, v in out.items()}, copy=False
+        )  # copy=False: no consolidation into one block (a copy of every column)
     _check_report_rows(df, source)
     df.attrs.update(source=source, dropped_empty=int((~keep).sum()), dropped_duplicates=int(dup.sum()))
     return df
@@ -236,8 +257,17 @@ def _ordered(ac: np.ndarray, t: np.ndarray, ref: np.ndarray) -> bool:
     return True
 
 
-REPORT_OWN_COLUMNS = ("wind_speed_kt", "wind_dir_deg", "heading_deg", "tas_kt", "heading_mag_deg", "declination_deg",
-                      "lat", "lon", "roll_deg")
+REPORT_OWN_COLUMNS = (
+    "wind_speed_kt",
+    "wind_dir_deg",
+    "heading_deg",
+    "tas_kt",
+    "heading_mag_deg",
+    "declination_deg",
+    "lat",
+    "lon",
+    "roll_deg",
+)
 
 
 def _check_report_rows(df: pd.DataFrame, source: str) -> None:
@@ -254,9 +284,11 @@ def _check_report_rows(df: pd.DataFrame, source: str) -> None:
         v = df[c].to_numpy()
         i = _first_disagreement(v, same_rep)
         if i >= 0:
-            raise DataError(f"{source}: column '{c}': the rows of one report (aircraft {df['aircraft'].iloc[i]}, "
-                            f"time {t[i]:.3f}) differ ({v[i - 1]:g} vs {v[i]:g}); a report's own values must be "
-                            f"the same on each reference model's row")
+            raise DataError(
+                f"{source}: column '{c}': the rows of one report (aircraft {df['aircraft'].iloc[i]}, "
+                f"time {t[i]:.3f}) differ ({v[i - 1]:g} vs {v[i]:g}); a report's own values must be "
+                f"the same on each reference model's row"
+            )
 
 
 @njit(cache=True, nogil=True)

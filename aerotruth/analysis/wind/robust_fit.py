@@ -84,16 +84,32 @@ def cluster_starts(groups: np.ndarray) -> np.ndarray:
     return np.flatnonzero(new)
 
 
-def robust_fit(X: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray, robust: bool = True,
-               c: float = 1.345, max_iter: int = 50, beta0: np.ndarray | None = None) -> _Fit:
+def robust_fit(
+    X: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray,
+    groups: np.ndarray,
+    robust: bool = True,
+    c: float = 1.345,
+    max_iter: int = 50,
+    beta0: np.ndarray | None = None,
+) -> _Fit:
     """Huber M-estimate (or weighted least squares) with flight-cluster sandwich covariance
     on the (n, k) design X. Rows must be contiguous by `groups`."""
     return robust_fit_t(np.ascontiguousarray(X.T), y, w, groups, robust, c, max_iter, beta0)
 
 
-def robust_fit_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray, robust: bool = True,
-                 c: float = 1.345, max_iter: int = 50, beta0: np.ndarray | None = None,
-                 scale_guess: float = math.nan) -> _Fit:
+def robust_fit_t(
+    XT: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray,
+    groups: np.ndarray,
+    robust: bool = True,
+    c: float = 1.345,
+    max_iter: int = 50,
+    beta0: np.ndarray | None = None,
+    scale_guess: float = math.nan,
+) -> _Fit:
     """robust_fit on the transposed (k, n) design, rows contiguous (as design_t gives);
     `scale_guess` (a nearby scale, e.g. with beta0 that of a related fit) only speeds up
     the first median."""
@@ -104,8 +120,17 @@ def robust_fit_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarra
     return _Fit(beta, cov, scale, infl, groups[starts])
 
 
-def fit_from_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, groups: np.ndarray, beta: np.ndarray,
-               scale_guess: float = math.nan, robust: bool = True, c: float = 1.345, tol_se: float = 0.1) -> _Fit:
+def fit_from_t(
+    XT: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray,
+    groups: np.ndarray,
+    beta: np.ndarray,
+    scale_guess: float = math.nan,
+    robust: bool = True,
+    c: float = 1.345,
+    tol_se: float = 0.1,
+) -> _Fit:
     """The Huber fit of (XT, y, w) (as robust_fit_t) from a nearby start `beta`, as the
     one-step M-estimator (heading_correction's docstring, cross-model consistency): one Newton step of the
     estimating equations at the rows' own MAD scale, kept when the next step would move no
@@ -157,8 +182,22 @@ def _rows(XT: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarra
 
 
 @njit(cache=True, nogil=True, fastmath=_FAST, error_model="numpy")
-def _residuals5(b0: float, b1: float, b2: float, b3: float, b4: float, x0: np.ndarray, x1: np.ndarray, x2: np.ndarray,
-                x3: np.ndarray, x4: np.ndarray, y: np.ndarray, sw: np.ndarray, r: np.ndarray, ar: np.ndarray) -> None:
+def _residuals5(
+    b0: float,
+    b1: float,
+    b2: float,
+    b3: float,
+    b4: float,
+    x0: np.ndarray,
+    x1: np.ndarray,
+    x2: np.ndarray,
+    x3: np.ndarray,
+    x4: np.ndarray,
+    y: np.ndarray,
+    sw: np.ndarray,
+    r: np.ndarray,
+    ar: np.ndarray,
+) -> None:
     for i in range(len(y)):
         v = (y[i] - (b0 * x0[i] + b1 * x1[i] + b2 * x2[i] + b3 * x3[i] + b4 * x4[i])) * sw[i]
         r[i] = v
@@ -168,13 +207,24 @@ def _residuals5(b0: float, b1: float, b2: float, b3: float, b4: float, x0: np.nd
 def _residuals(beta: np.ndarray, XT: np.ndarray, y: np.ndarray, sw: np.ndarray, r: np.ndarray, ar: np.ndarray) -> None:
     """r = sqrt(w) (y - X b) and ar = |r| into the given arrays, `sw` = sqrt(w)."""
     b = np.zeros(MAX_TERMS)
-    b[:len(beta)] = beta
+    b[: len(beta)] = beta
     _residuals5(b[0], b[1], b[2], b[3], b[4], *_rows(XT), y, sw, r, ar)
 
 
 @njit(cache=True, nogil=True, fastmath=_FAST, error_model="numpy")
-def _sums5(x0: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray, x4: np.ndarray, r: np.ndarray, w: np.ndarray,
-           sw: np.ndarray, cut: float, scale: float, out: np.ndarray) -> None:
+def _sums5(
+    x0: np.ndarray,
+    x1: np.ndarray,
+    x2: np.ndarray,
+    x3: np.ndarray,
+    x4: np.ndarray,
+    r: np.ndarray,
+    w: np.ndarray,
+    sw: np.ndarray,
+    cut: float,
+    scale: float,
+    out: np.ndarray,
+) -> None:
     """Over the reports, with u = r / scale: the 15 sums of x_a x_b w / scale over
     |u| <= cut (a <= b, row-major) and the 5 sums of x_a sqrt(w) clip(u, -cut, cut), into
     out[:15] and out[15:20]."""
@@ -214,8 +264,19 @@ def _sums5(x0: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray, x4: n
 
 
 @njit(cache=True, nogil=True, error_model="numpy")
-def _cluster_sums5(x0: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarray, x4: np.ndarray, r: np.ndarray,
-                   w: np.ndarray, sw: np.ndarray, cut: float, scale: float, starts: np.ndarray) -> np.ndarray:
+def _cluster_sums5(
+    x0: np.ndarray,
+    x1: np.ndarray,
+    x2: np.ndarray,
+    x3: np.ndarray,
+    x4: np.ndarray,
+    r: np.ndarray,
+    w: np.ndarray,
+    sw: np.ndarray,
+    cut: float,
+    scale: float,
+    starts: np.ndarray,
+) -> np.ndarray:
     G, n = len(starts), len(r)
     out = np.empty((G, 20))
     for g in range(G):
@@ -225,17 +286,25 @@ def _cluster_sums5(x0: np.ndarray, x1: np.ndarray, x2: np.ndarray, x3: np.ndarra
 
 
 # position of B[a, b] in _sums5's 15 upper-triangle sums (row-major), for every a, b
-_SYM = np.array([[a * MAX_TERMS - a * (a - 1) // 2 + b - a if a <= b else b * MAX_TERMS - b * (b - 1) // 2 + a - b
-                  for b in range(MAX_TERMS)] for a in range(MAX_TERMS)])
+_SYM = np.array(
+    [
+        [
+            a * MAX_TERMS - a * (a - 1) // 2 + b - a if a <= b else b * MAX_TERMS - b * (b - 1) // 2 + a - b
+            for b in range(MAX_TERMS)
+        ]
+        for a in range(MAX_TERMS)
+    ]
+)
 
 
 def _unpack(sums: np.ndarray, k: int) -> tuple[np.ndarray, np.ndarray]:
     """(..., 20) sums of _sums5 -> the symmetric (..., k, k) matrices and (..., k) vectors."""
-    return sums[..., _SYM[:k, :k]], sums[..., 15:15 + k].copy()
+    return sums[..., _SYM[:k, :k]], sums[..., 15 : 15 + k].copy()
 
 
-def _weighted_sums(XT: np.ndarray, r: np.ndarray, w: np.ndarray, sw: np.ndarray, cut: float,
-                   scale: float) -> tuple[np.ndarray, np.ndarray]:
+def _weighted_sums(
+    XT: np.ndarray, r: np.ndarray, w: np.ndarray, sw: np.ndarray, cut: float, scale: float
+) -> tuple[np.ndarray, np.ndarray]:
     """_sums5 as (B, h): B = sum over |r / scale| <= cut of x x^T w / scale (k x k),
     h = sum x sqrt(w) clip(r / scale, -cut, cut)."""
     out = np.empty(20)
@@ -243,7 +312,9 @@ def _weighted_sums(XT: np.ndarray, r: np.ndarray, w: np.ndarray, sw: np.ndarray,
     return _unpack(out, XT.shape[0])
 
 
-def _newton_system(XT: np.ndarray, r: np.ndarray, w: np.ndarray, sw: np.ndarray, cs: float) -> tuple[np.ndarray, np.ndarray]:
+def _newton_system(
+    XT: np.ndarray, r: np.ndarray, w: np.ndarray, sw: np.ndarray, cs: float
+) -> tuple[np.ndarray, np.ndarray]:
     """A Newton step's B = sum over the unclipped reports (|r_i| <= c s) of x x^T w and
     h = sum x sqrt(w) clip(r, -c s, c s) (module docstring), r = sqrt(w) (y - X b)."""
     B, h = _weighted_sums(XT, r, w, sw, 1.0, cs)  # u = r / (c s) clipped at 1: times c s
@@ -263,8 +334,9 @@ def weighted_gram_t(XT: np.ndarray, w: np.ndarray) -> np.ndarray:
     return _weighted_sums(XT, zero, w, zero, np.inf, 1.0)[0]
 
 
-def _cluster_parts(XT: np.ndarray, r: np.ndarray, w: np.ndarray, starts: np.ndarray, scale: float,
-                   cc: float) -> tuple[np.ndarray, np.ndarray]:
+def _cluster_parts(
+    XT: np.ndarray, r: np.ndarray, w: np.ndarray, starts: np.ndarray, scale: float, cc: float
+) -> tuple[np.ndarray, np.ndarray]:
     """Per flight cluster g: B_g = sum x x^T w psi'(u) / s and h_g = sum x sqrt(w) psi(u),
     u = r / s, r = sqrt(w) (y - X b) (psi the Huber function clipped at cc)."""
     sums = _cluster_sums5(*_rows(XT), r, w, np.sqrt(w), float(cc), float(scale), starts.astype(np.int64))
@@ -371,8 +443,16 @@ _NEWTON_STEPS = 20  # then IRLS (module docstring)
 _NEWTON_MAX_COND = 1e10  # a Newton matrix worse conditioned than this: the unclipped reports do not span the terms
 
 
-def huber_t(XT: np.ndarray, y: np.ndarray, w: np.ndarray, robust: bool, c: float, max_iter: int = 50,
-             beta0: np.ndarray | None = None, scale_guess: float = math.nan) -> tuple[np.ndarray, float, np.ndarray]:
+def huber_t(
+    XT: np.ndarray,
+    y: np.ndarray,
+    w: np.ndarray,
+    robust: bool,
+    c: float,
+    max_iter: int = 50,
+    beta0: np.ndarray | None = None,
+    scale_guess: float = math.nan,
+) -> tuple[np.ndarray, float, np.ndarray]:
     """Huber M-estimate on the transposed (k, n) design (module docstring: Newton steps,
     IRLS as the fallback): coefficients, the final MAD scale and the weighted residuals
     sqrt(w) (y - X b) at the solution. Normal equations (k <= 5 bounded columns: well conditioned

@@ -90,7 +90,8 @@ class Study(ABC):
     Config: ClassVar[type[Section]]
     learns: ClassVar[dict[str, tuple[str, ...]]] = {}
 
-    def check(self, campaign: Campaign, refs: References) -> None:
+    # an optional hook (a no-op unless a study overrides it), deliberately not abstract
+    def check(self, campaign: Campaign, refs: References) -> None:  # noqa: B027
         """Cross-reference checks of the section (none by default)."""
 
     @abstractmethod
@@ -109,7 +110,9 @@ class Study(ABC):
     def summarize(self, rows: pd.DataFrame, learned: dict[str, pd.DataFrame], section: Any) -> Summary:
         """Metrics and tables from all rows."""
 
-    def figures(self, rows: pd.DataFrame, summary: Summary, learned: dict[str, pd.DataFrame], out_dir: Any) -> list[Figure]:
+    def figures(
+        self, rows: pd.DataFrame, summary: Summary, learned: dict[str, pd.DataFrame], out_dir: Any
+    ) -> list[Figure]:
         """The study's figures, each drawn with matplotlib and handed to `out_dir.save(fig,
         stem)` (aerotruth.app.figures.FigureFolder: the application writes it as PNG and
         PDF); none by default."""
@@ -156,7 +159,10 @@ def load_study(source: str) -> Study:
             module = importlib.import_module(ref)
         elif kind == "file":
             path = Path(ref)
-            name = f"aerotruth_study_{re.sub(r'[^A-Za-z0-9_]', '_', path.stem)}_{hashlib.sha256(ref.encode()).hexdigest()[:8]}"
+            name = (
+                f"aerotruth_study_{re.sub(r'[^A-Za-z0-9_]', '_', path.stem)}"
+                f"_{hashlib.sha256(ref.encode()).hexdigest()[:8]}"
+            )
             module = sys.modules.get(name)
             if module is None:
                 spec = importlib.util.spec_from_file_location(name, path)
@@ -206,7 +212,10 @@ def registry(extra_sources: list[str] = ()) -> Registry:
     for src in extra_sources:
         study = load_study(src)
         if study.name in sources and sources[study.name] != src:
-            raise StudyError(f"{src.partition(':')[2]} defines study {study.name!r}, which {sources[study.name].partition(':')[2]} already provides")
+            raise StudyError(
+                f"{src.partition(':')[2]} defines study {study.name!r}, "
+                f"which {sources[study.name].partition(':')[2]} already provides"
+            )
         sources[study.name] = src
     return Registry(sources)
 

@@ -62,13 +62,22 @@ class FitsStudyConfig(Section):
     periods: list[str] = Field(min_length=1, description="campaign periods whose dates are flown")
     approaches_per_day: int = Field(default=1, ge=1, description="per runway and date, 20 min apart")
     start_hour_utc: float = Field(default=15.0, ge=0, lt=24)
-    turbulence: bool = Field(default=True, description="MIL-F-8785C turbulence on the approach: patches of the route legs' "
-                             "severity climatology, near the ground 0.1 x the day's wind at 20 ft "
-                             "(aerotruth.truth.turbulence.Mil8785Gusts)")
+    turbulence: bool = Field(
+        default=True,
+        description="MIL-F-8785C turbulence on the approach: patches of the route legs' "
+        "severity climatology, near the ground 0.1 x the day's wind at 20 ft "
+        "(aerotruth.truth.turbulence.Mil8785Gusts)",
+    )
     calm: bool = Field(default=False, description="no truth atmosphere (still air), for clean checks")
-    mass_kg: tuple[float, float] = Field(default=(10500.0, 12900.0), description="landing mass drawn uniformly per approach")
-    offset_nm: float = Field(default=0.0, ge=0, le=3, description="start this far beside the centreline (side drawn per approach) ...")
-    intercept_deg: float = Field(default=0.0, ge=0, le=45, description="... heading this far off the course: a turn onto final")
+    mass_kg: tuple[float, float] = Field(
+        default=(10500.0, 12900.0), description="landing mass drawn uniformly per approach"
+    )
+    offset_nm: float = Field(
+        default=0.0, ge=0, le=3, description="start this far beside the centreline (side drawn per approach) ..."
+    )
+    intercept_deg: float = Field(
+        default=0.0, ge=0, le=45, description="... heading this far off the course: a turn onto final"
+    )
     sensors: InspectionSensors = Field(default_factory=InspectionSensors)
     fits: FitsSpec = Field(default_factory=FitsSpec)
     from_nm: float = Field(default=10.0, gt=0, description="requirement scored from this distance to the threshold")
@@ -94,16 +103,29 @@ def planned_approach(task: Task, section: FitsStudyConfig, campaign_seed: int):
     p = task.params
     date = dt.date.fromisoformat(p["date"])
     k = p["k"]
-    start = dt.datetime.combine(date, dt.time(0), tzinfo=dt.timezone.utc) + dt.timedelta(hours=section.start_hour_utc, minutes=20 * k)
-    mass_rng = seeds.generator(seeds.named_sequence(campaign_seed, "approach", p["airport"], p["runway"], p["date"], k, "mass"))
+    start = dt.datetime.combine(date, dt.time(0), tzinfo=dt.UTC) + dt.timedelta(
+        hours=section.start_hour_utc, minutes=20 * k
+    )
+    mass_rng = seeds.generator(
+        seeds.named_sequence(campaign_seed, "approach", p["airport"], p["runway"], p["date"], k, "mass")
+    )
     mass = float(mass_rng.uniform(*section.mass_kg))
     side = 1.0 if mass_rng.random() < 0.5 else -1.0
-    spec = approach_spec(p["airport"], p["runway"], start, turbulence=section.turbulence, mass_kg=mass,
-                         offset_nm=side * section.offset_nm, intercept_deg=section.intercept_deg)
+    spec = approach_spec(
+        p["airport"],
+        p["runway"],
+        start,
+        turbulence=section.turbulence,
+        mass_kg=mass,
+        offset_nm=side * section.offset_nm,
+        intercept_deg=section.intercept_deg,
+    )
     return PlannedApproach(
         spec,
         weather_seed=seeds.int_seed(seeds.named_sequence(campaign_seed, "weather", date.isoformat())),
-        flight_seed=seeds.int_seed(seeds.named_sequence(campaign_seed, "approach", p["airport"], p["runway"], p["date"], k)),
+        flight_seed=seeds.int_seed(
+            seeds.named_sequence(campaign_seed, "approach", p["airport"], p["runway"], p["date"], k)
+        ),
         region=None if section.calm else region_for_airport(p["airport"]),
     )
 
@@ -135,8 +157,17 @@ class ApproachStudy(Study):
         for r in section.runways:
             for date in campaign.days(section.periods):
                 for k in range(section.approaches_per_day):
-                    ident = (("airport", r.airport.strip().upper()), ("runway", r.runway), ("date", date.isoformat()), ("k", k))
-                    tasks.append(Task(self.name, ident, params={**dict(ident), "section": section, "campaign_seed": campaign.seed}))
+                    ident = (
+                        ("airport", r.airport.strip().upper()),
+                        ("runway", r.runway),
+                        ("date", date.isoformat()),
+                        ("k", k),
+                    )
+                    tasks.append(
+                        Task(
+                            self.name, ident, params={**dict(ident), "section": section, "campaign_seed": campaign.seed}
+                        )
+                    )
         for i, t in enumerate(tasks):
             t.params["export"] = i < section.export_logs
         return tasks
@@ -167,10 +198,19 @@ class FitsStudy(ApproachStudy):
         planned = planned_approach(task, section, task.params["campaign_seed"])
         out = ctx.truth.approach(planned)
         label = f"{task.params['airport']}-{task.params['runway']}-{task.params['date']}-{task.params['k']}"
-        head = {"approach": label, "airport": task.params["airport"], "runway": task.params["runway"],
-                "date": task.params["date"], "k": task.params["k"], "mass_kg": planned.spec.mass_kg, "truth_key": out.key}
+        head = {
+            "approach": label,
+            "airport": task.params["airport"],
+            "runway": task.params["runway"],
+            "date": task.params["date"],
+            "k": task.params["k"],
+            "mass_kg": planned.spec.mass_kg,
+            "truth_key": out.key,
+        }
         if out.track is None:
-            return pd.DataFrame([{**head, "kind": "approach", "ins": "", "diverged": True, "diverge_reason": out.diverged.reason}])
+            return pd.DataFrame(
+                [{**head, "kind": "approach", "ins": "", "diverged": True, "diverge_reason": out.diverged.reason}]
+            )
         flight = approach_metrics(out.track)
         logs = approach_logs(out.track, section.sensors, lambda *n: ctx.rng("sensor", *n), label)
         parts = []
@@ -181,13 +221,32 @@ class FitsStudy(ApproachStudy):
             thr = logs.truth.iloc[int(np.argmin(np.abs(logs.truth["x_m"].to_numpy())))]
             bias_true = thr[["bias_x_m", "bias_y_m", "bias_z_m"]].to_numpy(float)
             summ = approach_summary(ep, result.bias_m, bias_true, section.from_nm)
-            parts.append(pd.DataFrame([{**head, "kind": "approach", "ins": ins_label, "diverged": False, "diverge_reason": "",
-                                        "jumps_flagged": int(len(result.noiseless.jump_idx)), **summ,
-                                        **{f"flight_{k}": v for k, v in flight.items()}}]))
+            parts.append(
+                pd.DataFrame(
+                    [
+                        {
+                            **head,
+                            "kind": "approach",
+                            "ins": ins_label,
+                            "diverged": False,
+                            "diverge_reason": "",
+                            "jumps_flagged": int(len(result.noiseless.jump_idx)),
+                            **summ,
+                            **{f"flight_{k}": v for k, v in flight.items()},
+                        }
+                    ]
+                )
+            )
             parts.append(ep.assign(kind="epoch", ins=ins_label, approach=label))
             if task.params["export"]:
-                parts.append(log.assign(kind="log", ins=ins_label, approach=f"{label}/{ins_label}",
-                                        geometry=json.dumps(logs.geometry, sort_keys=True)))
+                parts.append(
+                    log.assign(
+                        kind="log",
+                        ins=ins_label,
+                        approach=f"{label}/{ins_label}",
+                        geometry=json.dumps(logs.geometry, sort_keys=True),
+                    )
+                )
         return pd.concat(parts, ignore_index=True)
 
     # ------------------------------------------------------------------ summary
@@ -209,11 +268,20 @@ class FitsStudy(ApproachStudy):
         for s in section.sensors.ins:
             v = s.label
             a = ok[ok["ins"] == v]
-            e = ep[(ep["ins"] == v) & (ep["distance_to_threshold_m"] >= 0) & (ep["distance_to_threshold_m"] <= section.from_nm * 1852.0)]
+            e = ep[
+                (ep["ins"] == v)
+                & (ep["distance_to_threshold_m"] >= 0)
+                & (ep["distance_to_threshold_m"] <= section.from_nm * 1852.0)
+            ]
             inner = ep[(ep["ins"] == v) & ~ep["edge"].astype(bool)]
             edge = ep[(ep["ins"] == v) & ep["edge"].astype(bool)]
-            row = {"INS": v, "grade": s.grade, "mechanization": s.mechanization, "time tag error (s)": s.time_tag_error_s,
-                   "approaches": len(a)}
+            row = {
+                "INS": v,
+                "grade": s.grade,
+                "mechanization": s.mechanization,
+                "time tag error (s)": s.time_tag_error_s,
+                "approaches": len(a),
+            }
             for ax in AXES:
                 r_in = inner[f"resid_{ax}_m"].to_numpy(float)
                 r_ed = edge[f"resid_{ax}_m"].to_numpy(float)
@@ -224,7 +292,9 @@ class FitsStudy(ApproachStudy):
                 metrics[f"{v}.resid_rms_m.{ax}"] = rms
                 metrics[f"{v}.resid_rms_over_floor.{ax}"] = rms / floor if rms is not None and floor > 0 else None
                 metrics[f"{v}.removed_share.{ax}"] = float(a[f"removed_share_{ax}"].mean()) if len(a) else None
-                metrics[f"{v}.bias_err_rms_m.{ax}"] = float(np.sqrt(np.mean(a[f"bias_err_{ax}_m"] ** 2))) if len(a) else None
+                metrics[f"{v}.bias_err_rms_m.{ax}"] = (
+                    float(np.sqrt(np.mean(a[f"bias_err_{ax}_m"] ** 2))) if len(a) else None
+                )
                 row[f"|r| < 0.1 m {ax} (inner)"] = share
                 row[f"|r| < 0.1 m {ax} (edges)"] = metrics[f"{v}.edge_resid_share_lt_0p1.{ax}"]
                 row[f"RMS r {ax} (m)"] = rms
@@ -240,14 +310,27 @@ class FitsStudy(ApproachStudy):
             per_ins.append(row)
             if len(e):
                 d_nm = e["distance_to_threshold_m"].to_numpy(float) / 1852.0
-                for lo, hi in zip(DIST_EDGES_NM[:-1], DIST_EDGES_NM[1:]):
+                for lo, hi in zip(DIST_EDGES_NM[:-1], DIST_EDGES_NM[1:], strict=False):
                     sel = (d_nm >= lo) & (d_nm < hi)
                     if sel.any():
-                        per_dist.append({"INS": v, "from (nm)": lo, "to (nm)": hi, "epochs": int(sel.sum()),
-                                         "95 % |cross| (m)": float(np.percentile(np.abs(e["cross_m"].to_numpy(float)[sel]), 95)),
-                                         "95 % |vertical| (m)": float(np.percentile(np.abs(e["vertical_m"].to_numpy(float)[sel]), 95)),
-                                         "95 % |cross| (deg)": float(np.percentile(np.abs(e["cross_deg"].to_numpy(float)[sel]), 95)),
-                                         "95 % |vertical| (deg)": float(np.percentile(np.abs(e["vertical_deg"].to_numpy(float)[sel]), 95))})
+                        per_dist.append(
+                            {
+                                "INS": v,
+                                "from (nm)": lo,
+                                "to (nm)": hi,
+                                "epochs": int(sel.sum()),
+                                "95 % |cross| (m)": float(np.percentile(np.abs(e["cross_m"].to_numpy(float)[sel]), 95)),
+                                "95 % |vertical| (m)": float(
+                                    np.percentile(np.abs(e["vertical_m"].to_numpy(float)[sel]), 95)
+                                ),
+                                "95 % |cross| (deg)": float(
+                                    np.percentile(np.abs(e["cross_deg"].to_numpy(float)[sel]), 95)
+                                ),
+                                "95 % |vertical| (deg)": float(
+                                    np.percentile(np.abs(e["vertical_deg"].to_numpy(float)[sel]), 95)
+                                ),
+                            }
+                        )
         tost_rows = []
         for t in section.equivalence:
             for channel, rms in _channel_rms(ok).items():
@@ -265,15 +348,29 @@ class FitsStudy(ApproachStudy):
             tables["equivalence"] = pd.DataFrame(tost_rows)
         fl = ok.drop_duplicates("approach") if len(ok) else ok
         if len(fl):
-            tables["approaches"] = fl[["approach", "mass_kg", "flight_stabilised", "flight_loc_dots_1000ft", "flight_gs_dots_1000ft",
-                                       "flight_height_over_threshold_ft", "flight_cas_threshold_kt", "jumps_flagged"]].reset_index(drop=True)
+            tables["approaches"] = fl[
+                [
+                    "approach",
+                    "mass_kg",
+                    "flight_stabilised",
+                    "flight_loc_dots_1000ft",
+                    "flight_gs_dots_1000ft",
+                    "flight_height_over_threshold_ft",
+                    "flight_cas_threshold_kt",
+                    "jumps_flagged",
+                ]
+            ].reset_index(drop=True)
             metrics["stabilised_share"] = float(fl["flight_stabilised"].mean())
         if n_div:
-            tables["diverged"] = appr[appr["diverged"].astype(bool)][["approach", "diverge_reason"]].reset_index(drop=True)
+            tables["diverged"] = appr[appr["diverged"].astype(bool)][["approach", "diverge_reason"]].reset_index(
+                drop=True
+            )
         exports = {}
         logs = rows[rows["kind"] == "log"] if len(rows) else rows
         if len(logs):
-            extra = [c for c in logs.columns if c not in LOG_COLUMNS and c in ("ra_lever_arm_m", "tvps_lever_arm_m", "ins")]
+            extra = [
+                c for c in logs.columns if c not in LOG_COLUMNS and c in ("ra_lever_arm_m", "tvps_lever_arm_m", "ins")
+            ]
             log = logs[list(LOG_COLUMNS) + extra].reset_index(drop=True)
             geo = {a: json.loads(g) for a, g in logs.groupby("approach", sort=False)["geometry"].first().items()}
             text = json.dumps({"approaches": geo}, indent=1, sort_keys=True)

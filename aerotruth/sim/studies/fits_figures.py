@@ -41,13 +41,15 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
     t = one["time_s"].to_numpy(float) - float(one["time_s"].iloc[0])
     # Fig. 5: WAAS error of one approach
     fig, ax = plt.subplots(figsize=(8, 3.6))
-    for a, name in zip("xyz", ("along-track", "cross-track", "vertical")):
+    for a, name in zip("xyz", ("along-track", "cross-track", "vertical"), strict=False):
         ax.plot(t, one[f"waas_err_{a}_m"], lw=0.9, label=name)
     ax.set(xlabel="time (s)", ylabel="WAAS error (m)", title=f"WAAS position error, {one['approach'].iloc[0]}")
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     out_dir.save(fig, "fits_waas_error")
-    figs.append(Figure("fits_waas_error", "WAAS error of one approach: bias, 12 s cyclic noise, slow noise (FITS paper Fig. 5)"))
+    figs.append(
+        Figure("fits_waas_error", "WAAS error of one approach: bias, 12 s cyclic noise, slow noise (FITS paper Fig. 5)")
+    )
     # Fig. 6: averaged periodogram of the WAAS error (bias and slow trend removed per approach)
     from scipy.signal import periodogram
 
@@ -69,11 +71,19 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
         for a, p in spec.items():
             ax.semilogy(f[1:], p[1:], label={"y": "cross-track", "z": "vertical"}[a])
         ax.axvline(1 / 12.0, color="0.5", ls=":", label="1/12 Hz")
-        ax.set(xlabel="frequency (Hz)", ylabel="PSD (m$^2$/Hz)", title="Spectrum of the WAAS error (mean over approaches)")
+        ax.set(
+            xlabel="frequency (Hz)", ylabel="PSD (m$^2$/Hz)", title="Spectrum of the WAAS error (mean over approaches)"
+        )
         ax.legend(fontsize=8)
         ax.grid(alpha=0.3)
         out_dir.save(fig, "fits_waas_spectrum")
-        figs.append(Figure("fits_waas_spectrum", "Spectrum of the WAAS error, detrended, averaged over approaches: the 12 s peak of the fast corrections (FITS paper Fig. 6)"))
+        figs.append(
+            Figure(
+                "fits_waas_spectrum",
+                "Spectrum of the WAAS error, detrended, averaged over approaches: the 12 s peak of the fast "
+                "corrections (FITS paper Fig. 6)",
+            )
+        )
     # Figs. 11/12: frequency response of the low pass and of the high-pass cascade
     fr, lp, hp = frequency_response(12)
     fig, ax = plt.subplots(figsize=(7, 3.4))
@@ -84,7 +94,13 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
     ax.legend(fontsize=8)
     ax.grid(alpha=0.3)
     out_dir.save(fig, "fits_frequency_response")
-    figs.append(Figure("fits_frequency_response", "Zero-phase frequency response: the high pass removes drifts up to cubic and passes every harmonic of the 12 s cycle (FITS paper Figs. 11/12)"))
+    figs.append(
+        Figure(
+            "fits_frequency_response",
+            "Zero-phase frequency response: the high pass removes drifts up to cubic and passes every harmonic of "
+            "the 12 s cycle (FITS paper Figs. 11/12)",
+        )
+    )
     # Figs. 13/14: true and estimated cyclic noise, residual
     fig, axes = plt.subplots(2, 2, figsize=(10, 5.5), sharex=True)
     for j, (a, name) in enumerate((("y", "cross-track"), ("z", "vertical"))):
@@ -100,14 +116,24 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
     fig.suptitle(f"{one['approach'].iloc[0]}, INS {one['ins'].iloc[0]}")
     fig.tight_layout()
     out_dir.save(fig, "fits_cyclic_noise")
-    figs.append(Figure("fits_cyclic_noise", "True and estimated cyclic noise and the residual of one approach, the 0.1 m band shaded (FITS paper Figs. 13/14)"))
+    figs.append(
+        Figure(
+            "fits_cyclic_noise",
+            "True and estimated cyclic noise and the residual of one approach, the 0.1 m band shaded "
+            "(FITS paper Figs. 13/14)",
+        )
+    )
     # Figs. 15-20: errors against the requirement, per INS
     variants = list(dict.fromkeys(ep["ins"]))
     fig, axes = plt.subplots(2, len(variants), figsize=(4.5 * len(variants), 6.5), squeeze=False, sharex=True)
     for j, v in enumerate(variants):
         e = ep[(ep["ins"] == v) & (ep["distance_to_threshold_m"] >= 0) & (ep["distance_to_threshold_m"] <= 10 * NM)]
-        for i, (col, rcol, floor, name) in enumerate((("cross_m", "range_loc_m", FLOOR_HORIZONTAL_M, "cross-track"),
-                                                      ("vertical_m", "range_gp_m", FLOOR_VERTICAL_M, "vertical"))):
+        for i, (col, rcol, floor, name) in enumerate(
+            (
+                ("cross_m", "range_loc_m", FLOOR_HORIZONTAL_M, "cross-track"),
+                ("vertical_m", "range_gp_m", FLOOR_VERTICAL_M, "vertical"),
+            )
+        ):
             ax = axes[i, j]
             for _, g in e.groupby("approach"):
                 ax.plot(g["distance_to_threshold_m"] / NM, g[col], lw=0.5, alpha=0.5)
@@ -128,7 +154,13 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
                 ax.legend(fontsize=7)
     fig.tight_layout()
     out_dir.save(fig, "fits_requirement")
-    figs.append(Figure("fits_requirement", "FITS minus truth, cross-track and vertical, against the 0.015 deg (dashed) and 0.05 deg lines with the 2 ft/1 ft floors, per INS (FITS paper Figs. 15-20)"))
+    figs.append(
+        Figure(
+            "fits_requirement",
+            "FITS minus truth, cross-track and vertical, against the 0.015 deg (dashed) and 0.05 deg lines with "
+            "the 2 ft/1 ft floors, per INS (FITS paper Figs. 15-20)",
+        )
+    )
     # section VI: per-approach residual RMS of each INS
     appr = rows[(rows["kind"] == "approach") & ~rows["diverged"].astype(bool)]
     if len(appr):
@@ -143,5 +175,11 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
         ax.set(ylabel="RMS of N_hat - N per approach (m)", title="Cyclic-noise residual by INS (paired approaches)")
         ax.grid(alpha=0.3)
         out_dir.save(fig, "fits_ins_residual")
-        figs.append(Figure("fits_ins_residual", "Per-approach RMS of the cyclic-noise residual for each INS on the same approaches and WAAS noise, with the analytic floor of white + Gauss-Markov noise (FITS paper section VI)"))
+        figs.append(
+            Figure(
+                "fits_ins_residual",
+                "Per-approach RMS of the cyclic-noise residual for each INS on the same approaches and WAAS noise, "
+                "with the analytic floor of white + Gauss-Markov noise (FITS paper section VI)",
+            )
+        )
     return figs

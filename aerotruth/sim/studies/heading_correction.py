@@ -90,10 +90,12 @@ class Selection(Section):
     poor: StrictInt = Field(ge=1, description="aircraft with the largest before-period RMS get tables")
     control: StrictInt = Field(ge=1, description="aircraft with the smallest before-period RMS are the control group")
     by: Literal["total", "transverse"] = Field(
-        "total", description="rank by the total RMS vector difference (wind quality: 'chosen for their poorer wind "
-                             "quality', wind paper section 8.2) or by its transverse component, the heading's "
-                             "share ('poorly performing heading systems', Tables I-IV; section 6: transverse "
-                             "errors suggest inaccurate heading, longitudinal inaccurate TAS)")
+        "total",
+        description="rank by the total RMS vector difference (wind quality: 'chosen for their poorer wind "
+        "quality', wind paper section 8.2) or by its transverse component, the heading's "
+        "share ('poorly performing heading systems', Tables I-IV; section 6: transverse "
+        "errors suggest inaccurate heading, longitudinal inaccurate TAS)",
+    )
 
 
 class PaperCell(Section):
@@ -104,8 +106,10 @@ class PaperCell(Section):
     rms_kt: float
     longitudinal_rms_kt: float | None = None
     transverse_rms_kt: float | None = None
-    role: Literal["calibrated", "predicted"] = Field(description="calibrated: a cell the campaign's parameters were "
-                                                     "tuned on; predicted: a cell left to the simulation")
+    role: Literal["calibrated", "predicted"] = Field(
+        description="calibrated: a cell the campaign's parameters were "
+        "tuned on; predicted: a cell left to the simulation"
+    )
 
 
 class PaperTable(Section):
@@ -121,17 +125,26 @@ class HeadingCorrectionConfig(Section):
     fleets: list[str] = Field(min_length=1)
     periods: PeriodRoles
     max_legs_per_day: StrictInt | None = Field(default=None, ge=1)
-    turbulence: StrictBool = Field(default=False, description="fly the truth legs with a real flight's disturbances "
-                                   "(MIL-F-8785C patches and light chop, aerotruth.truth.turbulence; the "
-                                   "autopilot's steering wander, aerotruth.truth.steering)")
+    turbulence: StrictBool = Field(
+        default=False,
+        description="fly the truth legs with a real flight's disturbances "
+        "(MIL-F-8785C patches and light chop, aerotruth.truth.turbulence; the "
+        "autopilot's steering wander, aerotruth.truth.steering)",
+    )
     sensors: WindSensors = Field(default_factory=WindSensors)
     selection: Selection
     fit_heading: Literal["true", "magnetic"] = Field(
-        default="true", description="frame of the fitted table: true (the paper's shortcut) or magnetic (the frame "
-        "the onboard table is indexed by)")
+        default="true",
+        description="frame of the fitted table: true (the paper's shortcut) or magnetic (the frame "
+        "the onboard table is indexed by)",
+    )
     max_roll_deg: float = Field(default=10.0, gt=0, le=90, description="reports banked more are not scored")
-    trustworthy_rms_kt: float = Field(default=10.0, gt=0, description="an aircraft is trustworthy when its RMS vector "
-                                      "difference is below this (assumption: the paper's flag threshold is not given)")
+    trustworthy_rms_kt: float = Field(
+        default=10.0,
+        gt=0,
+        description="an aircraft is trustworthy when its RMS vector "
+        "difference is below this (assumption: the paper's flag threshold is not given)",
+    )
     paper: PaperTable | None = Field(default=None, description="published cells shown beside the simulated ones")
 
     @model_validator(mode="after")
@@ -148,8 +161,12 @@ class HeadingCorrectionConfig(Section):
 
     def flights(self, role: str) -> FlightSelection:
         """The aircraft-days of one role."""
-        return FlightSelection(fleets=self.fleets, periods=[getattr(self.periods, role)],
-                               max_legs_per_day=self.max_legs_per_day, turbulence=self.turbulence)
+        return FlightSelection(
+            fleets=self.fleets,
+            periods=[getattr(self.periods, role)],
+            max_legs_per_day=self.max_legs_per_day,
+            turbulence=self.turbulence,
+        )
 
 
 def group_rms(obs: pd.DataFrame) -> dict[str, float]:
@@ -188,16 +205,27 @@ class HeadingCorrection(Study):
         check_sensors(campaign, refs, section.sensors, prefix=("sensors",))
         n = sum(len(campaign.fleet(f).aircraft) for f in section.fleets)
         if section.selection.poor + section.selection.control > n:
-            raise refs.error(("selection",), f"poor + control = {section.selection.poor + section.selection.control} "
-                             f"exceeds the {n} aircraft of the fleets")
+            raise refs.error(
+                ("selection",),
+                f"poor + control = {section.selection.poor + section.selection.control} "
+                f"exceeds the {n} aircraft of the fleets",
+            )
 
     def expand(self, campaign: Campaign, section: HeadingCorrectionConfig) -> list[Task]:
         tasks = []
         for role in STAGES:
             needs = ("corrections",) if role == "after" else ()
             for fleet, day in aircraft_days(campaign, section.flights(role)):
-                tasks.append(day_task(self.name, fleet, day, stage=role, needs=needs,
-                                      **sensor_params(campaign, section.sensors, fleet)))
+                tasks.append(
+                    day_task(
+                        self.name,
+                        fleet,
+                        day,
+                        stage=role,
+                        needs=needs,
+                        **sensor_params(campaign, section.sensors, fleet),
+                    )
+                )
         return tasks
 
     def cost(self, task: Task) -> float:
@@ -219,19 +247,26 @@ class HeadingCorrection(Study):
 
         fit_obs = reported(rows[rows["stage"] == "fit"])
         before = unbanked(reported(rows[rows["stage"] == "before"]), section.max_roll_deg)
-        table = FleetHeadingFit(heading=section.fit_heading, gates=section.gates()).fit(
-            fit_obs, source="fit-period reports").to_table()
-        rms = per_aircraft_rms(before).rename(columns={"n": "before_n", "rms_kt": "before_rms_kt",
-                                                       "transverse_rms_kt": "before_transverse_rms_kt"})
+        table = (
+            FleetHeadingFit(heading=section.fit_heading, gates=section.gates())
+            .fit(fit_obs, source="fit-period reports")
+            .to_table()
+        )
+        rms = per_aircraft_rms(before).rename(
+            columns={"n": "before_n", "rms_kt": "before_rms_kt", "transverse_rms_kt": "before_transverse_rms_kt"}
+        )
         info = fit_obs.drop_duplicates("aircraft")[["aircraft", "fleet", "heading_input", "heading_class"]]
         out = info.merge(rms, on="aircraft", how="left").merge(table, on="aircraft", how="left")
         out["aircraft"] = out["aircraft"].astype(str)
         rank = {"total": "before_rms_kt", "transverse": "before_transverse_rms_kt"}[section.selection.by]
-        have = (out.dropna(subset=[rank]).sort_values([rank, "aircraft"], ascending=[False, True])
-                ["aircraft"].tolist())  # worst first; aircraft without before-period reports are never selected
-        poor = set(have[:section.selection.poor])
-        control = set(have[::-1][:section.selection.control]) - poor
-        out["group"] = np.where(out["aircraft"].isin(poor), "poor", np.where(out["aircraft"].isin(control), "control", "other"))
+        have = (
+            out.dropna(subset=[rank]).sort_values([rank, "aircraft"], ascending=[False, True])["aircraft"].tolist()
+        )  # worst first; aircraft without before-period reports are never selected
+        poor = set(have[: section.selection.poor])
+        control = set(have[::-1][: section.selection.control]) - poor
+        out["group"] = np.where(
+            out["aircraft"].isin(poor), "poor", np.where(out["aircraft"].isin(control), "control", "other")
+        )
         out["status"] = out["status"].fillna("refused")
         out["reason"] = out["reason"].fillna("no fit-period reports")
         gates = section.gates()  # how the tables were learned (the fit figure redraws with them)
@@ -240,8 +275,10 @@ class HeadingCorrection(Study):
 
     def summarize(self, rows: pd.DataFrame, learned, section: HeadingCorrectionConfig) -> Summary:
         corr = learned.get("corrections")
-        m: dict[str, Any] = {"aircraft_days": int(rows["task_id"].nunique()) if "task_id" in rows else 0,
-                             "legs_diverged": int((rows.get("trigger") == "leg_diverged").sum()) if "trigger" in rows else 0}
+        m: dict[str, Any] = {
+            "aircraft_days": int(rows["task_id"].nunique()) if "task_id" in rows else 0,
+            "legs_diverged": int((rows.get("trigger") == "leg_diverged").sum()) if "trigger" in rows else 0,
+        }
         if corr is None or rows.empty:
             return Summary(m, {})
         group_of = corr.set_index("aircraft")["group"]
@@ -257,8 +294,13 @@ class HeadingCorrection(Study):
             per_ac.append(per_aircraft_rms(obs).assign(period=stage))
         twin = unbanked(untreated(rows[rows["stage"] == "after"]), section.max_roll_deg) if "stage" in rows else None
         if twin is not None and len(twin):
-            cells.append({"group": "poor", "period": "after_untreated",
-                          **group_rms(twin[twin["aircraft"].astype(str).map(group_of) == "poor"])})
+            cells.append(
+                {
+                    "group": "poor",
+                    "period": "after_untreated",
+                    **group_rms(twin[twin["aircraft"].astype(str).map(group_of) == "poor"]),
+                }
+            )
         table = pd.DataFrame(cells)
         table = adjusted_table(table)
         by_altitude = rms_by_altitude(scored, table)
@@ -281,23 +323,49 @@ class HeadingCorrection(Study):
         residual = residual_heading_error(rows, group_of)
         for r in residual.itertuples():
             m[f"{r.group}.{r.period}.heading_error_rms_deg"] = float(r.heading_error_rms_deg)
-        fits = corr[[c for c in ("aircraft", "fleet", "group", "heading_class", "heading_input", "before_rms_kt", "status",
-                                 "A_deg", "B_deg", "C_deg", "D_deg", "E_deg", "A_se_deg", "B_se_deg", "C_se_deg", "reason")
-                     if c in corr.columns]]
+        fits = corr[
+            [
+                c
+                for c in (
+                    "aircraft",
+                    "fleet",
+                    "group",
+                    "heading_class",
+                    "heading_input",
+                    "before_rms_kt",
+                    "status",
+                    "A_deg",
+                    "B_deg",
+                    "C_deg",
+                    "D_deg",
+                    "E_deg",
+                    "A_se_deg",
+                    "B_se_deg",
+                    "C_se_deg",
+                    "reason",
+                )
+                if c in corr.columns
+            ]
+        ]
         m["aircraft_fitted"] = int((corr["status"] == "fitted").sum())
         m["aircraft_offset_only"] = int((corr["status"] == "offset_only").sum())
         m["aircraft_refused"] = int((corr["status"] == "refused").sum())
         tables = {"groups": table}
         if section.paper is not None:
             tables["versus_paper"] = versus_paper(table, section.paper)
-        tables.update({"per_aircraft": wide, "heading_error_vs_truth": residual, "fits": fits,
-                       "rms_by_altitude": by_altitude, "trustworthy_by_day": trustworthy_by_day(scored, section)})
-        return Summary(m, tables,
-                       exports={"observations": reported(rows)})
+        tables.update(
+            {
+                "per_aircraft": wide,
+                "heading_error_vs_truth": residual,
+                "fits": fits,
+                "rms_by_altitude": by_altitude,
+                "trustworthy_by_day": trustworthy_by_day(scored, section),
+            }
+        )
+        return Summary(m, tables, exports={"observations": reported(rows)})
 
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
-
 
         figs = []
         wide = summary.tables.get("per_aircraft")
@@ -308,7 +376,10 @@ class HeadingCorrection(Study):
             ax.bar(x - 0.2, w["before"], 0.4, color="maroon", label="before")
             if "after" in w:
                 poor = (w["group"] == "poor").to_numpy()
-                for sel, color, label in ((poor, "green", "after, table uploaded"), (~poor, "white", "after, control (unchanged)")):
+                for sel, color, label in (
+                    (poor, "green", "after, table uploaded"),
+                    (~poor, "white", "after, control (unchanged)"),
+                ):
                     if sel.any():
                         ax.bar(x[sel] + 0.2, w["after"].to_numpy()[sel], 0.4, color=color, edgecolor="k", label=label)
             ax.set_xticks(x, w["aircraft"], rotation=90, fontsize=7)
@@ -316,8 +387,12 @@ class HeadingCorrection(Study):
             ax.legend(fontsize=8)
             ax.set_title("Per aircraft before/after, combined references (wind paper Fig. 9)")
             out_dir.save(fig, "heading_correction_per_aircraft")
-            figs.append(Figure("heading_correction_per_aircraft", "RMS vector difference per aircraft before and after "
-                               "(poor: table uploaded; control: unchanged)"))
+            figs.append(
+                Figure(
+                    "heading_correction_per_aircraft",
+                    "RMS vector difference per aircraft before and after (poor: table uploaded; control: unchanged)",
+                )
+            )
         alt = summary.tables.get("rms_by_altitude")
         if alt is not None and len(alt):
             figs += altitude_figures(alt, out_dir)
@@ -327,38 +402,60 @@ class HeadingCorrection(Study):
             x = np.arange(len(daily))
             ax.bar(x, daily["untrustworthy"], color="tab:blue", label="untrustworthy")
             ax.bar(x, daily["trustworthy"], bottom=daily["untrustworthy"], color="tab:green", label="trustworthy")
-            ax.set_xticks(x, [f"{d} ({p})" for d, p in zip(daily["date"], daily["period"])], rotation=90, fontsize=7)
+            ax.set_xticks(
+                x, [f"{d} ({p})" for d, p in zip(daily["date"], daily["period"], strict=False)], rotation=90, fontsize=7
+            )
             ax.set_ylabel("aircraft reporting")
             ax.legend(fontsize=8)
-            ax.set_title(f"Trustworthy: the day's RMS vector difference < {float(daily['threshold_kt'].iloc[0]):g} kt "
-                         "(wind paper Fig. 10)", fontsize=9)
+            ax.set_title(
+                f"Trustworthy: the day's RMS vector difference < {float(daily['threshold_kt'].iloc[0]):g} kt "
+                "(wind paper Fig. 10)",
+                fontsize=9,
+            )
             out_dir.save(fig, "heading_correction_trustworthy")
-            figs.append(Figure("heading_correction_trustworthy", "Trustworthy and untrustworthy aircraft per day, "
-                               "before and after the tables (every aircraft of the fleet)"))
+            figs.append(
+                Figure(
+                    "heading_correction_trustworthy",
+                    "Trustworthy and untrustworthy aircraft per day, "
+                    "before and after the tables (every aircraft of the fleet)",
+                )
+            )
         corr = learned.get("corrections")
         fit_obs = reported(rows[rows["stage"] == "fit"]) if "stage" in rows else pd.DataFrame()
         if corr is not None and len(fit_obs):
             from aerotruth.analysis.wind.heading_errors import GateSpec, heading_errors
 
-            poor = corr[(corr["group"] == "poor") & (corr["status"] != "refused")].sort_values("before_rms_kt", ascending=False)
+            poor = corr[(corr["group"] == "poor") & (corr["status"] != "refused")].sort_values(
+                "before_rms_kt", ascending=False
+            )
             show = poor["aircraft"].tolist()[:4]
             if show:
                 # the fit's own gates and heading frame (stored with the tables; defaults for older runs)
                 first = corr.iloc[0]
-                gates = GateSpec(**{k: float(first[f"gate_{k}"]) for k in ("max_roll_deg", "position_step_deg")
-                                    if f"gate_{k}" in corr.columns})
+                gates = GateSpec(
+                    **{
+                        k: float(first[f"gate_{k}"])
+                        for k in ("max_roll_deg", "position_step_deg")
+                        if f"gate_{k}" in corr.columns
+                    }
+                )
                 frames = corr["heading_frame"].dropna() if "heading_frame" in corr.columns else pd.Series(dtype=object)
                 frame = "heading_mag_deg" if len(frames) and frames.iloc[0] == "magnetic" else "heading_deg"
                 errs = heading_errors(fit_obs[fit_obs["aircraft"].astype(str).isin(show)], gates)
                 fig, axes = plt.subplots(1, len(show), figsize=(3.2 * len(show), 3.2), squeeze=False, sharey=True)
                 z = np.linspace(0, 360, 181)
-                for ax, ac in zip(axes[0], show):
+                for ax, ac in zip(axes[0], show, strict=False):
                     e = errs[(errs["aircraft"].astype(str) == ac) & (errs["gate"] == "used")]
                     ax.plot(e[frame], e["error_deg"], ".", ms=2, alpha=0.4)
                     r = corr.set_index("aircraft").loc[ac]
                     zr = np.radians(z)
-                    d = (r["A_deg"] + r["B_deg"] * np.sin(zr) + r["C_deg"] * np.cos(zr) + r["D_deg"] * np.sin(2 * zr)
-                         + r["E_deg"] * np.cos(2 * zr))
+                    d = (
+                        r["A_deg"]
+                        + r["B_deg"] * np.sin(zr)
+                        + r["C_deg"] * np.cos(zr)
+                        + r["D_deg"] * np.sin(2 * zr)
+                        + r["E_deg"] * np.cos(2 * zr)
+                    )
                     ax.plot(z, d, "r-", lw=2)
                     ax.set_title(f"{ac} ({r['status']})", fontsize=9)
                     ax.set_xlabel(f"measured {'magnetic' if frame == 'heading_mag_deg' else 'true'} heading (deg)")
@@ -368,8 +465,12 @@ class HeadingCorrection(Study):
                 axes[0][0].set_ylabel("heading error (deg)")
                 fig.suptitle("Heading error vs measured heading with the fit (wind paper Figs. 3/8)")
                 out_dir.save(fig, "heading_correction_fits")
-                figs.append(Figure("heading_correction_fits", "Fit-period heading errors of the poorest aircraft "
-                                   "with the fitted eq. 2 curve"))
+                figs.append(
+                    Figure(
+                        "heading_correction_fits",
+                        "Fit-period heading errors of the poorest aircraft with the fitted eq. 2 curve",
+                    )
+                )
         return figs
 
 
@@ -421,8 +522,15 @@ def trustworthy_by_day(scored: dict[str, pd.DataFrame], section: HeadingCorrecti
         for date, day in obs.groupby(obs["date"].astype(str), sort=True):
             per = wind_error_summary(wind_errors(day), by=["aircraft"])
             ok = int((per["rms_kt"] < section.trustworthy_rms_kt).sum())
-            rows.append({"date": date, "period": stage, "trustworthy": ok, "untrustworthy": int(len(per)) - ok,
-                         "threshold_kt": section.trustworthy_rms_kt})
+            rows.append(
+                {
+                    "date": date,
+                    "period": stage,
+                    "trustworthy": ok,
+                    "untrustworthy": int(len(per)) - ok,
+                    "threshold_kt": section.trustworthy_rms_kt,
+                }
+            )
     return pd.DataFrame(rows)
 
 
@@ -430,28 +538,56 @@ def altitude_figures(alt: pd.DataFrame, out_dir: Path) -> list[Figure]:
     """RMS and its components vs altitude: control vs poor before (Figs. 5/6), poor before
     vs after (Figs. 11/12), and the poor group by flight phase before and after adjusted
     (Figs. 13/14)."""
+
     def cell(g, p, phase="all"):
         return alt[(alt["group"] == g) & (alt["period"] == p) & (alt["phase"] == phase)]
 
     figs = []
-    components = (("rms_kt", "total", "tab:blue"), ("longitudinal_rms_kt", "longitudinal", "tab:pink"),
-                  ("transverse_rms_kt", "transverse", "tab:brown"))
-    panels = [(f"{g}, {p.replace('_', ' ')}", [(cell(g, p), col, label, color) for col, label, color in components])
-              for g, p in (("control", "before"), ("poor", "before"), ("poor", "after_adjusted")) if len(cell(g, p))]
+    components = (
+        ("rms_kt", "total", "tab:blue"),
+        ("longitudinal_rms_kt", "longitudinal", "tab:pink"),
+        ("transverse_rms_kt", "transverse", "tab:brown"),
+    )
+    panels = [
+        (f"{g}, {p.replace('_', ' ')}", [(cell(g, p), col, label, color) for col, label, color in components])
+        for g, p in (("control", "before"), ("poor", "before"), ("poor", "after_adjusted"))
+        if len(cell(g, p))
+    ]
     if panels:
-        figs.append(_altitude_panels(panels, out_dir, "heading_correction_rms_altitude", "RMS (kt)", 3.6,
-                                     "RMS wind difference vs altitude (wind paper Figs. 5/6 and 11/12)",
-                                     "Total, longitudinal and transverse RMS vs altitude: control and poor groups "
-                                     "before, poor group after (adjusted by the control's change)"))
+        figs.append(
+            _altitude_panels(
+                panels,
+                out_dir,
+                "heading_correction_rms_altitude",
+                "RMS (kt)",
+                3.6,
+                "RMS wind difference vs altitude (wind paper Figs. 5/6 and 11/12)",
+                "Total, longitudinal and transverse RMS vs altitude: control and poor groups "
+                "before, poor group after (adjusted by the control's change)",
+            )
+        )
     poor = alt[(alt["group"] == "poor") & (alt["phase"] != "all")]
-    panels = [(f"poor group, {p.replace('_', ' ')}",
-               [(t, "rms_kt", phase, None) for phase, t in poor[poor["period"] == p].groupby("phase", sort=True)])
-              for p in ("before", "after_adjusted") if (poor["period"] == p).any()]
+    panels = [
+        (
+            f"poor group, {p.replace('_', ' ')}",
+            [(t, "rms_kt", phase, None) for phase, t in poor[poor["period"] == p].groupby("phase", sort=True)],
+        )
+        for p in ("before", "after_adjusted")
+        if (poor["period"] == p).any()
+    ]
     if panels:
-        figs.append(_altitude_panels(panels, out_dir, "heading_correction_phase", "RMS vector difference (kt)", 4.0,
-                                     "By flight phase (wind paper Figs. 13/14)",
-                                     "Poor group's RMS vs altitude by flight phase, before and after (after adjusted "
-                                     "by the control group's change)"))
+        figs.append(
+            _altitude_panels(
+                panels,
+                out_dir,
+                "heading_correction_phase",
+                "RMS vector difference (kt)",
+                4.0,
+                "By flight phase (wind paper Figs. 13/14)",
+                "Poor group's RMS vs altitude by flight phase, before and after (after adjusted "
+                "by the control group's change)",
+            )
+        )
     return figs
 
 
@@ -459,9 +595,8 @@ def _altitude_panels(panels, out_dir: Path, stem: str, xlabel: str, width: float
     """One row of panels (title, [(rows, column, label, color)]) of RMS vs altitude-band middle."""
     import matplotlib.pyplot as plt
 
-
     fig, axes = plt.subplots(1, len(panels), figsize=(width * len(panels), 4), sharex=True, sharey=True, squeeze=False)
-    for ax, (name, lines) in zip(axes[0], panels):
+    for ax, (name, lines) in zip(axes[0], panels, strict=False):
         for t, col, label, color in lines:
             ax.plot(t[col], band_midpoints_ft(t["altitude_band"]), "o-", color=color, label=label)
         ax.set_title(name, fontsize=9)
@@ -525,7 +660,9 @@ def adjusted_table(cells: pd.DataFrame) -> pd.DataFrame:
         if ("poor", "after") in idx.index:
             adj = idx.loc[("poor", "after"), cols] - change
             extra.append({"group": "poor", "period": "after_adjusted", **adj.to_dict()})
-            extra.append({"group": "poor", "period": "improvement", **(idx.loc[("poor", "before"), cols] - adj).to_dict()})
+            extra.append(
+                {"group": "poor", "period": "improvement", **(idx.loc[("poor", "before"), cols] - adj).to_dict()}
+            )
     if ("poor", "after_untreated") in idx.index and ("poor", "after") in idx.index:
         effect = idx.loc[("poor", "after_untreated"), cols] - idx.loc[("poor", "after"), cols]
         extra.append({"group": "poor", "period": "table_effect", **effect.to_dict()})
@@ -541,9 +678,22 @@ def versus_paper(table: pd.DataFrame, paper: PaperTable) -> pd.DataFrame:
             published = getattr(c, col)
             if published is None:
                 continue
-            value = float(sim.loc[(c.group, c.period), col]) if sim is not None and (c.group, c.period) in sim.index else np.nan
-            rows.append({"group": c.group, "period": c.period, "component": label, "paper_kt": published,
-                         "simulated_kt": value, "difference_kt": value - published, "role": c.role})
+            value = (
+                float(sim.loc[(c.group, c.period), col])
+                if sim is not None and (c.group, c.period) in sim.index
+                else np.nan
+            )
+            rows.append(
+                {
+                    "group": c.group,
+                    "period": c.period,
+                    "component": label,
+                    "paper_kt": published,
+                    "simulated_kt": value,
+                    "difference_kt": value - published,
+                    "role": c.role,
+                }
+            )
     return pd.DataFrame(rows).assign(source=paper.source)
 
 
@@ -561,8 +711,15 @@ def residual_heading_error(rows: pd.DataFrame, group_of: pd.Series) -> pd.DataFr
         for name in ("poor", "control"):
             x = d[g == name]
             if len(x):
-                out.append({"group": name, "period": stage, "n": int(len(x)), "heading_error_rms_deg": float(np.sqrt(np.mean(x ** 2))),
-                            "heading_error_mean_deg": float(np.mean(x))})
+                out.append(
+                    {
+                        "group": name,
+                        "period": stage,
+                        "n": int(len(x)),
+                        "heading_error_rms_deg": float(np.sqrt(np.mean(x**2))),
+                        "heading_error_mean_deg": float(np.mean(x)),
+                    }
+                )
     return pd.DataFrame(out)
 
 

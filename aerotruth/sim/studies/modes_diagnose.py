@@ -53,14 +53,23 @@ def hidden_effect_outcome(params: dict, findings, baseline: dict) -> dict:
     out = dict(HIDDEN_EMPTY)
     for rank, f in enumerate(findings, 1):
         if f.effect == effect:
-            out.update(outcome=f"found (rank {rank})", value=f.parameters[name]["value"], se=f.parameters[name]["se"],
-                       delta_bic=f.evidence["delta_bic"], p_value=f.evidence["p_value"])
+            out.update(
+                outcome=f"found (rank {rank})",
+                value=f.parameters[name]["value"],
+                se=f.parameters[name]["se"],
+                delta_bic=f.evidence["delta_bic"],
+                p_value=f.evidence["p_value"],
+            )
             break
     else:
         tried = (baseline.get("rounds") or [{}])[-1].get(effect, {"outcome": "not tried"})
-        out.update(outcome=tried["outcome"], value=tried.get("values", {}).get(name, np.nan),
-                   se=tried.get("se", {}).get(name, np.nan), delta_bic=tried.get("delta_bic", np.nan),
-                   p_value=tried.get("p_value", np.nan))
+        out.update(
+            outcome=tried["outcome"],
+            value=tried.get("values", {}).get(name, np.nan),
+            se=tried.get("se", {}).get(name, np.nan),
+            delta_bic=tried.get("delta_bic", np.nan),
+            p_value=tried.get("p_value", np.nan),
+        )
     return {f"hidden_{k}": v for k, v in out.items()}
 
 
@@ -68,7 +77,9 @@ class ModesDiagnoseConfig(Section):
     """Flights and the effects hidden in their Mode-S data."""
 
     flights: FlightSelection
-    table_error_deg: float = Field(default=0.0, ge=-20, le=20, description="aircraft variation table minus true declination")
+    table_error_deg: float = Field(
+        default=0.0, ge=-20, le=20, description="aircraft variation table minus true declination"
+    )
     heading_lag_s: float = Field(default=0.0, ge=0, le=10, description="age of the heading samples")
 
 
@@ -83,8 +94,12 @@ class ModesDiagnose(Study):
         check_flights(campaign, refs, campaign.section(self.name).flights, prefix=("flights",))
 
     def expand(self, campaign: Campaign, section: ModesDiagnoseConfig) -> list[Task]:
-        return [day_task(self.name, fleet, day, table_error_deg=section.table_error_deg, heading_lag_s=section.heading_lag_s)
-                for fleet, day in aircraft_days(campaign, section.flights)]
+        return [
+            day_task(
+                self.name, fleet, day, table_error_deg=section.table_error_deg, heading_lag_s=section.heading_lag_s
+            )
+            for fleet, day in aircraft_days(campaign, section.flights)
+        ]
 
     def cost(self, task: Task) -> float:
         return day_cost(task.params["day"]) + 2.0
@@ -96,12 +111,28 @@ class ModesDiagnose(Study):
         from aerotruth.sim.modes_data import simulated_modes_day
 
         day, p = task.params["day"], task.params
-        base = {"aircraft": day.aircraft, "date": day.date.isoformat(), "samples": 0, "rank": 0, "effect": "", "value": np.nan,
-                "se": np.nan, "delta_bic": np.nan, "held_out_before_kt": np.nan, "held_out_after_kt": np.nan, "note": "",
-                **{f"hidden_{k}": v for k, v in HIDDEN_EMPTY.items()}}
+        base = {
+            "aircraft": day.aircraft,
+            "date": day.date.isoformat(),
+            "samples": 0,
+            "rank": 0,
+            "effect": "",
+            "value": np.nan,
+            "se": np.nan,
+            "delta_bic": np.nan,
+            "held_out_before_kt": np.nan,
+            "held_out_after_kt": np.nan,
+            "note": "",
+            **{f"hidden_{k}": v for k, v in HIDDEN_EMPTY.items()},
+        }
         try:
-            measured = simulated_modes_day(day, table_error_deg=p["table_error_deg"], heading_lag_s=p["heading_lag_s"],
-                                           rng=ctx.rng("sensor", "modes"), store=ctx.truth)
+            measured = simulated_modes_day(
+                day,
+                table_error_deg=p["table_error_deg"],
+                heading_lag_s=p["heading_lag_s"],
+                rng=ctx.rng("sensor", "modes"),
+                store=ctx.truth,
+            )
             frame, _ = track_from_measured(measured)
         except (DataError, ValueError) as e:
             return pd.DataFrame([{**base, "note": str(e)[:200]}])
@@ -110,15 +141,29 @@ class ModesDiagnose(Study):
         rows = []
         for i, f in enumerate(findings, 1):
             name, v = next(iter(f.parameters.items()))
-            rows.append({**base, "samples": len(frame), "rank": i, "effect": f.effect, "value": v["value"], "se": v["se"],
-                         "delta_bic": f.evidence["delta_bic"], "held_out_before_kt": f.gain["held_out_before"],
-                         "held_out_after_kt": f.gain["held_out_after"]})
+            rows.append(
+                {
+                    **base,
+                    "samples": len(frame),
+                    "rank": i,
+                    "effect": f.effect,
+                    "value": v["value"],
+                    "se": v["se"],
+                    "delta_bic": f.evidence["delta_bic"],
+                    "held_out_before_kt": f.gain["held_out_before"],
+                    "held_out_after_kt": f.gain["held_out_after"],
+                }
+            )
         return pd.DataFrame(rows or [{**base, "samples": len(frame), "note": "no finding"}])
 
     def summarize(self, rows: pd.DataFrame, learned, section: ModesDiagnoseConfig) -> Summary:
         days = rows.groupby("task_id", sort=True)
         n = int(days.ngroups)
-        hidden = [(k, v) for k, v in (("table_error_deg", section.table_error_deg), ("heading_lag_s", section.heading_lag_s)) if v]
+        hidden = [
+            (k, v)
+            for k, v in (("table_error_deg", section.table_error_deg), ("heading_lag_s", section.heading_lag_s))
+            if v
+        ]
         m: dict[str, Any] = {"days": n, "days_usable": int((days["samples"].max() > 0).sum())}
         firsts = rows[rows["rank"] == 1]
         if hidden:
@@ -133,27 +178,54 @@ class ModesDiagnose(Study):
             m["other_findings"] = int((rows["rank"] > 0).sum() - len(mine))
         else:
             m["false_findings"] = int((rows["rank"] > 0).sum())
-        table = rows[rows["rank"] > 0][["aircraft", "date", "rank", "effect", "value", "se", "delta_bic", "held_out_before_kt",
-                                         "held_out_after_kt"]].reset_index(drop=True)
+        table = rows[rows["rank"] > 0][
+            [
+                "aircraft",
+                "date",
+                "rank",
+                "effect",
+                "value",
+                "se",
+                "delta_bic",
+                "held_out_before_kt",
+                "held_out_after_kt",
+            ]
+        ].reset_index(drop=True)
         counts = pd.DataFrame({"days": [n], "usable": [m["days_usable"]], "findings": [int((rows["rank"] > 0).sum())]})
         tables = {"days_and_findings": counts, "findings": table}
         if hidden and "hidden_outcome" in rows.columns:
             # every day's account of the hidden effect: a day without it among the findings
             # says how far its test got (its estimate and evidence), not just "0 found"
-            per_day = days.first()[["aircraft", "date", "samples", "hidden_outcome", "hidden_value", "hidden_se",
-                                    "hidden_delta_bic", "hidden_p_value"]].reset_index(drop=True)
+            per_day = days.first()[
+                [
+                    "aircraft",
+                    "date",
+                    "samples",
+                    "hidden_outcome",
+                    "hidden_value",
+                    "hidden_se",
+                    "hidden_delta_bic",
+                    "hidden_p_value",
+                ]
+            ].reset_index(drop=True)
             tables["hidden_effect_by_day"] = per_day.rename(columns=lambda c: c.removeprefix("hidden_"))
         return Summary(m, tables)
 
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
 
-
         found = rows[rows["rank"] > 0]
         fig, ax = plt.subplots(figsize=(6, 3.5))
         if len(found):
             for i, (eff, g) in enumerate(found.groupby("effect", sort=True)):
-                ax.errorbar(g["value"], np.full(len(g), i) + np.linspace(-0.2, 0.2, len(g)), xerr=g["se"], fmt="o", ms=4, label=eff)
+                ax.errorbar(
+                    g["value"],
+                    np.full(len(g), i) + np.linspace(-0.2, 0.2, len(g)),
+                    xerr=g["se"],
+                    fmt="o",
+                    ms=4,
+                    label=eff,
+                )
             ax.set_yticks(range(found["effect"].nunique()), sorted(found["effect"].unique()))
         hidden = summary.metrics.get("hidden_effect")
         if hidden:
@@ -162,7 +234,9 @@ class ModesDiagnose(Study):
         ax.set_title(f"Findings on {summary.metrics['days']} simulated Mode-S days")
         ax.grid(alpha=0.3)
         out_dir.save(fig, "modes_diagnose_findings")
-        return [Figure("modes_diagnose_findings", "Effects diagnose finds in simulated Mode-S data, with the hidden size")]
+        return [
+            Figure("modes_diagnose_findings", "Effects diagnose finds in simulated Mode-S data, with the hidden size")
+        ]
 
 
 STUDY = ModesDiagnose()
@@ -184,7 +258,9 @@ def extended_campaign(campaign: Campaign, findings) -> Campaign | None:
         fleet = next((f for f in campaign.fleets if f.network is not None), None)
         if fleet is None or not campaign.periods:
             return None
-        section = ModesDiagnoseConfig(flights=FlightSelection(fleets=[fleet.name], periods=[campaign.periods[0].name], max_legs_per_day=4))
+        section = ModesDiagnoseConfig(
+            flights=FlightSelection(fleets=[fleet.name], periods=[campaign.periods[0].name], max_legs_per_day=4)
+        )
     studies = dict(campaign.studies)
     studies[STUDY.name] = section.model_copy(update=update)
     return campaign.model_copy(update={"studies": studies})

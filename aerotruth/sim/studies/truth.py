@@ -58,14 +58,25 @@ def leg_row(track) -> dict[str, float]:
         err = df["tas_mps"].to_numpy()[cruise] / KT - float(target)
         s["cruise_tas_error_mean_kt"] = float(np.mean(err))
         s["cruise_tas_error_rms_kt"] = float(np.sqrt(np.mean(err**2)))
-        s["cruise_wind_mean_kt"] = float(np.mean(np.hypot(df["wind_u_mps"].to_numpy()[cruise], df["wind_v_mps"].to_numpy()[cruise])) / KT)
+        s["cruise_wind_mean_kt"] = float(
+            np.mean(np.hypot(df["wind_u_mps"].to_numpy()[cruise], df["wind_v_mps"].to_numpy()[cruise])) / KT
+        )
     else:
         s["cruise_tas_error_mean_kt"] = s["cruise_tas_error_rms_kt"] = s["cruise_wind_mean_kt"] = float("nan")
     return s
 
 
-_NUMERIC = ("distance_nm", "duration_s", "cruise_tas_error_max_kt", "cruise_tas_error_mean_kt", "cruise_tas_error_rms_kt",
-            "cruise_xtrack_max_nm", "arrival_centreline_offset_nm", "wind_triangle_residual_max_kt", "cruise_wind_mean_kt")
+_NUMERIC = (
+    "distance_nm",
+    "duration_s",
+    "cruise_tas_error_max_kt",
+    "cruise_tas_error_mean_kt",
+    "cruise_tas_error_rms_kt",
+    "cruise_xtrack_max_nm",
+    "arrival_centreline_offset_nm",
+    "wind_triangle_residual_max_kt",
+    "cruise_wind_mean_kt",
+)
 
 
 class TruthFlights(Study):
@@ -91,19 +102,35 @@ class TruthFlights(Study):
         for k, out in enumerate(flown_legs(ctx, day)):
             leg, plan = out.leg, out.leg.plan
             row: dict[str, Any] = {
-                "fleet": ident["fleet"], "aircraft": ident["aircraft"], "date": ident["date"], "leg": k + 1,
-                "flight_id": plan.flight_id, "origin": plan.origin.icao, "destination": plan.destination.icao,
-                "departure_utc": plan.departure_utc.isoformat(timespec="seconds"), "departure_runway": plan.departure_runway.ident,
-                "arrival_runway": plan.arrival_runway.ident, "cruise_fl": plan.cruise_flight_level,
-                "great_circle_nm": plan.distance_m / NM, "seed": leg.flight_seed, "weather_seed": leg.weather_seed,
-                "day_seed": day.day_seed, "atmosphere_region": leg.region, "truth_key": out.key,
+                "fleet": ident["fleet"],
+                "aircraft": ident["aircraft"],
+                "date": ident["date"],
+                "leg": k + 1,
+                "flight_id": plan.flight_id,
+                "origin": plan.origin.icao,
+                "destination": plan.destination.icao,
+                "departure_utc": plan.departure_utc.isoformat(timespec="seconds"),
+                "departure_runway": plan.departure_runway.ident,
+                "arrival_runway": plan.arrival_runway.ident,
+                "cruise_fl": plan.cruise_flight_level,
+                "great_circle_nm": plan.distance_m / NM,
+                "seed": leg.flight_seed,
+                "weather_seed": leg.weather_seed,
+                "day_seed": day.day_seed,
+                "atmosphere_region": leg.region,
+                "truth_key": out.key,
                 "fly_command": "aerotruth fly " + " ".join(leg.replay_args(day.aircraft_type, day.turbulence)),
             }
             if out.diverged is not None:
                 e = out.diverged
                 row.update({c: float("nan") for c in _NUMERIC})
-                row.update({"diverged": True, "diverge_reason": e.reason,
-                            "diverge_time_s": float("nan") if e.time_s is None else float(e.time_s)})
+                row.update(
+                    {
+                        "diverged": True,
+                        "diverge_reason": e.reason,
+                        "diverge_time_s": float("nan") if e.time_s is None else float(e.time_s),
+                    }
+                )
             else:
                 s = leg_row(out.track)
                 row.update({c: float(s.get(c, float("nan"))) for c in _NUMERIC})
@@ -141,26 +168,52 @@ class TruthFlights(Study):
         return out
 
     def _tables(self, rows: pd.DataFrame, metrics: dict[str, Any]) -> dict[str, pd.DataFrame]:
-        summary = pd.DataFrame({
-            "leg metric": list(ACCEPTANCE),
-            "mean": [metrics.get(f"{m}.mean") for m in ACCEPTANCE],
-            "95 %": [metrics.get(f"{m}.p95") for m in ACCEPTANCE],
-            "max": [metrics.get(f"{m}.max") for m in ACCEPTANCE],
-            "limit": list(ACCEPTANCE.values()),
-            "fraction of legs within": [metrics.get(f"{m}.pass_fraction") for m in ACCEPTANCE],
-        })
-        counts = pd.DataFrame({
-            "aircraft-days": [metrics["aircraft_days"]], "legs": [metrics["legs"]], "flown": [metrics["legs_flown"]],
-            "diverged": [metrics["legs_diverged"]], "flight hours": [metrics["flown_hours"]],
-            "distance (nm)": [metrics["flown_distance_nm"]],
-        })
-        cols = ["flight_id", "origin", "destination", "departure_utc", "cruise_fl", "distance_nm", "duration_s",
-                "cruise_tas_error_max_kt", "cruise_xtrack_max_nm", "arrival_centreline_offset_nm",
-                "wind_triangle_residual_max_kt", "cruise_wind_mean_kt", "seed", "diverged"]
-        out = {"legs_flown": counts, "leg_metrics": summary, "legs": rows[cols].reset_index(drop=True) if len(rows) else pd.DataFrame(columns=cols)}
+        summary = pd.DataFrame(
+            {
+                "leg metric": list(ACCEPTANCE),
+                "mean": [metrics.get(f"{m}.mean") for m in ACCEPTANCE],
+                "95 %": [metrics.get(f"{m}.p95") for m in ACCEPTANCE],
+                "max": [metrics.get(f"{m}.max") for m in ACCEPTANCE],
+                "limit": list(ACCEPTANCE.values()),
+                "fraction of legs within": [metrics.get(f"{m}.pass_fraction") for m in ACCEPTANCE],
+            }
+        )
+        counts = pd.DataFrame(
+            {
+                "aircraft-days": [metrics["aircraft_days"]],
+                "legs": [metrics["legs"]],
+                "flown": [metrics["legs_flown"]],
+                "diverged": [metrics["legs_diverged"]],
+                "flight hours": [metrics["flown_hours"]],
+                "distance (nm)": [metrics["flown_distance_nm"]],
+            }
+        )
+        cols = [
+            "flight_id",
+            "origin",
+            "destination",
+            "departure_utc",
+            "cruise_fl",
+            "distance_nm",
+            "duration_s",
+            "cruise_tas_error_max_kt",
+            "cruise_xtrack_max_nm",
+            "arrival_centreline_offset_nm",
+            "wind_triangle_residual_max_kt",
+            "cruise_wind_mean_kt",
+            "seed",
+            "diverged",
+        ]
+        out = {
+            "legs_flown": counts,
+            "leg_metrics": summary,
+            "legs": rows[cols].reset_index(drop=True) if len(rows) else pd.DataFrame(columns=cols),
+        }
         div = rows[rows["diverged"].astype(bool)] if len(rows) else rows
         if len(div):
-            out["diverged_legs"] = div[["flight_id", "origin", "destination", "seed", "weather_seed", "diverge_time_s", "diverge_reason"]].reset_index(drop=True)
+            out["diverged_legs"] = div[
+                ["flight_id", "origin", "destination", "seed", "weather_seed", "diverge_time_s", "diverge_reason"]
+            ].reset_index(drop=True)
         return out
 
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
@@ -177,7 +230,7 @@ class TruthFlights(Study):
             "wind_triangle_residual_max_kt": "max |V_G - V_A - V_W| (kt)",
         }
         fig, axes = plt.subplots(2, 2, figsize=(8, 6))
-        for ax, (metric, limit) in zip(axes.ravel(), ACCEPTANCE.items()):
+        for ax, (metric, limit) in zip(axes.ravel(), ACCEPTANCE.items(), strict=False):
             x = flown[metric].to_numpy(dtype=float) if len(flown) else np.array([])
             x = np.sort(x[np.isfinite(x)])
             if len(x):  # empirical CDF: one step per leg
@@ -192,7 +245,12 @@ class TruthFlights(Study):
         fig.suptitle(f"Leg metrics of {len(flown)} flown legs ({summary.metrics['legs_diverged']} diverged)")
         fig.tight_layout()
         out_dir.save(fig, "truth_leg_metrics")
-        figs.append(Figure("truth_leg_metrics", "Cumulative distribution of the per-leg truth metrics, with the foundation acceptance limits"))
+        figs.append(
+            Figure(
+                "truth_leg_metrics",
+                "Cumulative distribution of the per-leg truth metrics, with the foundation acceptance limits",
+            )
+        )
 
         fig, ax = plt.subplots(figsize=(7, 5))
         for _, r in rows.iterrows():

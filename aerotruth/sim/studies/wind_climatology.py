@@ -96,10 +96,16 @@ class ReferenceClimatology(Section):
     them)."""
 
     source: str = Field(min_length=1, description="citation: who, what data, which years")
-    tolerance: float = Field(default=0.30, gt=0, lt=1, description="flag a truth mean off the source's by more than this fraction")
-    min_difference_kt: float = Field(default=5.0, ge=0, description="and by more than this: a relative test means nothing "
-                                     "for a near-zero mean, and ~5 kt is the sampling error of a two-month regional mean "
-                                     "(day-to-day sd ~20 kt over ~20 independent days)")
+    tolerance: float = Field(
+        default=0.30, gt=0, lt=1, description="flag a truth mean off the source's by more than this fraction"
+    )
+    min_difference_kt: float = Field(
+        default=5.0,
+        ge=0,
+        description="and by more than this: a relative test means nothing "
+        "for a near-zero mean, and ~5 kt is the sampling error of a two-month regional mean "
+        "(day-to-day sd ~20 kt over ~20 independent days)",
+    )
     cells: list[ReferenceCell] = Field(min_length=1)
 
 
@@ -109,10 +115,16 @@ class WindClimatologyConfig(Section):
 
     regions: list[RegionBox] = Field(min_length=1)
     periods: list[str] = Field(min_length=1)
-    reference: ReferenceClimatology | None = Field(default=None, description="a cited climatology shown beside the truth")
-    flight_levels: list[StrictInt] = Field(default=[50, 100, 150, 200, 250], min_length=1, description="hundreds of feet")
+    reference: ReferenceClimatology | None = Field(
+        default=None, description="a cited climatology shown beside the truth"
+    )
+    flight_levels: list[StrictInt] = Field(
+        default=[50, 100, 150, 200, 250], min_length=1, description="hundreds of feet"
+    )
     hours_utc: list[float] = Field(default=[0.0, 6.0, 12.0, 18.0], min_length=1)
-    points: StrictInt = Field(default=36, ge=1, le=1_000_000, description="random sample points per level and hour, uniform over the box area")
+    points: StrictInt = Field(
+        default=36, ge=1, le=1_000_000, description="random sample points per level and hour, uniform over the box area"
+    )
 
     @field_validator("flight_levels")
     @classmethod
@@ -133,7 +145,6 @@ class WindClimatologyConfig(Section):
         return v
 
 
-
 def region_box(region: RegionBox) -> tuple[float, float, float, float]:
     """(south, north, west, east) in degrees: the given box, or the network's airports
     widened by NETWORK_MARGIN_DEG."""
@@ -148,7 +159,9 @@ def region_box(region: RegionBox) -> tuple[float, float, float, float]:
     return (max(min(lats) - m, -90.0), min(max(lats) + m, 90.0), max(min(lons) - m, -180.0), min(max(lons) + m, 180.0))
 
 
-def sample_points(rng: np.random.Generator, box: tuple[float, float, float, float], n: int) -> tuple[np.ndarray, np.ndarray]:
+def sample_points(
+    rng: np.random.Generator, box: tuple[float, float, float, float], n: int
+) -> tuple[np.ndarray, np.ndarray]:
     """n points uniform over the area of a lat/lon box: sin(lat) and lon uniform."""
     s, nn, w, e = box
     lat = np.degrees(np.arcsin(rng.uniform(math.sin(math.radians(s)), math.sin(math.radians(nn)), n)))
@@ -185,16 +198,21 @@ class WindClimatology(Study):
             for i, c in enumerate(cfg.reference.cells):
                 for field, known in (("region", names), ("period", cfg.periods), ("flight_level", cfg.flight_levels)):
                     if getattr(c, field) not in known:
-                        raise refs.error(("reference", "cells", i, field),
-                                         f"expected one of the study's {field}s ({', '.join(map(str, known))}), "
-                                         f"got {refs.value(getattr(c, field))}")
+                        raise refs.error(
+                            ("reference", "cells", i, field),
+                            f"expected one of the study's {field}s ({', '.join(map(str, known))}), "
+                            f"got {refs.value(getattr(c, field))}",
+                        )
         if any(r.network is not None for r in cfg.regions):
             from aerotruth.truth.airports import networks
 
             known = networks()
             for i, r in enumerate(cfg.regions):
                 if r.network is not None and r.network not in known:
-                    raise refs.error(("regions", i, "network"), f"expected a route network ({', '.join(sorted(known))}), got {refs.value(r.network)}")
+                    raise refs.error(
+                        ("regions", i, "network"),
+                        f"expected a route network ({', '.join(sorted(known))}), got {refs.value(r.network)}",
+                    )
 
     def expand(self, campaign: Campaign, cfg: WindClimatologyConfig) -> list[Task]:
         days = campaign.days(cfg.periods)
@@ -204,15 +222,21 @@ class WindClimatology(Study):
         for region in cfg.regions:
             box = region_box(region)
             for day in days:
-                tasks.append(Task(self.name, (("region", region.name), ("date", day.isoformat())), params={
-                    "box": box,
-                    "atmosphere_region": atmosphere_region(region),
-                    "weather_seed": weather_seed(campaign.seed, day),
-                    "flight_levels": list(cfg.flight_levels),
-                    "hours_utc": list(cfg.hours_utc),
-                    "points": cfg.points,
-                    "periods": member[day],
-                }))
+                tasks.append(
+                    Task(
+                        self.name,
+                        (("region", region.name), ("date", day.isoformat())),
+                        params={
+                            "box": box,
+                            "atmosphere_region": atmosphere_region(region),
+                            "weather_seed": weather_seed(campaign.seed, day),
+                            "flight_levels": list(cfg.flight_levels),
+                            "hours_utc": list(cfg.hours_utc),
+                            "points": cfg.points,
+                            "periods": member[day],
+                        },
+                    )
+                )
         return tasks
 
     def cost(self, task: Task) -> float:
@@ -237,11 +261,25 @@ class WindClimatology(Study):
                 alt = msl_height_of_flight_level(atm, lat, lon, fl, t_s)
                 u, v, w = (np.asarray(c, dtype=float) for c in atm.wind(lat, lon, alt, t_s))
                 us, vs = (np.asarray(c, dtype=float) for c in atm.synoptic_wind(lat, lon, alt, t_s))
-                frames.append(pd.DataFrame({
-                    "region": str(ident["region"]), "date": day.isoformat(), "flight_level": int(fl), "hour_utc": float(hour),
-                    "lat_deg": lat, "lon_deg": lon, "alt_msl_m": alt, "u_mps": u, "v_mps": v, "w_mps": w,
-                    "u_synoptic_mps": us, "v_synoptic_mps": vs, "periods": PERIOD_SEP.join(p.get("periods", [])),
-                }))
+                frames.append(
+                    pd.DataFrame(
+                        {
+                            "region": str(ident["region"]),
+                            "date": day.isoformat(),
+                            "flight_level": int(fl),
+                            "hour_utc": float(hour),
+                            "lat_deg": lat,
+                            "lon_deg": lon,
+                            "alt_msl_m": alt,
+                            "u_mps": u,
+                            "v_mps": v,
+                            "w_mps": w,
+                            "u_synoptic_mps": us,
+                            "v_synoptic_mps": vs,
+                            "periods": PERIOD_SEP.join(p.get("periods", [])),
+                        }
+                    )
+                )
         return pd.concat(frames, ignore_index=True)
 
     def summarize(self, rows: pd.DataFrame, learned, section: WindClimatologyConfig) -> Summary:
@@ -283,23 +321,24 @@ class WindClimatology(Study):
 
     def _tables(self, metrics: dict[str, Any]) -> dict[str, pd.DataFrame]:
         levels = sorted({int(k[2:5]) for k in metrics if k.startswith("FL")})
-        table = pd.DataFrame({
-            "flight level": [f"FL{fl:03d}" for fl in levels],
-            "mean speed (kt)": [metrics[f"FL{fl:03d}.speed_mean_mps"] / KT for fl in levels],
-            "RMS speed (kt)": [metrics[f"FL{fl:03d}.speed_rms_mps"] / KT for fl in levels],
-            "median (kt)": [metrics[f"FL{fl:03d}.speed_p50_mps"] / KT for fl in levels],
-            "95 % (kt)": [metrics[f"FL{fl:03d}.speed_p95_mps"] / KT for fl in levels],
-            "max (kt)": [metrics[f"FL{fl:03d}.speed_max_mps"] / KT for fl in levels],
-            "mean u (m/s)": [metrics[f"FL{fl:03d}.u_mean_mps"] for fl in levels],
-            "mean v (m/s)": [metrics[f"FL{fl:03d}.v_mean_mps"] for fl in levels],
-            "RMS w (m/s)": [metrics[f"FL{fl:03d}.w_rms_mps"] for fl in levels],
-            "mesoscale vector RMS (m/s)": [metrics[f"FL{fl:03d}.mesoscale_vector_rms_mps"] for fl in levels],
-        })
+        table = pd.DataFrame(
+            {
+                "flight level": [f"FL{fl:03d}" for fl in levels],
+                "mean speed (kt)": [metrics[f"FL{fl:03d}.speed_mean_mps"] / KT for fl in levels],
+                "RMS speed (kt)": [metrics[f"FL{fl:03d}.speed_rms_mps"] / KT for fl in levels],
+                "median (kt)": [metrics[f"FL{fl:03d}.speed_p50_mps"] / KT for fl in levels],
+                "95 % (kt)": [metrics[f"FL{fl:03d}.speed_p95_mps"] / KT for fl in levels],
+                "max (kt)": [metrics[f"FL{fl:03d}.speed_max_mps"] / KT for fl in levels],
+                "mean u (m/s)": [metrics[f"FL{fl:03d}.u_mean_mps"] for fl in levels],
+                "mean v (m/s)": [metrics[f"FL{fl:03d}.v_mean_mps"] for fl in levels],
+                "RMS w (m/s)": [metrics[f"FL{fl:03d}.w_rms_mps"] for fl in levels],
+                "mesoscale vector RMS (m/s)": [metrics[f"FL{fl:03d}.mesoscale_vector_rms_mps"] for fl in levels],
+            }
+        )
         return {"wind_by_level": table}
 
     def figures(self, rows: pd.DataFrame, summary: Summary, learned, out_dir: Path) -> list[Figure]:
         import matplotlib.pyplot as plt
-
 
         figs = []
         fig, ax = plt.subplots(figsize=(5.5, 4.5))
@@ -314,7 +353,11 @@ class WindClimatology(Study):
         ax.grid(alpha=0.3)
         ax.set_title("Truth wind speed by flight level")
         out_dir.save(fig, "wind_speed_by_level")
-        figs.append(Figure("wind_speed_by_level", "Horizontal truth wind speed by flight level over all regions, days and hours"))
+        figs.append(
+            Figure(
+                "wind_speed_by_level", "Horizontal truth wind speed by flight level over all regions, days and hours"
+            )
+        )
 
         fig, ax = plt.subplots(figsize=(6.5, 4.5))
         for (region, fl), g in rows.groupby(["region", "flight_level"], sort=True):
@@ -337,17 +380,24 @@ class WindClimatology(Study):
             fig, axes = plt.subplots(1, len(stats), figsize=(5.2 * len(stats), 4.8), squeeze=False)
             tol = float(summary.metrics.get("reference_tolerance", 0.3))
             floor_kt = float(summary.metrics.get("reference_min_difference_kt", 0.0))
-            for ax, stat in zip(axes[0], stats):
+            for ax, stat in zip(axes[0], stats, strict=False):
                 g = vs[vs["statistic"] == stat]
                 top = 1.1 * float(np.nanmax(np.r_[g["source"], g["truth"]]))
                 x = np.linspace(0.0, top, 100)
                 band = np.maximum(tol * x, floor_kt * REFERENCE_STATISTICS[stat])
                 ax.fill_between(x, x - band, x + band, color="0.9", label=f"within {tol:.0%} or {floor_kt:g} kt")
                 ax.plot(x, x, "k-", lw=0.8)
-                for fl, marker in zip(sorted(g["flight_level"].unique()), "o^sDv"):
+                for fl, marker in zip(sorted(g["flight_level"].unique()), "o^sDv", strict=False):
                     h = g[g["flight_level"] == fl]
-                    ax.scatter(h["source"], h["truth"], marker=marker, label=fl,
-                               c=["tab:red" if o else "tab:green" for o in h["off"]], edgecolors="k", linewidths=0.4)
+                    ax.scatter(
+                        h["source"],
+                        h["truth"],
+                        marker=marker,
+                        label=fl,
+                        c=["tab:red" if o else "tab:green" for o in h["off"]],
+                        edgecolors="k",
+                        linewidths=0.4,
+                    )
                 ax.set_xlim(0, top)
                 ax.set_ylim(0, top)
                 ax.set_xlabel(f"source: {stat}")
@@ -356,8 +406,13 @@ class WindClimatology(Study):
                 ax.legend(fontsize="small", title="red: off")
             fig.suptitle(f"Truth atmosphere vs {str(vs['reference'].iloc[0]).split(':')[0]}", fontsize=9)
             out_dir.save(fig, "wind_versus_reference")
-            figs.append(Figure("wind_versus_reference", "Truth wind statistics against the cited climatology, per region, "
-                               "season and level (red: off by more than the tolerance)"))
+            figs.append(
+                Figure(
+                    "wind_versus_reference",
+                    "Truth wind statistics against the cited climatology, per region, "
+                    "season and level (red: off by more than the tolerance)",
+                )
+            )
         return figs
 
 
@@ -370,8 +425,20 @@ def wind_by_region(rows: pd.DataFrame) -> pd.DataFrame:
     """Speed statistics (m/s) per region, period and flight level: samples, mean, standard
     deviation (ddof 1), median, 95th percentile, mean u and v, first and last date. A day in
     several periods counts in each."""
-    cols = ["region", "period", "flight_level", "samples", "mean_mps", "sd_mps", "p50_mps", "p95_mps", "u_mean_mps",
-            "v_mean_mps", "first_date", "last_date"]
+    cols = [
+        "region",
+        "period",
+        "flight_level",
+        "samples",
+        "mean_mps",
+        "sd_mps",
+        "p50_mps",
+        "p95_mps",
+        "u_mean_mps",
+        "v_mean_mps",
+        "first_date",
+        "last_date",
+    ]
     if not len(rows) or "periods" not in rows.columns:
         return pd.DataFrame(columns=cols)
     df = rows[["region", "flight_level", "date", "u_mps", "v_mps", "periods"]].copy()
@@ -382,11 +449,22 @@ def wind_by_region(rows: pd.DataFrame) -> pd.DataFrame:
     out = []
     for (region, period, fl), g in df.groupby(["region", "period", "flight_level"], sort=True):
         sp = g["speed"].to_numpy()
-        out.append({"region": region, "period": period, "flight_level": int(fl), "samples": len(sp),
-                    "mean_mps": float(sp.mean()), "sd_mps": float(sp.std(ddof=1)) if len(sp) > 1 else math.nan,
-                    "p50_mps": float(np.percentile(sp, 50)), "p95_mps": float(np.percentile(sp, 95)),
-                    "u_mean_mps": float(g["u_mps"].mean()), "v_mean_mps": float(g["v_mps"].mean()),
-                    "first_date": str(g["date"].min()), "last_date": str(g["date"].max())})
+        out.append(
+            {
+                "region": region,
+                "period": period,
+                "flight_level": int(fl),
+                "samples": len(sp),
+                "mean_mps": float(sp.mean()),
+                "sd_mps": float(sp.std(ddof=1)) if len(sp) > 1 else math.nan,
+                "p50_mps": float(np.percentile(sp, 50)),
+                "p95_mps": float(np.percentile(sp, 95)),
+                "u_mean_mps": float(g["u_mps"].mean()),
+                "v_mean_mps": float(g["v_mps"].mean()),
+                "first_date": str(g["date"].min()),
+                "last_date": str(g["date"].max()),
+            }
+        )
     return pd.DataFrame(out, columns=cols)
 
 
@@ -395,15 +473,22 @@ def _region_table(by_region: pd.DataFrame) -> pd.DataFrame:
     from aerotruth.truth.isa import isa_pressure_pa
 
     b = by_region
-    return pd.DataFrame({
-        "region": b["region"], "period": b["period"],
-        "days": [f"{a} - {z}" for a, z in zip(b["first_date"], b["last_date"])],
-        "flight level": [f"FL{fl:03d}" for fl in b["flight_level"]],
-        "pressure (hPa)": [round(float(isa_pressure_pa(fl * 100.0 * FT)) / 100.0) for fl in b["flight_level"]],
-        "samples": b["samples"],
-        "mean speed (kt)": b["mean_mps"] / KT, "sd (kt)": b["sd_mps"] / KT, "median (kt)": b["p50_mps"] / KT,
-        "95 % (kt)": b["p95_mps"] / KT, "mean u (m/s)": b["u_mean_mps"], "mean v (m/s)": b["v_mean_mps"],
-    })
+    return pd.DataFrame(
+        {
+            "region": b["region"],
+            "period": b["period"],
+            "days": [f"{a} - {z}" for a, z in zip(b["first_date"], b["last_date"], strict=False)],
+            "flight level": [f"FL{fl:03d}" for fl in b["flight_level"]],
+            "pressure (hPa)": [round(float(isa_pressure_pa(fl * 100.0 * FT)) / 100.0) for fl in b["flight_level"]],
+            "samples": b["samples"],
+            "mean speed (kt)": b["mean_mps"] / KT,
+            "sd (kt)": b["sd_mps"] / KT,
+            "median (kt)": b["p50_mps"] / KT,
+            "95 % (kt)": b["p95_mps"] / KT,
+            "mean u (m/s)": b["u_mean_mps"],
+            "mean v (m/s)": b["v_mean_mps"],
+        }
+    )
 
 
 def versus_reference(by_region: pd.DataFrame, ref: ReferenceClimatology) -> pd.DataFrame:
@@ -418,7 +503,7 @@ def versus_reference(by_region: pd.DataFrame, ref: ReferenceClimatology) -> pd.D
     for c in ref.cells:
         key = (c.region, c.period, c.flight_level)
         t = idx.loc[key] if idx is not None and key in idx.index else None
-        get = (lambda col: float(t[col])) if t is not None else (lambda col: math.nan)
+        get = (lambda col, t=t: float(t[col])) if t is not None else (lambda col: math.nan)
         base = {"region": c.region, "period": c.period, "flight_level": f"FL{c.flight_level:03d}"}
         stats = []
         if c.mean_speed_kt is not None:
@@ -427,14 +512,32 @@ def versus_reference(by_region: pd.DataFrame, ref: ReferenceClimatology) -> pd.D
             stats.append(("speed sd (kt)", c.sd_speed_kt, get("sd_mps") / KT, False, {}))
         if c.mean_u_mps is not None:
             tu, tv = get("u_mean_mps"), get("v_mean_mps")
-            stats.append(("mean wind vector (m/s)", math.hypot(c.mean_u_mps, c.mean_v_mps), math.hypot(tu, tv), True,
-                          {"source_u_mps": c.mean_u_mps, "source_v_mps": c.mean_v_mps, "truth_u_mps": tu, "truth_v_mps": tv}))
+            stats.append(
+                (
+                    "mean wind vector (m/s)",
+                    math.hypot(c.mean_u_mps, c.mean_v_mps),
+                    math.hypot(tu, tv),
+                    True,
+                    {"source_u_mps": c.mean_u_mps, "source_v_mps": c.mean_v_mps, "truth_u_mps": tu, "truth_v_mps": tv},
+                )
+            )
         for name, src, tru, judged, extra in stats:
             ratio = tru / src if src > 0 else math.nan
             floor = ref.min_difference_kt * REFERENCE_STATISTICS[name]
-            rows.append({**base, "statistic": name, "source": src, "truth": tru, "ratio": ratio,
-                         "off": bool(judged and not (abs(tru - src) <= max(ref.tolerance * src, floor))),
-                         **{k: extra.get(k, math.nan) for k in ("source_u_mps", "source_v_mps", "truth_u_mps", "truth_v_mps")}})
+            rows.append(
+                {
+                    **base,
+                    "statistic": name,
+                    "source": src,
+                    "truth": tru,
+                    "ratio": ratio,
+                    "off": bool(judged and not (abs(tru - src) <= max(ref.tolerance * src, floor))),
+                    **{
+                        k: extra.get(k, math.nan)
+                        for k in ("source_u_mps", "source_v_mps", "truth_u_mps", "truth_v_mps")
+                    },
+                }
+            )
     return pd.DataFrame(rows).assign(reference=ref.source)
 
 
@@ -445,8 +548,9 @@ def _by_level(rows: pd.DataFrame):
     return [(int(fl), g) for fl, g in rows.groupby("flight_level", sort=True)]
 
 
-def msl_height_of_flight_level(atm, lat: np.ndarray, lon: np.ndarray, flight_level: int, t_s: np.ndarray,
-                               iterations: int = 4) -> np.ndarray:
+def msl_height_of_flight_level(
+    atm, lat: np.ndarray, lon: np.ndarray, flight_level: int, t_s: np.ndarray, iterations: int = 4
+) -> np.ndarray:
     """Geometric height above mean sea level (m) where the day's static pressure equals
     that of the flight level (pressure altitude FL x 100 ft). Newton-like iteration on the
     hypsometric relation: a layer of the ISA + dT column is T / T_ISA times as thick as
