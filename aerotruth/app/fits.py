@@ -12,37 +12,14 @@ the FITS per approach and writes into DIR:
   the WAAS epochs, angular errors and requirement verdicts from aerotruth.analysis.fits.ils_metrics)
   and requirement.png (cross-track and vertical errors against the 0.015/0.05 deg lines).
 
-Handling of the log (aerotruth.analysis.fits.approach_log): rows are grouped by `approach`
-(any order of approaches); within one approach time_s must increase strictly (unsorted or
-repeated times are an error, not
-re-sorted); a gap (a row step or a WAAS-epoch step over 1.5 times the typical one) is an
-error; WAAS columns are finite on WAAS epochs and NaN elsewhere (all three together); the
-INS on every row except event rows; a receiver flag on a row between WAAS epochs belongs
-to the next epoch; missing RA or TVPS near the threshold is an error (the bias cannot be
-fixed). Units are checked from the physics: an approach whose WAAS ground speed (median over
-its epochs) is outside 10-130 m/s is refused as not in metres (a log in km or feet), a
-radar-altimeter reading below -3 m as no height (a sign or a unit), and an approach whose
-WAAS height over the runway differs from the radar altimeter's (plus its lever arm) by more
-than 10 m in the median (RA in feet, or z not from the threshold). A log of 3 or more
+The log is checked against its contract first (aerotruth.analysis.fits.approach_log:
+rows, times, gaps, WAAS epochs, units from the physics, events), and a log of 3 or more
 approaches whose INS columns are not in the runway frame (an axis of the other sign, two
 swapped, the horizontal axes turned: aerotruth.analysis.fits.ins_frame, from the aircraft's
-motion beyond a drift) is
-refused naming the columns; fewer approaches are not checked (a single approach can
-mislead).
-
-Events (the contract): `event` is empty on ordinary rows; a pilot mark is a row of its
-own at its exact time with the code `thr` (threshold) or `end` (stop end), its other
-columns may be NaN. The first `thr` is the threshold crossing plus the pilot's delay;
-`end` marks are read but not used by the WAAS-aided FITS (the AFIS uses them). A numeric
-0/1 column is also read (1 = on the first row at or after the press; the half row is
-then taken off the time).
-
-Runway geometry (localizer and glide-path antennas for the angular errors) comes from a
-sidecar `<log>.runway.json` (or `<log stem>.runway.json`) or the Parquet metadata key
-`runway` (keys `length_m`, `loc_x_m`, `gp_x_m`, `gp_y_m`, `glide_path_deg`, `tch_m`,
-runway frame; one object for the whole log, or {"approaches": {id: object}} per
-approach); without either, a 3,000 m runway with a standard installation is assumed and
-said in the output.
+motion beyond a drift) is refused naming the columns; fewer approaches are not checked (a
+single approach can mislead). The runway geometry for the angular errors is read by
+aerotruth.measured.approach_log (a sidecar `<log>.runway.json` or the Parquet metadata key
+`runway`; without either, a standard installation on a 3,000 m runway, said in the output).
 """
 
 from __future__ import annotations

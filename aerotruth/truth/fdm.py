@@ -18,6 +18,7 @@ import jsbsim
 import numpy as np
 import pandas as pd
 
+from aerotruth.contracts import TRUTH_TRACK
 from aerotruth.truth.airframes import Airframe, quiet_jsbsim
 from aerotruth.truth.track import PHASES
 from aerotruth.truth.weather import ISA_LAPSE, Atmosphere
@@ -98,31 +99,7 @@ class Recorder:
         ("atmosphere/P-psf", PSF),
         ("atmosphere/T-R", RANKINE),
     )
-    COLUMNS = (
-        "time_s",
-        "lat_deg",
-        "lon_deg",
-        "h_ellipsoid_m",
-        "pressure_altitude_m",
-        "vn_mps",
-        "ve_mps",
-        "vd_mps",
-        "roll_rad",
-        "pitch_rad",
-        "heading_rad",
-        "tas_mps",
-        "cas_mps",
-        "alpha_rad",
-        "beta_rad",
-        "p_radps",
-        "q_radps",
-        "r_radps",
-        "wind_u_mps",
-        "wind_v_mps",
-        "wind_w_mps",
-        "static_pressure_pa",
-        "temperature_k",
-    )
+    COLUMNS = TRUTH_TRACK[:-2]  # the recorded columns; the leg and phase tags follow (aerotruth.contracts)
 
     def __init__(self, fdm: jsbsim.FGFDMExec):
         pm = fdm.get_property_manager()
