@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 import traffic_generator as gen
 
-from aerotruth.analysis.wind.consensus import observation_table, sample_winds
+from aerotruth.analysis.wind.consensus import observation_table, remove_fleet_mode, sample_winds
 from aerotruth.errors import DataError
 from aerotruth.measured.traffic import canonical_traffic
 
@@ -64,17 +64,34 @@ def test_the_wind_triangle_returns_the_generators_wind():
 
 
 @pytest.mark.slow
-def test_consensus_recovers_offsets_relative_to_the_fleet():
-    """36 aircraft at one flight level in a 200-km box over an hour, offsets uniform in +-3 deg:
-    the consensus's per-aircraft offsets, fleet mean removed, against the truth. Measured on
-    seeds 1-5: rms 0.076, 0.040, 0.069, 0.242, 0.053 deg (max 0.57 on seed 4, a poorly
-    connected aircraft): not yet the 0.2-deg maximum the traffic issue asks for."""
+def test_consensus_recovers_offsets_up_to_what_a_consensus_cannot_see():
+    """36 aircraft at one flight level in a 200-km box over an hour, offsets uniform in +-3 deg.
+    A consensus cannot see a constant plus a once-round sinusoid of heading across the aircraft
+    that share neighbourhoods (what a wind error common to them does): the truth with that
+    mode removed, per group, against the consensus's offsets. Measured on seeds 1-5: rms 0.036,
+    0.098, 0.048, 0.178, 0.038 deg (max 0.42 on seed 4); four flight levels (groups of ~9
+    aircraft): rms 0.15-0.24 deg. Not yet the traffic issue's 0.2-deg maximum."""
     rms = []
     for seed in (1, 2, 3, 4, 5):
         df, off = gen.make_traffic(36, seed=seed, levels_ft=(30000.0,))
-        obs = observation_table(canonical_traffic(df, "gen"))
-        est = obs.attrs["consensus_offsets_deg"]
-        truth = pd.Series(off)[est.index]
-        e = (est - est.mean()) - (truth - truth.mean())
+        a = observation_table(canonical_traffic(df, "gen")).attrs["consensus_aircraft"]
+        seen, group = a["seen"].to_numpy(), a["group"].to_numpy()
+        truth = pd.Series(off)[a.index].to_numpy()
+        for g in np.unique(group[seen]):
+            truth = remove_fleet_mode(truth, a["mean_heading_deg"].to_numpy(), seen & (group == g))
+        e = (a["offset_deg"].to_numpy() - truth)[seen]
         rms.append(float(np.sqrt(np.mean(e**2))))
-    assert np.mean(rms) < 0.15 and max(rms) < 0.3
+    assert np.mean(rms) < 0.12 and max(rms) < 0.2
+
+
+def test_the_unseen_fleet_mode_is_a_constant_and_a_once_round_sinusoid():
+    """Hand-worked: offsets made of 0.5 + 1.0 sin(psi) - 0.3 cos(psi) vanish; one aircraft's
+    extra 1 deg is kept, less its projection on the mode."""
+    psi = np.array([0.0, 60.0, 135.0, 200.0, 290.0])
+    mode = 0.5 + np.sin(np.radians(psi)) - 0.3 * np.cos(np.radians(psi))
+    seen = np.ones(5, bool)
+    assert np.allclose(remove_fleet_mode(mode, psi, seen), 0.0, atol=1e-12)
+    bump = np.array([1.0, 0, 0, 0, 0])
+    x = np.column_stack([np.ones(5), np.sin(np.radians(psi)), np.cos(np.radians(psi))])
+    expected = bump - x @ np.linalg.lstsq(x, bump, rcond=None)[0]
+    assert np.allclose(remove_fleet_mode(mode + bump, psi, seen), expected, atol=1e-12)

@@ -24,6 +24,8 @@ import datetime as dt
 
 import numpy as np
 import pandas as pd
+from scipy.sparse import coo_matrix
+from scipy.sparse.csgraph import connected_components
 from scipy.spatial import cKDTree
 
 from aerotruth.sensors.magnetics import GeomagneticField
@@ -82,6 +84,29 @@ def sample_winds(traffic: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame({"declination_deg": dec, "heading_deg": hdg, "tas_h_kt": tas_h, "wind_u_kt": u, "wind_v_kt": v})
 
 
+def fleet_headings(codes: np.ndarray, heading_deg: np.ndarray, m: int) -> np.ndarray:
+    """Each aircraft's mean heading (deg, circular mean of its samples)."""
+    s = np.bincount(codes, weights=np.sin(heading_deg * DEG), minlength=m)
+    c = np.bincount(codes, weights=np.cos(heading_deg * DEG), minlength=m)
+    return np.degrees(np.arctan2(s, c))
+
+
+def remove_fleet_mode(offsets: np.ndarray, mean_heading_deg: np.ndarray, seen: np.ndarray) -> np.ndarray:
+    """Offsets without the part a consensus cannot see: a constant and a once-round
+    sinusoid of heading across the fleet, a + b sin(psi) + c cos(psi), is what a wind error
+    common to the neighbourhood does to every aircraft's heading error (a wind error e turns
+    the air vector of an aircraft heading psi by e x psi / TAS). Least squares over the
+    aircraft in `seen` (at least 4 headings, else the mean only)."""
+    out = offsets.copy()
+    if not seen.any():
+        return out
+    h = mean_heading_deg[seen] * DEG
+    x = np.column_stack([np.ones(h.size), np.sin(h), np.cos(h)]) if h.size >= 4 else np.ones((h.size, 1))
+    coef, *_ = np.linalg.lstsq(x, offsets[seen], rcond=None)
+    out[seen] = offsets[seen] - x @ coef
+    return out
+
+
 def consensus_wind(
     traffic: pd.DataFrame,
     winds: pd.DataFrame,
@@ -91,13 +116,16 @@ def consensus_wind(
     min_aircraft: int = CONSENSUS_MIN_AIRCRAFT,
     pool_step_s: float = POOL_STEP_S,
     iterations: int = CONSENSUS_ITERATIONS,
-) -> tuple[np.ndarray, np.ndarray, np.ndarray, pd.Series]:
-    """(u, v, n_aircraft, offsets_deg) of the consensus reference at every sample (module
-    docstring). `winds`: sample_winds of `traffic`. Each aircraft's heading offset is
-    estimated against the others (the median of its samples' heading errors, the fleet's
-    mean held at zero) and its air vector turned back by it before its winds enter the
-    others' reference, `iterations` times: a neighbour's 2-deg offset at 400 kt is a 14-kt
-    error in the plain mean. NaN where fewer than `min_aircraft` other aircraft are near."""
+) -> tuple[np.ndarray, np.ndarray, np.ndarray, pd.DataFrame]:
+    """(u, v, n_aircraft, per-aircraft table) of the consensus reference at every sample
+    (module docstring); the table: offset_deg, group (aircraft linked through shared
+    neighbourhoods), mean_heading_deg, seen (has a reference anywhere). `winds`:
+    sample_winds of `traffic`. Each aircraft's heading offset is estimated against the
+    others (the median of its samples' heading errors, without the fleet mode a consensus
+    cannot see: remove_fleet_mode) and its air vector turned back by it before its winds
+    enter the others' reference, `iterations` times: a neighbour's 2-deg offset at 400 kt is
+    a 14-kt error in the plain mean. NaN where fewer than `min_aircraft` other aircraft are
+    near."""
     lat, lon = traffic["lat"].to_numpy(float), traffic["lon"].to_numpy(float)
     lat0, lon0 = float(np.median(lat)), float(np.median(lon))
     x = EARTH_RADIUS_M / 1000.0 * np.cos(lat0 * DEG) * ((lon - lon0 + 180.0) % 360.0 - 180.0) * DEG
@@ -122,6 +150,12 @@ def consensus_wind(
     tas, hdg = winds["tas_h_kt"].to_numpy(float), winds["heading_deg"].to_numpy(float)
     offsets = np.zeros(m)
     u = v = np.full(len(pts), np.nan)
+    seen = np.isin(np.arange(m), codes[ok])
+    mean_heading = fleet_headings(codes, hdg, m)
+    # aircraft that share neighbourhoods, directly or through others: each group has its own
+    # unseen mode (groups at flight levels farther apart than the layer never meet)
+    link = coo_matrix((np.ones(owner.size), (codes[owner], codes[flat])), shape=(m, m))
+    _, group = connected_components(link, directed=False)
     for _ in range(max(iterations, 1)):
         h = (hdg - offsets[codes]) * DEG  # each aircraft's heading with its own offset taken out
         wu, wv = ge - tas * np.sin(h), gn - tas * np.cos(h)
@@ -131,8 +165,13 @@ def consensus_wind(
         d = (np.degrees(np.arctan2(ge - u, gn - v)) - np.degrees(h) + 180.0) % 360.0 - 180.0  # heading error
         step = pd.Series(d[ok]).groupby(codes[ok]).median().reindex(range(m)).fillna(0.0).to_numpy()
         offsets = offsets - step
-        offsets -= offsets[np.isin(np.arange(m), codes[ok])].mean() if ok.any() else 0.0
-    return u, v, n_ac, pd.Series(offsets, index=names, name="offset_deg")
+        for g in np.unique(group[seen]):
+            offsets = remove_fleet_mode(offsets, mean_heading, seen & (group == g))
+    est = pd.DataFrame(
+        {"offset_deg": offsets, "group": group, "mean_heading_deg": mean_heading, "seen": seen},
+        index=pd.Index(names, name="aircraft"),
+    )
+    return u, v, n_ac, est
 
 
 def _speed_dir(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -174,5 +213,5 @@ def observation_table(traffic: pd.DataFrame, **consensus) -> pd.DataFrame:
     out = obs[keep].reset_index(drop=True)
     out.attrs["samples"] = int(len(obs))
     out.attrs["without_reference"] = int((~keep).sum())
-    out.attrs["consensus_offsets_deg"] = offsets
+    out.attrs["consensus_aircraft"] = offsets
     return out
