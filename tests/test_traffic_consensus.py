@@ -95,3 +95,48 @@ def test_the_unseen_fleet_mode_is_a_constant_and_a_once_round_sinusoid():
     x = np.column_stack([np.ones(5), np.sin(np.radians(psi)), np.cos(np.radians(psi))])
     expected = bump - x @ np.linalg.lstsq(x, bump, rcond=None)[0]
     assert np.allclose(remove_fleet_mode(mode + bump, psi, seen), expected, atol=1e-12)
+
+
+@pytest.mark.slow
+def test_the_reports_command_writes_an_observation_table_the_wind_method_reads(tmp_path, capsys):
+    """`aerotruth reports` as typed: a state table in traffic's names to the observation-table
+    contract (validated by the wind method's own reader), the reference from the consensus."""
+    from aerotruth.app.cli import main
+    from aerotruth.contracts import OBSERVATION_REQUIRED
+    from aerotruth.measured.observations import read_observation_table
+
+    df, _ = gen.make_traffic(8, seed=5, minutes=30, levels_ft=(30000.0,))
+    df.to_csv(tmp_path / "hour.csv", index=False)
+    assert (
+        main(["reports", str(tmp_path / "hour.csv"), "--reference", "consensus", "--out", str(tmp_path / "o.parquet")])
+        == 0
+    )
+    said = capsys.readouterr().out
+    assert "reports of 8 aircraft" in said and "consensus group" in said
+    obs = read_observation_table(tmp_path / "o.parquet")
+    assert set(OBSERVATION_REQUIRED) - {"time"} <= set(obs.columns) and (obs["ref_source"] == "consensus").all()
+    gu, gv = gen.wind_kt(obs["lat"].to_numpy(), obs["lon"].to_numpy(), obs["pressure_altitude_ft"].to_numpy())
+    # the reference is the other aircraft's wind, their offsets taken out: the truth within a few kt
+    ru = -obs["ref_wind_speed_kt"] * np.sin(np.radians(obs["ref_wind_dir_deg"]))
+    rv = -obs["ref_wind_speed_kt"] * np.cos(np.radians(obs["ref_wind_dir_deg"]))
+    assert np.sqrt(np.mean((ru - gu) ** 2 + (rv - gv) ** 2)) < 5.0
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--out", "o.txt"], "--out: .*expected a .parquet, .csv or .csv.gz file name"),
+        (["--reference", "model", "--out", "o.parquet"], "--reference: expected one of consensus, got 'model'"),
+    ],
+)
+def test_the_reports_command_refuses_in_one_line(tmp_path, capsys, args, message):
+    import re
+
+    from aerotruth.app.cli import main
+
+    df, _ = gen.make_traffic(2, seed=1, minutes=25, levels_ft=(30000.0,))
+    df.to_csv(tmp_path / "hour.csv", index=False)
+    argv = ["reports", str(tmp_path / "hour.csv")] + [str(tmp_path / a) if a.startswith("o.") else a for a in args]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and re.search(message, err)

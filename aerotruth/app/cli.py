@@ -88,6 +88,13 @@ def _pass_height_ft(text: str) -> float:
     return value
 
 
+def _positive_float(text: str) -> float:
+    value = _non_negative_float(text)
+    if value <= 0:
+        raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
+    return value
+
+
 def _positive_int(text: str) -> int:
     value = _non_negative_int(text)
     if value < 1:
@@ -236,6 +243,12 @@ def _cmd_fits(args: argparse.Namespace) -> int:
         return fits_main(args.log, args.out, spec)
     except ValueError as e:  # DataError and other bad-input errors: one line
         raise UserError(str(e)) from None
+
+
+def _cmd_reports(args: argparse.Namespace) -> int:
+    from aerotruth.app.reports import reports_main
+
+    return reports_main(args.traffic, args.out, args.reference, args.radius_km, args.layer_ft, args.window_s)
 
 
 def _cmd_heading_fit(args: argparse.Namespace) -> int:
@@ -500,6 +513,28 @@ def build_parser() -> argparse.ArgumentParser:
         "finds as waas_latency); each epoch is put at its time minus this",
     )
     fits.set_defaults(func=_cmd_fits)
+
+    traffic = sub.add_parser(
+        "reports",
+        help="multi-aircraft Mode-S traffic (a decoded state table) -> an observation table with a consensus reference",
+        description="Reads a decoded Mode-S / ADS-B state table of any number of aircraft (CSV, .csv.gz or Parquet; "
+        "the traffic library's column names, or OpenSky's, matched case-insensitively), computes each sample's wind "
+        "(ADS-B ground speed and track minus the BDS 5,0 TAS, horizontal, along the BDS 6,0 heading made true with "
+        "the IGRF declination) and its reference: the consensus of the other aircraft within --radius-km, --layer-ft "
+        "and --window-s, each with its own heading offset taken out. Writes the observation table that heading fit, "
+        "heading apply and diagnose read (docs/data-formats.md).",
+    )
+    traffic.add_argument("traffic", help="decoded state table (CSV, .csv.gz or Parquet)")
+    traffic.add_argument("--reference", default="consensus", help="the reference winds: consensus (the other aircraft)")
+    traffic.add_argument("--out", required=True, help="observation table to write (.parquet, .csv or .csv.gz)")
+    traffic.add_argument("--radius-km", type=_positive_float, default=50.0, help="consensus radius (km, default 50)")
+    traffic.add_argument(
+        "--layer-ft", type=_positive_float, default=1000.0, help="consensus half-layer (ft, default 1000)"
+    )
+    traffic.add_argument(
+        "--window-s", type=_positive_float, default=900.0, help="consensus half-window (s, default 900)"
+    )
+    traffic.set_defaults(func=_cmd_reports)
 
     heading = sub.add_parser(
         "heading",
