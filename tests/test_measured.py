@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import gzip
 import json
+import re
 
 import pandas as pd
 import pytest
@@ -229,3 +230,20 @@ def test_the_real_data_folder_is_the_one_beside_the_checkout(monkeypatch):
     assert real_data_dir() == repo.parent / "shared" / "real-data"
     monkeypatch.setenv("AEROTRUTH_REAL_DATA", "/somewhere/else")
     assert real_data_dir() == Path("/somewhere/else")
+
+
+@needs_real
+@pytest.mark.parametrize(
+    "name, lacks",
+    [
+        ("fuelflow_a320.json.gz", "it lacks position (latitude, longitude), true airspeed (TAS; it has CAS"),
+        ("calibration/brussels_ils.json.gz", "it lacks true airspeed (TAS), heading (or track and drift)"),
+    ],
+)
+def test_a_real_file_diagnose_cannot_test_is_refused_naming_what_it_lacks(name, lacks):
+    """The A320 recorder extract has CAS and heading (track - drift): what it lacks for the
+    Mode-S wind test is position and TAS; an ADS-B calibration track lacks TAS and heading."""
+    from aerotruth.measured.modes import track_from_measured
+
+    with pytest.raises(DataError, match=re.escape(lacks)):
+        track_from_measured(load_measured(REAL / name))

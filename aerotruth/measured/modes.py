@@ -28,6 +28,24 @@ def _on_grid(x: np.ndarray, lsb: float) -> np.ndarray:
     return (r < 1e-3) | (r > 1 - 1e-3)
 
 
+def lacking(df: pd.DataFrame) -> str:
+    """What a flight's table lacks for the Mode-S wind test (position, true airspeed, heading),
+    and what it carries instead: one clause for the refusal."""
+    cols = {str(c).lower() for c in df.columns}
+    missing = []
+    if not {"latitude", "longitude"} <= cols:
+        missing.append("position (latitude, longitude)")
+    if "tas" not in cols:
+        missing.append(
+            "true airspeed (TAS" + ("; it has CAS, but no air temperature to convert it" if "cas" in cols else "") + ")"
+        )
+    if "heading" not in cols and not {"track", "drift"} <= cols:
+        missing.append("heading (or track and drift)")
+    if not missing:
+        return "its fields are not those of a Mode-S trajectory"
+    return f"it lacks {', '.join(missing)}; Mode-S data, observation tables and approach logs are supported"
+
+
 def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple[pd.DataFrame, dict]:
     """The Mode-S wind frame of a measured flight and what was excluded (with the reason);
     `max_roll_deg` applies the wind paper's roll filter where the data carry roll."""
@@ -41,10 +59,7 @@ def track_from_measured(m: Measured, max_roll_deg: float | None = None) -> tuple
         what = {"adsb_track": "an ADS-B track", "qar": "a flight-data-recorder extract"}.get(
             m.kind, f"a {m.kind.replace('_', ' ')}"
         )
-        raise DataError(
-            f"{m.path}: diagnose of {what} is not possible: it carries no heading and "
-            "airspeed to test; Mode-S data, observation tables and approach logs are supported"
-        )
+        raise DataError(f"{m.path}: diagnose of {what} is not possible: {lacking(m.df)}")
     if len(d) < 200:  # before the exclusions, which need samples to work on
         raise DataError(
             f"{m.path}: only {len(d)} samples carry heading, TAS, track, ground speed and position "
