@@ -76,6 +76,9 @@ def test_an_aircraft_without_a_table_is_left_as_reported(periods, tmp_path):
     assert scores.loc["N402XJ", "rms_after_kt"] == pytest.approx(scores.loc["N402XJ", "rms_before_kt"])
     rows = pd.read_csv(tmp_path / "out" / "corrected.csv")
     assert not rows.loc[rows["aircraft"] == "N402XJ", "corrected"].any()
+    # the fleet's row is over the aircraft with a table: N401XJ's reports alone
+    assert scores.loc["all", "n_scored"] == scores.loc["N401XJ", "n_scored"]
+    assert scores.loc["all", "rms_after_kt"] == pytest.approx(scores.loc["N401XJ", "rms_after_kt"])
 
 
 def test_magnetic_tables_need_a_magnetic_heading_and_bad_tables_are_one_line(periods, tmp_path, capsys):
@@ -168,8 +171,8 @@ def test_fit_and_apply_say_what_they_wrote_in_one_line(periods, tmp_path, capsys
     )
     every = pd.read_csv(tmp_path / "a" / "apply.csv").set_index("aircraft").loc["all"]
     assert capsys.readouterr().out.strip() == (
-        f"{d / 'later.csv'}: 2 aircraft, {int(every['n_scored'])} scored (report, reference) rows; wind RMS "
-        f"{every['rms_before_kt']:.2f} -> {every['rms_after_kt']:.2f} kt "
+        f"{d / 'later.csv'}: 2 aircraft, {int(every['n_scored'])} scored (report, reference) rows of aircraft with a "
+        f"table; wind RMS {every['rms_before_kt']:.2f} -> {every['rms_after_kt']:.2f} kt "
         f"with the tables of {tmp_path / 'f' / 'deviation.csv'} "
         f"-> {tmp_path / 'a' / 'apply.csv'}"
     )

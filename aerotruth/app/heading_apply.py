@@ -25,7 +25,7 @@ Writes
       and reference, rows with an empty required cell left out), then `gate`,
       `corrected`, `table_heading_deg` (the measured heading the table was read at, in its
       frame), `correction_deg`, `wind_speed_kt_corrected`, `wind_dir_deg_corrected`;
-  DIR/apply.csv: per aircraft (then `all`) the reports scored and the wind error against
+  DIR/apply.csv: per aircraft (then `all`: the aircraft with a table) the reports scored and the wind error against
       the references before and after (RMS, longitudinal, transverse, kt; wind paper
       section 6), the table's status and validity dates, and `in_sample` where the reports'
       dates overlap the dates the table was fitted on (an in-sample score flatters it);
@@ -111,10 +111,14 @@ def heading_apply_main(obs_path: str, tables_path: str, out_dir: str) -> int:
     atomic_write_text(
         out / "report.md", _report(str(obs_path), str(tables_path), table_frame(fleet), scores, corrected)
     )
-    every = scores.iloc[-1]  # the fleet's row
+    every = scores.iloc[-1]  # the fleet's row: the aircraft with a table
+    gain = (
+        f"wind RMS {every['rms_before_kt']:.2f} -> {every['rms_after_kt']:.2f} kt"
+        if every["n_scored"]
+        else "no aircraft has a fitted or offset table (every table refused: see apply.csv), nothing corrected"
+    )
     print(
-        f"{obs_path}: {len(scores) - 1} aircraft, {int(every['n_scored'])} scored (report, reference) rows; wind RMS "
-        f"{every['rms_before_kt']:.2f} -> {every['rms_after_kt']:.2f} kt with the tables of {tables_path} "
-        f"-> {out / 'apply.csv'}"
+        f"{obs_path}: {len(scores) - 1} aircraft, {int(every['n_scored'])} scored (report, reference) rows of "
+        f"aircraft with a table; {gain} with the tables of {tables_path} -> {out / 'apply.csv'}"
     )
     return 0

@@ -96,7 +96,9 @@ def heading_apply(
     scored = rows[["heading_deg", "dw_e", "dw_n"]].assign(va_e=va_e, va_n=va_n)
     scores = []
     # per aircraft, then the fleet's row "all" (always the last: an aircraft may be named "all")
-    groups = [(str(a), used & (names == a), False) for a in pd.unique(names)] + [("all", used, True)]
+    # over the aircraft with a table: the others' reports are not corrected and would only
+    # dilute the gain the tables make
+    groups = [(str(a), used & (names == a), False) for a in pd.unique(names)] + [("all", used & has_table, True)]
     for name, sel, whole_fleet in groups:
         fit = None if whole_fleet else fleet.fits_.get(name)
         b, a = wind_errors_before_after(scored[sel], corr[sel])
