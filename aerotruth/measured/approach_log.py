@@ -23,7 +23,7 @@ from aerotruth.analysis.fits.approach_log import (
     event_codes,
 )
 from aerotruth.errors import DataError
-from aerotruth.measured.tables import read_csv_table
+from aerotruth.measured.tables import numeric_column, read_csv_table
 
 
 def runway_geometry(path: Path) -> tuple[dict, str]:
@@ -98,14 +98,7 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
     df["event"] = event_codes(df["event"], str(p))
     for c in NUMERIC + OPTIONAL_NUMERIC:
         if c != "event" and c in df.columns:
-            num = pd.to_numeric(df[c], errors="coerce")
-            bad = num.isna() & df[c].notna()
-            if bad.any():
-                raise DataError(
-                    f"{p}: column {c!r} data row {int(np.flatnonzero(bad)[0]) + 1}: "
-                    f"expected a number, got {df[c][bad].iloc[0]!r}"
-                )
-            df[c] = num.astype(float)
+            df[c] = numeric_column(df, c, str(p))
     if df["time_s"].isna().any():
         raise DataError(
             f"{p}: column 'time_s' data row {int(np.flatnonzero(df['time_s'].isna())[0]) + 1}: missing time"

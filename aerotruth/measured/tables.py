@@ -23,7 +23,10 @@ import io
 import re
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
+
+from aerotruth.errors import DataError
 
 TEXT_COLUMNS = ("aircraft", "flight", "ref_source", "heading_input", "phase", "fleet", "stage")
 SEPARATORS = (",", ";", "\t")
@@ -51,6 +54,19 @@ def read_csv_table(source: str | Path | bytes) -> pd.DataFrame:
     dtype = {c: str for c in TEXT_COLUMNS if c in columns}
     df = pd.read_csv(_readable(source), sep=sep, dtype=dtype, low_memory=False, compression=compression)
     return df if sep == "," else _decimal_commas(df)
+
+
+def numeric_column(df: pd.DataFrame, col: str, where: str) -> pd.Series:
+    """Column `col` as float64, empty cells NaN; DataError naming `where`, the column and the
+    first data row (1-based) whose text is not a number."""
+    num = pd.to_numeric(df[col], errors="coerce")
+    bad = num.isna() & df[col].notna()
+    if bad.any():
+        raise DataError(
+            f"{where}: column {col!r} data row {int(np.flatnonzero(bad)[0]) + 1}: "
+            f"expected a number, got {df[col][bad].iloc[0]!r}"
+        )
+    return num.astype(float)
 
 
 def read_parquet_table(path: str | Path) -> pd.DataFrame:

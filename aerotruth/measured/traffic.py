@@ -27,7 +27,7 @@ import pandas as pd
 
 from aerotruth.errors import DataError
 from aerotruth.measured.observations import table_kind
-from aerotruth.measured.tables import read_csv_table, read_parquet_table
+from aerotruth.measured.tables import numeric_column, read_csv_table, read_parquet_table
 from aerotruth.units import FT, KT
 
 # canonical name -> [(source column name, factor to the canonical unit), ...] in order of
@@ -98,14 +98,7 @@ def canonical_traffic(df: pd.DataFrame, source: str) -> pd.DataFrame:
         if name not in out:
             continue
         col, factor = out[name]
-        num = pd.to_numeric(df[col], errors="coerce")
-        bad = num.isna() & df[col].notna()
-        if bad.any():
-            raise DataError(
-                f"{source}: column {col!r} data row {int(np.flatnonzero(bad)[0]) + 1}: expected a number, "
-                f"got {df[col][bad].iloc[0]!r}"
-            )
-        frame[name] = num.to_numpy(dtype=float) * factor
+        frame[name] = numeric_column(df, col, source).to_numpy() * factor
     need = ["time_s", *REQUIRED[2:]]
     keep = np.isfinite(frame[need].to_numpy(dtype=float)).all(axis=1) & (frame["aircraft"] != "")
     frame = frame[keep].sort_values(["aircraft", "time_s"], kind="stable").reset_index(drop=True)
