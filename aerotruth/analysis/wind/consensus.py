@@ -35,7 +35,7 @@ CONSENSUS_RADIUS_KM = 50.0  # a mesoscale wind changes by ~1 m/s over this (Nast
 CONSENSUS_LAYER_FT = 1000.0  # shear of a few kt per 1,000 ft
 CONSENSUS_WINDOW_S = 900.0
 CONSENSUS_MIN_AIRCRAFT = 2
-POOL_STEP_S = 10.0  # other aircraft's samples taken every 10 s: neighbours, not 1-s repeats
+POOL_STEP_S = 10.0  # one sample per aircraft and 10 s carries the work: neighbours, not 1-s repeats
 CONSENSUS_ITERATIONS = 8
 
 
@@ -134,39 +134,46 @@ def consensus_wind(
     t = traffic["time_s"].to_numpy(float)
     pts = np.column_stack([x, y, z, (t - t.min()) * (radius_km / window_s)])
     codes, names = pd.factorize(traffic["aircraft"])
-    pool = np.flatnonzero(~pd.DataFrame({"a": codes, "s": np.floor(t / pool_step_s)}).duplicated().to_numpy())
-    hits = cKDTree(pts[pool]).query_ball_point(pts, r=radius_km, return_sorted=False)
-    counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
-    flat = pool[np.concatenate([np.asarray(h, dtype=np.int64) for h in hits])] if counts.sum() else np.zeros(0, int)
-    owner = np.repeat(np.arange(len(pts)), counts)
-    other = codes[flat] != codes[owner]
-    flat, owner = flat[other], owner[other]
-    n = np.bincount(owner, minlength=len(pts)).astype(float)
     m = codes.max() + 1
-    n_ac = np.bincount(np.unique(owner.astype(np.int64) * m + codes[flat]) // m, minlength=len(pts))
+    # the work is done on one sample per aircraft and `pool_step_s` slot (the slot's first);
+    # every sample of a slot takes its slot's reference (the neighbourhood spans minutes)
+    key = pd.DataFrame({"a": codes, "s": np.floor(t / pool_step_s)})
+    slot = key.groupby(["a", "s"], sort=False).ngroup().to_numpy()
+    pool = np.flatnonzero(~key.duplicated().to_numpy())  # pool[k]: the first sample of slot k
+    pc = codes[pool]
+    hits = cKDTree(pts[pool]).query_ball_point(pts[pool], r=radius_km, return_sorted=False)
+    counts = np.fromiter((len(h) for h in hits), dtype=np.int64, count=len(hits))
+    flat = np.concatenate([np.asarray(h, dtype=np.int64) for h in hits]) if counts.sum() else np.zeros(0, int)
+    owner = np.repeat(np.arange(pool.size), counts)
+    other = pc[flat] != pc[owner]
+    flat, owner = flat[other], owner[other]
+    n = np.bincount(owner, minlength=pool.size).astype(float)
+    n_ac = np.bincount(np.unique(owner.astype(np.int64) * m + pc[flat]) // m, minlength=pool.size)
     ok = (n_ac >= min_aircraft) & (n > 0)
-    gs, trk = traffic["gs_kt"].to_numpy(float), traffic["track_deg"].to_numpy(float) * DEG
+    gs, trk = traffic["gs_kt"].to_numpy(float)[pool], traffic["track_deg"].to_numpy(float)[pool] * DEG
     ge, gn = gs * np.sin(trk), gs * np.cos(trk)
-    tas, hdg = winds["tas_h_kt"].to_numpy(float), winds["heading_deg"].to_numpy(float)
+    hdg_all = winds["heading_deg"].to_numpy(float)
+    tas, hdg = winds["tas_h_kt"].to_numpy(float)[pool], hdg_all[pool]
     offsets = np.zeros(m)
-    u = v = np.full(len(pts), np.nan)
-    seen = np.isin(np.arange(m), codes[ok])
-    mean_heading = fleet_headings(codes, hdg, m)
+    u = v = np.full(pool.size, np.nan)
+    seen = np.isin(np.arange(m), pc[ok])
+    mean_heading = fleet_headings(codes, hdg_all, m)
     # aircraft that share neighbourhoods, directly or through others: each group has its own
     # unseen mode (groups at flight levels farther apart than the layer never meet)
-    link = coo_matrix((np.ones(owner.size), (codes[owner], codes[flat])), shape=(m, m))
+    link = coo_matrix((np.ones(owner.size), (pc[owner], pc[flat])), shape=(m, m))
     _, group = connected_components(link, directed=False)
     for _ in range(max(iterations, 1)):
-        h = (hdg - offsets[codes]) * DEG  # each aircraft's heading with its own offset taken out
+        h = (hdg - offsets[pc]) * DEG  # each aircraft's heading with its own offset taken out
         wu, wv = ge - tas * np.sin(h), gn - tas * np.cos(h)
         with np.errstate(invalid="ignore", divide="ignore"):
-            u = np.where(ok, np.bincount(owner, weights=wu[flat], minlength=len(pts)) / n, np.nan)
-            v = np.where(ok, np.bincount(owner, weights=wv[flat], minlength=len(pts)) / n, np.nan)
+            u = np.where(ok, np.bincount(owner, weights=wu[flat], minlength=pool.size) / n, np.nan)
+            v = np.where(ok, np.bincount(owner, weights=wv[flat], minlength=pool.size) / n, np.nan)
         d = (np.degrees(np.arctan2(ge - u, gn - v)) - np.degrees(h) + 180.0) % 360.0 - 180.0  # heading error
-        step = pd.Series(d[ok]).groupby(codes[ok]).median().reindex(range(m)).fillna(0.0).to_numpy()
+        step = pd.Series(d[ok]).groupby(pc[ok]).median().reindex(range(m)).fillna(0.0).to_numpy()
         offsets = offsets - step
         for g in np.unique(group[seen]):
             offsets = remove_fleet_mode(offsets, mean_heading, seen & (group == g))
+    u, v, n_ac = u[slot], v[slot], n_ac[slot]
     est = pd.DataFrame(
         {"offset_deg": offsets, "group": group, "mean_heading_deg": mean_heading, "seen": seen},
         index=pd.Index(names, name="aircraft"),
