@@ -27,6 +27,7 @@ ORCHESTRATION = frozenset(
     {
         "aerotruth.app.cli",
         "aerotruth.sim.campaign_file",
+        "aerotruth.sim.campaign_loader",
         "aerotruth.sim.campaign",
         "aerotruth.app.campaign_commands",
         "aerotruth.sim.executors",

@@ -29,7 +29,7 @@ import time
 from pathlib import Path
 
 from aerotruth.sim.campaign import run_campaign
-from aerotruth.sim.campaign_file import parse_campaign
+from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 
 WIND = """\
@@ -74,7 +74,7 @@ def timed_run(text: str, choice: ExecutorChoice, out: Path) -> float:
 
 def mesaba(root: Path) -> None:
     """Cold and warm wall times of the reduced Mesaba campaign (module docstring)."""
-    from aerotruth.sim.campaign_file import load_campaign
+    from aerotruth.sim.campaign_loader import load_campaign
 
     os.environ["AEROTRUTH_CACHE"] = str(root / "cache")  # an empty truth store
     path = Path(__file__).resolve().parents[1] / "campaigns" / "mesaba_2009.yaml"

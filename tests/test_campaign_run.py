@@ -16,7 +16,7 @@ import pytest
 
 from aerotruth.app.cli import main
 from aerotruth.sim.campaign import TaskFailed, run_campaign
-from aerotruth.sim.campaign_file import parse_campaign
+from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 
 TINY = """\

@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 
 from aerotruth.sim.campaign import expand, run_campaign
-from aerotruth.sim.campaign_file import parse_campaign
+from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.context import TaskContext
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.store import RunStore

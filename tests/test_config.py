@@ -8,7 +8,8 @@ import datetime as dt
 import pytest
 
 from aerotruth.app.cli import main
-from aerotruth.sim.campaign_file import ConfigError, load_campaign, parse_campaign
+from aerotruth.sim.campaign_file import ConfigError
+from aerotruth.sim.campaign_loader import load_campaign, parse_campaign
 from aerotruth.sim.studies import builtin_sources
 
 BUILTIN = ", ".join(sorted(builtin_sources()))  # the installed built-in studies, as the message lists them

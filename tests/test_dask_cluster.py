@@ -15,7 +15,7 @@ from test_campaign_run import N_TASKS, QUIET, TINY
 
 from aerotruth.app.cli import main
 from aerotruth.sim.campaign import run_campaign
-from aerotruth.sim.campaign_file import parse_campaign
+from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 
 pytestmark = pytest.mark.slow  # every test here flies JSBSim or takes over 5 s

@@ -79,7 +79,7 @@ def test_cli_writes_the_contract_files_and_refuses_unknown_data(tmp_path, capsys
     f = doc["findings"][0]
     assert set(f) >= {"effect", "cause", "parameters", "evidence", "gain"} and "se" in f["parameters"]["A_deg"]
     assert (out / "report.md").exists() and (out / "figures" / "wind_along_flight.png").exists()
-    from aerotruth.sim.campaign_file import load_campaign
+    from aerotruth.sim.campaign_loader import load_campaign
 
     extended = load_campaign(out / "extended_model.yaml")  # a valid campaign carrying the found effect
     assert extended.section("modes_diagnose").table_error_deg == pytest.approx(

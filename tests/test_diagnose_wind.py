@@ -336,7 +336,7 @@ def test_the_model_of_a_campaigns_sensors_states_what_they_put_in_reports():
     from pathlib import Path
 
     from aerotruth.analysis.diagnose.wind_model import SENSOR_DYNAMICS, wind_model_from_campaign
-    from aerotruth.sim.campaign_file import load_campaign
+    from aerotruth.sim.campaign_loader import load_campaign
 
     root = Path(__file__).resolve().parents[1] / "campaigns"
     spec = wind_model_from_campaign(load_campaign(root / "mesaba_2009.yaml"))

@@ -16,7 +16,8 @@ import pytest
 
 from aerotruth.app.fits import fits_main
 from aerotruth.sim.campaign import run_campaign
-from aerotruth.sim.campaign_file import ConfigError, parse_campaign
+from aerotruth.sim.campaign_file import ConfigError
+from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.truth.store import TruthStore
 

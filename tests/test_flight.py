@@ -236,7 +236,7 @@ def test_fly_re_flies_a_campaign_leg_bit_for_bit_from_its_recorded_seeds(tmp_pat
     import shlex
 
     from aerotruth.sim.campaign import run_campaign
-    from aerotruth.sim.campaign_file import parse_campaign
+    from aerotruth.sim.campaign_loader import parse_campaign
     from aerotruth.sim.executors import ExecutorChoice
     from aerotruth.truth.store import TruthStore
 

@@ -9,7 +9,8 @@ import pandas as pd
 import pytest
 
 from aerotruth.sensors.tamdar import LookupTableCorrection, OffsetCorrection
-from aerotruth.sim.campaign_file import ConfigError, parse_campaign
+from aerotruth.sim.campaign_file import ConfigError
+from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.studies.heading_correction import STUDY, HeadingCorrectionConfig, adjusted_table, uploaded_correction
 
 

@@ -12,7 +12,8 @@ import pandas as pd
 import pytest
 
 from aerotruth.sim.campaign import run_campaign
-from aerotruth.sim.campaign_file import ConfigError, parse_campaign
+from aerotruth.sim.campaign_file import ConfigError
+from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 
 
@@ -94,7 +95,7 @@ def test_a_mission_is_scored_by_run_type_beside_a_real_track_found_from_the_camp
     import gzip
     import shutil
 
-    from aerotruth.sim.campaign_file import load_campaign
+    from aerotruth.sim.campaign_loader import load_campaign
 
     real = [
         {

@@ -10,7 +10,7 @@ import pandas as pd
 import pytest
 
 from aerotruth.sim.campaign import run_campaign
-from aerotruth.sim.campaign_file import parse_campaign
+from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.studies.modes_diagnose import hidden_effect_outcome
 

@@ -6,7 +6,7 @@ from pathlib import Path
 import pytest
 import yaml
 
-from aerotruth.sim.campaign_file import load_campaign
+from aerotruth.sim.campaign_loader import load_campaign
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "validation"))
@@ -79,7 +79,7 @@ def test_a_set_that_the_size_block_would_undo_is_an_error_naming_the_size_path()
     doc["seed"] = 1
     path = ROOT / "campaigns" / "penair_2010.yaml"
     text = yaml.safe_dump(doc, sort_keys=False)
-    from aerotruth.sim.campaign_file import parse_campaign
+    from aerotruth.sim.campaign_loader import parse_campaign
 
     c = parse_campaign(text, base_dir=path.parent, size="reduced")
     assert c.section("heading_correction").selection.by == "total"

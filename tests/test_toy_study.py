@@ -11,7 +11,7 @@ import pandas as pd
 import pytest
 
 from aerotruth.sim.campaign import run_campaign
-from aerotruth.sim.campaign_file import parse_campaign
+from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.studies import load_study, source_for
 

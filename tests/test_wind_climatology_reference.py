@@ -9,7 +9,8 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from aerotruth.sim.campaign_file import ConfigError, parse_campaign
+from aerotruth.sim.campaign_file import ConfigError
+from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.studies.wind_climatology import PERIOD_SEP, ReferenceClimatology, versus_reference, wind_by_region
 from aerotruth.units import KT
 

@@ -15,7 +15,8 @@ import pytest
 
 from aerotruth.sensors.magnetics import FluxValveFleetSpec
 from aerotruth.sim.campaign import run_campaign
-from aerotruth.sim.campaign_file import ConfigError, parse_campaign
+from aerotruth.sim.campaign_file import ConfigError
+from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.sim.wind_observations import aircraft_heading
 

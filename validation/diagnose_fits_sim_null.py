@@ -29,7 +29,7 @@ import pandas as pd
 from aerotruth import seeds
 from aerotruth.analysis.diagnose.fits import FitsModel, diagnose_log
 from aerotruth.sensors.inspection_log import approach_logs
-from aerotruth.sim.campaign_file import load_campaign
+from aerotruth.sim.campaign_loader import load_campaign
 from aerotruth.sim.studies.fits import FitsStudy, planned_approach
 from aerotruth.truth.store import TruthStore
 

@@ -31,7 +31,7 @@ import numpy as np
 
 from aerotruth.analysis.diagnose.wind import diagnose_wind, prepare
 from aerotruth.analysis.diagnose.wind_model import wind_model_from_campaign
-from aerotruth.sim.campaign_file import load_campaign
+from aerotruth.sim.campaign_loader import load_campaign
 from aerotruth.sim.wind_observations import simulated_observations
 from aerotruth.truth.days import AircraftDay
 from aerotruth.truth.store import TruthStore

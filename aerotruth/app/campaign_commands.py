@@ -8,7 +8,8 @@ import argparse
 import signal
 import sys
 
-from aerotruth.sim.campaign_file import ConfigError, load_campaign
+from aerotruth.sim.campaign_file import ConfigError
+from aerotruth.sim.campaign_loader import load_campaign
 
 
 def _terminate(signum: int, frame: object) -> None:

@@ -38,7 +38,7 @@ def diagnose_main(measured_path: str, model_path: str, out_dir: str) -> int:
     from aerotruth.analysis.diagnose.modes import diagnose_track
     from aerotruth.measured.kinds import load_measured
     from aerotruth.measured.modes import track_from_measured
-    from aerotruth.sim.campaign_file import load_campaign
+    from aerotruth.sim.campaign_loader import load_campaign
 
     output_folder(args.out)
     model = load_campaign(args.model)  # the simulation the data are compared with

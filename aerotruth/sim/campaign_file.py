@@ -16,9 +16,7 @@ from __future__ import annotations
 import datetime as _dt
 import hashlib
 import json
-import re
 import typing
-from pathlib import Path
 from typing import Any, Literal
 
 import yaml
@@ -234,7 +232,7 @@ _EXPECTED = {
 _BOUNDS = {"greater_than_equal": ">=", "greater_than": ">", "less_than_equal": "<=", "less_than": "<"}
 
 
-def _describe(value: Any) -> str:
+def describe_value(value: Any) -> str:
     """A short rendering of the offending YAML value."""
     if isinstance(value, str):
         s = value if len(value) <= 40 else value[:37] + "..."
@@ -259,7 +257,7 @@ def format_path(loc: tuple[Any, ...]) -> str:
     return out or "(top level)"
 
 
-def _line_of(root: yaml.Node | None, loc: tuple[Any, ...]) -> int | None:
+def line_of(root: yaml.Node | None, loc: tuple[Any, ...]) -> int | None:
     """1-based line of the YAML node at `loc`; the deepest existing ancestor when the path
     does not exist in the file (a missing field points at its parent mapping)."""
     if root is None:
@@ -283,7 +281,7 @@ def _line_of(root: yaml.Node | None, loc: tuple[Any, ...]) -> int | None:
     return line
 
 
-def _check_duplicate_keys(node: yaml.Node | None, loc: tuple[Any, ...] = ()) -> None:
+def check_duplicate_keys(node: yaml.Node | None, loc: tuple[Any, ...] = ()) -> None:
     """PyYAML keeps the last of repeated keys silently; a campaign file must not."""
     if isinstance(node, yaml.MappingNode):
         seen: set[str] = set()
@@ -292,13 +290,13 @@ def _check_duplicate_keys(node: yaml.Node | None, loc: tuple[Any, ...] = ()) -> 
             if key in seen:
                 raise ConfigError(f"{format_path(loc + (key,))}: duplicate key (line {k.start_mark.line + 1})")
             seen.add(key)
-            _check_duplicate_keys(v, loc + (key,))
+            check_duplicate_keys(v, loc + (key,))
     elif isinstance(node, yaml.SequenceNode):
         for i, v in enumerate(node.value):
-            _check_duplicate_keys(v, loc + (i,))
+            check_duplicate_keys(v, loc + (i,))
 
 
-def _one_line(
+def one_line_error(
     err: ValidationError, root: yaml.Node | None, fields_of: type[BaseModel], prefix: tuple[Any, ...] = ()
 ) -> str:
     """The first validation error as `path: expected ..., got ... (line N)`; `prefix` is
@@ -315,9 +313,9 @@ def _one_line(
         allowed = f" (allowed: {', '.join(_field_names(parent))})" if parent is not None else ""
         text = f"unknown key{allowed}"
     elif kind in _EXPECTED:
-        text = f"expected {_EXPECTED[kind]}, got {_describe(e.get('input'))}"
+        text = f"expected {_EXPECTED[kind]}, got {describe_value(e.get('input'))}"
     elif kind == "literal_error":
-        text = f"expected one of {e['ctx']['expected']}, got {_describe(e.get('input'))}"
+        text = f"expected one of {e['ctx']['expected']}, got {describe_value(e.get('input'))}"
     elif kind == "too_short":
         n = e["ctx"]["min_length"]
         text = f"expected at least {n} item{'s' if n != 1 else ''}, got {e['ctx'].get('actual_length', 0)}"
@@ -326,17 +324,17 @@ def _one_line(
         text = f"expected at most {n} item{'s' if n != 1 else ''}, got {e['ctx'].get('actual_length')}"
     elif kind in _BOUNDS:
         bound = next(v for k, v in e["ctx"].items() if k in ("ge", "gt", "le", "lt"))
-        text = f"expected a number {_BOUNDS[kind]} {bound}, got {_describe(e.get('input'))}"
+        text = f"expected a number {_BOUNDS[kind]} {bound}, got {describe_value(e.get('input'))}"
     elif kind == "string_pattern_mismatch" and loc == ("name",):
         text = (
             "expected a name of letters, digits, '_', '.' and '-' (it names the run directory), "
-            f"got {_describe(e.get('input'))}"
+            f"got {describe_value(e.get('input'))}"
         )
     elif kind == "value_error":
         text = str(e["ctx"]["error"])
     else:
-        text = f"{e['msg'][0].lower()}{e['msg'][1:]}, got {_describe(e.get('input'))}"
-    line = _line_of(root, prefix + loc)
+        text = f"{e['msg'][0].lower()}{e['msg'][1:]}, got {describe_value(e.get('input'))}"
+    line = line_of(root, prefix + loc)
     more = f"; and {len(errors) - 1} more error{'s' if len(errors) > 2 else ''}" if len(errors) > 1 else ""
     return f"{path}: {text}" + (f" (line {line})" if line is not None else "") + more
 
@@ -380,7 +378,7 @@ class References:
     def error(self, loc: tuple[Any, ...], text: str, *, absolute: bool = False) -> ConfigError:
         """ConfigError `path: text (line N)`; `loc` is relative to the section unless absolute."""
         full = tuple(loc) if absolute else self._prefix + tuple(loc)
-        line = _line_of(self._root, full)
+        line = line_of(self._root, full)
         return ConfigError(f"{format_path(full)}: {text}" + (f" (line {line})" if line is not None else ""))
 
     @property
@@ -401,7 +399,7 @@ class References:
             if ref not in known:
                 have = ", ".join(sorted(known)) or "none defined"
                 loc = path if isinstance(values, str) else path + (i,)
-                raise self.error(loc, f"expected the name of one of the {kind} ({have}), got {_describe(ref)}")
+                raise self.error(loc, f"expected the name of one of the {kind} ({have}), got {describe_value(ref)}")
 
     def fleets(self, field: str = "fleets") -> None:
         """The section's `field` names defined fleets."""
@@ -413,193 +411,4 @@ class References:
 
     def value(self, value: Any) -> str:
         """A short rendering of an offending value for a message."""
-        return _describe(value)
-
-
-def _check_campaign(c: Campaign, root: yaml.Node | None) -> None:
-    """Checks across the campaign's own blocks: unique fleet and period names, known route
-    networks and aircraft types."""
-    for what, items in (("fleets", c.fleets), ("periods", c.periods)):
-        seen: set[str] = set()
-        for i, item in enumerate(items):
-            if item.name in seen:
-                loc = (what, i, "name")
-                raise ConfigError(f"{format_path(loc)}: duplicate name {item.name!r} (line {_line_of(root, loc)})")
-            seen.add(item.name)
-    if any(f.network is not None for f in c.fleets):
-        from aerotruth.truth.airports import networks
-
-        known_networks = networks()
-        for i, f in enumerate(c.fleets):
-            if f.network is not None and f.network not in known_networks:
-                loc = ("fleets", i, "network")
-                raise ConfigError(
-                    f"{format_path(loc)}: expected a route network ({', '.join(sorted(known_networks))}), "
-                    f"got {_describe(f.network)} (line {_line_of(root, loc)})"
-                )
-    if any(f.aircraft_type is not None for f in c.fleets):
-        from aerotruth.truth.airframes import airframe_names
-
-        known = airframe_names()
-        for i, f in enumerate(c.fleets):
-            if f.aircraft_type is not None and f.aircraft_type not in known:
-                loc = ("fleets", i, "aircraft_type")
-                raise ConfigError(
-                    f"{format_path(loc)}: expected an aircraft type ({', '.join(known)}), "
-                    f"got {_describe(f.aircraft_type)} (line {_line_of(root, loc)})"
-                )
-
-
-def _resolve_study_modules(c: Campaign, root: yaml.Node | None, base_dir: Path | None) -> list[str]:
-    """`study_modules:` entries as import sources: a `.py` file becomes `file:<absolute
-    path>` (relative to the YAML file's folder), anything else `module:<name>`."""
-    from aerotruth.sim.studies import source_for
-
-    out = []
-    for i, entry in enumerate(c.study_modules):
-        try:
-            out.append(source_for(entry, base_dir))
-        except ValueError as e:
-            loc = ("study_modules", i)
-            raise ConfigError(f"{format_path(loc)}: {e} (line {_line_of(root, loc)})") from None
-    return out
-
-
-def _validate_studies(c: Campaign, root: yaml.Node | None, base_dir: Path | None) -> Campaign:
-    """Validate each `studies:` section with its study's own schema and run its checks."""
-    from aerotruth.sim.studies import StudyError, registry
-
-    sources = _resolve_study_modules(c, root, base_dir)
-    try:
-        reg = registry(sources)
-    except StudyError as e:
-        raise ConfigError(f"study_modules: {e}") from None
-    if not c.studies:
-        raise ConfigError(
-            f"studies: expected at least one study ({', '.join(reg)}) (line {_line_of(root, ('studies',))})"
-        )
-    sections: dict[str, Section] = {}
-    for name, value in c.studies.items():
-        loc = ("studies", name)
-        if name not in reg:
-            raise ConfigError(
-                f"{format_path(loc)}: unknown study (available: {', '.join(sorted(reg))}) (line {_line_of(root, loc)})"
-            )
-        study = reg.get(name)
-        try:
-            sections[name] = study.Config.model_validate(
-                {} if value is None else value, context={"base_dir": base_dir}
-            )  # relative data files: the YAML's folder
-        except ValidationError as e:
-            raise ConfigError(_one_line(e, root, study.Config, prefix=loc)) from None
-    c = c.model_copy(update={"studies": sections, "study_modules": [s.split(":", 1)[1] for s in sources]})
-    for name in sections:
-        reg.get(name).check(c, References(c, root, ("studies", name)))
-    return c
-
-
-class _CampaignLoader(yaml.SafeLoader):
-    """SafeLoader that leaves dates as strings (so that pydantic reports a bad date by its
-    path; PyYAML would fail on 2009-02-30 with its own message) and reads no YAML 1.1
-    sexagesimal numbers (unquoted `13:00` would otherwise be the integer 780)."""
-
-
-_NUMBER_TAGS = ("tag:yaml.org,2002:int", "tag:yaml.org,2002:float")
-_CampaignLoader.yaml_implicit_resolvers = {
-    ch: [
-        (tag, rx)
-        for tag, rx in resolvers
-        if tag != "tag:yaml.org,2002:timestamp" and not (tag in _NUMBER_TAGS and ":" in rx.pattern)
-    ]
-    for ch, resolvers in yaml.SafeLoader.yaml_implicit_resolvers.items()
-}
-# YAML 1.1 ints and floats again, without their base-60 alternatives
-_CampaignLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:int",
-    re.compile(r"^(?:[-+]?0b[0-1_]+|[-+]?0[0-7_]+|[-+]?(?:0|[1-9][0-9_]*)|[-+]?0x[0-9a-fA-F_]+)$"),
-    list("-+0123456789"),
-)
-_CampaignLoader.add_implicit_resolver(
-    "tag:yaml.org,2002:float",
-    re.compile(
-        r"^(?:[-+]?[0-9][0-9_]*\.[0-9_]*(?:[eE][-+][0-9]+)?|\.[0-9][0-9_]*(?:[eE][-+][0-9]+)?|[-+]?\.(?:inf|Inf|INF)|\.(?:nan|NaN|NAN))$"
-    ),
-    list("-+0123456789."),
-)
-
-
-def _merged(base: Any, override: Any) -> Any:
-    """`override` merged into `base`: mappings key by key, anything else replaced."""
-    if isinstance(base, dict) and isinstance(override, dict):
-        out = dict(base)
-        for k, v in override.items():
-            out[k] = _merged(base.get(k), v) if k in base else v
-        return out
-    return override
-
-
-def _apply_size(data: dict, size: str) -> dict:
-    """The campaign data with the overrides of `sizes[size]` merged in, named <name>-<size>."""
-    sizes = data.get("sizes") or {}
-    if not isinstance(sizes, dict) or size not in sizes:
-        have = ", ".join(sorted(sizes)) if isinstance(sizes, dict) and sizes else "none"
-        raise ConfigError(f"--size {size}: the campaign defines no such size (sizes: {have})")
-    override = sizes[size]
-    if not isinstance(override, dict):
-        raise ConfigError(f"sizes.{size}: expected a mapping of campaign fields to override, got {_describe(override)}")
-    bad = sorted(set(override) - {"fleets", "periods", "studies", "description", "executor", "truth_store", "outputs"})
-    if bad:
-        raise ConfigError(
-            f"sizes.{size}: cannot override {', '.join(bad)} (fleets, periods, studies, description, "
-            "executor, truth_store, outputs)"
-        )
-    out = _merged(data, override)  # a new mapping: `data` is left as it was
-    out["name"] = f"{data.get('name')}-{size}"
-    out["size"] = size
-    return out
-
-
-def parse_campaign(text: str, base_dir: str | Path | None = None, size: str | None = None) -> Campaign:
-    """Validate campaign YAML text; any problem raises ConfigError with one line.
-    `base_dir` is where relative `study_modules:` files are found (the YAML's folder);
-    `size` applies the overrides of that entry of `sizes:` (a reduced campaign)."""
-    try:
-        root = yaml.compose(text, Loader=_CampaignLoader)
-        data = yaml.load(text, Loader=_CampaignLoader)
-    except yaml.MarkedYAMLError as e:
-        mark = e.problem_mark or e.context_mark
-        where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
-        raise ConfigError(f"not valid YAML: {e.problem or e.context}{where}") from None
-    except yaml.YAMLError as e:
-        raise ConfigError(f"not valid YAML: {e}") from None
-    if not isinstance(data, dict):
-        raise ConfigError(f"expected a mapping of campaign fields at the top level, got {_describe(data)}")
-    _check_duplicate_keys(root)
-    if size is not None:
-        data = _apply_size(data, size)
-    try:
-        campaign = Campaign.model_validate(data)
-    except ValidationError as e:
-        raise ConfigError(_one_line(e, root, Campaign)) from None
-    _check_campaign(campaign, root)
-    return _validate_studies(campaign, root, Path(base_dir) if base_dir is not None else None)
-
-
-def load_campaign(path: str | Path, size: str | None = None) -> Campaign:
-    """Read and validate a campaign YAML file (ConfigError with one line on any problem);
-    `size` as in parse_campaign."""
-    p = Path(path)
-    try:
-        text = p.read_text(encoding="utf-8")
-    except FileNotFoundError:
-        raise ConfigError(f"{p}: no such campaign file") from None
-    except NotADirectoryError:
-        raise ConfigError(f"{p}: no such campaign file ({p.parent} is not a folder)") from None
-    except IsADirectoryError:
-        raise ConfigError(f"{p}: is a folder, expected a campaign YAML file") from None
-    except (OSError, UnicodeDecodeError) as e:
-        raise ConfigError(f"{p}: cannot read campaign file ({e})") from None
-    try:
-        return parse_campaign(text, base_dir=p.resolve().parent, size=size)
-    except ConfigError as e:
-        raise ConfigError(f"{p}: {e}") from None
+        return describe_value(value)

@@ -37,7 +37,8 @@ from aerotruth.files import (
     atomic_write_text,
     remove_stale_temporaries,
 )
-from aerotruth.sim.campaign_file import Campaign, load_campaign
+from aerotruth.sim.campaign_file import Campaign
+from aerotruth.sim.campaign_loader import load_campaign
 from aerotruth.sim.tasks import Task
 from aerotruth.sim.worker import META_TASK_ID, META_TASK_KEY
 
