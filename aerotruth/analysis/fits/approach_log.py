@@ -223,22 +223,7 @@ class ApproachInputs:
 def approach_inputs(g: pd.DataFrame) -> ApproachInputs:
     """The FITS inputs of one approach's rows (already checked; event rows of their own allowed)."""
     ev = g["event"].to_numpy(dtype=object)
-    col = {
-        c: g[c].to_numpy(dtype=float)
-        for c in (
-            "time_s",
-            "waas_x_m",
-            "waas_y_m",
-            "waas_z_m",
-            "ins_x_m",
-            "ins_y_m",
-            "ins_z_m",
-            "ra_m",
-            "tvps_y_m",
-            "sv_change",
-            "iono_update",
-        )
-    }
+    col = {c: g[c].to_numpy(dtype=float) for c in REQUIRED if c not in ("approach", "event")}
     ins = np.column_stack([col["ins_x_m"], col["ins_y_m"], col["ins_z_m"]])
     waas = np.column_stack([col["waas_x_m"], col["waas_y_m"], col["waas_z_m"]])
     keep = (ev == "") | np.isfinite(np.hstack([ins, waas])).any(axis=1)  # event rows of their own off
