@@ -76,7 +76,7 @@ def test_bootstrap_intervals_of_the_table_entries_hold_the_true_table(fleet_run)
     entries of the fitted aircraft hold the true table -d(z_k) about 95 % of the time."""
     truths, _, out = fleet_run
     ci = pd.read_csv(out / "deviation_mag_ci.csv", dtype={"aircraft": str})
-    assert list(ci.columns) == ["aircraft", "quantity", "estimate", "lo", "hi", "boot_se", "level", "n_boot"]
+    assert list(ci.columns) == ["aircraft", "quantity", "estimate", "lo", "hi", "boot_se", "level", "n_boot", "method"]
     hits = []
     for a in truths:
         if a.one_heading:
@@ -170,7 +170,7 @@ def test_standard_errors_are_within_1_2_of_the_cramer_rao_bound():
         rng = np.random.default_rng([5, r])
         obs = gen.generate([a], rng, flights=12, models=("rr",), ref_tau_s=0.0, exact=True, ref_sigma_kt=sigma_kt)
         rows = heading_errors(obs)
-        fit = HeadingDeviationFit(terms="sinusoid", heading="magnetic", min_flights=5).fit(rows)
+        fit = HeadingDeviationFit(terms="sinusoid", heading="magnetic", min_clusters=5).fit(rows)
         crb = np.sqrt(np.diag(_cramer_rao(rows, sigma_kt * 1852 / 3600)))
         est = np.array([fit.coef_[t] for t in "ABC"])
         zs.append((est - [a.A, a.B, a.C]) / crb)

@@ -231,7 +231,7 @@ def _cmd_fly_approach(args: argparse.Namespace) -> int:
 def _cmd_diagnose(args: argparse.Namespace) -> int:
     from aerotruth.app.diagnose import diagnose_main
 
-    return diagnose_main(args.measured, args.model, args.out)
+    return diagnose_main(args.measured, args.model, args.out, args.aircraft_type, args.engine_type)
 
 
 def _cmd_fits(args: argparse.Namespace) -> int:
@@ -254,7 +254,17 @@ def _cmd_reports(args: argparse.Namespace) -> int:
 def _cmd_heading_fit(args: argparse.Namespace) -> int:
     from aerotruth.app.heading_fit import heading_fit_main
 
-    return heading_fit_main(args.obs, args.out, n_boot=args.bootstrap, seed=args.seed)
+    return heading_fit_main(
+        args.obs,
+        args.out,
+        n_boot=args.bootstrap,
+        seed=args.seed,
+        min_reports=args.min_reports,
+        min_clusters=args.min_clusters,
+        cluster_s=args.cluster_s,
+        position_step_deg=args.position_step_deg,
+        max_sinusoid_se_deg=args.max_sinusoid_se_deg,
+    )
 
 
 def _cmd_heading_apply(args: argparse.Namespace) -> int:
@@ -482,6 +492,19 @@ def build_parser() -> argparse.ArgumentParser:
     dia.add_argument("measured", help="measured data file (Mode-S JSON/JSONL, observation table, approach log, ...)")
     dia.add_argument("--model", required=True, help="campaign YAML of the simulation the data are compared with")
     dia.add_argument("--out", required=True, help="output folder")
+    dia.add_argument(
+        "--aircraft-type",
+        metavar="ICAO",
+        help="Mode-S data: the aircraft's ICAO type designator (e.g. A310, B738, SF34), or jet / turboprop for a "
+        "generic class; over a type the data name. Default: the data's type field, else a generic jet for a flight "
+        "above Mach 0.65, else the simulation's SAAB 340B",
+    )
+    dia.add_argument(
+        "--engine-type",
+        metavar="ENGINES",
+        help="Mode-S data: jet or turboprop (or an ICAO description such as L2J), the generic class for a type "
+        "designator not listed",
+    )
     dia.set_defaults(func=_cmd_diagnose)
 
     fits = sub.add_parser(
@@ -525,7 +548,13 @@ def build_parser() -> argparse.ArgumentParser:
         "heading apply and diagnose read (docs/data-formats.md).",
     )
     traffic.add_argument("traffic", help="decoded state table (CSV, .csv.gz or Parquet)")
-    traffic.add_argument("--reference", default="consensus", help="the reference winds: consensus (the other aircraft)")
+    traffic.add_argument(
+        "--reference",
+        default="consensus",
+        help="the reference winds: consensus (the other aircraft), or a gridded analysis file (NetCDF, or GRIB "
+        "through cfgrib: u and v on time, pressure level, latitude and longitude, such as ERA5 pressure levels) "
+        "interpolated to each report; its rows' ref_source is the file's stem",
+    )
     traffic.add_argument("--out", required=True, help="observation table to write (.parquet, .csv or .csv.gz)")
     traffic.add_argument("--radius-km", type=_positive_float, default=50.0, help="consensus radius (km, default 50)")
     traffic.add_argument(
@@ -564,10 +593,49 @@ def build_parser() -> argparse.ArgumentParser:
         type=int,
         default=200,
         metavar="N",
-        help="flight resamples for the 95 %% intervals of A..E and the table entries (deviation_ci.csv; "
-        "default 200, 0: none; ~20 s per million rows and heading frame at 200)",
+        help="cluster (flight or time-block) resamples for the 95 %% intervals of A..E and the table entries "
+        "(deviation_ci.csv; default 200, 0: none; ~20 s per million rows and heading frame at 200)",
     )
     hfit.add_argument("--seed", type=int, default=0, help="seed of the bootstrap's resampling (default 0)")
+    hfit.add_argument(
+        "--min-reports",
+        type=int,
+        default=30,
+        metavar="N",
+        help="usable reports an aircraft needs for a table (default 30)",
+    )
+    hfit.add_argument(
+        "--min-clusters",
+        type=int,
+        default=None,
+        metavar="N",
+        help="clusters (flights or time blocks, see --cluster-s) an aircraft needs (default 5 flights, "
+        "or 2 blocks for dense reports; at least 2)",
+    )
+    hfit.add_argument(
+        "--cluster-s",
+        type=float,
+        default=None,
+        metavar="S",
+        help="cut each flight into time blocks of at most S seconds as the clusters of the standard errors "
+        "and bootstrap, 0: whole flights (default: 300 where the median report interval is under 60 s, "
+        "as in Mode-S traffic; else whole flights)",
+    )
+    hfit.add_argument(
+        "--position-step-deg",
+        type=float,
+        default=None,
+        metavar="DEG",
+        help="the reports' lat/lon resolution for the ground-track gates (default: read off the values, "
+        "e.g. 0.01 for TAMDAR, 0 for decoded Mode-S positions)",
+    )
+    hfit.add_argument(
+        "--max-sinusoid-se-deg",
+        type=float,
+        default=1.0,
+        metavar="DEG",
+        help="a sinusoid whose standard error exceeds this is not uploaded: offset only (default 1.0)",
+    )
     hfit.set_defaults(func=_cmd_heading_fit)
     happ = hsub.add_parser(
         "apply",
@@ -579,7 +647,7 @@ def build_parser() -> argparse.ArgumentParser:
         "must not be corrected onboard already. Writes DIR/corrected.csv (or .parquet, "
         "as the input) with each row's correction and corrected wind, DIR/apply.csv "
         "(per aircraft the wind error against the references before and after: RMS, "
-        "longitudinal, transverse; in_sample where the dates overlap the fit's), a "
+        "longitudinal, transverse; in_sample where the reports' times overlap the fit's data), a "
         "before/after figure and DIR/report.md.",
     )
     happ.add_argument("obs", help="observation table (CSV, .csv.gz or Parquet, docs/data-formats.md)")

@@ -28,7 +28,8 @@ Writes
   DIR/apply.csv: per aircraft (then `all`: the aircraft with a table) the reports scored and the wind error against
       the references before and after (RMS, longitudinal, transverse, kt; wind paper
       section 6), the table's status and validity dates, and `in_sample` where the reports'
-      dates overlap the dates the table was fitted on (an in-sample score flatters it);
+      times overlap the fit's first to last report (deviation.csv's data_from, data_to;
+      tables without them: the validity dates) (an in-sample score flatters it);
   DIR/figures/apply.png: before/after RMS per aircraft (wind paper Fig. 9's bars);
   DIR/report.md.
 """
@@ -41,6 +42,7 @@ import numpy as np
 import pandas as pd
 
 from aerotruth.analysis.wind.apply import heading_apply, table_frame
+from aerotruth.analysis.wind.heading_errors import data_gates
 from aerotruth.errors import output_folder
 from aerotruth.files import atomic_write, atomic_write_text
 from aerotruth.markdown import to_markdown
@@ -84,7 +86,7 @@ def _report(src: str, tables: str, frame: str, scores: pd.DataFrame, out: pd.Dat
     ]
     if (scores["in_sample"] == True).any():  # noqa: E712 - object column of bools and ""
         lines += [
-            "In sample: these reports' dates overlap the dates the tables were fitted on; the after column "
+            "In sample: these reports' times overlap the data the tables were fitted on; the after column "
             "then flatters the tables. Judge them on a later period, with a control group of aircraft "
             "without tables to take out the model's own change (the wind paper's Tables I-IV).",
             "",
@@ -98,7 +100,8 @@ def heading_apply_main(obs_path: str, tables_path: str, out_dir: str) -> int:
     out = output_folder(out_dir)  # before the work
     fleet = read_tables(tables_path)
     obs = read_observation_table(obs_path)
-    corrected, scores = heading_apply(obs, fleet, str(obs_path))
+    gates = data_gates(obs).gates  # the position resolution of these reports, read off them
+    corrected, scores = heading_apply(obs, fleet, str(obs_path), gates)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     raw = obs.drop(columns=["time_s"]).assign(time=obs["time_s"].to_numpy())
     table = pd.concat([raw.reset_index(drop=True), corrected], axis=1)

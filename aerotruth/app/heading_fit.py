@@ -8,9 +8,11 @@ Writes
   DIR/deviation_mag.csv  the same columns fit on magnetic heading (the frame the onboard
                          table is indexed by), when the table has `heading_mag_deg` or
                          `declination_deg`;
-  DIR/deviation_ci.csv   (and deviation_mag_ci.csv) flight-resampling bootstrap-t intervals
+  DIR/deviation_ci.csv   (and deviation_mag_ci.csv) cluster-resampling bootstrap-t intervals
                          of each aircraft's A..E and 8 table entries: aircraft, quantity,
-                         estimate, lo, hi, boot_se, level, n_boot (`--bootstrap N`, 0: none);
+                         estimate, lo, hi, boot_se, level, n_boot, method (`--bootstrap N`,
+                         0: none; an aircraft with fewer than 10 clusters gets t intervals
+                         on its cluster-robust standard errors, method "t, G-1 df");
   DIR/figures/<aircraft>.png  heading error vs measured heading with the fit and the
                          8-point table (wind paper Figs. 3 and 8);
   DIR/report.md          what was used and rejected, the fits, criteria, the in-sample
@@ -19,6 +21,7 @@ Writes
 
 from __future__ import annotations
 
+import math
 import re
 import sys
 from pathlib import Path
@@ -36,12 +39,18 @@ from aerotruth.analysis.wind.heading_correction import (
     STATUSES,
     FleetHeadingFit,
 )
-from aerotruth.analysis.wind.heading_errors import GATE_NAMES, heading_errors
+from aerotruth.analysis.wind.heading_errors import GATE_NAMES, data_gates, heading_errors
 from aerotruth.analysis.wind.metrics import wind_errors_before_after
 from aerotruth.errors import DataError, output_folder
 from aerotruth.files import atomic_write, atomic_write_text
 from aerotruth.markdown import to_markdown
 from aerotruth.measured.observations import read_observation_table
+
+MIN_REPORTS = 30  # usable reports an aircraft needs for a table
+MIN_FLIGHTS = 5  # clusters an aircraft needs when they are whole flights (sparse reports)
+MIN_BLOCKS = 2  # ... when they are time blocks (dense reports): the fewest a cluster-robust se takes
+MAX_SINUSOID_SE_DEG = 1.0  # a sinusoid less determined than this is not uploaded: offset only
+MAX_BOOTSTRAP = 100_000
 
 
 def _safe_name(aircraft: str) -> str:
@@ -112,6 +121,7 @@ def _report(
     src: str,
     ci: pd.DataFrame | None = None,
     warnings: list[str] = (),
+    limits: str = "",
 ) -> str:
     gates = rows.drop_duplicates("report")["gate"].value_counts().reindex(GATE_NAMES, fill_value=0)
     table = fleet.to_table()
@@ -126,6 +136,7 @@ def _report(
         "",
         "## Reports through the three-report ground-track gates (wind paper 5.1)",
         "",
+        *([f"Read off the data: {limits}.", ""] if limits else []),
         "| gate | reports |",
         "|---|---|",
         *[f"| {g} | {int(n)} |" for g, n in gates.items()],
@@ -191,7 +202,7 @@ def _report(
         wide = wide.pivot(index="aircraft", columns="quantity", values="cell").reset_index()
         out += [
             f"## Lookup tables with {ci['level'].iloc[0]:.0%} bootstrap intervals (deviation_ci.csv; "
-            f"{int(ci['n_boot'].iloc[0])} flight resamples)",
+            f"{int(ci['n_boot'].iloc[0])} cluster resamples; t intervals for aircraft with fewer than 10 clusters)",
             "",
             "Correction to add (deg) at each measured true heading. For an aircraft fitted on one axis the "
             "intervals hold the along-axis curve's uncertainty only: its perpendicular part is not measured "
@@ -220,7 +231,7 @@ def _report(
         "* Heading error psi - psi' = angle(V_G - V_W,TAM) - angle(V_G - V_W,REF) (wind paper eqs. 3, 4) against "
         "the measured heading (the `heading_deg` column where given, else the angle of V_A).",
         "* Fit of d = A + B sin z + C cos z + D sin 2z + E cos 2z (eq. 2): Huber M-estimate (c = 1.345, MAD scale), "
-        "weights TAS^2; standard errors clustered by flight (leave-one-flight-out, CR3).",
+        "weights TAS^2; standard errors clustered by flight or time block (leave-one-cluster-out, CR3).",
         "* Sinusoid fitted only when the smaller eigenvalue of the covariance of (sin z, cos z) is >= 0.1 "
         "(uniform headings 0.5); else offset only. D, E kept when the flight-clustered Wald test rejects "
         "D = E = 0 at 0.001.",
@@ -233,21 +244,51 @@ def _report(
     return "\n".join(out)
 
 
-def heading_fit_main(obs_path: str, out_dir: str, n_boot: int = 200, seed: int = 0) -> int:
+def heading_fit_main(
+    obs_path: str,
+    out_dir: str,
+    n_boot: int = 200,
+    seed: int = 0,
+    min_reports: int = MIN_REPORTS,
+    min_clusters: int | None = None,
+    cluster_s: float | None = None,
+    position_step_deg: float | None = None,
+    max_sinusoid_se_deg: float = MAX_SINUSOID_SE_DEG,
+) -> int:
     """Run the method on an observation table and write DIR/deviation.csv (and
     deviation_mag.csv), with `n_boot` > 0 the bootstrap intervals DIR/deviation_ci.csv (and
-    deviation_mag_ci.csv), figures and report.md. Returns 0; bad input raises DataError (a
-    ValueError) with one line naming file and column."""
+    deviation_mag_ci.csv), figures and report.md. The position resolution and the clustering
+    unit are read off the table unless given (heading_errors.data_gates); `min_clusters`
+    defaults to MIN_FLIGHTS when the clusters are whole flights, MIN_BLOCKS when they are time
+    blocks. Returns 0; bad input raises DataError (a ValueError) with one line naming file and
+    column or option."""
     if n_boot < 0 or n_boot == 1:
         raise DataError(f"--bootstrap: expected 0 (none) or at least 2 resamples, got {n_boot}")
+    if n_boot > MAX_BOOTSTRAP:
+        raise DataError(f"--bootstrap: expected at most {MAX_BOOTSTRAP} resamples, got {n_boot}")
+    if not 0 <= seed < 2**63:
+        raise DataError(f"--seed: expected a whole number from 0 to 2**63 - 1, got {seed}")
+    if min_reports < 1:
+        raise DataError(f"--min-reports: expected a whole number >= 1, got {min_reports}")
+    if min_clusters is not None and min_clusters < 2:
+        raise DataError(f"--min-clusters: expected a whole number >= 2 (standard errors need two), got {min_clusters}")
+    for name, v in (("--cluster-s", cluster_s), ("--position-step-deg", position_step_deg)):
+        if v is not None and not (math.isfinite(v) and 0 <= v <= 1e6):
+            raise DataError(f"{name}: expected a number >= 0 (0: none), got {v}")
+    if not (math.isfinite(max_sinusoid_se_deg) and max_sinusoid_se_deg > 0):
+        raise DataError(f"--max-sinusoid-se-deg: expected a positive number of degrees, got {max_sinusoid_se_deg}")
     out = output_folder(out_dir)  # before the work
     obs = read_observation_table(obs_path)
-    rows = heading_errors(obs)
+    dg = data_gates(obs, cluster_s=cluster_s, position_step_deg=position_step_deg)
+    rows = heading_errors(obs, dg.gates)
     require_used_reports(rows, obs_path)
-    fleet = FleetHeadingFit(heading="true").fit(rows)
+    if min_clusters is None:
+        min_clusters = MIN_BLOCKS if dg.gates.cluster_s > 0 else MIN_FLIGHTS
+    params = dict(min_reports=min_reports, min_clusters=min_clusters, max_sinusoid_se_deg=max_sinusoid_se_deg)
+    fleet = FleetHeadingFit(heading="true", **params).fit(rows)
     mag = None
     if np.isfinite(rows["heading_mag_deg"].to_numpy()).any():
-        mag = FleetHeadingFit(heading="magnetic").fit(rows)
+        mag = FleetHeadingFit(heading="magnetic", **params).fit(rows)
     (out / "figures").mkdir(parents=True, exist_ok=True)
     ci = None
     for fl, stem in ((fleet, "deviation"), (mag, "deviation_mag")):
@@ -263,7 +304,11 @@ def heading_fit_main(obs_path: str, out_dir: str, n_boot: int = 200, seed: int =
         mine = ci[ci["aircraft"] == name] if ci is not None else None
         _figure(fit, rows.loc[ac == name], "heading_deg", out / "figures" / f"{_safe_name(name)}.png", mine)
     warnings = magnetic_heading_warnings(obs, rows)
-    atomic_write_text(out / "report.md", _report(obs, rows, fleet, mag, str(obs_path), ci, warnings))
+    limits = (
+        f"{dg.describe()}; an aircraft is fitted with at least {min_reports} usable reports in {min_clusters} "
+        f"clusters; its sinusoid is kept while its standard error is at most {max_sinusoid_se_deg:g} deg"
+    )
+    atomic_write_text(out / "report.md", _report(obs, rows, fleet, mag, str(obs_path), ci, warnings, limits))
     status = pd.Series([f.status_ for f in fleet.fits_.values()]).value_counts()
     print(
         f"{obs_path}: {len(fleet.fits_)} aircraft: "

@@ -16,6 +16,7 @@ from aerotruth.analysis.wind.heading_errors import (
     TRACK_GATES,
     GateSpec,
     heading_errors,
+    position_step_deg,
     segment_displacements,
     towards_from_report,
     wgs84_radii,
@@ -142,6 +143,15 @@ def _jitter(df: pd.DataFrame, first: np.ndarray) -> dict:
     }
 
 
+def track_gates(df: pd.DataFrame) -> GateSpec:
+    """TRACK_GATES with the shortest span scaled to the reports' position resolution (read off
+    the values, heading_errors.position_step_deg): 10 km for TAMDAR's 0.01 deg, in proportion
+    for finer steps (V_G's rounding error over the span stays the same fraction), from 0.1 km
+    for positions rounded to 1e-4 deg or not at all (decoded Mode-S: CPR's ~5 m)."""
+    step = max(position_step_deg(df["lat"].to_numpy(), df["lon"].to_numpy()), 1e-4)
+    return TRACK_GATES.model_copy(update={"min_baseline_km": TRACK_GATES.min_baseline_km * min(step / 0.01, 1.0)})
+
+
 def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpec | None = None) -> WindData:
     """Observation table -> WindData (gated rows of the wind paper's section 5.1)."""
     df = validate_observations(obs, source)
@@ -161,7 +171,7 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
             f"{source}: column 'pressure_altitude_ft' lies within [{alt.min():.0f}, {alt.max():.0f}]: "
             f"pressure in hPa? expected feet"
         )
-    rows = heading_errors(df, TRACK_GATES if gates is None else gates, source)
+    rows = heading_errors(df, track_gates(df) if gates is None else gates, source)
     used = (rows["gate"] == "used").to_numpy()
     if used.sum() < 20:
         counts = rows["gate"].value_counts().to_dict()

@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 
 from aerotruth.analysis.wind.fleet_checks import require_used_reports
-from aerotruth.analysis.wind.heading_correction import FleetHeadingFit
-from aerotruth.analysis.wind.heading_errors import heading_errors, towards_from_report
+from aerotruth.analysis.wind.heading_correction import FleetHeadingFit, HeadingDeviationFit
+from aerotruth.analysis.wind.heading_errors import GateSpec, heading_errors, towards_from_report
 from aerotruth.analysis.wind.metrics import heading_turn, wind_errors_before_after
 from aerotruth.errors import DataError
 from aerotruth.units import DEG, KT
@@ -51,12 +51,27 @@ def _speed_from(u: np.ndarray, v: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return np.hypot(u, v) / KT, np.degrees(np.arctan2(-u, -v)) % 360.0
 
 
+def in_sample(fit: HeadingDeviationFit, t: np.ndarray) -> bool:
+    """Whether reports at times `t` (s, UTC) overlap the data a table was fitted on: its first
+    to last report (data_from, data_to) where the table says them, else its validity dates
+    (whole days, for tables that do not)."""
+    if getattr(fit, "data_from_", "") and getattr(fit, "data_to_", ""):
+        lo, hi = pd.Timestamp(fit.data_from_), pd.Timestamp(fit.data_to_)
+        first, last = pd.Timestamp(t.min(), unit="s", tz="UTC"), pd.Timestamp(t.max(), unit="s", tz="UTC")
+        return bool(first <= hi and last >= lo)
+    lo = pd.Timestamp(fit.valid_from_, tz="UTC")
+    hi = pd.Timestamp(fit.valid_to_, tz="UTC") + pd.Timedelta(days=1)
+    first, last = pd.Timestamp(t.min(), unit="s", tz="UTC"), pd.Timestamp(t.max(), unit="s", tz="UTC")
+    return bool(first < hi and last >= lo)
+
+
 def heading_apply(
-    obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "observation table"
+    obs: pd.DataFrame, fleet: FleetHeadingFit, source: str = "observation table", gates: GateSpec | None = None
 ) -> tuple[pd.DataFrame, pd.DataFrame]:
     """(the rows of `obs`, validated and in its order, with the correction columns; the
-    per-aircraft scores, APPLY_COLUMNS). `obs` as validate_observations returns it."""
-    rows = heading_errors(obs, source=source)
+    per-aircraft scores, APPLY_COLUMNS). `obs` as validate_observations returns it; `gates`
+    those of the reports (heading_errors.data_gates), default GateSpec()."""
+    rows = heading_errors(obs, gates, source=source)
     require_used_reports(rows, source)
     frame = table_frame(fleet)
     col = "heading_deg" if frame == "true" else "heading_mag_deg"
@@ -103,14 +118,9 @@ def heading_apply(
         fit = None if whole_fleet else fleet.fits_.get(name)
         b, a = wind_errors_before_after(scored[sel], corr[sel])
         t = obs["time_s"].to_numpy()[sel]
-        in_sample: str | bool = ""  # "" without a table or scored reports
+        overlap: str | bool = ""  # "" without a table or scored reports
         if fit is not None and len(t):
-            lo, hi = (
-                pd.Timestamp(fit.valid_from_, tz="UTC"),
-                pd.Timestamp(fit.valid_to_, tz="UTC") + pd.Timedelta(days=1),
-            )
-            first, last = pd.Timestamp(t.min(), unit="s", tz="UTC"), pd.Timestamp(t.max(), unit="s", tz="UTC")
-            in_sample = bool(first < hi and last >= lo)
+            overlap = in_sample(fit, t)
         status = fit.status_ if fit is not None else ("" if whole_fleet else "no table")
         scores.append(
             {
@@ -125,7 +135,7 @@ def heading_apply(
                 "transverse_after_kt": a["transverse_kt"],
                 "valid_from": fit.valid_from_ if fit is not None else "",
                 "valid_to": fit.valid_to_ if fit is not None else "",
-                "in_sample": in_sample,
+                "in_sample": overlap,
             }
         )
     return out, pd.DataFrame(scores, columns=list(APPLY_COLUMNS))

@@ -83,7 +83,7 @@ def require_used_reports(rows: pd.DataFrame, source: str) -> None:
         )
 
 
-CI_COLUMNS = ("aircraft", "quantity", "estimate", "lo", "hi", "boot_se", "level", "n_boot")
+CI_COLUMNS = ("aircraft", "quantity", "estimate", "lo", "hi", "boot_se", "level", "n_boot", "method")
 
 
 def bootstrap_table(fleet: FleetHeadingFit, n_boot: int, seed: int, level: float = 0.95) -> pd.DataFrame:

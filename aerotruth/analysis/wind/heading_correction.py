@@ -100,6 +100,7 @@ TABLE_COLUMNS = (
     "valid_to",
 )
 STATUSES = ("fitted", "offset_only", "refused")
+MIN_BOOTSTRAP_CLUSTERS = 10  # fewer: t intervals instead of resampling (HeadingDeviationFit.bootstrap)
 
 
 def heading_axes(heading_deg: np.ndarray, w: np.ndarray, harmonic: int = 1) -> tuple[np.ndarray, np.ndarray]:
@@ -167,6 +168,11 @@ def _iso_date(t: float) -> str:
     return dt.datetime.fromtimestamp(t, tz=dt.UTC).date().isoformat()
 
 
+def _iso_time(t: float) -> str:
+    """UTC time to the second below/above: a span written this way still holds its reports."""
+    return dt.datetime.fromtimestamp(t, tz=dt.UTC).strftime("%Y-%m-%dT%H:%M:%S.%fZ")
+
+
 # ----------------------------------------------------------------------------- estimator
 
 
@@ -185,7 +191,8 @@ def _used_arrays(rows: pd.DataFrame, heading: str) -> dict:
         "z": z,
         "y": rows["error_deg"].to_numpy(),
         "tas": rows["tas_ms"].to_numpy(),
-        "g": rows["flight"].to_numpy(),
+        "g": rows["cluster"].to_numpy() if "cluster" in rows.columns else rows["flight"].to_numpy(),
+        "flight": rows["flight"].to_numpy(),
         "t": rows["time_s"].to_numpy(),
         "src": src.codes.astype(np.int64),
         "src_names": list(src.categories),
@@ -220,7 +227,8 @@ class HeadingDeviationFit:
         de_level: float = 0.001,
         consistency_level: float = 0.01,
         min_reports: int = 30,
-        min_flights: int = 5,
+        min_clusters: int = 5,
+        max_sinusoid_se_deg: float = 1.0,
         gates: GateSpec | None = None,
     ):
         self.terms = terms
@@ -232,7 +240,8 @@ class HeadingDeviationFit:
         self.de_level = de_level
         self.consistency_level = consistency_level
         self.min_reports = min_reports
-        self.min_flights = min_flights
+        self.min_clusters = min_clusters
+        self.max_sinusoid_se_deg = max_sinusoid_se_deg
         self.gates = gates
 
     def _check_params(self) -> None:
@@ -244,10 +253,15 @@ class HeadingDeviationFit:
             raise ValueError(f"huber_c: expected a positive number, got {self.huber_c!r}")
         if not 0 <= self.min_coverage <= 0.5:
             raise ValueError(f"min_coverage: expected 0..0.5 (0.5 = uniform headings), got {self.min_coverage!r}")
-        if self.min_flights < 2:
+        if not (isinstance(self.min_reports, int | np.integer) and self.min_reports >= 1):
+            raise ValueError(f"min_reports: expected a whole number >= 1, got {self.min_reports!r}")
+        if not (isinstance(self.min_clusters, int | np.integer) and self.min_clusters >= 2):
             raise ValueError(
-                f"min_flights: expected >= 2 (standard errors come from flight clusters), got {self.min_flights!r}"
+                f"min_clusters: expected a whole number >= 2 (standard errors come from clusters), "
+                f"got {self.min_clusters!r}"
             )
+        if not self.max_sinusoid_se_deg > 0:
+            raise ValueError(f"max_sinusoid_se_deg: expected a positive number, got {self.max_sinusoid_se_deg!r}")
 
     # -- fitting
     def fit(self, obs: pd.DataFrame) -> HeadingDeviationFit:
@@ -257,11 +271,12 @@ class HeadingDeviationFit:
         acs = pd.unique(rows["aircraft"])
         if len(acs) != 1:
             raise ValueError(f"obs: HeadingDeviationFit takes one aircraft, got {len(acs)} (use FleetHeadingFit)")
-        order = np.lexsort((rows["time_s"].to_numpy(), rows["flight"].to_numpy()))
+        g = rows["cluster"] if "cluster" in rows.columns else rows["flight"]
+        order = np.lexsort((rows["time_s"].to_numpy(), g.to_numpy()))
         return self._fit_arrays(str(acs[0]), _used_arrays(rows, self.heading), order)
 
     def _fit_arrays(self, aircraft: str, a: dict, sel: np.ndarray) -> HeadingDeviationFit:
-        """The fit on rows `sel` of the arrays of `_used_arrays` (rows contiguous by flight)."""
+        """The fit on rows `sel` of the arrays of `_used_arrays` (rows contiguous by cluster)."""
         self.aircraft_ = aircraft
         # integer gathers throughout: numpy's boolean-mask indexing is 5-15x slower here
         sel = sel.take(np.flatnonzero(a["used"].take(sel)))
@@ -270,11 +285,14 @@ class HeadingDeviationFit:
         times = a["t"].take(sel)
         self._w = (tas / median(tas)) ** 2 if len(tas) else tas
         self.n_used_ = int(len(sel))
-        self.n_flights_ = int(len(cluster_starts(self._g))) if len(sel) else 0
+        self.n_clusters_ = int(len(cluster_starts(self._g))) if len(sel) else 0
+        self.n_flights_ = int(len(np.unique(a["flight"].take(sel))))
         self._src_names = [str(x) for x in a["src_names"]]
         self.ref_sources_ = [self._src_names[i] for i in np.flatnonzero(np.bincount(self._src))]
         self.valid_from_ = _iso_date(times.min()) if len(times) else ""
         self.valid_to_ = _iso_date(times.max()) if len(times) else ""
+        self.data_from_ = _iso_time(times.min()) if len(times) else ""
+        self.data_to_ = _iso_time(times.max()) if len(times) else ""
         self.heading_frame_ = self.heading
         self.consistency_: dict[str, dict[str, float]] = {}
         self._XT = design_t(self._z, 5)
@@ -282,11 +300,11 @@ class HeadingDeviationFit:
         self.coverage_ = float(_gram_axes(gram, 1)[0][0]) if self.n_used_ >= 3 else 0.0
         self.octants_ = octants_occupied(self._z)
         self.de_p_ = math.nan
-        if self.n_used_ < self.min_reports or self.n_flights_ < self.min_flights:
-            flights = "flight" if self.n_flights_ == 1 else "flights"
+        if self.n_used_ < self.min_reports or self.n_clusters_ < self.min_clusters:
+            clusters = "cluster" if self.n_clusters_ == 1 else "clusters"
             return self._refuse(
-                f"too little data: {self.n_used_} usable reports in {self.n_flights_} {flights} "
-                f"(need {self.min_reports} in {self.min_flights})"
+                f"too little data: {self.n_used_} usable reports in {self.n_clusters_} {clusters} "
+                f"(need {self.min_reports} in {self.min_clusters}; --min-reports, --min-clusters)"
             )
         reason = []
         full = None
@@ -350,6 +368,17 @@ class HeadingDeviationFit:
             )
         else:
             f = robust_fit_t(self._fit_design(), self._y, self._w, self._g, self.robust, self.huber_c)
+        if k >= 3:
+            cov_bc = (self._T @ f.cov @ self._T.T)[1:3, 1:3]
+            se_amp = math.sqrt(max(float(np.linalg.eigvalsh(cov_bc)[-1]), 0.0))
+            if not se_amp <= self.max_sinusoid_se_deg:  # NaN too
+                k, reason = 1, [r for r in reason if not r.startswith("D, E")]
+                reason.append(
+                    f"sinusoid not determined by the data (standard error {se_amp:.2g} deg > "
+                    f"{self.max_sinusoid_se_deg:g} deg, --max-sinusoid-se-deg): offset only fitted"
+                )
+                self._k, self._T = 1, np.eye(5)[:, :1]
+                f = robust_fit_t(self._fit_design(), self._y, self._w, self._g, self.robust, self.huber_c)
         self._fit = f
         self.terms_ = TERM_NAMES[:k]
         beta = self._T @ f.beta
@@ -468,7 +497,11 @@ class HeadingDeviationFit:
         measured to undercover with ~40 flights: 0.92-0.94 for a 95 % interval). A resample
         whose flights cannot identify the terms (a singular fit) is left out; with more than
         a tenth of them left out the intervals are NaN. Rows: the terms, then lut_000_deg ...
-        lut_315_deg; columns estimate, lo, hi, boot_se."""
+        lut_315_deg; columns estimate, lo, hi, boot_se, method. With fewer than
+        MIN_BOOTSTRAP_CLUSTERS clusters a resample repeats one or two of them and its se* is
+        near zero (the bootstrap-t quantile explodes; with few clusters the pairs cluster
+        bootstrap is unreliable: Cameron, Gelbach & Miller 2008, Rev. Econ. Stat. 90, 414):
+        the interval is then q -+ t(G - 1) se(q) from the CR3 covariance, method "t, G-1 df"."""
         if self.status_ == "refused":
             raise ValueError(f"bootstrap: aircraft {self.aircraft_} was refused ({self.reason_})")
         if not 0 < level < 1:
@@ -483,6 +516,15 @@ class HeadingDeviationFit:
         starts = cluster_starts(self._g)
         ends = np.r_[starts[1:], len(self._g)]
         G = len(starts)
+        names = list(self.terms_) + list(LUT_COLUMNS)
+        if G < MIN_BOOTSTRAP_CLUSTERS:  # too few clusters to resample: t(G - 1) on the CR3 se
+            q_hat = L @ self._fit.beta
+            se_hat = np.sqrt(np.einsum("ij,jk,ik->i", L, self._fit.cov, L))
+            half = float(stats.t.ppf(0.5 + level / 2, max(G - 1, 1))) * se_hat
+            nan = np.full(len(names), np.nan)
+            return pd.DataFrame(
+                {"estimate": q_hat, "lo": q_hat - half, "hi": q_hat + half, "boot_se": nan}, index=names
+            ).assign(method=f"t, {G - 1} df")
         p = T.shape[1]
         est = np.empty((n_boot, p))
         covs = np.empty((n_boot, p, p))
@@ -508,13 +550,14 @@ class HeadingDeviationFit:
             except np.linalg.LinAlgError:  # a resample whose flights cannot identify the terms: left out
                 est[b], covs[b] = np.nan, np.nan
         a = (1 - level) / 2
-        names = list(self.terms_) + list(LUT_COLUMNS)
         q_hat = L @ beta
         full = est @ L.T  # (n_boot, quantities)
         ok = np.isfinite(est).all(axis=1)
         if ok.sum() < max(2, 0.9 * n_boot):  # too many degenerate resamples: no interval
             nan = np.full(len(names), np.nan)
-            return pd.DataFrame({"estimate": q_hat, "lo": nan, "hi": nan, "boot_se": nan}, index=names)
+            return pd.DataFrame({"estimate": q_hat, "lo": nan, "hi": nan, "boot_se": nan}, index=names).assign(
+                method=method
+            )
         full = full[ok]
         if method == "percentile":
             lo, hi = np.quantile(full, a, axis=0), np.quantile(full, 1 - a, axis=0)
@@ -525,7 +568,9 @@ class HeadingDeviationFit:
                 t = np.abs(full - q_hat) / se_star
             q = np.quantile(t, level, axis=0)  # symmetric bootstrap-t, per quantity
             lo, hi = q_hat - q * se_hat, q_hat + q * se_hat
-        return pd.DataFrame({"estimate": q_hat, "lo": lo, "hi": hi, "boot_se": full.std(axis=0, ddof=1)}, index=names)
+        return pd.DataFrame(
+            {"estimate": q_hat, "lo": lo, "hi": hi, "boot_se": full.std(axis=0, ddof=1)}, index=names
+        ).assign(method=method)
 
     # -- learned state
     def to_table(self) -> pd.DataFrame:
@@ -541,6 +586,9 @@ class HeadingDeviationFit:
             heading_frame=self.heading_frame_,
             terms="".join(self.terms_),
             n_flights=self.n_flights_,
+            n_clusters=getattr(self, "n_clusters_", self.n_flights_),
+            data_from=getattr(self, "data_from_", ""),
+            data_to=getattr(self, "data_to_", ""),
             residual_scale_deg=self.scale_deg_,
             heading_spread=self.coverage_,
             octants_occupied=self.octants_,
@@ -596,6 +644,10 @@ class HeadingDeviationFit:
                 f"method accepts (larger ones are gross errors): expected degrees"
             )
         self.valid_from_, self.valid_to_ = str(row["valid_from"]), str(row["valid_to"])
+        # the fit's first and last report (UTC), when the table says them
+        self.data_from_, self.data_to_ = (
+            (str(row[c]) if c in row.index and isinstance(row[c], str) else "") for c in ("data_from", "data_to")
+        )
         self.heading_frame_ = self.heading
         self.terms_ = tuple(t for t in TERM_NAMES if np.isfinite(self.se_[t]))
         self._k = len(self.terms_)

@@ -28,8 +28,15 @@ the tables held the sinusoid's component along the axis alone (refitted on the f
 PenAir runs and scored against the truth heading on other days: 1.89 deg rms left, 1.47
 with the widened gates; ascents 2.45 -> 1.72; Mesaba 1.34 -> 1.32).
 
-Flights (the fits' clusters): the `flight` column when present, else a new flight wherever
-an aircraft's consecutive reports are more than `flight_gap_s` (30 min) apart.
+Flights: the `flight` column when present, else a new flight wherever an aircraft's
+consecutive reports are more than `flight_gap_s` (30 min) apart. Clusters (of the fits'
+standard errors and bootstrap): whole flights, or with `cluster_s` > 0 each flight cut into
+equal time blocks of at most `cluster_s` (`report_clusters`).
+
+Gates from the data (`data_gates`): the position resolution is read off the values (TAMDAR's
+0.01 deg; decoded Mode-S positions are not rounded, and a 0.01-deg step assumed for them
+fails three quarters of 1-s reports at the baseline gate), and reports closer than a minute
+(Mode-S state tables) are clustered in 5-min blocks (DENSE_CLUSTER_S) instead of flights.
 """
 
 from __future__ import annotations
@@ -83,6 +90,12 @@ class GateSpec(Section):
     )
     max_roll_deg: float = Field(10.0, gt=0, description="reports banked more are dropped (wind paper section 4)")
     flight_gap_s: float = Field(1800.0, gt=0, description="a longer pause between reports starts a new flight")
+    cluster_s: float = Field(
+        0.0,
+        ge=0,
+        description="the clusters of the standard errors and the bootstrap: each flight cut into equal blocks "
+        "of at most this length (0: whole flights)",
+    )
     min_tas_kt: float = Field(60.0, ge=0, description="|V_A| below this is implausible")
     max_tas_kt: float = Field(600.0, gt=0, description="|V_A| above this is implausible")
     max_heading_error_deg: float = Field(30.0, gt=0, description="|psi - psi'| above this is a gross error")
@@ -221,6 +234,110 @@ def running_count(flags: np.ndarray) -> np.ndarray:
     if len(flags) < 2**31 - 1:
         return np.cumsum(flags, dtype=np.int32).astype(np.int64)
     return np.cumsum(flags, dtype=np.int64)
+
+
+def report_clusters(flight: np.ndarray, t: np.ndarray, cluster_s: float) -> np.ndarray:
+    """Cluster index (0, 1, ...) of each report: its flight (`flight`, as report_flights gives,
+    reports in time order within each flight) when `cluster_s` is 0, else the flight cut into
+    n = ceil(span / cluster_s) blocks of equal time, span its first to last report (a flight
+    of any length longer than `cluster_s` gives two clusters or more)."""
+    if cluster_s <= 0 or len(t) == 0:
+        return np.asarray(flight, dtype=np.int64)
+    starts = np.flatnonzero(np.r_[True, flight[1:] != flight[:-1]])
+    ends = np.r_[starts[1:], len(t)]
+    t0 = np.repeat(t[starts], ends - starts)
+    span = np.repeat(t[ends - 1] - t[starts], ends - starts)
+    nblk = np.maximum(np.ceil(span / cluster_s), 1.0)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        blk = np.where(span > 0, np.floor((t - t0) / span * nblk), 0.0)
+    blk = np.minimum(blk, nblk - 1).astype(np.int64)
+    new = np.ones(len(t), dtype=bool)
+    new[1:] = (flight[1:] != flight[:-1]) | (blk[1:] != blk[:-1])
+    return running_count(new) - 1
+
+
+# Reports closer than this (median interval) are "dense" (Mode-S, 1-s state tables): their
+# errors are correlated over minutes (the reference's neighbourhood, mesoscale wind), so the
+# clusters of the standard errors are time blocks of DENSE_CLUSTER_S within a flight, not
+# whole flights (an hour of traffic is one flight per aircraft). 5 min: an airliner at 450 kt
+# crosses ~70 km, more than the consensus reference's 50-km radius, so the neighbours of its
+# reference largely change from one block to the next.
+DENSE_REPORT_INTERVAL_S = 60.0
+DENSE_CLUSTER_S = 300.0
+# decimal steps a position may be rounded to (TAMDAR: 0.01 deg); finer ones count as unrounded
+_POSITION_STEPS_DEG = (1.0, 0.1, 0.01, 0.001, 1e-4)
+
+
+def position_step_deg(lat_deg: np.ndarray, lon_deg: np.ndarray) -> float:
+    """The reports' lat/lon resolution read off the values: the coarsest decimal step of
+    1, 0.1, ..., 1e-4 deg on which 99 % of the finite positions lie, else 0 (not rounded:
+    decoded CPR positions, floats). 1e-4 deg is 11 m: finer rounding is below what the
+    ground-track gates can see over any report interval."""
+    v = np.concatenate([np.asarray(lat_deg, float), np.asarray(lon_deg, float)])
+    v = v[np.isfinite(v)]
+    if len(v) == 0:
+        return 0.0
+    v = v[:: max(1, len(v) // 20000)]  # a sample is enough to see the rounding
+    for step in _POSITION_STEPS_DEG:
+        q = v / step
+        if np.mean(np.abs(q - np.round(q)) <= 1e-6 * np.maximum(1.0, np.abs(q))) >= 0.99:
+            return step
+    return 0.0
+
+
+def report_interval_s(aircraft: np.ndarray, t: np.ndarray) -> float:
+    """Median time between an aircraft's consecutive reports (s; NaN with fewer than two),
+    `aircraft` codes and `t` in time order within each aircraft."""
+    if len(t) < 2:
+        return math.nan
+    dt_ = np.diff(t)[(aircraft[1:] == aircraft[:-1])]
+    dt_ = dt_[dt_ > 0]
+    return float(np.median(dt_)) if len(dt_) else math.nan
+
+
+@dataclass(frozen=True)
+class DataGates:
+    """The gates a table's own reports call for (`data_gates`) and what they were read from."""
+
+    gates: GateSpec
+    position_step_deg: float  # inferred (or given)
+    report_interval_s: float  # median, inferred
+    dense: bool  # reports closer than DENSE_REPORT_INTERVAL_S: clusters are time blocks
+    given: tuple[str, ...]  # the GateSpec fields the user set
+
+    def describe(self) -> str:
+        """One sentence for a report."""
+        step = f"{self.position_step_deg:g} deg" if self.position_step_deg > 0 else "not rounded"
+        unit = (
+            f"blocks of at most {self.gates.cluster_s:g} s within each flight"
+            if self.gates.cluster_s > 0
+            else f"whole flights (a pause over {self.gates.flight_gap_s:g} s starts a new one)"
+        )
+        said = f" (given: {', '.join(self.given)})" if self.given else ""
+        return (
+            f"positions {step}, median report interval {self.report_interval_s:.3g} s; "
+            f"clusters of the standard errors and bootstrap: {unit}{said}"
+        )
+
+
+def data_gates(obs: pd.DataFrame, base: GateSpec | None = None, **given) -> DataGates:
+    """The gates of `base` (default GateSpec()) with the position resolution and clustering
+    unit read off the table (validated observations): `position_step_deg` from the values
+    (position_step_deg), `cluster_s` DENSE_CLUSTER_S where the median report interval is
+    under DENSE_REPORT_INTERVAL_S, else 0 (whole flights). Fields in `given` (not None)
+    override what is inferred."""
+    given = {k: v for k, v in given.items() if v is not None}
+    ac = obs["aircraft"].cat.codes.to_numpy() if hasattr(obs["aircraft"], "cat") else pd.factorize(obs["aircraft"])[0]
+    t = obs["time_s"].to_numpy()
+    first = np.flatnonzero(np.r_[True, (ac[1:] != ac[:-1]) | (t[1:] != t[:-1])])
+    step = position_step_deg(obs["lat"].to_numpy().take(first), obs["lon"].to_numpy().take(first))
+    interval = report_interval_s(ac.take(first), t.take(first))
+    dense = bool(interval < DENSE_REPORT_INTERVAL_S)
+    fields = {"position_step_deg": step, "cluster_s": DENSE_CLUSTER_S if dense else 0.0}
+    fields.update(given)
+    gates = (base or GateSpec()).model_copy(update=fields)
+    gates = GateSpec.model_validate(gates.model_dump())  # the given values checked against the schema
+    return DataGates(gates, gates.position_step_deg, interval, dense, tuple(sorted(given)))
 
 
 def report_flights(
@@ -622,6 +739,7 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
     flight = report_flights(
         rac, rt, g.flight_gap_s, df["flight"].cat.codes.to_numpy().take(first) if "flight" in df.columns else None
     )
+    cluster = report_clusters(flight, rt, g.cluster_s)
     track = ground_track(rt, lat, lon, flight, g)
     vg_e, vg_n, gate = track.vg_e, track.vg_n, track.gate.copy()
     # the aircraft's side, once per report (validate_observations checked its rows agree)
@@ -672,6 +790,7 @@ def heading_errors(obs: pd.DataFrame, gates: GateSpec | None = None, source: str
             "aircraft": df["aircraft"].array,
             "ref_source": df["ref_source"].array,
             "flight": flight.take(rep_of_row),
+            "cluster": cluster.take(rep_of_row),
             "report": rep_of_row,
             "time_s": t,
             "heading_deg": heading.take(rep_of_row),
