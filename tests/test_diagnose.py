@@ -11,7 +11,6 @@ from test_modes_wind import synthetic
 
 from aerotruth.analysis.diagnose.modes import diagnose_track
 from aerotruth.app.cli import main
-from aerotruth.measured.kinds import real_data_dir
 
 
 @pytest.mark.slow
@@ -90,30 +89,6 @@ def test_cli_writes_the_contract_files_and_refuses_unknown_data(tmp_path, capsys
     capsys.readouterr()
     assert main(["diagnose", str(bad), "--model", "campaigns/quick.yaml", "--out", str(out)]) == 2
     assert capsys.readouterr().err.startswith(f"aerotruth diagnose: {bad}: JSON records with keys a; expected")
-
-
-@pytest.mark.skipif(
-    not (real_data_dir() / "zero_gravity.json.gz").exists(), reason=f"real data not found at {real_data_dir()}"
-)
-def test_the_a310_heading_is_offset_as_a_stale_variation_table_would_make_it(tmp_path):
-    out = tmp_path / "a310"
-    assert (
-        main(
-            [
-                "diagnose",
-                str(real_data_dir() / "zero_gravity.json.gz"),
-                "--model",
-                "campaigns/quick.yaml",
-                "--out",
-                str(out),
-            ]
-        )
-        == 0
-    )
-    doc = json.loads((out / "diagnosis.json").read_text())
-    first = doc["findings"][0]
-    assert first["effect"] == "heading_offset" and -3.5 < first["parameters"]["A_deg"]["value"] < -2.0
-    assert first["gain"]["held_out_after"] < first["gain"]["held_out_before"]
 
 
 # ---- hidden in simulated data: JSBSim truth -> Mode-S sensor -> decoded trajectory -> diagnose

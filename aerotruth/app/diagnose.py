@@ -25,15 +25,21 @@ from aerotruth.analysis.diagnose.fits import (
 )
 from aerotruth.analysis.diagnose.modes import Diagnosis, Finding
 from aerotruth.analysis.diagnose.wind_model import WindModelSpec
-from aerotruth.analysis.wind.modes_wind import ALPHA_LAW_SAAB340
-from aerotruth.errors import output_folder
+from aerotruth.errors import UserError, output_folder
 from aerotruth.files import atomic_write_text
 from aerotruth.units import KT
 
 
-def diagnose_main(measured_path: str, model_path: str, out_dir: str) -> int:
+def diagnose_main(
+    measured_path: str,
+    model_path: str,
+    out_dir: str,
+    aircraft_type: str | None = None,
+    engine_type: str | None = None,
+) -> int:
     """The command: recognise the measured data, diagnose them against the campaign's model,
-    write DIR's files and print one line of what was found."""
+    write DIR's files and print one line of what was found. `aircraft_type` (an ICAO type
+    designator) and `engine_type` name the aircraft of Mode-S data (aerotruth.measured.modes)."""
     args = SimpleNamespace(measured=measured_path, model=model_path, out=out_dir)
     from aerotruth.analysis.diagnose.modes import diagnose_track
     from aerotruth.measured.kinds import load_measured
@@ -43,6 +49,12 @@ def diagnose_main(measured_path: str, model_path: str, out_dir: str) -> int:
     output_folder(args.out)
     model = load_campaign(args.model)  # the simulation the data are compared with
     measured = load_measured(args.measured)
+    if (aircraft_type or engine_type) and measured.kind not in ("modes_track", "modes_raw"):
+        flag = "--aircraft-type" if aircraft_type else "--engine-type"
+        raise UserError(
+            f"{flag}: only Mode-S data are diagnosed with an aircraft type; {args.measured} is "
+            f"{'an' if measured.kind[0] in 'aeiou' else 'a'} {measured.kind.replace('_', ' ')}"
+        )
     if measured.kind == "approach_log":
         from aerotruth.analysis.diagnose.fits import diagnose_log
         from aerotruth.measured.approach_log import read_approach_log
@@ -59,7 +71,7 @@ def diagnose_main(measured_path: str, model_path: str, out_dir: str) -> int:
         return 0
     if measured.kind == "observation_table":
         return _diagnose_observations(args, model, measured)
-    track, excluded = track_from_measured(measured)
+    track, excluded = track_from_measured(measured, aircraft_type=aircraft_type, engine_type=engine_type)
     findings, baseline = diagnose_track(track)
     for f in findings:
         if f.effect == "heading_offset" and measured.kind in (
@@ -132,15 +144,19 @@ def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s:
     """DIR/diagnosis.json, DIR/report.md and DIR/figures/wind_along_flight.png."""
     out_dir.mkdir(parents=True, exist_ok=True)
     doc = asdict(diag)
-    a0, a1 = ALPHA_LAW_SAAB340
+    aircraft = track.attrs.get("aircraft") or {}
+    regs = track.attrs.get("registers") or {}
     model = (
-        f"Model: the simulation's Mode-S sensor on this flight's own trajectory, ideal heading and airspeed; the air "
-        f"track is heading - alpha sin(roll) with the simulation's aircraft's angle of attack, the SAAB 340B's "
-        f"alpha = {a0:.2f} deg + {a1:.0f} Pa deg / (q cos roll) (modes_wind.ALPHA_LAW_SAAB340), used for this aircraft "
-        "too: its own alpha law is not known here (a different alpha moves the air track by (delta alpha) sin(roll), "
+        "Model: the simulation's Mode-S sensor on this flight's own trajectory, ideal heading and airspeed; the air "
+        "vector is the horizontal part of the TAS, TAS cos(flight-path angle), along the air track heading - alpha "
+        "sin(roll), alpha from the lift equation of the aircraft type"
+        + (f": {aircraft['chosen']}" if aircraft else "")
+        + " (aerotruth.truth.aircraft_types; a different alpha moves the air track by (delta alpha) sin(roll), "
         "< 0.1 deg per deg of alpha at 5 deg of bank)."
     )
     doc["model"] = model
+    doc["aircraft"] = aircraft
+    doc["registers"] = regs
     atomic_write_text(out_dir / "diagnosis.json", json.dumps(doc, indent=2, sort_keys=False) + "\n")
     lines = [
         f"# Diagnosis of `{diag.measured}`",
@@ -151,10 +167,34 @@ def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s:
         "",
         model,
         "",
+    ]
+    if regs:
+        lines += [
+            "Registers (values of any resolution are used): "
+            + "; ".join(
+                f"{name} LSB {r['lsb']:.5g} {r['unit']} ({r['source']}), "
+                f"{100 * r['share_on_grid']:.0f} % of the samples on its grid"
+                if r["lsb"] is not None
+                else f"{name}: no register grid found (finer values, or interpolated)"
+                for name, r in regs.items()
+            )
+            + ".",
+            "",
+        ]
+    lines += [
         f"Baseline (ideal sensor, smooth wind): residual {diag.baseline['rms_kt']:.2f} kt per component, "
         f"held out {diag.baseline['held_out_rms_kt']:.2f} kt.",
         "",
     ]
+    free = diag.baseline.get("tas_scale_heading_free")
+    if free:
+        size = (
+            f"{100 * free['k']:+.2f} ± {100 * free['se']:.2f} %; a heading-based TAS scale is a finding only where it "
+            "agrees"
+            if free["k"] is not None
+            else free["outcome"]
+        )
+        lines += [f"TAS scale without the heading ({free['method']}): {size}.", ""]
     if not diag.findings:
         lines += ["**No finding**: no candidate effect improves the held-out fit with strong evidence.", ""]
     for i, f in enumerate(diag.findings, 1):
@@ -181,8 +221,11 @@ def write_diagnosis(diag: Diagnosis, track: pd.DataFrame, out_dir: Path, knot_s:
             f"(level {f.evidence['alpha']:.2g})",
             f"* residual {f.gain['before']:.2f} → {f.gain['after']:.2f} kt; held out {f.gain['held_out_before']:.2f} → "
             f"{f.gain['held_out_after']:.2f} kt",
-            "",
         ]
+        hf = f.evidence.get("heading_free")
+        if hf is not None:
+            lines.append(f"* without the heading: k = {hf['k']:.4g} ± {hf['se']:.2g} (agrees)")
+        lines.append("")
     last = (diag.baseline.get("rounds") or [{}])[-1]
     if last:
         lines += [

@@ -6,15 +6,17 @@ tables are aerotruth.analysis.diagnose.wind, approach logs aerotruth.analysis.di
 The model of a real flight is the Mode-S sensor run on the flight's own trajectory with
 ideal heading and airspeed (aerotruth.sensors.modes); its prediction is that the derived
 wind (aerotruth.analysis.wind.modes_wind) is smooth in time, once the air vector is taken
-along the air track (heading less the bank geometry a sin(phi), with the model aircraft's
-angle of attack: modes_wind.ALPHA_LAW_SAAB340). Residual structure that follows the
-heading, the airspeed or the turn rate is an effect of the aircraft's sensors.
+horizontal (TAS cos gamma) along the air track (heading less the bank geometry a sin(phi),
+with the angle of attack of the aircraft's type: aerotruth.truth.aircraft_types). Residual
+structure that follows the heading, the airspeed or the turn rate is an effect of the
+aircraft's sensors.
 
 Only near-level flight at steady speed is used: the smooth-wind assumption holds in time
 at a level, not through the shear of a climb (measured on the CDG flight: with climbs and
 descents kept, a spurious TAS "scale factor" of -18 % absorbed the wind's change with
 height), and while the speed changes the held TAS and the fresh ground speed are of
-different instants (SPEED_RATE_KT_S).
+different instants (SPEED_RATE_KT_S), and so are a heading held through a gap in reception
+and the track that moved on meanwhile (HELD_APART_DEG).
 
 A candidate is considered only where the data can identify it (heading octants occupied,
 MIN_OCTANTS) and kept only with a physically plausible size (PLAUSIBLE): on a single leg
@@ -29,7 +31,8 @@ refitted locally). The best candidate enters when dBIC < -10 (very strong, Kass 
 ALPHA = 2 %; BIC alone counts correlated 1-s samples as independent), its size exceeds the
 model's resolution (RESOLUTION: Mode-S register timing) and its held-out RMS is lower
 than without it; repeat until none does. An empty list is the answer when nothing is there.
-Each size's standard error is the block jackknife's (the test's), not least squares'.
+Each size's standard error is the block jackknife's (the test's), not least squares'. A TAS
+scale must also agree with the one found without the heading (HEADING_FREE_AGREE_SIGMA).
 """
 
 from __future__ import annotations
@@ -42,7 +45,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from aerotruth.analysis.wind.modes_wind import EFFECT_COLUMNS, fit, predict_rms
+from aerotruth.analysis.wind.modes_wind import EFFECT_COLUMNS, fit, predict_rms, tas_scale_heading_free
 from aerotruth.units import KT
 
 CAUSES = {
@@ -58,6 +61,13 @@ CAUSES = {
 }
 DBIC_THRESHOLD = -10.0
 JACKKNIFE_GROUPS = 8
+# A TAS scale is also seen without the heading (modes_wind.tas_scale_heading_free: ground
+# speed against TAS where the track turns, the wind solved with it). The heading-based scale
+# is a finding only where the two agree within HEADING_FREE_AGREE_SIGMA combined jackknife
+# standard errors: a heading error (a turn's register timing, the air track's angle of attack)
+# moves the heading-based scale, never the heading-free one, while a real airspeed error moves
+# both.
+HEADING_FREE_AGREE_SIGMA = 3.0
 # Smaller than this agrees with the model: Mode-S registers are held between replies (BDS 6,0
 # heading p50 0.69 s, ADS-B velocity 1.07 s: aerotruth.sensors.modes), so the heading and the
 # track of one sample differ in age by up to ~0.5 s; null simulated days gave 0.16-0.49 s.
@@ -99,6 +109,14 @@ LEVEL_FPM = 500.0
 # (p < 1e-4). TAS rate over +-10 s of the held register.
 SPEED_RATE_KT_S = 0.5
 SPEED_HALF_WINDOW_S = 10.0  # the wind is smooth in time at a level; climbing through shear it changes with height
+# The same for the directions: a trajectory resampled to 1 s holds a register's last value
+# through a gap in reception, so in a turn the heading may stand still while the ADS-B track
+# moves on (or the other way round). A sample whose heading has not changed since the track
+# moved more than HELD_APART_DEG (or whose track has not changed since the heading did) pairs
+# values of different instants: on the A310 flight, 364 such samples in 2.5-deg/s turns had
+# residuals of 20-90 kt (1.7 kt wings level). A steady register lag shows as a heading time
+# offset; these are the gaps.
+HELD_APART_DEG = 1.0
 # The wind paper rejects roll > 10 deg (banked, the nose is not where the aircraft goes).
 # Here it is optional and off: turns are what identify a heading lag, and measured on
 # simulated Mesaba days the filter left the decaying sideslip after roll-out to alias into
@@ -171,6 +189,38 @@ def _jackknife_p(
     return float(stats.f.sf(w / q, q, J - 1)), np.sqrt(np.diag(np.atleast_2d(cov)))
 
 
+def heading_free_scale(track: pd.DataFrame, knot_s: float, t: np.ndarray, block_s: float) -> dict:
+    """The heading-free TAS scale (modes_wind.tas_scale_heading_free) with its
+    delete-one-group jackknife standard error (groups as `_jackknife_p`'s). Identifiable as
+    the heading-based scale is: the ground track in MIN_OCTANTS["tas_scale"] octants, at
+    least 3 groups; else k and se are None and `outcome` says why."""
+    out: dict = {
+        "k": None,
+        "se": None,
+        "method": "ground speed against horizontal TAS where the track turns, the smooth wind solved with it; "
+        "no heading",
+    }
+    chi = np.degrees(np.arctan2(track["ve_mps"].to_numpy(float), track["vn_mps"].to_numpy(float))) % 360
+    octants = int(np.sum(np.bincount((chi // 45.0).astype(int), minlength=8) >= OCTANT_MIN_SHARE * len(track)))
+    if octants < MIN_OCTANTS["tas_scale"]:
+        out["outcome"] = (
+            f"not identifiable: {octants} ground-track octant(s) occupied, needs {MIN_OCTANTS['tas_scale']}"
+        )
+        return out
+    groups = (np.floor((t - t.min()) / block_s).astype(int)) % JACKKNIFE_GROUPS
+    thetas = [
+        tas_scale_heading_free(track, knot_s, rows=groups != g) for g in np.unique(groups) if (groups != g).sum() >= 50
+    ]
+    th = np.array([x for x in thetas if np.isfinite(x)])
+    if len(th) < 3:
+        out["outcome"] = f"not identifiable: {len(th)} jackknife group(s) of {JACKKNIFE_GROUPS}, needs 3"
+        return out
+    out["k"] = tas_scale_heading_free(track, knot_s)
+    out["se"] = float(np.sqrt((len(th) - 1) / len(th) * np.sum((th - th.mean()) ** 2)))
+    out["outcome"] = "estimated"
+    return out
+
+
 def diagnose_track(
     track: pd.DataFrame, *, knot_s: float = 600.0, block_s: float = 900.0, k: int = 4, start: tuple[str, ...] = ()
 ) -> tuple[list[Finding], dict]:
@@ -198,6 +248,8 @@ def diagnose_track(
     baseline["heading_octants_occupied"] = occupied
     turning = int(np.sum(np.abs(np.degrees(track["heading_rate_rad_s"].to_numpy(float))) > TURN_RATE_DEG_S))
     baseline["turning_samples"] = turning
+    free = heading_free_scale(track, knot_s, t, jk_block_s)
+    baseline["tas_scale_heading_free"] = free
     baseline["rounds"] = []
     while True:
         best = None
@@ -231,8 +283,18 @@ def diagnose_track(
             p, jk_se = _jackknife_p(track, knot_s, trial, eff, f, t, jk_block_s)
             ok = dbic < DBIC_THRESHOLD and p < ALPHA / len(EFFECT_COLUMNS) and cv < (1 - MIN_HELD_OUT_GAIN) * cur_cv
             ses = dict(zip(EFFECT_COLUMNS[eff], map(float, jk_se), strict=False))  # the block jackknife's, as the test
+            outcome = "passes" if ok else "not significant"
+            if eff == "tas_scale" and free["k"] is not None:
+                spread = math.hypot(free["se"], ses["k"] if np.isfinite(ses["k"]) else 0.0)
+                gap = abs(vals["k"] - free["k"]) / spread if spread > 0 else math.inf
+                if ok and not gap <= HEADING_FREE_AGREE_SIGMA:
+                    ok = False
+                    outcome = (
+                        f"disagrees with the heading-free scale {free['k']:+.4f} ± {free['se']:.4f} "
+                        f"({gap:.1f} se apart)"
+                    )
             tried[eff] = {
-                "outcome": "passes" if ok else "not significant",
+                "outcome": outcome,
                 "values": vals,
                 "se": ses,
                 "delta_bic": float(dbic),
@@ -260,6 +322,7 @@ def diagnose_track(
                     "alpha": ALPHA / len(EFFECT_COLUMNS),
                     "held_out_folds": k,
                     "fold_block_s": block_s,
+                    **({"heading_free": free} if eff == "tas_scale" else {}),
                 },
                 gain={
                     "metric": "wind-vector residual RMS per component (kt)",

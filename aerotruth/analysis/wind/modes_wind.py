@@ -2,9 +2,10 @@
 airspeed the aircraft reports.
 
 Wind (wind paper eq. 1): W = V_G - V_A, with V_G from track and ground speed (BDS 5,0 or
-ADS-B) and V_A = TAS (cos psi, sin psi) (north, east) from TAS (BDS 5,0) and the true
-heading psi = magnetic heading (BDS 6,0) + declination (IGRF for the date at the
-aircraft: ppigrf).
+ADS-B) and V_A = TAS cos(gamma) (cos psi, sin psi) (north, east) from TAS (BDS 5,0, along
+the air path: its horizontal part, gamma the climb angle from the vertical rate) and the
+true heading psi = magnetic heading (BDS 6,0) + declination (IGRF for the date at the
+aircraft: ppigrf). Below, TAS is that horizontal part.
 
 Consistency model (no reference wind needed): the wind is smooth in time along the
 flight, W(t) = sum_j c_j phi_j(t) (cubic B-splines, knots every `knot_s`, restarted after
@@ -39,7 +40,8 @@ import pandas as pd
 from scipy.interpolate import BSpline
 
 from aerotruth.analysis.least_squares import ols
-from aerotruth.units import KT
+from aerotruth.truth.aircraft_types import SAAB340, AircraftType
+from aerotruth.units import FPM, FT, KT
 
 EFFECT_COLUMNS = {
     "heading_offset": ("A_deg",),
@@ -74,42 +76,29 @@ def declination_history_deg(lat: float, lon: float, alt_m: float, dates: list[dt
     return _igrf_declination_deg(np.array([float(lon)]), np.array([float(lat)]), np.array([float(alt_m)]), list(dates))
 
 
-# The air vector leaves the heading in banked flight: the body-axis air velocity
-# (V cos a, 0, V sin a), rolled by phi, puts V sin(a) sin(phi) sideways, so the horizontal
-# air track is psi - a sin(phi) (a right bank swings it left of the nose; small pitch).
-# Unmodelled, it reads as a heading time offset of about -a V / g (-0.5 s for the SAAB:
-# in a coordinated turn r = g tan(phi) / V). Mode-S gives roll, not a: the model's
-# aircraft gives it from the dynamic pressure, a = a0 + a1 / q, q = rho TAS^2 / 2 (ISA
-# density at the pressure altitude). SAAB 340B (aerotruth truth, 40 legs, samples with
-# |roll| < 3 deg in climb, cruise and descent; `benchmarks/alpha_law.py`):
-ALPHA_LAW_SAAB340 = (-3.40, 30352.0)  # a0 deg, a1 deg Pa; residual sd 0.10 deg
-
-
-def alpha_deg(
-    tas_mps: np.ndarray,
-    pressure_altitude_m: np.ndarray,
-    law: tuple[float, float] = ALPHA_LAW_SAAB340,
-    roll_rad: np.ndarray | float = 0.0,
-) -> np.ndarray:
-    """Angle of attack (deg) of the model's aircraft at this TAS, pressure altitude and bank
-    (a level turn needs lift / cos(roll): load factor n = 1 / cos(roll))."""
-    from aerotruth.truth.isa import isa_pressure_pa, isa_temperature_k
-
-    h = np.clip(np.asarray(pressure_altitude_m, float), -500.0, 20000.0)
-    rho = isa_pressure_pa(h) / (287.05287 * isa_temperature_k(h))
-    q = 0.5 * rho * np.maximum(np.asarray(tas_mps, float), 30.0) ** 2
-    return law[0] + law[1] / (q * np.cos(np.clip(roll_rad, -1.2, 1.2)))
-
-
-SEGMENT_GAP_S = 30.0
+SEGMENT_GAP_S = 30.0  # a longer gap (a climb, a descent, another leg) starts a new wind segment
 SLAVING_TAU_GRID_S = tuple(float(x) for x in np.geomspace(2.0, 300.0, 41))
-RATE_HALF_WINDOW_S = 3.0  # a longer gap (a climb, a descent, another leg) starts a new wind segment
+RATE_HALF_WINDOW_S = 3.0
+# A wind segment shorter than the knot spacing gets no more freedom per minute than one
+# spline interval has (4 coefficients per knot_s): a polynomial of degree
+# floor(4 duration / knot_s), constant up to knot_s / 4. A cubic on every 1-3-min stretch
+# between two zero-g parabolas follows the air vector's rotation through a turn, and the
+# TAS scale left to explain the rest was -3.8 % on the A310 flight; this rule alone takes
+# it to -0.1 % (tests/test_diagnose_modes.py).
+SHORT_SEGMENT_DOF_PER_KNOT = 4
 
 
 def _one_spline(t: np.ndarray, knot_s: float) -> np.ndarray:
+    """The wind's basis on one segment: cubic B-splines with knots every ~knot_s, or on a
+    segment shorter than knot_s the polynomial of degree floor(4 duration / knot_s)
+    (Bernstein basis)."""
     t0, t1 = float(t.min()), float(t.max())
-    if t1 - t0 < 1e-6:
+    degree = min(3, int(SHORT_SEGMENT_DOF_PER_KNOT * (t1 - t0) / knot_s))
+    if degree == 0:
         return np.ones((len(t), 1))
+    if t1 - t0 < knot_s:
+        knots = np.r_[[t0] * (degree + 1), [t1] * (degree + 1)]
+        return BSpline.design_matrix(np.clip(t, t0, t1), knots, degree).toarray()
     n_int = max(1, int(np.ceil((t1 - t0) / knot_s)))
     inner = np.linspace(t0, t1, n_int + 1)
     knots = np.r_[[t0] * 3, inner, [t1] * 3]
@@ -118,7 +107,8 @@ def _one_spline(t: np.ndarray, knot_s: float) -> np.ndarray:
 
 
 def _spline_basis(t: np.ndarray, knot_s: float) -> np.ndarray:
-    """Cubic B-splines in time, one independent set per segment: the wind is smooth along
+    """Cubic B-splines in time (a lower-degree polynomial on a segment shorter than
+    knot_s: `_one_spline`), one independent set per segment: the wind is smooth along
     a stretch of flight at one level, not across a gap where the aircraft changed level or
     leg (the wind at another height is another wind). Read-only: the last few bases are
     kept (keyed by the times themselves), as the diagnose's profiles, folds and jackknife
@@ -172,7 +162,7 @@ def design(
 ) -> tuple[np.ndarray, np.ndarray, list[str]]:
     """(X, y, names) of the stacked north/east equations for the chosen effects (with
     `tau_s` > 0 the deviation reaches the heading through the gyro's slaving lag).
-    track: time_s, tas_mps, heading_rad (true), vn_mps, ve_mps, heading_rate_rad_s."""
+    track: time_s, tas_mps (horizontal), heading_rad (true), vn_mps, ve_mps, heading_rate_rad_s."""
     t = track["time_s"].to_numpy(float)
     tas = track["tas_mps"].to_numpy(float)
     # the air vector's direction: the heading, less the bank geometry when the frame has it
@@ -297,20 +287,86 @@ def predict_rms(track: pd.DataFrame, fitted: dict, knot_s: float, effects: tuple
     return float(np.sqrt(np.mean(res**2)))
 
 
+def tas_scale_heading_free(
+    track: pd.DataFrame, knot_s: float = 600.0, rows: np.ndarray | None = None, iterations: int = 8
+) -> float:
+    """The TAS scale k from the speeds alone, no heading: |V_G - W(t)| = (1 + k) TAS_h,
+    the ground velocity (ADS-B) less the smooth wind (the same basis as `design`) against
+    the horizontal TAS (BDS 5,0); Gauss-Newton from W = 0 (the wind is small against the
+    airspeed). Neither the heading (BDS 6,0), its deviation, its timing nor the angle of
+    attack enters: a second path to the scale, independent of the heading's errors. The
+    scale is seen where the ground track turns within a wind segment; NaN on fewer than
+    20 samples."""
+    sel = slice(None) if rows is None else rows
+    t = track["time_s"].to_numpy(float)
+    basis = _spline_basis(t, knot_s)[sel]
+    vn, ve = track["vn_mps"].to_numpy(float)[sel], track["ve_mps"].to_numpy(float)[sel]
+    tas = track["tas_mps"].to_numpy(float)[sel]
+    if len(tas) < 20:
+        return float("nan")
+    wn, we = np.zeros(len(tas)), np.zeros(len(tas))
+    k = 0.0
+    for _ in range(iterations):
+        dn, de = vn - wn, ve - we
+        speed = np.hypot(dn, de)
+        un, ue = dn / speed, de / speed
+        # |V_G - W| ~ |V_G - W0| - u.(W - W0): u.W + k TAS = |V_G - W0| + u.W0 - TAS
+        X = np.column_stack([un[:, None] * basis, ue[:, None] * basis, tas])
+        y = speed + un * wn + ue * we - tas
+        coef, _ = ols(X, y)
+        nb = basis.shape[1]
+        wn, we, k_new = basis @ coef[:nb], basis @ coef[nb : 2 * nb], float(coef[-1])
+        if abs(k_new - k) < 1e-7:
+            return k_new
+        k = k_new
+    return k
+
+
 def central_rate(t: np.ndarray, x: np.ndarray, half_window_s: float = RATE_HALF_WINDOW_S) -> np.ndarray:
     """Rate of a held (staircase) signal over +-half_window_s, t increasing."""
     return (np.interp(t + half_window_s, t, x) - np.interp(t - half_window_s, t, x)) / (2 * half_window_s)
 
 
+ALTITUDE_RATE_HALF_WINDOW_S = 10.0  # a held altitude in 25-ft steps: +-3 s would read 250 ft/min of steps
+
+
+def flight_path_angle_rad(df: pd.DataFrame) -> np.ndarray:
+    """The air path's climb angle gamma, sin(gamma) = vertical rate / TAS, from the
+    vertical rate (ft/min; BDS 0,9 or 6,0) where the samples carry it, else from the
+    barometric altitude's rate (ft) over +-ALTITUDE_RATE_HALF_WINDOW_S; zero without
+    either. df: time_s (increasing), TAS (kt), and vertical_rate or altitude."""
+    tas = np.maximum(df["TAS"].to_numpy(float) * KT, 1.0)
+    t = df["time_s"].to_numpy(float)
+    vz = np.full(len(df), np.nan)
+    if "vertical_rate" in df:
+        vz = df["vertical_rate"].to_numpy(float) * FPM
+    if np.isnan(vz).any() and "altitude" in df and len(df) > 1:
+        alt = df["altitude"].to_numpy(float) * FT
+        ok = np.isfinite(alt)
+        if ok.sum() > 1:
+            filled = np.interp(t, t[ok], alt[ok])
+            vz = np.where(np.isnan(vz), central_rate(t, filled, ALTITUDE_RATE_HALF_WINDOW_S), vz)
+    return np.arcsin(np.clip(np.nan_to_num(vz) / tas, -1.0, 1.0))
+
+
 def modes_track_to_wind_frame(
-    df: pd.DataFrame, when: dt.datetime, alpha_law: tuple[float, float] | None = ALPHA_LAW_SAAB340
+    df: pd.DataFrame, when: dt.datetime, aircraft: AircraftType | None = SAAB340
 ) -> pd.DataFrame:
     """A Mode-S trajectory (decoded fields in knots/degrees, heading magnetic) as the
     table `design` needs, in SI, with true heading and heading rate (rows sorted by time,
-    repeated times dropped); with roll (BDS 5,0) and an angle-of-attack law, the air
-    track psi - a sin(phi) (see ALPHA_LAW_SAAB340)."""
+    repeated times dropped).
+
+    * The air vector of the wind triangle is horizontal: BDS 5,0 TAS is along the air
+      path, so its horizontal part is TAS cos(gamma) (`tas_mps`; gamma from
+      `flight_path_angle_rad`, in `gamma_rad`; the TAS as reported in `tas_path_mps`).
+    * With roll (BDS 5,0) and an aircraft type, the air track psi - a sin(phi)
+      (`air_track_rad`): the body-axis air velocity (V cos a, 0, V sin a), rolled by phi,
+      puts V sin(a) sin(phi) sideways (a right bank swings it left of the nose).
+      Unmodelled, it reads as a heading time offset of about -a V / g (-0.5 s for the
+      SAAB 340: in a coordinated turn r = g tan(phi) / V). Mode-S gives roll, not a: the
+      type's lift equation gives it (aerotruth.truth.aircraft_types)."""
     df = df.sort_values("time_s", kind="stable").drop_duplicates("time_s")
-    dec = declination_deg(df["latitude"], df["longitude"], df["altitude"].to_numpy(float) * 0.3048, when)
+    dec = declination_deg(df["latitude"], df["longitude"], df["altitude"].to_numpy(float) * FT, when)
     psi = np.radians(df["heading"].to_numpy(float) + dec)
     trk = np.radians(df["track"].to_numpy(float))
     gs = df["groundspeed"].to_numpy(float) * KT
@@ -319,19 +375,23 @@ def modes_track_to_wind_frame(
     # heading rate over +-RATE_HALF_WINDOW_S: a held, quantized heading differenced
     # sample to sample is a staircase, and a noisy regressor biases D towards zero
     rate = central_rate(t, psi_u)
+    tas_path = df["TAS"].to_numpy(float) * KT
+    gamma = flight_path_angle_rad(df)
     out = pd.DataFrame(
         {
             "time_s": t,
-            "tas_mps": df["TAS"].to_numpy(float) * KT,
+            "tas_mps": tas_path * np.cos(gamma),
             "heading_rad": psi,
             "vn_mps": gs * np.cos(trk),
             "ve_mps": gs * np.sin(trk),
             "heading_rate_rad_s": rate,
             "declination_deg": dec,
+            "tas_path_mps": tas_path,
+            "gamma_rad": gamma,
         }
     )
-    if alpha_law is not None and "roll" in df and df["roll"].notna().all():
+    if aircraft is not None and "roll" in df and df["roll"].notna().all():
         roll = np.radians(df["roll"].to_numpy(float))
-        a = np.radians(alpha_deg(out["tas_mps"].to_numpy(), df["altitude"].to_numpy(float) * 0.3048, alpha_law, roll))
+        a = np.radians(aircraft.alpha_deg(tas_path, df["altitude"].to_numpy(float) * FT, roll))
         out["air_track_rad"] = psi - a * np.sin(roll)
     return out
