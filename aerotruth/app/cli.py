@@ -489,8 +489,16 @@ def build_parser() -> argparse.ArgumentParser:
         "and observation tables with findings DIR/extended_model.yaml (the campaign with "
         "the findings in its model).",
     )
-    dia.add_argument("measured", help="measured data file (Mode-S JSON/JSONL, observation table, approach log, ...)")
-    dia.add_argument("--model", required=True, help="campaign YAML of the simulation the data are compared with")
+    dia.add_argument(
+        "measured",
+        help="measured data file (Mode-S JSON/JSONL, multi-aircraft traffic, observation table, approach log, ...)",
+    )
+    dia.add_argument(
+        "--model",
+        default=None,
+        help="campaign YAML of the simulation the data are compared with (default: the sensor models' defaults, "
+        "the wind paper's model for reports; then no extended_model.yaml is written)",
+    )
     dia.add_argument("--out", required=True, help="output folder")
     dia.add_argument(
         "--aircraft-type",

@@ -25,7 +25,7 @@ from aerotruth.analysis.diagnose.fits import (
 )
 from aerotruth.analysis.diagnose.modes import Diagnosis, Finding
 from aerotruth.analysis.diagnose.wind_model import WindModelSpec
-from aerotruth.errors import UserError, output_folder
+from aerotruth.errors import DataError, UserError, output_folder
 from aerotruth.files import atomic_write_text
 from aerotruth.units import KT
 
@@ -47,8 +47,8 @@ def diagnose_main(
     from aerotruth.sim.campaign_loader import load_campaign
 
     output_folder(args.out)
-    model = load_campaign(args.model)  # the simulation the data are compared with
-    measured = load_measured(args.measured)
+    model = load_campaign(args.model) if args.model else None  # the simulation the data are compared with
+    measured = _traffic_as_reports(args.measured, load_measured)
     if (aircraft_type or engine_type) and measured.kind not in ("modes_track", "modes_raw"):
         flag = "--aircraft-type" if aircraft_type else "--engine-type"
         raise UserError(
@@ -60,7 +60,7 @@ def diagnose_main(
         from aerotruth.measured.approach_log import read_approach_log
 
         df = read_approach_log(args.measured)
-        fm = FitsModel.from_campaign(model)
+        fm = FitsModel.from_campaign(model) if model is not None else FitsModel()
         findings, baseline = diagnose_log(Path(args.measured), df, fm)
         write_log_diagnosis(args.measured, df, findings, baseline, fm, Path(args.out))
         names = ", ".join(f.effect for f in findings) or "none"
@@ -97,12 +97,47 @@ def diagnose_main(
     write_diagnosis(diag, track, out)
     from aerotruth.sim.studies.modes_diagnose import extended_campaign
 
-    extended = extended_campaign(model, findings) if findings else None
+    extended = extended_campaign(model, findings) if findings and model is not None else None
     if extended is not None:  # the simulation with the found effects: run it to see them reproduced
         atomic_write_text(out / "extended_model.yaml", extended.to_yaml())
     names = ", ".join(f.effect for f in findings) or "none"
     print(f"{args.measured}: {measured.kind}, {len(track)} samples; findings: {names} -> {out / 'diagnosis.json'}")
     return 0
+
+
+def _traffic_as_reports(path: str, load_measured):
+    """The measured file, recognised (aerotruth.measured.kinds); multi-aircraft traffic (a
+    decoded state table, raw frames or a tracker export of two aircraft or more,
+    aerotruth.measured.traffic) as the observation table `aerotruth reports --reference
+    consensus` writes: each sample against the consensus of the other aircraft, so that the
+    wind diagnosis finds per-aircraft and fleet effects."""
+    from aerotruth.analysis.wind.consensus import observation_table
+    from aerotruth.measured.kinds import Measured
+    from aerotruth.measured.traffic import read_traffic
+
+    try:
+        measured = load_measured(path)
+    except DataError as not_known:
+        try:
+            traffic = read_traffic(path)
+        except DataError as e:
+            # traffic that lacks what the wind needs: say what it lacks; not traffic at all: the kinds known
+            raise (not_known if "not traffic aerotruth reads" in str(e) else e) from None
+    else:
+        several = measured.kind in ("modes_track", "modes_raw") and measured.df.get("icao24", pd.Series()).nunique() > 1
+        if not several:
+            return measured
+        traffic = read_traffic(path)
+    if traffic["aircraft"].nunique() < 2:
+        raise DataError(f"{path}: traffic of one aircraft: a consensus reference needs other aircraft around it")
+    obs = observation_table(traffic)
+    if len(obs) == 0:
+        raise DataError(
+            f"{path}: no sample has another aircraft within the consensus neighbourhood (see `aerotruth reports "
+            "--radius-km --layer-ft --window-s` to make the table with other limits, then diagnose it)"
+        )
+    obs.attrs = {}
+    return Measured("observation_table", obs, Path(path))
 
 
 def _diagnose_observations(args: SimpleNamespace, model, measured) -> int:
@@ -119,7 +154,7 @@ def _diagnose_observations(args: SimpleNamespace, model, measured) -> int:
     ext = extended_spec(spec, findings, data, state)
     out = Path(args.out)
     write_wind_diagnosis(args.measured, findings, baseline, spec, ext, plots, out)
-    if findings:  # the campaign with the found effects in its diagnose model: diagnose with it finds them no more
+    if findings and model is not None:  # the campaign with the found effects: diagnose with it finds them no more
         extended = model.model_copy(update={"diagnose": {**model.diagnose, "wind": ext.model_dump(mode="json")}})
         atomic_write_text(out / "extended_model.yaml", extended.to_yaml())
     names = ", ".join(f.effect for f in findings) or "none"

@@ -1,10 +1,14 @@
-"""`aerotruth reports TRAFFIC --reference consensus --out OBS.parquet`: multi-aircraft traffic
-(a decoded Mode-S / ADS-B state table, aerotruth.measured.traffic) to the observation table
-that `heading fit`, `heading apply` and `diagnose` read (docs/data-formats.md), with the
-consensus of the other aircraft as the reference wind (aerotruth.analysis.wind.consensus).
+"""`aerotruth reports TRAFFIC --reference consensus|FILE --out OBS.parquet`: multi-aircraft
+traffic (a decoded Mode-S / ADS-B state table, aerotruth.measured.traffic) to the observation
+table that `heading fit`, `heading apply` and `diagnose` read (docs/data-formats.md). The
+reference wind is either the consensus of the other aircraft (`consensus`,
+aerotruth.analysis.wind.consensus) or a gridded weather analysis, a NetCDF or GRIB file such
+as ERA5 on pressure levels (aerotruth.measured.gridded), interpolated to each report
+(aerotruth.analysis.wind.gridded_reference); its `ref_source` is the file's stem.
 
 Writes OBS (.parquet, .csv or .csv.gz, by its name) and prints one line: samples read, left
-out (incomplete rows, no reference), aircraft, and the consensus groups.
+out (incomplete rows, no reference and why), aircraft, and the consensus groups or the
+analysis's span.
 """
 
 from __future__ import annotations
@@ -17,8 +21,10 @@ from aerotruth.analysis.wind.consensus import (
     CONSENSUS_WINDOW_S,
     observation_table,
 )
+from aerotruth.analysis.wind.gridded_reference import gridded_observation_table, report_positions
 from aerotruth.errors import DataError, UserError
 from aerotruth.files import atomic_write, atomic_write_text
+from aerotruth.measured.gridded import read_wind_grid
 from aerotruth.measured.observations import table_kind
 from aerotruth.measured.traffic import read_traffic
 
@@ -32,25 +38,57 @@ def reports_main(
     radius_km: float = CONSENSUS_RADIUS_KM,
     layer_ft: float = CONSENSUS_LAYER_FT,
     window_s: float = CONSENSUS_WINDOW_S,
+    reference_name: str | None = None,
 ) -> int:
-    """Run the command (module docstring); bad input raises a UserError in one line."""
+    """Run the command (module docstring); bad input raises a UserError in one line.
+    `reference` is "consensus" or the path of a gridded analysis; `reference_name` labels a
+    gridded reference's rows (`ref_source`; default the file's stem)."""
     out = Path(out_path)
     kind = table_kind(out)
     if kind is None:
         raise UserError(f"--out: {out}: expected a .parquet, .csv or .csv.gz file name")
     if out.is_dir() or not out.parent.is_dir():
         raise UserError(f"--out: {out}: expected a file name in an existing folder")
-    if reference not in REFERENCES:
-        raise UserError(f"--reference: expected one of {', '.join(REFERENCES)}, got {reference!r}")
+    if reference not in REFERENCES and not Path(reference).is_file():
+        raise UserError(
+            f"--reference: expected one of {', '.join(REFERENCES)}, got {reference!r}, which is not an existing file "
+            "either (a gridded analysis: NetCDF, or GRIB)"
+        )
     try:
         traffic = read_traffic(traffic_path)
     except DataError as e:
         raise UserError(str(e)) from None
-    obs = observation_table(traffic, radius_km=radius_km, layer_ft=layer_ft, window_s=window_s)
-    if len(obs) == 0:
-        raise UserError(
-            f"{traffic_path}: no sample has another aircraft within {radius_km:g} km, {layer_ft:g} ft and "
-            f"{window_s:g} s (--radius-km, --layer-ft, --window-s): a consensus needs traffic around each aircraft"
+    if reference in REFERENCES:
+        obs = observation_table(traffic, radius_km=radius_km, layer_ft=layer_ft, window_s=window_s)
+        if len(obs) == 0:
+            raise UserError(
+                f"{traffic_path}: no sample has another aircraft within {radius_km:g} km, {layer_ft:g} ft and "
+                f"{window_s:g} s (--radius-km, --layer-ft, --window-s): a consensus needs traffic around each aircraft"
+            )
+        groups = obs.attrs["consensus_aircraft"]
+        seen = groups[groups["seen"]]
+        said = (
+            f"{obs.attrs['without_reference']} without another aircraft near; {len(obs)} reports of "
+            f"{obs['aircraft'].nunique()} aircraft in {seen['group'].nunique()} consensus group(s)"
+        )
+    else:
+        try:
+            grid = read_wind_grid(reference, near=report_positions(traffic), name=reference_name)
+        except DataError as e:
+            raise UserError(f"--reference: {e}") from None
+        obs = gridded_observation_table(traffic, grid)
+        a = obs.attrs
+        outside = (
+            f"{a['outside_time']} outside its times, {a['outside_level']} outside its levels, "
+            f"{a['outside_area']} outside its area, {a['missing_value']} at missing grid values"
+        )
+        if len(obs) == 0:
+            raise UserError(
+                f"{traffic_path}: no sample lies inside the analysis {reference} ({grid.span.describe()}): {outside}"
+            )
+        said = (
+            f"{a['without_reference']} without a reference ({outside}); {len(obs)} reports of "
+            f"{obs['aircraft'].nunique()} aircraft against {grid.name} ({grid.span.describe()})"
         )
     table = obs.copy()
     table.attrs = {}  # the run's counts and consensus table are said, not stored in the file
@@ -60,11 +98,8 @@ def reports_main(
         atomic_write(out, lambda tmp: table.to_csv(tmp, index=False, compression="gzip"))
     else:
         atomic_write_text(out, table.to_csv(index=False))
-    groups = obs.attrs["consensus_aircraft"]
-    seen = groups[groups["seen"]]
     print(
         f"{traffic_path}: {traffic.attrs['rows_read']} rows, {traffic.attrs['rows_incomplete']} incomplete, "
-        f"{obs.attrs['without_reference']} without another aircraft near; {len(obs)} reports of "
-        f"{obs['aircraft'].nunique()} aircraft in {seen['group'].nunique()} consensus group(s) -> {out}"
+        f"{said} -> {out}"
     )
     return 0

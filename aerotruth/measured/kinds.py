@@ -132,6 +132,41 @@ def _epoch_seconds(ts: pd.Series) -> pd.Series:
     return t / 1000.0 if t.abs().median() > 1e11 else t
 
 
+def file_bytes(path: Path) -> bytes:
+    """A data file's bytes, gunzipped when they are gzip (by the magic bytes, whatever the
+    name); DataError naming the file when it cannot be read."""
+    return _raw_bytes(path)
+
+
+def table_of(path: Path, data: bytes) -> pd.DataFrame | None:
+    """The bytes as a CSV or Parquet table, None when they are JSON (or empty)."""
+    return _table(path, data)
+
+
+def json_of(path: Path, data: bytes):
+    """The bytes as one JSON document, or JSON lines as a list; None when neither."""
+    return _json(path, data)
+
+
+def epoch_seconds(values: pd.Series, where: str, column: str) -> pd.Series:
+    """A time column as UTC epoch seconds: numbers in s or ms (told apart by size), or
+    ISO-8601 text; DataError naming `where`, the column and the first value that is neither."""
+    epoch = pd.Timestamp("1970-01-01", tz="UTC")
+    if pd.api.types.is_datetime64_any_dtype(values):
+        return (pd.to_datetime(values, utc=True) - epoch).dt.total_seconds()
+    if pd.api.types.is_numeric_dtype(values) and not pd.api.types.is_bool_dtype(values):
+        return _epoch_seconds(values)
+    num = pd.to_numeric(values, errors="coerce")
+    if values.notna().any() and num.notna().sum() == values.notna().sum():
+        return _epoch_seconds(num)
+    parsed = pd.to_datetime(values, utc=True, errors="coerce", format="mixed")
+    bad = values[parsed.isna() & values.notna()]
+    if len(bad):
+        got = bad.iloc[0]
+        raise DataError(f"{where}: column {column!r}: expected UTC epoch seconds or ISO-8601 times, got {got!r}")
+    return (parsed - epoch).dt.total_seconds()
+
+
 # fields the Mode-S / ADS-B / QAR kinds read as numbers (README of ../shared/real-data)
 NUMERIC_FIELDS = (
     "timestamp",

@@ -16,6 +16,17 @@ out and counted.
 The canonical frame (SI at the boundary only where the contract's names say so):
 aircraft, time_s (UTC epoch s), lat, lon (deg), pressure_altitude_ft, gs_kt, track_deg
 (true), heading_mag_deg, tas_kt, and where the table has them vertical_rate_fpm and roll_deg.
+Numeric times are epoch seconds, or milliseconds (told apart by size). A table with a
+`true_heading` column (readsb's name) and no magnetic heading on a row takes the true heading
+less the IGRF declination the wind method adds back (aerotruth.analysis.wind.consensus).
+
+`read_traffic` recognises a file from its content (FORMATS; gzip by its magic bytes): a
+decoded state table as CSV, Parquet, JSON records or JSON lines (in the names above; a
+file without an aircraft column is one aircraft, labelled by the file's name), raw Mode-S
+frames (aerotruth.measured.frames, with the optional pyModeS), a readsb/tar1090 trace or a
+Flightradar24 track with EMS fields (aerotruth.measured.trackers). Anything else is one
+DataError naming the formats accepted; a file of a known kind that lacks what the wind
+method needs is one DataError naming everything it lacks.
 """
 
 from __future__ import annotations
@@ -26,9 +37,18 @@ import numpy as np
 import pandas as pd
 
 from aerotruth.errors import DataError
+from aerotruth.measured import frames, trackers
+from aerotruth.measured.kinds import epoch_seconds, file_bytes, json_of, table_of
 from aerotruth.measured.observations import table_kind
 from aerotruth.measured.tables import numeric_column, read_csv_table, read_parquet_table
 from aerotruth.units import FT, KT
+
+FORMATS = (
+    "a decoded Mode-S/ADS-B state table (CSV, Parquet or JSON records: icao24, timestamp, latitude, longitude, "
+    "altitude, groundspeed, track, heading, TAS), raw Mode-S frames (CSV, JSON lines or Parquet: a hex message "
+    "column rawmsg/msg/message/hex/frame and a timestamp), a readsb/tar1090 trace_full JSON or a Flightradar24 "
+    "track JSON with ems fields"
+)
 
 # canonical name -> [(source column name, factor to the canonical unit), ...] in order of
 # preference; a name's meaning must match (OpenSky's `heading` is a track, so it maps to track)
@@ -44,6 +64,7 @@ ALIASES: dict[str, list[tuple[str, float]]] = {
     "tas_kt": [("tas", 1.0), ("tas_kt", 1.0)],
     "vertical_rate_fpm": [("vertical_rate", 1.0), ("vertrate", 60.0 / FT)],
     "roll_deg": [("roll", 1.0), ("roll_deg", 1.0)],
+    "true_heading_deg": [("true_heading", 1.0), ("true_heading_deg", 1.0)],
 }
 REQUIRED = ("aircraft", "time", "lat", "lon", "pressure_altitude_ft", "gs_kt", "track_deg", "heading_mag_deg", "tas_kt")
 NUMERIC = tuple(c for c in ALIASES if c not in ("aircraft", "time"))
@@ -54,54 +75,90 @@ def _source_columns(columns) -> dict[str, str]:
     return {str(c).strip().lower(): c for c in columns}
 
 
-def canonical_traffic(df: pd.DataFrame, source: str) -> pd.DataFrame:
+def _lacks(cols: dict[str, str], missing: list[str]) -> str:
+    """The refusal's clause naming all that a table lacks, in the words of
+    aerotruth.measured.modes.lacking (diagnose's refusal)."""
+    words = []
+    if "lat" in missing or "lon" in missing:
+        words.append("position (latitude, longitude)")
+    if "pressure_altitude_ft" in missing:
+        words.append("pressure altitude (altitude, ft)")
+    if "gs_kt" in missing:
+        words.append("ground speed (groundspeed)")
+    if "track_deg" in missing:
+        words.append("track")
+    drift = "track" in cols and "drift" in cols  # track - drift is a heading, of the track's reference
+    if "heading_mag_deg" in missing and (not drift or missing == ["heading_mag_deg"]):
+        words.append(
+            "the aircraft's magnetic heading (Mode-S BDS 6,0, `heading` in traffic's names"
+            + ("; its track - drift is a heading in the track's reference, not known magnetic)" if drift else ")")
+        )
+    if "tas_kt" in missing:
+        other = [n.upper() for n in ("cas", "ias") if n in cols] + (["Mach"] if "mach" in cols else [])
+        has = f"; it has {' and '.join(other)}, but no air temperature to convert it" if other else ""
+        words.append(f"the true airspeed (Mode-S BDS 5,0, `TAS`{has})")
+    if "aircraft" in missing:
+        words.append("an aircraft identifier (icao24)")
+    if "time" in missing:
+        words.append("a time (timestamp)")
+    return ", ".join(words[:-1]) + (" and " if len(words) > 1 else "") + words[-1]
+
+
+def canonical_traffic(
+    df: pd.DataFrame, source: str, kind: str | None = None, default_aircraft: str | None = None
+) -> pd.DataFrame:
     """The canonical frame (module docstring) of a decoded state table; DataError naming the
-    source and the column on anything a winds-aloft method cannot use."""
+    source and all the columns a winds-aloft method needs and the table lacks. `kind` names
+    the table in that message; `default_aircraft` labels a table without an aircraft column
+    (one aircraft's flight)."""
     cols = _source_columns(df.columns)
-    kind = "OpenSky state vectors" if "baroaltitude" in cols or "vertrate" in cols else "state table"
+    opensky = "baroaltitude" in cols or "vertrate" in cols
+    kind = "OpenSky state vectors" if opensky else (kind or "state table")
     out = {}
     for name, options in ALIASES.items():
         for alias, factor in options:
             if alias in cols:
                 out[name] = (cols[alias], factor)
                 break
-        if name == "heading_mag_deg" and name not in out and "heading" in cols and kind != "OpenSky state vectors":
+        if name == "heading_mag_deg" and name not in out and "heading" in cols and not opensky:
             out[name] = (cols["heading"], 1.0)  # traffic's `heading`: BDS 6,0, magnetic
-        if name == "track_deg" and name not in out and "heading" in cols and kind == "OpenSky state vectors":
+        if name == "track_deg" and name not in out and "heading" in cols and opensky:
             out[name] = (cols["heading"], 1.0)  # OpenSky's `heading` is the true track
+    if "aircraft" not in out and default_aircraft is not None:
+        df = df.assign(_aircraft=default_aircraft)
+        out["aircraft"] = ("_aircraft", 1.0)
+    if "heading_mag_deg" not in out and "true_heading_deg" in out:
+        df = df.assign(_heading_mag=np.nan)
+        out["heading_mag_deg"] = ("_heading_mag", 1.0)
     missing = [c for c in REQUIRED if c not in out]
     if missing:
-        what = {
-            "heading_mag_deg": "the aircraft's magnetic heading (Mode-S BDS 6,0, `heading` in traffic's names)",
-            "tas_kt": "the true airspeed (Mode-S BDS 5,0, `TAS`)",
-        }.get(missing[0], f"'{missing[0]}'")
         raise DataError(
-            f"{source}: {kind} without {what}; a winds-aloft method needs position, pressure altitude, "
-            f"ground speed and track with each aircraft's own true airspeed and heading "
+            f"{source}: {kind} without {_lacks(cols, missing)}; a winds-aloft method needs position, "
+            f"pressure altitude, ground speed and track with each aircraft's own true airspeed and heading "
             f"(columns {', '.join(sorted(cols))})"
         )
     frame = pd.DataFrame({"aircraft": df[out["aircraft"][0]].astype(str).str.strip().str.lower()})
-    t = df[out["time"][0]]
-    if pd.api.types.is_numeric_dtype(t):
-        frame["time_s"] = t.to_numpy(dtype=float)
-    else:
-        parsed = pd.to_datetime(t, utc=True, errors="coerce", format="mixed")
-        if parsed.isna().any() and t.notna().any():
-            bad = t[parsed.isna() & t.notna()]
-            if len(bad):
-                raise DataError(
-                    f"{source}: column {out['time'][0]!r}: expected UTC epoch seconds or ISO-8601 times, "
-                    f"got {bad.iloc[0]!r}"
-                )
-        frame["time_s"] = (parsed - pd.Timestamp("1970-01-01", tz="UTC")).dt.total_seconds().to_numpy()
+    frame["time_s"] = epoch_seconds(df[out["time"][0]], source, str(out["time"][0])).to_numpy(dtype=float)
     for name in NUMERIC:
         if name not in out:
             continue
         col, factor = out[name]
         frame[name] = numeric_column(df, col, source).to_numpy() * factor
+    if "true_heading_deg" in frame:
+        take = ~np.isfinite(frame["heading_mag_deg"].to_numpy()) & np.isfinite(frame["true_heading_deg"].to_numpy())
+        take &= np.isfinite(frame[["time_s", "lat", "lon", "pressure_altitude_ft"]].to_numpy(dtype=float)).all(axis=1)
+        if take.any():
+            from aerotruth.analysis.wind.consensus import declination_deg
+
+            true_heading = frame.loc[take, "true_heading_deg"].to_numpy()
+            frame.loc[take, "heading_mag_deg"] = (true_heading - declination_deg(frame[take])) % 360.0
+        frame = frame.drop(columns="true_heading_deg")
+        frame.attrs["headings_from_true"] = int(take.sum())
     need = ["time_s", *REQUIRED[2:]]
     keep = np.isfinite(frame[need].to_numpy(dtype=float)).all(axis=1) & (frame["aircraft"] != "")
+    attrs = dict(frame.attrs)
     frame = frame[keep].sort_values(["aircraft", "time_s"], kind="stable").reset_index(drop=True)
+    frame.attrs.update(attrs)
     frame.attrs["rows_read"] = int(len(keep))
     frame.attrs["rows_incomplete"] = int((~keep).sum())
     if len(frame) == 0:
@@ -109,16 +166,68 @@ def canonical_traffic(df: pd.DataFrame, source: str) -> pd.DataFrame:
     return frame
 
 
+def _json_table(doc) -> tuple[str, pd.DataFrame] | None:
+    """(kind, table) of a JSON document that is a table: records, or columns of {row: value}."""
+    if isinstance(doc, list) and doc and all(isinstance(r, dict) for r in doc):
+        return "trajectory records", pd.DataFrame(doc)
+    if isinstance(doc, dict) and doc and all(isinstance(v, dict) for v in doc.values()):
+        table = pd.DataFrame({k: pd.Series(v) for k, v in doc.items()})
+        try:
+            table.index = table.index.astype(int)
+        except (TypeError, ValueError):
+            return None
+        return "flight-data-recorder extract", table.sort_index().reset_index(drop=True)
+    return None
+
+
+def _looks_like_traffic(table: pd.DataFrame) -> bool:
+    """A time column and at least one column of an aircraft's state: a state table, complete or not."""
+    cols = set(_source_columns(table.columns))
+    state = {alias for name, options in ALIASES.items() if name not in ("aircraft", "time") for alias, _ in options}
+    return bool(cols & {alias for alias, _ in ALIASES["time"]}) and bool(cols & (state | {"heading", "cas", "drift"}))
+
+
 def read_traffic(path: str | Path) -> pd.DataFrame:
-    """Read a decoded state table file into the canonical frame."""
+    """Read a traffic file (module docstring: FORMATS, recognised from the content) into the
+    canonical frame; a file of raw frames carries its decoding counts in attrs["frames"]."""
     p = Path(path)
-    kind = table_kind(p)
-    if kind is None:
-        raise DataError(f"{p}: expected a .csv, .csv.gz or .parquet state table, got '{p.suffix or 'no extension'}'")
-    if not p.is_file():
+    source = str(p)
+    if not p.exists():
         raise DataError(f"{p}: no such file")
-    try:
-        df = read_csv_table(p) if kind == "csv" else read_parquet_table(p)
-    except Exception as e:  # noqa: BLE001 - any reader failure is one line about the file
-        raise DataError(f"{p}: not a readable table ({str(e).splitlines()[0]})") from None
-    return canonical_traffic(df, str(p))
+    kind = table_kind(p)
+    table: pd.DataFrame | None = None
+    what = "state table"
+    if kind is not None:
+        try:
+            table = read_csv_table(p) if kind == "csv" else read_parquet_table(p)
+        except Exception as e:  # noqa: BLE001 - any reader failure is one line about the file
+            raise DataError(f"{p}: not a readable table ({str(e).splitlines()[0]})") from None
+    else:
+        data = file_bytes(p)
+        table = table_of(p, data)
+        if table is None:
+            doc = json_of(p, data)
+            if trackers.is_trace_full(doc):
+                trace = trackers.read_trace_full(doc, source)
+                return _carry(canonical_traffic(trace, source, "trace_full"), trace)
+            if trackers.is_fr24(doc):
+                fr24 = trackers.read_fr24(doc, source, p.name.split(".")[0])
+                return _carry(canonical_traffic(fr24, source, "Flightradar24 track"), fr24)
+            found = _json_table(doc)
+            if found is not None:
+                what, table = found
+    if table is None or not len(table.columns):
+        raise DataError(f"{p}: not traffic aerotruth reads; expected {FORMATS}")
+    if frames.frame_columns(table) is not None:
+        states = frames.read_frames(table, source)
+        return _carry(canonical_traffic(states, source, "raw Mode-S frames"), states)
+    if not _looks_like_traffic(table):
+        shown = ", ".join(map(str, table.columns[:8])) + (", ..." if len(table.columns) > 8 else "")
+        raise DataError(f"{p}: a table with columns {shown}: not traffic aerotruth reads; expected {FORMATS}")
+    return canonical_traffic(table, source, what, default_aircraft=p.name.split(".")[0])
+
+
+def _carry(frame: pd.DataFrame, states: pd.DataFrame) -> pd.DataFrame:
+    """The canonical frame with the reader's counts of its input (attrs "frames", "tracker")."""
+    frame.attrs.update(states.attrs)
+    return frame
