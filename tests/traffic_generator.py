@@ -32,9 +32,14 @@ def make_traffic(
     offsets_deg=None,
     date=dt.datetime(2024, 6, 1, 12),
     levels_ft=(20000.0, 24000.0, 28000.0, 30000.0),
+    turns=0,
+    heading_lag_s=0.0,
 ):
     """(state table, offsets in deg by icao24). Aircraft start at random times in the hour,
-    fly 20 min straight on random headings at FL200-FL300, sampled every second."""
+    fly 20 min straight on random headings at FL200-FL300, sampled every second. `turns`:
+    each flight turns that many times (60-120 deg either way at a standard-rate 3 deg/s, at
+    random moments); `heading_lag_s`: the BDS 6,0 heading is the one of that many seconds
+    before the ADS-B velocity's instant (replies sampled at different instants)."""
     rng = np.random.default_rng(seed)
     offsets = rng.uniform(-3.0, 3.0, n_aircraft) if offsets_deg is None else np.asarray(offsets_deg, float)
     rows = []
@@ -50,6 +55,10 @@ def make_traffic(
         half = tas * 0.5144 * 600.0 / 1000.0
         x0 = rng.uniform(-box_km / 4, box_km / 4) - half * np.sin(np.radians(hdg_true))
         y0 = rng.uniform(-box_km / 4, box_km / 4) - half * np.cos(np.radians(hdg_true))
+        hdg = np.full(len(t), hdg_true)
+        for _ in range(turns):  # drawn after the straight flight's numbers: turns=0 keeps their stream
+            at, by = rng.uniform(60.0, len(t) - 120.0), rng.choice([-1.0, 1.0]) * rng.uniform(60.0, 120.0)
+            hdg += np.clip((np.arange(len(t)) - at) * 3.0, 0.0, abs(by)) * np.sign(by)
         x, y = np.empty(len(t)), np.empty(len(t))
         x[0], y[0] = x0, y0
         lat = np.empty(len(t))
@@ -60,14 +69,15 @@ def make_traffic(
             lat[k] = lat0 + np.degrees(y[k] / R_KM)
             lon[k] = lon0 + np.degrees(x[k] / (R_KM * np.cos(np.radians(lat0))))
             wu, wv = wind_kt(lat[k], lon[k], alt)
-            gs_e[k] = tas * np.sin(np.radians(hdg_true)) + wu
-            gs_n[k] = tas * np.cos(np.radians(hdg_true)) + wv
+            gs_e[k] = tas * np.sin(np.radians(hdg[k])) + wu
+            gs_n[k] = tas * np.cos(np.radians(hdg[k])) + wv
             if k + 1 < len(t):
                 x[k + 1] = x[k] + gs_e[k] * 1.852 / 3600.0
                 y[k + 1] = y[k] + gs_n[k] * 1.852 / 3600.0
         be, bn, _ = ppigrf.igrf(lon, lat, alt * 0.3048 / 1000.0, date)
         dec = np.degrees(np.arctan2(np.ravel(be), np.ravel(bn)))
-        mag = (hdg_true - dec + offsets[i]) % 360.0
+        seen = np.interp(np.arange(len(t)) - heading_lag_s, np.arange(len(t)), hdg)  # the reply's instant
+        mag = (seen - dec + offsets[i]) % 360.0
         rows.append(
             pd.DataFrame(
                 {

@@ -111,7 +111,7 @@ def _traffic_as_reports(path: str, load_measured):
     aerotruth.measured.traffic) as the observation table `aerotruth reports --reference
     consensus` writes: each sample against the consensus of the other aircraft, so that the
     wind diagnosis finds per-aircraft and fleet effects."""
-    from aerotruth.analysis.wind.consensus import observation_table
+    from aerotruth.analysis.wind.consensus import observation_table, straight_samples
     from aerotruth.measured.kinds import Measured
     from aerotruth.measured.traffic import read_traffic
 
@@ -128,6 +128,7 @@ def _traffic_as_reports(path: str, load_measured):
         if not several:
             return measured
         traffic = read_traffic(path)
+    traffic = straight_samples(traffic)  # the wind paper's roll gate, as `aerotruth reports`
     if traffic["aircraft"].nunique() < 2:
         raise DataError(f"{path}: traffic of one aircraft: a consensus reference needs other aircraft around it")
     obs = observation_table(traffic)

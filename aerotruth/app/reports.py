@@ -6,9 +6,14 @@ aerotruth.analysis.wind.consensus) or a gridded weather analysis, a NetCDF or GR
 as ERA5 on pressure levels (aerotruth.measured.gridded), interpolated to each report
 (aerotruth.analysis.wind.gridded_reference); its `ref_source` is the file's stem.
 
+Samples banked over 10 deg (the table's roll, else the bank of a coordinated turn at the
+ADS-B track's rate over +-10 s; consensus.implied_bank_deg) are left out, as the wind paper
+drops banked reports: in turns the BDS 6,0 heading and the ADS-B velocity, sampled at
+different instants, disagree by the turn rate times the time between them.
+
 Writes OBS (.parquet, .csv or .csv.gz, by its name) and prints one line: samples read, left
-out (incomplete rows, no reference and why), aircraft, and the consensus groups or the
-analysis's span.
+out (incomplete rows, banked, no reference and why), aircraft, and the consensus groups or
+the analysis's span.
 """
 
 from __future__ import annotations
@@ -19,7 +24,9 @@ from aerotruth.analysis.wind.consensus import (
     CONSENSUS_LAYER_FT,
     CONSENSUS_RADIUS_KM,
     CONSENSUS_WINDOW_S,
+    MAX_BANK_DEG,
     observation_table,
+    straight_samples,
 )
 from aerotruth.analysis.wind.gridded_reference import gridded_observation_table, report_positions
 from aerotruth.errors import DataError, UserError
@@ -58,6 +65,7 @@ def reports_main(
         traffic = read_traffic(traffic_path)
     except DataError as e:
         raise UserError(str(e)) from None
+    traffic = straight_samples(traffic)  # the wind paper's roll gate, from the track's turn where no roll
     if reference in REFERENCES:
         obs = observation_table(traffic, radius_km=radius_km, layer_ft=layer_ft, window_s=window_s)
         if len(obs) == 0:
@@ -100,6 +108,7 @@ def reports_main(
         atomic_write_text(out, table.to_csv(index=False))
     print(
         f"{traffic_path}: {traffic.attrs['rows_read']} rows, {traffic.attrs['rows_incomplete']} incomplete, "
+        f"{traffic.attrs['turning']} banked over {MAX_BANK_DEG:g} deg, "
         f"{said} -> {out}"
     )
     return 0

@@ -66,7 +66,7 @@ from scipy.sparse.linalg import spsolve
 from scipy.spatial import cKDTree
 
 from aerotruth.sensors.magnetics import GeomagneticField
-from aerotruth.units import DEG, EARTH_RADIUS_M, FT, KT
+from aerotruth.units import DEG, EARTH_RADIUS_M, FT, G0, KT
 
 CONSENSUS_RADIUS_KM = 50.0  # a mesoscale wind changes by ~1 m/s over this (Nastrom-Gage)
 CONSENSUS_LAYER_FT = 1000.0  # shear of a few kt per 1,000 ft
@@ -91,6 +91,53 @@ def declination_deg(traffic: pd.DataFrame) -> np.ndarray:
         h = traffic["pressure_altitude_ft"].to_numpy()[sel] * FT
         field = GeomagneticField.covering(lat, lon, when)
         out[sel] = np.degrees(field.at(lat, lon, np.clip(h, -500.0, 15000.0)).declination_rad)
+    return out
+
+
+TURN_WINDOW_S = 10.0  # the track's rate of turn from the samples this far either side
+MAX_BANK_DEG = 10.0  # the wind paper's roll gate (section 4): reports banked more are dropped
+
+
+def implied_bank_deg(traffic: pd.DataFrame, window_s: float = TURN_WINDOW_S) -> np.ndarray:
+    """|bank| (deg) of each sample of a canonical traffic frame (sorted by aircraft and time):
+    the table's roll where given, else the bank of a coordinated turn at the ADS-B ground
+    track's rate, tan(phi) = V_G omega / g, omega from the track at the aircraft's samples
+    nearest t - window_s and t + window_s (0 where it has no other sample within the window:
+    sparse reports say nothing of turns). In turns the BDS 6,0 heading and the ADS-B velocity,
+    sampled at different instants, disagree by the turn rate times the time between them
+    (shared/real-data README; 2 s at 3 deg/s is 6 deg), and the heading leads the air track
+    by alpha sin(roll): the wind paper drops reports banked over 10 deg."""
+    n = len(traffic)
+    out = np.zeros(n)
+    if n == 0:
+        return out
+    codes = pd.factorize(traffic["aircraft"])[0].astype(float)
+    t = traffic["time_s"].to_numpy(float)
+    span = (np.nanmax(t) - np.nanmin(t)) + 4 * window_s + 1.0
+    key = codes * span + (t - np.nanmin(t))  # aircraft by aircraft, in time order within each
+    lo = np.searchsorted(key, key - window_s, side="left")
+    hi = np.searchsorted(key, key + window_s, side="right") - 1
+    lo = np.where(codes[lo] == codes, lo, np.arange(n))
+    hi = np.where(codes[np.minimum(hi, n - 1)] == codes, hi, np.arange(n))
+    trk = traffic["track_deg"].to_numpy(float)
+    dt_ = t[hi] - t[lo]
+    turn = (trk[hi] - trk[lo] + 180.0) % 360.0 - 180.0
+    with np.errstate(invalid="ignore", divide="ignore"):
+        omega = np.where(dt_ > 0, np.radians(turn) / dt_, 0.0)
+    v = traffic["gs_kt"].to_numpy(float) * KT
+    out = np.degrees(np.arctan(np.abs(v * omega) / G0))
+    if "roll_deg" in traffic:
+        roll = np.abs(traffic["roll_deg"].to_numpy(float))
+        out = np.where(np.isfinite(roll), roll, out)
+    return np.nan_to_num(out, nan=0.0)
+
+
+def straight_samples(traffic: pd.DataFrame, max_bank_deg: float = MAX_BANK_DEG) -> pd.DataFrame:
+    """The samples of a canonical traffic frame not banked over `max_bank_deg` (implied_bank_deg);
+    attrs as the frame's, plus `turning` (the samples left out)."""
+    keep = implied_bank_deg(traffic) <= max_bank_deg
+    out = traffic[keep].reset_index(drop=True)
+    out.attrs = {**traffic.attrs, "turning": int((~keep).sum())}
     return out
 
 
