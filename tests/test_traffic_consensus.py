@@ -35,6 +35,24 @@ def test_traffic_names_are_read_case_insensitively_with_their_units():
     assert tr.loc[0, "heading_mag_deg"] == 88.0 and tr.loc[0, "vertical_rate_fpm"] == -500.0
 
 
+def test_flights_split_at_pauses_and_landings_and_ground_samples_left_out():
+    """One aircraft: 3 airborne samples, 2 on the ground (a touch-and-go's landing roll), 2
+    airborne again 20 min later (under the 30-min pause: the landing splits them), then 2
+    more after a 40-min pause; a second aircraft flying throughout."""
+    t = [0, 10, 20, 30, 40, 1240, 1250, 3650, 3660]
+    ground = ["False", "False", "False", "True", "True", "False", "False", "False", "False"]
+    one = pd.DataFrame({"icao24": "aaaaaa", "timestamp": t, "onground": ground})
+    other = pd.DataFrame({"icao24": "bbbbbb", "timestamp": [0, 1240, 3650], "onground": "False"})
+    df = pd.concat([one, other], ignore_index=True).assign(
+        latitude=45.0, longitude=-93.0, altitude=20000.0, groundspeed=300.0, track=90.0, heading=90.0, TAS=280.0
+    )
+    df["timestamp"] = df["timestamp"] + 1_717_243_200
+    tr = canonical_traffic(df, "t.csv")
+    assert tr.attrs["rows_on_ground"] == 2 and len(tr) == 10
+    assert tr[tr["aircraft"] == "aaaaaa"]["flight"].tolist() == [1, 1, 1, 2, 2, 3, 3]
+    assert tr[tr["aircraft"] == "bbbbbb"]["flight"].tolist() == [1, 1, 2]  # 1240 -> 3650 s: over 30 min
+
+
 def test_opensky_state_vectors_are_refused_naming_what_they_lack():
     df = pd.DataFrame(
         {

@@ -15,7 +15,11 @@ out and counted.
 
 The canonical frame (SI at the boundary only where the contract's names say so):
 aircraft, time_s (UTC epoch s), lat, lon (deg), pressure_altitude_ft, gs_kt, track_deg
-(true), heading_mag_deg, tas_kt, and where the table has them vertical_rate_fpm and roll_deg.
+(true), heading_mag_deg, tas_kt, flight (1, 2, ... per aircraft: a new flight after a pause
+of over 30 min, or when it is airborne again after samples on the ground), and where the
+table has them vertical_rate_fpm and roll_deg. Samples the table flags as on the ground
+(`onground`, `on_ground`) are left out and counted; a flag-less table is taken as airborne
+(ground samples then fail the wind method's TAS gate, 60 kt).
 Numeric times are epoch seconds, or milliseconds (told apart by size). A table with a
 `true_heading` column (readsb's name) and no magnetic heading on a row takes the true heading
 less the IGRF declination the wind method adds back (aerotruth.analysis.wind.consensus).
@@ -154,16 +158,55 @@ def canonical_traffic(
             frame.loc[take, "heading_mag_deg"] = (true_heading - declination_deg(frame[take])) % 360.0
         frame = frame.drop(columns="true_heading_deg")
         frame.attrs["headings_from_true"] = int(take.sum())
+    ground = np.zeros(len(frame), dtype=bool)
+    flag = next((cols[c] for c in GROUND_FLAGS if c in cols), None)
+    if flag is not None:  # the table's airborne/ground state (ADS-B surface vs airborne messages)
+        ground = df[flag].map(_truthy).to_numpy(dtype=bool)
     need = ["time_s", *REQUIRED[2:]]
-    keep = np.isfinite(frame[need].to_numpy(dtype=float)).all(axis=1) & (frame["aircraft"] != "")
+    complete = np.isfinite(frame[need].to_numpy(dtype=float)).all(axis=1) & (frame["aircraft"] != "")
     attrs = dict(frame.attrs)
-    frame = frame[keep].sort_values(["aircraft", "time_s"], kind="stable").reset_index(drop=True)
+    frame["_ground"] = ground
+    frame = frame[complete].sort_values(["aircraft", "time_s"], kind="stable").reset_index(drop=True)
+    frame["flight"] = flight_numbers(
+        frame["aircraft"].to_numpy(), frame["time_s"].to_numpy(), frame["_ground"].to_numpy(dtype=bool)
+    )
+    on_ground = frame["_ground"].to_numpy(dtype=bool)
+    frame = frame[~on_ground].drop(columns="_ground").reset_index(drop=True)
     frame.attrs.update(attrs)
-    frame.attrs["rows_read"] = int(len(keep))
-    frame.attrs["rows_incomplete"] = int((~keep).sum())
+    frame.attrs["rows_read"] = int(len(complete))
+    frame.attrs["rows_incomplete"] = int((~complete).sum())
+    frame.attrs["rows_on_ground"] = int(on_ground.sum())
     if len(frame) == 0:
-        raise DataError(f"{source}: no row has every value a winds-aloft method needs ({', '.join(REQUIRED)})")
+        raise DataError(f"{source}: no airborne row has every value a winds-aloft method needs ({', '.join(REQUIRED)})")
     return frame
+
+
+# the airborne/ground flag under the names decoders write (traffic, OpenSky: onground)
+GROUND_FLAGS = ("onground", "on_ground", "ground")
+FLIGHT_GAP_S = 1800.0  # a longer pause in an aircraft's samples starts a new flight (as heading fit's)
+
+
+def _truthy(v) -> bool:
+    if isinstance(v, str):
+        return v.strip().lower() in ("true", "1", "yes", "t", "ground")
+    return bool(v) if v is not None and v == v else False
+
+
+def flight_numbers(aircraft: np.ndarray, t: np.ndarray, ground: np.ndarray) -> np.ndarray:
+    """Flight number (1, 2, ...) of each sample of an aircraft, samples in time order within
+    each aircraft: a new flight after a pause of more than FLIGHT_GAP_S, or where the
+    aircraft is airborne again after samples on the ground (it landed and left again)."""
+    n = len(t)
+    out = np.ones(n, dtype=np.int64)
+    if n == 0:
+        return out
+    new_ac = np.r_[True, aircraft[1:] != aircraft[:-1]]
+    took_off = np.r_[False, ground[:-1] & ~ground[1:]] & ~new_ac
+    gap = np.r_[False, np.diff(t) > FLIGHT_GAP_S] & ~new_ac
+    step = (took_off | gap).astype(np.int64)
+    count = np.cumsum(step)
+    first = np.maximum.accumulate(np.where(new_ac, np.arange(n), 0))
+    return count - count[first] + 1
 
 
 def _json_table(doc) -> tuple[str, pd.DataFrame] | None:

@@ -365,6 +365,8 @@ def build_observation_table(
     )
     if "roll_deg" in traffic:
         obs["roll_deg"] = traffic["roll_deg"].to_numpy()
+    if "flight" in traffic:  # the reader's flights (gaps, ground): the method's clusters within them
+        obs["flight"] = traffic["flight"].astype(str).to_numpy()
     keep = np.isfinite(ref_u) & np.isfinite(ref_v)
     out = obs[keep].reset_index(drop=True)
     out.attrs["samples"] = int(len(obs))
