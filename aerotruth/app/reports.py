@@ -108,7 +108,8 @@ def reports_main(
         atomic_write_text(out, table.to_csv(index=False))
     print(
         f"{traffic_path}: {traffic.attrs['rows_read']} rows, {traffic.attrs['rows_incomplete']} incomplete, "
-        f"{traffic.attrs['turning']} banked over {MAX_BANK_DEG:g} deg, "
+        f"{traffic.attrs.get('rows_on_ground', 0)} on the ground, {traffic.attrs['turning']} banked over "
+        f"{MAX_BANK_DEG:g} deg, "
         f"{said} -> {out}"
     )
     return 0
