@@ -36,3 +36,12 @@ def test_one_aircrafts_traffic_is_refused_in_one_line(tmp_path, capsys):
     assert main(["diagnose", str(tmp_path / "one.csv"), "--out", str(tmp_path / "d")]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "needs other aircraft" in err[0], err
+
+
+def test_heading_fit_on_traffic_says_how_to_make_the_table(tmp_path, capsys):
+    traffic, _ = make_traffic(n_aircraft=3, seed=0, minutes=25)
+    traffic.to_csv(tmp_path / "hour.csv", index=False)
+    assert main(["heading", "fit", str(tmp_path / "hour.csv"), "--out", str(tmp_path / "fit")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "traffic of 3 aircraft, not an observation table" in err[0], err
+    assert "aerotruth reports" in err[0] and "--reference consensus" in err[0]

@@ -43,11 +43,12 @@ import pandas as pd
 
 from aerotruth.analysis.wind.apply import heading_apply, table_frame
 from aerotruth.analysis.wind.heading_errors import data_gates
+from aerotruth.app.reports import observations_or_traffic_hint
 from aerotruth.errors import output_folder
 from aerotruth.files import atomic_write, atomic_write_text
 from aerotruth.markdown import to_markdown
 from aerotruth.measured.deviation_tables import read_tables
-from aerotruth.measured.observations import read_observation_table, table_kind
+from aerotruth.measured.observations import table_kind
 
 
 def _figure(scores: pd.DataFrame, path: Path) -> None:
@@ -99,7 +100,7 @@ def heading_apply_main(obs_path: str, tables_path: str, out_dir: str) -> int:
     figure and report.md. Returns 0; bad input raises DataError with one line."""
     out = output_folder(out_dir)  # before the work
     fleet = read_tables(tables_path)
-    obs = read_observation_table(obs_path)
+    obs = observations_or_traffic_hint(obs_path)
     gates = data_gates(obs).gates  # the position resolution of these reports, read off them
     corrected, scores = heading_apply(obs, fleet, str(obs_path), gates)
     (out / "figures").mkdir(parents=True, exist_ok=True)

@@ -41,10 +41,10 @@ from aerotruth.analysis.wind.heading_correction import (
 )
 from aerotruth.analysis.wind.heading_errors import GATE_NAMES, data_gates, heading_errors
 from aerotruth.analysis.wind.metrics import wind_errors_before_after
+from aerotruth.app.reports import observations_or_traffic_hint
 from aerotruth.errors import DataError, output_folder
 from aerotruth.files import atomic_write, atomic_write_text
 from aerotruth.markdown import to_markdown
-from aerotruth.measured.observations import read_observation_table
 
 MIN_REPORTS = 30  # usable reports an aircraft needs for a table
 MIN_FLIGHTS = 5  # clusters an aircraft needs when they are whole flights (sparse reports)
@@ -278,7 +278,7 @@ def heading_fit_main(
     if not (math.isfinite(max_sinusoid_se_deg) and max_sinusoid_se_deg > 0):
         raise DataError(f"--max-sinusoid-se-deg: expected a positive number of degrees, got {max_sinusoid_se_deg}")
     out = output_folder(out_dir)  # before the work
-    obs = read_observation_table(obs_path)
+    obs = observations_or_traffic_hint(obs_path)
     dg = data_gates(obs, cluster_s=cluster_s, position_step_deg=position_step_deg)
     rows = heading_errors(obs, dg.gates)
     require_used_reports(rows, obs_path)

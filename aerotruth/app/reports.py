@@ -113,3 +113,30 @@ def reports_main(
         f"{said} -> {out}"
     )
     return 0
+
+
+def observations_or_traffic_hint(path: str):
+    """The observation table at `path` (aerotruth.measured.observations); where the file is not
+    one but traffic this command could make one from, a DataError saying so (or naming what
+    the traffic lacks), instead of the table reader's complaint about its name or columns."""
+    from aerotruth.measured.observations import read_observation_table
+
+    try:
+        return read_observation_table(path)
+    except DataError as not_table:
+        try:
+            traffic = read_traffic(path)
+        except DataError as e:
+            if "not traffic aerotruth reads" in str(e) or "no such file" in str(e):
+                raise not_table from None
+            raise DataError(f"{e} (not an observation table either)") from None
+        n = traffic["aircraft"].nunique()
+        how = (
+            "--reference consensus --out OBS.parquet` (or --reference ANALYSIS, a gridded analysis)"
+            if n > 1
+            else "--reference ANALYSIS --out OBS.parquet` with a gridded analysis (a consensus needs other aircraft)"
+        )
+        raise DataError(
+            f"{path}: traffic of {n} aircraft, not an observation table: make one first with `aerotruth reports "
+            f"{path} {how}"
+        ) from None
