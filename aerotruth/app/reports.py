@@ -127,7 +127,13 @@ def observations_or_traffic_hint(path: str):
         try:
             traffic = read_traffic(path)
         except DataError as e:
-            if "not traffic aerotruth reads" in str(e) or "no such file" in str(e):
+            # a file named as a table keeps the table reader's word (a bad cell, a missing column);
+            # another file that is traffic lacking something gets the traffic reader's
+            if (
+                table_kind(Path(path)) is not None
+                or "not traffic aerotruth reads" in str(e)
+                or "no such file" in str(e)
+            ):
                 raise not_table from None
             raise DataError(f"{e} (not an observation table either)") from None
         n = traffic["aircraft"].nunique()
