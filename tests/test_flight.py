@@ -226,7 +226,7 @@ def test_negative_seed_is_refused_by_the_argument_parser(capsys):
     with pytest.raises(SystemExit) as e:
         main(["fly", "--from", "KMSP", "--to", "KRST", "--date", "2009-08-15", "--seed", "-1", "--out", "x.parquet"])
     assert e.value.code == 2
-    assert "argument --seed: expected a non-negative integer, got -1" in capsys.readouterr().err
+    assert "argument --seed: expected a seed from 0 to 9223372036854775807 (63 bits), got -1" in capsys.readouterr().err
 
 
 @pytest.mark.slow

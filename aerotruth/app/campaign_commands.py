@@ -21,9 +21,15 @@ def _err(msg: str) -> None:
 
 
 def run_cli(args: argparse.Namespace) -> int:
-    """aerotruth run CAMPAIGN.yaml [--size NAME] [--out DIR] [--workers N] [--executor local|dask] [--scheduler ADDR]"""
-    from aerotruth.sim.campaign import run_campaign
+    """aerotruth run CAMPAIGN.yaml [--size NAME] [--out DIR] [--force] [--workers N] [--executor local|dask]
+    [--scheduler ADDR]
+
+    Everything the user gave is checked before anything is written: the campaign, the
+    executor, and the run folder (sim.store.check_out_folder: a non-empty folder that is not
+    a run folder is refused; --force writes beside its files when none has a run's name)."""
+    from aerotruth.sim.campaign import default_run_dir, run_campaign
     from aerotruth.sim.executors import resolve
+    from aerotruth.sim.store import check_out_folder
 
     campaign = load_campaign(args.campaign, size=args.size)
     ex = campaign.executor
@@ -32,9 +38,15 @@ def run_cli(args: argparse.Namespace) -> int:
     choice = resolve(
         ex.kind, ex.workers, ex.scheduler, kind=args.executor, workers=args.workers, scheduler=args.scheduler
     )
+    where = "--out" if args.out is not None else "outputs.dir" if campaign.outputs.dir else "run folder"
+    out = check_out_folder(
+        args.out if args.out is not None else default_run_dir(campaign),
+        force=getattr(args, "force", False),
+        option=where,
+    )
     previous = signal.signal(signal.SIGTERM, _terminate)
     try:
-        summary = run_campaign(campaign, choice, out=args.out, progress=not args.quiet, log=_err)
+        summary = run_campaign(campaign, choice, out=out, progress=not args.quiet, log=_err)
     except ConfigError as e:
         raise ConfigError(f"{args.campaign}: {e}") from None
     finally:

@@ -103,17 +103,57 @@ def _positive_int(text: str) -> int:
 
 
 def _output_file(value: str, option: str = "--out") -> Path:
-    """Check an output file path before any work is done."""
+    """Check an output file path before any work is done (a flight is never flown to be lost):
+    a Parquet file name in an existing folder that takes a probe write (errors.output_file)."""
+    from aerotruth.errors import output_file
+
     out = Path(value)
     if out.is_dir():
         raise UserError(f"{option}: {out} is a folder, expected a file name (e.g. {out / 'flight.parquet'})")
-    if not out.parent.exists():
-        raise UserError(f"{option}: folder {out.parent} does not exist")
     if out.suffix and out.suffix.lower() not in (".parquet", ".pq"):
         raise UserError(
             f"{option}: the TruthTrack is written as Parquet: expected a .parquet file name, got '{out.name}'"
         )
-    return out
+    return output_file(out, option)
+
+
+def _seed(text: str) -> int:
+    """A seed: an integer from 0 to 2^63 - 1, the 63-bit seeds a campaign derives for its days
+    and flights (the fly_command of a truth row)."""
+    from aerotruth.sim.campaign_file import SEED_MAX
+
+    expected = f"expected a seed from 0 to {SEED_MAX} (63 bits)"
+    t = text.strip()
+    if len(t) > 40:  # int() of a long text is slow, beyond 4,300 digits an error
+        shown = f"{len(t)} digits" if t.isdigit() else f"{len(t)} characters"
+        raise argparse.ArgumentTypeError(f"{expected}, got {shown}")
+    try:
+        value = int(t)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{expected}, got {t!r}") from None
+    if not 0 <= value <= SEED_MAX:
+        raise argparse.ArgumentTypeError(f"{expected}, got {value if len(t) <= 20 else f'{len(t)} digits'}")
+    return value
+
+
+def _one_line_errors(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
+    """`parser` with its usage errors (an option's bad value, a missing option) printed as one
+    line, `aerotruth fly: argument --seed: expected ... (see aerotruth fly --help)`, exit 2."""
+
+    def error(message: str) -> typing.NoReturn:
+        parser.exit(2, f"{parser.prog}: {message} (see {parser.prog} --help)\n")
+
+    parser.error = error  # type: ignore[method-assign]
+    return parser
+
+
+def _model_date(when, given: str, option: str = "--date"):
+    """`when` (parsed from `given`) if its UTC day is one aerotruth models (aerotruth.dates),
+    else a UserError naming `option`."""
+    from aerotruth.dates import check_model_date
+
+    check_model_date(when, option, given=repr(given))
+    return when
 
 
 def _cmd_fly(args: argparse.Namespace) -> int:
@@ -141,8 +181,8 @@ def _cmd_fly(args: argparse.Namespace) -> int:
     origin, destination = args.origin.strip().upper(), args.destination.strip().upper()
     weather_seed = args.seed if args.weather_seed is None else args.weather_seed
     try:
+        departure = _model_date(parse_departure(args.date), args.date)
         airframe(args.aircraft)
-        departure = parse_departure(args.date)
         region = args.region or region_for_airport(origin)
         plan = plan_in_weather(
             origin,
@@ -195,8 +235,8 @@ def _cmd_fly_approach(args: argparse.Namespace) -> int:
     weather_seed = args.seed if args.weather_seed is None else args.weather_seed
     flight_seed = args.seed if args.flight_seed is None else args.flight_seed
     try:
+        when = _model_date(parse_departure(args.date, default_hour=15), args.date)
         runway = find_runway(icao, args.runway)
-        when = parse_departure(args.date, default_hour=15)
         region = args.region or region_for_airport(icao)
         atmosphere = None if args.calm else day_atmosphere(when.date(), weather_seed, region)
         spec = approach_spec(
@@ -273,6 +313,21 @@ def _cmd_heading_apply(args: argparse.Namespace) -> int:
     return heading_apply_main(args.obs, args.tables, args.out)
 
 
+def _workers(text: str) -> int:
+    """--workers: 1 to the most processes a campaign may ask for (campaign_file.MAX_WORKERS)."""
+    from aerotruth.sim.campaign_file import MAX_WORKERS
+
+    t = text.strip()
+    shown = repr(t) if len(t) <= 40 else f"{len(t)} characters"
+    try:
+        value = int(t) if len(t) <= 40 else 0
+    except ValueError:
+        value = 0
+    if not 1 <= value <= MAX_WORKERS:
+        raise argparse.ArgumentTypeError(f"expected 1 to {MAX_WORKERS} worker processes, got {shown}")
+    return value
+
+
 def _add_campaign_commands(sub) -> None:
     """run / validate / figures / report / regress: implemented in aerotruth.app.campaign_commands."""
 
@@ -294,14 +349,30 @@ def _add_campaign_commands(sub) -> None:
         "and approaches come from the truth store and are flown only when missing; a "
         "stored task result is reused only while the code, data and configuration it came "
         "from are unchanged. Every random draw comes from a stream named by its task, so "
-        "the numbers do not depend on the executor or the number of workers.",
+        "the numbers do not depend on the executor or the number of workers. The run folder "
+        "must be new, empty or a run folder (its manifest.json): a folder holding other "
+        "files is refused unless --force, and even then a run never replaces a file it did "
+        "not write. A campaign's `study_modules:` are code, imported (run) as the campaign is "
+        "read: run only campaigns you trust.",
     )
+    _one_line_errors(run)
     run.add_argument("campaign", help="campaign YAML file")
     run.add_argument(
         "--size", default=None, help="apply the campaign's `sizes: NAME:` overrides (e.g. reduced); runs/<name>-<size>"
     )
-    run.add_argument("--out", default=None, help="run directory (default runs/<campaign name>)")
-    run.add_argument("--workers", type=_positive_int, default=None, help="worker processes (default: cores)")
+    run.add_argument(
+        "--out",
+        default=None,
+        help="run directory (default runs/<campaign name>): a new or empty folder, or a run folder to resume",
+    )
+    run.add_argument(
+        "--force",
+        action="store_true",
+        help="also run into a non-empty folder that is not a run folder, as long as none of the names a run "
+        "writes (.lock, config.resolved.yaml, manifest.json, metrics.json, report.md, tasks/, learned/, "
+        "failed/, tables/, data/, figures/) is taken there: a file aerotruth did not write is never replaced",
+    )
+    run.add_argument("--workers", type=_workers, default=None, help="worker processes (default: cores)")
     run.add_argument(
         "--executor", choices=["local", "dask"], default=None, help="executor (default: the YAML's, else local)"
     )
@@ -315,8 +386,11 @@ def _add_campaign_commands(sub) -> None:
         help="check a campaign YAML and expand its tasks",
         description="Check a campaign file against the schema of every study it names (a problem is "
         "one line naming the YAML path and line), expand its tasks and print their count "
-        "per study and the configuration hash. Nothing is run or flown.",
+        "per study and the configuration hash. Nothing is run or flown, but a campaign's "
+        "`study_modules:` are code and are imported (run) to check their sections: validate "
+        "only campaigns you trust.",
     )
+    _one_line_errors(val)
     val.add_argument("campaign", help="campaign YAML file")
     val.add_argument("--size", default=None, help="validate with the campaign's `sizes: NAME:` overrides applied")
     val.set_defaults(func=lazy("validate_cli"))
@@ -380,20 +454,24 @@ def build_parser() -> argparse.ArgumentParser:
         "re-flown bit for bit with the arguments in the fly_command column of its truth "
         "row (seeds, region, cruise level, flight id).",
     )
+    _one_line_errors(fly)
     fly.add_argument("--from", dest="origin", required=True, help="departure airport ICAO code")
     fly.add_argument("--to", dest="destination", required=True, help="arrival airport ICAO code")
     fly.add_argument(
-        "--date", required=True, help="UTC date YYYY-MM-DD (departure 13:00 UTC) or ISO date-time of departure"
+        "--date",
+        required=True,
+        help="UTC date YYYY-MM-DD (departure 13:00 UTC) or ISO date-time of departure, 1900-01-01 to 2029-12-31 "
+        "(the span of IGRF-14, the magnetic field model)",
     )
     fly.add_argument(
         "--seed",
-        type=_non_negative_int,
+        type=_seed,
         default=0,
-        help="flight seed (en-route fixes, turbulence); also the weather seed unless --weather-seed",
+        help="flight seed, 0 to 2^63 - 1 (en-route fixes, turbulence); also the weather seed unless --weather-seed",
     )
     fly.add_argument(
         "--weather-seed",
-        type=_non_negative_int,
+        type=_seed,
         default=None,
         help="seed of the day's truth atmosphere (default: --seed)",
     )
@@ -426,21 +504,27 @@ def build_parser() -> argparse.ArgumentParser:
         "--offset-nm and --intercept-deg start it off the centreline for a turn onto "
         "final.",
     )
+    _one_line_errors(fa)
     fa.add_argument("--airport", required=True, help="airport ICAO code (the embedded airport table)")
     fa.add_argument("--runway", required=True, help="runway end landed on, e.g. 27")
-    fa.add_argument("--date", required=True, help="UTC date YYYY-MM-DD (start 15:00 UTC) or ISO date-time of the start")
     fa.add_argument(
-        "--seed", type=_non_negative_int, default=0, help="seed of the approach (weather and flight unless given)"
+        "--date",
+        required=True,
+        help="UTC date YYYY-MM-DD (start 15:00 UTC) or ISO date-time of the start, 1900-01-01 to 2029-12-31 "
+        "(the span of IGRF-14, the magnetic field model)",
+    )
+    fa.add_argument(
+        "--seed", type=_seed, default=0, help="seed of the approach, 0 to 2^63 - 1 (weather and flight unless given)"
     )
     fa.add_argument(
         "--weather-seed",
-        type=_non_negative_int,
+        type=_seed,
         default=None,
         help="seed of the day's truth atmosphere (default: --seed)",
     )
     fa.add_argument(
         "--flight-seed",
-        type=_non_negative_int,
+        type=_seed,
         default=None,
         help="seed of the flight's own draws, e.g. turbulence (default: --seed)",
     )
@@ -664,7 +748,17 @@ def build_parser() -> argparse.ArgumentParser:
     )
     happ.add_argument("--out", required=True, help="output folder")
     happ.set_defaults(func=_cmd_heading_apply)
+    _every_parser_one_line(p)
     return p
+
+
+def _every_parser_one_line(parser: argparse.ArgumentParser) -> None:
+    """The command and each of its subcommands print usage errors as one line (_one_line_errors)."""
+    _one_line_errors(parser)
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for sub in action.choices.values():
+                _every_parser_one_line(sub)
 
 
 def main(argv: list[str] | None = None) -> int:

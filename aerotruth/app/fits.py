@@ -49,7 +49,7 @@ from aerotruth.analysis.fits.ils_metrics import (
 )
 from aerotruth.analysis.fits.ins_frame import frame_error
 from aerotruth.errors import DataError, output_folder
-from aerotruth.files import atomic_write_bytes, atomic_write_text
+from aerotruth.files import atomic_write, atomic_write_text, make_folder
 from aerotruth.measured.approach_log import read_approach_log, runway_geometry
 from aerotruth.units import NM
 
@@ -81,7 +81,7 @@ def _requirement_figure(errors: pd.DataFrame, path: Path) -> None:
         ax.legend(fontsize=7, loc="upper right")
     axes[1].set_xlabel("distance to threshold (NM)")
     fig.tight_layout()
-    fig.savefig(path, dpi=120)
+    fig.savefig(path, format="png", dpi=120)
     plt.close(fig)
 
 
@@ -158,7 +158,7 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
                 e.insert(0, "time_s", nl.t_s[ok])
                 e.insert(0, "approach", a)
                 errs.append(e)
-    out.mkdir(parents=True, exist_ok=True)
+    make_folder(out, "--out")
     atomic_write_text(out / "trajectory.csv", pd.concat(traj, ignore_index=True).to_csv(index=False))
     atomic_write_text(out / "trajectory_8hz.csv", pd.concat(grid, ignore_index=True).to_csv(index=False))
     atomic_write_text(out / "cyclic_noise.csv", pd.concat(noise, ignore_index=True).to_csv(index=False))
@@ -192,8 +192,5 @@ def fits_main(log_path: str, out_dir: str, spec: FitsSpec | None = None) -> int:
             )
             + f" -> {out / 'errors.csv'}"
         )
-        tmp = out / "requirement.png.part.png"
-        _requirement_figure(errors, tmp)
-        atomic_write_bytes(out / "requirement.png", tmp.read_bytes())
-        tmp.unlink()
+        atomic_write(out / "requirement.png", lambda tmp: _requirement_figure(errors, tmp))
     return 0

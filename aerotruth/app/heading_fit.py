@@ -21,6 +21,7 @@ Writes
 
 from __future__ import annotations
 
+import hashlib
 import math
 import re
 import sys
@@ -53,8 +54,48 @@ MAX_SINUSOID_SE_DEG = 1.0  # a sinusoid less determined than this is not uploade
 MAX_BOOTSTRAP = 100_000
 
 
+MAX_FIGURE_STEM = 80  # characters of a figure's file name before ".png": far below any file system's limit
+
+
 def _safe_name(aircraft: str) -> str:
-    return re.sub(r"[^A-Za-z0-9_.-]", "_", aircraft) or "aircraft"
+    """The aircraft id as a file-name stem: letters, digits, `_`, `.`, `-`; anything else,
+    and a leading dot (a hidden file), as `_`."""
+    return re.sub(r"^\.", "_", re.sub(r"[^A-Za-z0-9_.-]", "_", aircraft)) or "aircraft"
+
+
+def _shown(aircraft: str) -> str:
+    """An aircraft id as markdown code: a backtick or a line break would end it."""
+    return str(aircraft).replace("`", "'").replace("\n", " ").replace("\r", " ")
+
+
+def _hashed(aircraft: str, clean: str, digits: int = 8) -> str:
+    tag = hashlib.sha256(aircraft.encode("utf-8", "surrogatepass")).hexdigest()[:digits]
+    return f"{clean[: MAX_FIGURE_STEM - digits - 1]}-{tag}"
+
+
+def figure_stems(aircraft: list[str]) -> dict[str, str]:
+    """A file-name stem for each aircraft's figure, unique (also where case is not told
+    apart, as on macOS and Windows) and at most MAX_FIGURE_STEM characters: the id cleaned
+    (`_safe_name`); where that is longer, or where several ids clean to one name (`N401/XJ`,
+    `N401_XJ`), the cleaned id cut short plus 8 hex digits of the id's SHA-256 (an id that
+    is its own clean name keeps it)."""
+    clean = {a: _safe_name(a) for a in aircraft}
+    groups: dict[str, list[str]] = {}
+    for a, c in clean.items():
+        groups.setdefault(c.casefold(), []).append(a)
+    stems = {}
+    for members in groups.values():
+        plain = [a for a in members if clean[a] == a]
+        for a in members:
+            keep = len(clean[a]) <= MAX_FIGURE_STEM and (len(members) == 1 or plain == [a])
+            stems[a] = clean[a] if keep else _hashed(a, clean[a])
+    seen: dict[str, int] = {}
+    for s in stems.values():
+        seen[s.casefold()] = seen.get(s.casefold(), 0) + 1
+    for a, s in stems.items():  # a hashed stem that meets another id's own name: a longer hash
+        if seen[s.casefold()] > 1 and s != clean[a]:
+            stems[a] = _hashed(a, clean[a], 24)
+    return stems
 
 
 def _figure(fit, rows: pd.DataFrame, col: str, path: Path, ci: pd.DataFrame | None = None) -> None:
@@ -122,6 +163,7 @@ def _report(
     ci: pd.DataFrame | None = None,
     warnings: list[str] = (),
     limits: str = "",
+    figures: dict[str, str] | None = None,
 ) -> str:
     gates = rows.drop_duplicates("report")["gate"].value_counts().reindex(GATE_NAMES, fill_value=0)
     table = fleet.to_table()
@@ -226,6 +268,18 @@ def _report(
         "In-sample: the tables were fitted on these reports; judge them on a later period (the paper's "
         "before/after with a control group): `aerotruth heading apply LATER_OBS --tables deviation.csv --out DIR`.",
         "",
+    ]
+    if figures:
+        out += [
+            "## Figures",
+            "",
+            "Heading error against the measured heading, the fit and the 8-point table, one file per aircraft "
+            "(an id that is not a plain file name, or is long, or cleans to another's name, carries a short hash):",
+            "",
+            *[f"* `{_shown(a)}`: [{path}]({path})" for a, path in figures.items()],
+            "",
+        ]
+    out += [
         "## Method and criteria",
         "",
         "* Heading error psi - psi' = angle(V_G - V_W,TAM) - angle(V_G - V_W,REF) (wind paper eqs. 3, 4) against "
@@ -300,15 +354,17 @@ def heading_fit_main(
             atomic_write_text(out / f"{stem}_ci.csv", t.to_csv(index=False))
             ci = t if fl is fleet else ci
     ac = rows["aircraft"].to_numpy()
+    stems = figure_stems([str(name) for name in fleet.fits_])
+    figures = {name: f"figures/{stems[str(name)]}.png" for name in fleet.fits_}
     for name, fit in fleet.fits_.items():
         mine = ci[ci["aircraft"] == name] if ci is not None else None
-        _figure(fit, rows.loc[ac == name], "heading_deg", out / "figures" / f"{_safe_name(name)}.png", mine)
+        _figure(fit, rows.loc[ac == name], "heading_deg", out / figures[name], mine)
     warnings = magnetic_heading_warnings(obs, rows)
     limits = (
         f"{dg.describe()}; an aircraft is fitted with at least {min_reports} usable reports in {min_clusters} "
         f"clusters; its sinusoid is kept while its standard error is at most {max_sinusoid_se_deg:g} deg"
     )
-    atomic_write_text(out / "report.md", _report(obs, rows, fleet, mag, str(obs_path), ci, warnings, limits))
+    atomic_write_text(out / "report.md", _report(obs, rows, fleet, mag, str(obs_path), ci, warnings, limits, figures))
     status = pd.Series([f.status_ for f in fleet.fits_.values()]).value_counts()
     print(
         f"{obs_path}: {len(fleet.fits_)} aircraft: "

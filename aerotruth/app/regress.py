@@ -9,6 +9,10 @@ Baseline file (JSON):
 A metric passes when |got − value| ≤ abs + rel·|value| (numpy.isclose's rule); a bare
 number uses the default tolerances, which are 0 (exact) when not given. A baseline
 metric missing from the run fails; run metrics absent from the baseline are not checked.
+
+A baseline that could not fail is refused, not passed: one without metrics (it compares
+nothing), a value or tolerance that is not a finite number, a metric given twice. So is a
+run whose metrics.json is damaged: each problem is one line naming the file.
 """
 
 from __future__ import annotations
@@ -19,13 +23,64 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from aerotruth.errors import UserError
+from aerotruth.errors import RunDirError, UserError
 from aerotruth.files import atomic_write_text
 from aerotruth.sim.store import RunStore
+
+REWRITE = "rerun `aerotruth run` on its campaign to rewrite it"
 
 
 class BaselineError(UserError):
     """A baseline file that cannot be used (one line naming the problem)."""
+
+
+def unreadable(e: BaseException) -> str:
+    """What kept a file from being read, in a few words for a one-line error."""
+    if isinstance(e, json.JSONDecodeError):
+        return f"not valid JSON, truncated or damaged ({e.msg}: line {e.lineno}, column {e.colno})"
+    if isinstance(e, UnicodeDecodeError):
+        return f"not UTF-8 text (byte {e.object[e.start]:#04x} at offset {e.start})"
+    if isinstance(e, IsADirectoryError):
+        return "is a folder, expected a file"
+    if isinstance(e, FileNotFoundError):
+        return "missing"
+    if isinstance(e, OSError):
+        return f"cannot be read ({e.strerror or e})"
+    text = " ".join(str(e).split())
+    return text if len(text) <= 160 else text[:157] + "..."
+
+
+def _no_repeats(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    keys = [k for k, _ in pairs]
+    repeated = next((k for i, k in enumerate(keys) if k in keys[:i]), None)
+    if repeated is not None:
+        raise ValueError(f"key {repeated!r} given twice in one object")
+    return dict(pairs)
+
+
+def _is_number(v: Any) -> bool:
+    return isinstance(v, (int, float)) and not isinstance(v, bool)
+
+
+def read_run_metrics(run_dir: str | Path) -> dict[str, Any]:
+    """RUN_DIR/metrics.json, checked: an object whose 'metrics' maps names to numbers (or
+    null); a missing, truncated, damaged or misshapen file is one RunDirError naming it."""
+    store = RunStore(run_dir)
+    path = store.metrics_path
+    try:
+        doc = store.read_metrics()
+    except UserError:
+        raise
+    except (ValueError, OSError) as e:
+        raise RunDirError(f"{path}: {unreadable(e)}; {REWRITE}") from None
+    if not isinstance(doc, dict) or not isinstance(doc.get("metrics"), dict):
+        raise RunDirError(f"{path}: expected an object with a 'metrics' object; {REWRITE}")
+    for name, value in doc["metrics"].items():
+        if value is not None and not isinstance(value, (int, float)):
+            raise RunDirError(
+                f"{path}: metric {name} is {json.dumps(value)[:40]}, expected a number or null; {REWRITE}"
+            )
+    return doc
 
 
 @dataclass(frozen=True)
@@ -62,7 +117,7 @@ def _tolerances(spec: dict[str, Any], where: str) -> tuple[float | None, float |
     out = []
     for key in ("abs", "rel"):
         v = spec.get(key)
-        if v is not None and (not isinstance(v, (int, float)) or isinstance(v, bool) or v < 0 or math.isnan(v)):
+        if v is not None and (not _is_number(v) or not math.isfinite(v) or v < 0):
             raise BaselineError(f"{where}.{key}: expected a non-negative number, got {json.dumps(v)}")
         out.append(None if v is None else float(v))
     unknown = set(spec) - {"abs", "rel", "value"}
@@ -75,17 +130,33 @@ def load_baseline(path: str | Path) -> dict[str, tuple[float | None, float, floa
     """metric -> (value, abs tolerance, rel tolerance) from a baseline file."""
     p = Path(path)
     try:
-        doc = json.loads(p.read_text())
+        text = p.read_bytes().decode("utf-8")
     except FileNotFoundError:
         raise BaselineError(f"{p}: no such baseline file") from None
+    except IsADirectoryError:
+        raise BaselineError(f"{p}: is a folder, expected a baseline JSON file") from None
+    except (UnicodeDecodeError, OSError) as e:
+        raise BaselineError(f"{p}: {unreadable(e)}, expected a baseline JSON file") from None
+    try:
+        doc = json.loads(text, object_pairs_hook=_no_repeats)
     except json.JSONDecodeError as e:
         raise BaselineError(f"{p}: not valid JSON: {e.msg} (line {e.lineno})") from None
+    except ValueError as e:  # a key given twice: one of the two would be dropped silently
+        raise BaselineError(f"{p}: {e}") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("metrics"), dict):
         raise BaselineError(f"{p}: expected an object with a 'metrics' object")
+    if not doc["metrics"]:
+        raise BaselineError(
+            f"{p}: 'metrics' is empty: a baseline that compares nothing cannot fail "
+            "(write one from a run with `aerotruth regress RUN_DIR BASELINE --write`)"
+        )
     unknown = set(doc) - {"metrics", "default", "comment"}
     if unknown:
         raise BaselineError(f"{p}: unknown key {sorted(unknown)[0]!r} (allowed: metrics, default, comment)")
-    d_abs, d_rel = _tolerances(doc.get("default") or {}, "default")
+    default = doc.get("default") or {}
+    if not isinstance(default, dict):
+        raise BaselineError(f"{p}: default: expected an object with abs and/or rel, got {json.dumps(default)}")
+    d_abs, d_rel = _tolerances(default, "default")
     out = {}
     for name, spec in doc["metrics"].items():
         where = f"metrics.{name}"
@@ -96,8 +167,8 @@ def load_baseline(path: str | Path) -> dict[str, tuple[float | None, float, floa
             value = spec["value"]
         else:
             a, r, value = None, None, spec
-        if value is not None and (not isinstance(value, (int, float)) or isinstance(value, bool)):
-            raise BaselineError(f"{p}: {where}: expected a number or null, got {json.dumps(value)}")
+        if value is not None and (not _is_number(value) or not math.isfinite(value)):
+            raise BaselineError(f"{p}: {where}: expected a finite number or null, got {json.dumps(value)}")
         out[name] = (
             None if value is None else float(value),
             a if a is not None else (d_abs or 0.0),
@@ -144,7 +215,7 @@ def format_checks(checks: list[Check], only_failures: bool = True) -> str:
 
 def regress(run_dir: str | Path, baseline_path: str | Path) -> list[Check]:
     """Compare the metrics of a finished run with a baseline file."""
-    metrics = RunStore(run_dir).read_metrics()["metrics"]
+    metrics = read_run_metrics(run_dir)["metrics"]
     return compare(metrics, load_baseline(baseline_path))
 
 
@@ -157,7 +228,9 @@ def write_baseline(run_dir: str | Path, path: str | Path, *, abs_tol: float = 0.
         )
     if not target.parent.is_dir():
         raise BaselineError(f"{target}: folder {target.parent} does not exist")
-    metrics = RunStore(run_dir).read_metrics()["metrics"]
+    metrics = read_run_metrics(run_dir)["metrics"]
+    if not metrics:
+        raise BaselineError(f"{run_dir}: the run has no metrics; a baseline of it would compare nothing")
     bad = [k for k, v in metrics.items() if v is not None and (not isinstance(v, (int, float)) or isinstance(v, bool))]
     if bad:
         raise BaselineError(

@@ -29,7 +29,7 @@ from aerotruth.analysis.wind.consensus import (
     straight_samples,
 )
 from aerotruth.analysis.wind.gridded_reference import gridded_observation_table, report_positions
-from aerotruth.errors import DataError, UserError
+from aerotruth.errors import DataError, UserError, output_file
 from aerotruth.files import atomic_write, atomic_write_text
 from aerotruth.measured.gridded import read_wind_grid
 from aerotruth.measured.observations import table_kind
@@ -56,6 +56,7 @@ def reports_main(
         raise UserError(f"--out: {out}: expected a .parquet, .csv or .csv.gz file name")
     if out.is_dir() or not out.parent.is_dir():
         raise UserError(f"--out: {out}: expected a file name in an existing folder")
+    output_file(out, "--out")  # writable, before the work
     if reference not in REFERENCES and not Path(reference).is_file():
         raise UserError(
             f"--reference: expected one of {', '.join(REFERENCES)}, got {reference!r}, which is not an existing file "

@@ -343,6 +343,7 @@ def run_campaign(
     reg = campaign_registry(campaign)
     tasks = expand(campaign, reg)
     truth = TruthStore(campaign.truth_store.path)
+    output_folder(truth.root, "truth_store.path")  # flights are written there: writable before any is flown
     with _locked(store.root):
         store.prepare(campaign, tasks)
         log(f"{campaign.name}: {len(tasks)} tasks on {choice.describe()} -> {store.root}")

@@ -17,10 +17,11 @@ import datetime as _dt
 import hashlib
 import json
 import typing
-from typing import Any, Literal
+from typing import Annotated, Any, Literal
 
 import yaml
 from pydantic import (
+    AfterValidator,
     BaseModel,
     Field,
     StrictBool,
@@ -30,7 +31,32 @@ from pydantic import (
     model_validator,
 )
 
+from aerotruth.dates import MODEL_DATE_SPAN, MODEL_DAYS, check_model_date
 from aerotruth.schema import Section  # re-exported: studies' sections derive from it
+
+SEED_MAX = 2**63 - 1
+"""The largest seed: seeds are 63-bit, like those aerotruth.seeds.int_seed derives for each
+day and flight (the `--seed` values of a truth row's fly_command), so that every seed fits a
+signed 64-bit column."""
+
+MAX_WORKERS = 1024
+"""The most worker processes a campaign may ask for: processes of one machine or of one
+in-process Dask cluster (the largest hosts have a few hundred cores)."""
+
+MAX_STORE_GB = 1e6
+"""The largest truth-store cap in GB (a petabyte; a reduced campaign's truth is a few GB)."""
+
+
+def _at_most(limit: int, why: str) -> AfterValidator:
+    """An upper bound checked after the type (its refusal says why the bound is what it is)."""
+
+    def check(value: int) -> int:
+        if value > limit:
+            raise ValueError(f"expected at most {limit} ({why}), got {describe_value(value)}")
+        return value
+
+    return AfterValidator(check)
+
 
 # ----------------------------------------------------------------------------- schema
 
@@ -39,8 +65,11 @@ class ExecutorConfig(Section):
     """Where tasks run. The command line (--executor, --workers, --scheduler) overrides it."""
 
     kind: Literal["local", "dask"] = "local"
-    workers: StrictInt | None = Field(
-        default=None, ge=1, description="local: processes (default: cores); dask: LocalCluster workers (default 2)"
+    workers: Annotated[StrictInt, _at_most(MAX_WORKERS, "the processes one machine can run")] | None = Field(
+        default=None,
+        ge=1,
+        description="local: processes (default: cores); dask: LocalCluster workers (default 2); at most "
+        f"{MAX_WORKERS}, the processes one machine can run",
     )
     scheduler: str | None = Field(default=None, description="address of a running Dask scheduler (implies kind: dask)")
 
@@ -53,16 +82,29 @@ class OutputsConfig(Section):
     report: StrictBool = True
 
 
+def _model_day(value: _dt.date) -> _dt.date:
+    return check_model_date(value)
+
+
+ModelDate = Annotated[_dt.date, AfterValidator(_model_day)]
+"""A date of a campaign: in aerotruth.dates.MODEL_DATES (1900-01-01 to 2029-12-31)."""
+
+
 class Period(Section):
     """A named set of UTC days: either `dates:` (a list) or `start:`/`end:` (inclusive),
-    optionally every `every_days`-th day from start."""
+    optionally every `every_days`-th day from start. Every day lies in 1900-01-01 to
+    2029-12-31, the span of IGRF-14, the magnetic field model every flux valve and
+    declination comes from (aerotruth.dates)."""
 
-    name: str = Field(min_length=1)
-    dates: list[_dt.date] | None = None
-    start: _dt.date | None = None
-    end: _dt.date | None = None
-    every_days: StrictInt = Field(
-        default=1, ge=1, description="with start/end: keep every N-th day from start (a long period subsampled)"
+    name: str = Field(min_length=1, max_length=100)
+    dates: list[ModelDate] | None = Field(default=None, description=f"the days, each in {MODEL_DATE_SPAN}")
+    start: ModelDate | None = Field(default=None, description=f"first day (inclusive), in {MODEL_DATE_SPAN}")
+    end: ModelDate | None = Field(default=None, description=f"last day (inclusive), in {MODEL_DATE_SPAN}")
+    every_days: Annotated[StrictInt, _at_most(MODEL_DAYS, "the days from 1900 to 2029 that the models cover")] = Field(
+        default=1,
+        ge=1,
+        description="with start/end: keep every N-th day from start (a long period subsampled); at most "
+        f"{MODEL_DAYS}, the days from 1900 to 2029 that the models cover",
     )
 
     @model_validator(mode="after")
@@ -91,7 +133,7 @@ class Period(Section):
 class Fleet(Section):
     """A group of aircraft flying one route network."""
 
-    name: str = Field(min_length=1)
+    name: str = Field(min_length=1, max_length=100)
     aircraft_type: str | None = Field(default=None, description="aircraft model name (default: the project default)")
     network: str | None = Field(
         default=None, description="route network for the daily schedule (aerotruth.truth.routes)"
@@ -116,23 +158,36 @@ class TruthStoreConfig(Section):
         default=None, description="folder (default $AEROTRUTH_CACHE/truth, else the user's cache folder)"
     )
     max_gb: float = Field(
-        default=20.0, gt=0, description="size cap; least recently used flights are evicted after a run"
+        default=20.0,
+        gt=0,
+        le=MAX_STORE_GB,
+        allow_inf_nan=False,
+        description="size cap; least recently used flights are evicted after a run; at most a petabyte "
+        "(a reduced campaign's truth is a few GB)",
     )
 
 
 class Campaign(Section):
     """A whole campaign file."""
 
-    name: str = Field(pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$", description="also the default run directory runs/<name>")
-    seed: StrictInt = Field(
-        ge=0, description="campaign seed: every task stream is SeedSequence(seed, spawn_key=digest(task))"
+    name: str = Field(
+        pattern=r"^[A-Za-z0-9][A-Za-z0-9_.-]*$",
+        max_length=100,
+        description="also the default run directory runs/<name> (at most 100 characters: a folder name)",
+    )
+    seed: Annotated[StrictInt, _at_most(SEED_MAX, "2^63 - 1: seeds are 63-bit")] = Field(
+        ge=0,
+        description="campaign seed: every task stream is SeedSequence(seed, spawn_key=digest(task)); 0 to "
+        "2^63 - 1, the 63-bit seeds `aerotruth fly --seed` takes",
     )
     description: str = ""
     fleets: list[Fleet] = Field(default_factory=list)
     periods: list[Period] = Field(min_length=1)
     study_modules: list[str] = Field(
         default_factory=list,
-        description="extra study modules: importable module names or .py files (relative to the YAML file)",
+        description="extra study modules: importable module names or .py files (relative to the YAML file). "
+        "They are code: each is imported, and so runs, whenever the campaign is read (`aerotruth validate`, "
+        "`run`, `diagnose --model`); name only modules you trust",
     )
     studies: dict[str, Any] = Field(description="one section per study, validated by that study's own schema")
     truth_store: TruthStoreConfig = TruthStoreConfig()
@@ -212,6 +267,7 @@ _EXPECTED = {
     "int_from_float": "an integer",
     "float_parsing": "a number",
     "float_type": "a number",
+    "finite_number": "a finite number",
     "bool_parsing": "true or false",
     "bool_type": "true or false",
     "string_type": "a string",
@@ -243,6 +299,8 @@ def describe_value(value: Any) -> str:
         return f"a list of {len(value)}"
     if value is None:
         return "nothing (null)"
+    if isinstance(value, int) and not isinstance(value, bool) and abs(value) >= 10**20:
+        return f"an integer of {len(str(abs(value)))} digits"
     return json.dumps(value) if isinstance(value, (int, float, bool)) else repr(value)
 
 
@@ -281,19 +339,37 @@ def line_of(root: yaml.Node | None, loc: tuple[Any, ...]) -> int | None:
     return line
 
 
+def _key_name(key: yaml.Node) -> str:
+    """A mapping key as a path part: a scalar's text; a list or mapping used as a key (YAML
+    allows it, no campaign field is one) by its kind and line, never by its contents."""
+    if isinstance(key, yaml.ScalarNode):
+        return str(key.value)
+    return f"<{'list' if isinstance(key, yaml.SequenceNode) else 'mapping'} key of line {key.start_mark.line + 1}>"
+
+
 def check_duplicate_keys(node: yaml.Node | None, loc: tuple[Any, ...] = ()) -> None:
-    """PyYAML keeps the last of repeated keys silently; a campaign file must not."""
-    if isinstance(node, yaml.MappingNode):
-        seen: set[str] = set()
-        for k, v in node.value:
-            key = k.value if isinstance(k, yaml.ScalarNode) else str(k)
-            if key in seen:
-                raise ConfigError(f"{format_path(loc + (key,))}: duplicate key (line {k.start_mark.line + 1})")
-            seen.add(key)
-            check_duplicate_keys(v, loc + (key,))
-    elif isinstance(node, yaml.SequenceNode):
-        for i, v in enumerate(node.value):
-            check_duplicate_keys(v, loc + (i,))
+    """PyYAML keeps the last of repeated keys silently; a campaign file must not.
+
+    Each node is visited once, at the first path that reaches it: a block that aliases
+    (`*name`) repeat is one node in the composed graph, so the walk is linear in the file,
+    never in the expanded document (an alias bomb), and ends on recursive aliases."""
+    visited: set[int] = set()
+    stack: list[tuple[yaml.Node | None, tuple[Any, ...]]] = [(node, loc)]
+    while stack:
+        current, where = stack.pop()
+        if current is None or id(current) in visited:
+            continue
+        visited.add(id(current))
+        if isinstance(current, yaml.MappingNode):
+            seen: set[str] = set()
+            keys = [_key_name(k) for k, _ in current.value]
+            for key, (k, _) in zip(keys, current.value, strict=True):
+                if key in seen:
+                    raise ConfigError(f"{format_path(where + (key,))}: duplicate key (line {k.start_mark.line + 1})")
+                seen.add(key)
+            stack.extend((v, where + (key,)) for key, (_, v) in reversed(list(zip(keys, current.value, strict=True))))
+        elif isinstance(current, yaml.SequenceNode):
+            stack.extend((v, where + (i,)) for i, v in reversed(list(enumerate(current.value))))
 
 
 def one_line_error(
@@ -319,6 +395,10 @@ def one_line_error(
     elif kind == "too_short":
         n = e["ctx"]["min_length"]
         text = f"expected at least {n} item{'s' if n != 1 else ''}, got {e['ctx'].get('actual_length', 0)}"
+    elif kind == "string_too_long":
+        n = e["ctx"]["max_length"]
+        got = e.get("input")
+        text = f"expected at most {n} characters, got {len(got) if isinstance(got, str) else describe_value(got)}"
     elif kind == "too_long":
         n = e["ctx"]["max_length"]
         text = f"expected at most {n} item{'s' if n != 1 else ''}, got {e['ctx'].get('actual_length')}"

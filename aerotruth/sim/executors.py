@@ -23,7 +23,7 @@ from contextlib import contextmanager
 from dataclasses import dataclass
 
 from aerotruth.errors import UserError
-from aerotruth.sim.worker import ignore_sigint
+from aerotruth.sim.worker import start_local_worker
 
 DEFAULT_DASK_LOCAL_WORKERS = 2
 _THREAD_VARS = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THREADS")
@@ -85,7 +85,11 @@ def open_executor(choice: ExecutorChoice) -> Iterator[tuple[Executor, int]]:
         ctx = multiprocessing.get_context("forkserver")
         # Import the worker's dependencies once in the fork server, not in every worker.
         ctx.set_forkserver_preload(["aerotruth.sim.worker"])
-        pool = ProcessPoolExecutor(max_workers=n, mp_context=ctx, initializer=ignore_sigint)
+        # Each worker ends with this process, even when it is killed with SIGKILL and cannot
+        # stop them (start_local_worker); the fork server and resource tracker follow.
+        pool = ProcessPoolExecutor(
+            max_workers=n, mp_context=ctx, initializer=start_local_worker, initargs=(os.getpid(),)
+        )
         try:
             yield pool, n
         except BaseException:

@@ -10,6 +10,11 @@
     RUN_DIR/data/<study>.<name>.parquet|.csv   the studies' data exports (e.g. observation tables)
     RUN_DIR/figures/*.png|*.pdf, RUN_DIR/report.md
 
+A run folder is recognised by its manifest.json (`is_run_folder`); `check_out_folder`
+refuses, before anything is written, to run into a non-empty folder that is not one, so
+that a user's own report.md or metrics.json is never replaced (with --force a run writes
+beside the folder's files only when none of its names, RUN_FOLDER_NAMES, is taken).
+
 Every file is written through aerotruth.files (temporary name, then rename), so a run
 killed at any moment leaves either a complete file or none; temporaries are never read
 and are removed on resume. A stored task table is reused only when its key (task
@@ -22,6 +27,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 from pathlib import Path
 from typing import Any
 
@@ -31,7 +37,7 @@ import pyarrow as pa
 import pyarrow.parquet as pq
 
 from aerotruth.digests import library_versions
-from aerotruth.errors import RunDirError
+from aerotruth.errors import RunDirError, UserError, output_folder
 from aerotruth.files import (
     atomic_write_bytes,
     atomic_write_text,
@@ -59,6 +65,81 @@ _VERSIONED = (
     "llvmlite",
 )
 META_INPUT_DIGEST = b"aerotruth.input_digest"
+
+RUN_FOLDER_NAMES = (
+    ".lock",
+    "config.resolved.yaml",
+    "manifest.json",
+    "metrics.json",
+    "report.md",
+    "tasks",
+    "learned",
+    "failed",
+    "tables",
+    "data",
+    "figures",
+)
+"""What a run writes at the top of its folder (RUN_DIR/.lock is campaign.py's run lock)."""
+
+_MANIFEST_KEYS = ("campaign", "config_hash", "tasks", "versions")
+_MANIFEST_MAX_BYTES = 256 * 2**20
+# what a run leaves when it is stopped between taking its lock and writing its manifest
+_BEFORE_MANIFEST = {".lock", "tasks", "config.resolved.yaml"}
+_PROBE = re.compile(r"^\.aerotruth-probe\..*\.tmp$")  # aerotruth.errors.check_writable's, should a kill leave one
+_EARLY_TEMPORARY = re.compile(r"^(?:config\.resolved\.yaml|manifest\.json)\.\d+\.[0-9a-f]{8}\.tmp$")
+
+
+def is_run_folder(root: str | Path) -> bool:
+    """True for a folder aerotruth runs into: its manifest.json is a run's (a JSON object
+    with campaign, config_hash, tasks and versions), or it holds nothing but what a run
+    stopped before its manifest leaves (.lock, tasks/, config.resolved.yaml)."""
+    root = Path(root)
+    manifest = root / "manifest.json"
+    try:
+        if manifest.is_file():
+            if manifest.stat().st_size > _MANIFEST_MAX_BYTES:
+                return False
+            doc = json.loads(manifest.read_bytes())
+            return isinstance(doc, dict) and all(k in doc for k in _MANIFEST_KEYS)
+        names = [p.name for p in root.iterdir()]
+    except (OSError, ValueError):  # unreadable, not JSON, not UTF-8
+        return False
+    return (
+        ".lock" in names
+        and all(n in _BEFORE_MANIFEST or _EARLY_TEMPORARY.match(n) or _PROBE.match(n) for n in names)
+        and (root / ".lock").is_file()
+        and (not (root / "tasks").exists() or (root / "tasks").is_dir())
+    )
+
+
+def check_out_folder(path: str | Path, force: bool = False, option: str = "--out") -> Path:
+    """The folder a run writes into, checked before anything is written (a UserError of one
+    line naming `option` otherwise). Accepted: a folder that does not exist yet (made with
+    its parents), an empty folder, or an aerotruth run folder (resumed). A non-empty folder
+    that is not a run folder is refused; with `force` it is accepted when none of
+    RUN_FOLDER_NAMES is in it, so that no file aerotruth did not write is ever replaced or
+    deleted. Then aerotruth.errors.output_folder: no file in the folder's place, and the
+    folder (or the nearest existing one it will be made in) must be writable."""
+    out = Path(path)
+    if out.is_dir():
+        try:
+            names = sorted(p.name for p in out.iterdir() if not _PROBE.match(p.name))
+        except OSError as e:
+            raise UserError(f"{option}: cannot read folder {out} ({e.strerror or e})") from None
+        if names and not is_run_folder(out):
+            if not force:
+                raise RunDirError(
+                    f"{option}: {out} is not empty and is not an aerotruth run folder (no run's manifest.json); "
+                    "give a new or empty folder (or, to write the run beside its files, --force)"
+                )
+            taken = [n for n in names if n in RUN_FOLDER_NAMES]
+            if taken:
+                raise RunDirError(
+                    f"{option}: {out} is not an aerotruth run folder and already holds {', '.join(taken)}, "
+                    "which a run writes; a file aerotruth did not write is never replaced, even with --force: "
+                    "give a new or empty folder"
+                )
+    return output_folder(out, option)
 
 
 def round_significant(x: float, digits: int = METRIC_SIGNIFICANT_DIGITS) -> float | None:

@@ -18,6 +18,12 @@ line per leg flown: key, flight id, seconds; every process's, so a run counts it
 flights by `flown_here` of the instances it used). Storage is compact
 (TruthTrack.to_parquet: float64 only for time and position, float32 for the rest, zstd).
 A size cap is kept by `evict`, least recently used first (a read touches the file).
+
+Locking: readers, writers and `evict` all take a key's lock (`locked`) before touching its
+files. `evict` never waits for one and never removes a flight or a lock file another process
+holds (that flight is in use); it removes a lock file only while holding it, and whoever
+then obtains the lock of the removed file sees that it is no longer the key's lock file and
+locks the new one, so two processes never hold one key's lock at once.
 """
 
 from __future__ import annotations
@@ -28,6 +34,8 @@ import hashlib
 import json
 import os
 import time
+from collections.abc import Iterator
+from contextlib import contextmanager
 from dataclasses import dataclass
 from datetime import UTC
 from pathlib import Path
@@ -79,6 +87,42 @@ def truth_key(leg: PlannedLeg, aircraft_type: str | None, turbulence: bool) -> s
         "code": code_digest(TRUTH_CODE),
     }
     return hashlib.sha256(json.dumps(ident, sort_keys=True, default=str).encode()).hexdigest()[:32]
+
+
+@contextmanager
+def locked(path: str | Path, *, wait: bool = True) -> Iterator[bool]:
+    """Hold the lock file `path` (created if missing) while the `with` body runs: yields
+    True once held, or at once False if `wait` is False and another process holds it. The
+    OS releases it if the process dies. If the file was removed while this process waited
+    (`TruthStore.evict` removes a flight's lock file while it holds it), the lock of the
+    file now at `path` is taken instead."""
+    fd = _acquire(Path(path), wait)
+    try:
+        yield fd is not None
+    finally:
+        if fd is not None:
+            os.close(fd)
+
+
+def _acquire(path: Path, wait: bool) -> int | None:
+    while True:
+        fd = os.open(path, os.O_RDWR | os.O_CREAT | os.O_CLOEXEC, 0o644)
+        try:
+            fcntl.flock(fd, fcntl.LOCK_EX if wait else fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError:
+            os.close(fd)
+            return None
+        except BaseException:
+            os.close(fd)
+            raise
+        try:
+            now = os.stat(path)
+        except FileNotFoundError:
+            now = None
+        held = os.fstat(fd)
+        if now is not None and (now.st_dev, now.st_ino) == (held.st_dev, held.st_ino):
+            return fd
+        os.close(fd)  # removed while we waited: lock the key's current lock file
 
 
 @dataclass
@@ -193,8 +237,7 @@ class TruthStore:
         process dies)."""
         path, failed = self._paths(key)
         path.parent.mkdir(parents=True, exist_ok=True)
-        with open(path.with_suffix(".lock"), "a") as lock:
-            fcntl.flock(lock, fcntl.LOCK_EX)
+        with locked(path.with_suffix(".lock")):
             if path.exists():
                 os.utime(path)  # recently used: evicted last
                 return TruthTrack.read_parquet(path), None, False
@@ -244,17 +287,43 @@ class TruthStore:
 
     def evict(self, max_bytes: int) -> tuple[int, int]:
         """Delete least recently used flights until at most `max_bytes` remain; returns
-        (files removed, bytes freed)."""
-        files = sorted(
-            ((p.stat().st_mtime, p.stat().st_size, p) for p in self.files()), key=lambda x: (x[0], str(x[2]))
-        )
+        (files removed, bytes freed). Each flight is removed under its key's lock, the one
+        readers and writers take: a flight whose lock another process holds is in use and
+        stays, with its lock file. One eviction at a time: while another process evicts
+        from this store, returns (0, 0)."""
+        if not self.root.is_dir():
+            return 0, 0
+        with locked(self.root / ".evict.lock", wait=False) as mine:
+            if not mine:
+                return 0, 0
+            return self._evict(max_bytes)
+
+    def _evict(self, max_bytes: int) -> tuple[int, int]:
+        files = []
+        for p in self.files():
+            try:
+                st = p.stat()
+            except FileNotFoundError:  # removed since listed
+                continue
+            files.append((st.st_mtime_ns, st.st_size, p))
+        files.sort(key=lambda x: (x[0], str(x[2])))
         total = sum(s for _, s, _ in files)
         removed = freed = 0
-        for _, size, p in files:
+        for mtime, size, p in files:
             if total <= max_bytes:
                 break
-            p.unlink(missing_ok=True)
-            p.with_suffix(".lock").unlink(missing_ok=True)
+            with locked(p.with_suffix(".lock"), wait=False) as mine:
+                if not mine:  # being read or written by another process
+                    continue
+                try:
+                    used = p.stat().st_mtime_ns
+                except FileNotFoundError:
+                    total -= size
+                    continue
+                if used != mtime:  # read since listed: recently used now
+                    continue
+                p.unlink()
+                p.with_suffix(".lock").unlink(missing_ok=True)  # held by us: see `locked`
             total -= size
             freed += size
             removed += 1

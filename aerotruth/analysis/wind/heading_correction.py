@@ -617,11 +617,7 @@ class HeadingDeviationFit:
                     f"table: aircraft {row['aircraft']!r}, column '{c}': expected a number, got {row[c]!r}"
                 ) from None
 
-        self = cls(
-            heading=str(row.get("heading_frame", "true"))
-            if isinstance(row.get("heading_frame", "true"), str)
-            else "true"
-        )
+        self = cls(heading=_table_frame(row))
         self.aircraft_ = str(row["aircraft"])
         self.status_, self.reason_ = str(row["status"]), ("" if pd.isna(row["reason"]) else str(row["reason"]))
         n_used = num("n_used")
@@ -652,6 +648,34 @@ class HeadingDeviationFit:
         self.terms_ = tuple(t for t in TERM_NAMES if np.isfinite(self.se_[t]))
         self._k = len(self.terms_)
         return self
+
+
+HEADING_FRAMES = ("true", "magnetic")
+
+
+def _table_frame(row: pd.Series) -> str:
+    """The heading frame of a deviation-table row, read strictly: the column's `true` or
+    `magnetic` as `to_table` writes them (a CSV reader may hand `true` over as the boolean
+    True); a table without the column was fitted on true heading. Anything else (another
+    word, a space around it, an empty cell) is a ValueError naming the aircraft and the
+    column: taken for magnetic it would turn every heading by the declination."""
+    if "heading_frame" not in row.index:
+        return "true"
+    value = row["heading_frame"]
+    if isinstance(value, (bool, np.bool_)) and bool(value):
+        return "true"
+    if isinstance(value, str) and value in HEADING_FRAMES:
+        return value
+    if isinstance(value, (bool, np.bool_)):
+        shown = repr(str(bool(value)).lower())
+    elif value is None or value is pd.NA or (isinstance(value, float) and math.isnan(value)):
+        shown = "an empty cell"
+    else:
+        shown = repr(value.item() if isinstance(value, np.generic) else value)
+    raise ValueError(
+        f"table: aircraft {row.get('aircraft')!r}, column 'heading_frame': {shown}; expected "
+        f"{' or '.join(map(repr, HEADING_FRAMES))} (the heading the table is indexed by)"
+    )
 
 
 class FleetHeadingFit:

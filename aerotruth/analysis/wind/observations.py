@@ -5,6 +5,7 @@ naming the table, the column and the data row."""
 
 from __future__ import annotations
 
+import datetime as dt
 import math
 from typing import Any
 
@@ -13,6 +14,7 @@ import pandas as pd
 from numba import njit
 
 from aerotruth.contracts import OBSERVATION_OPTIONAL_NUMERIC, OBSERVATION_REQUIRED
+from aerotruth.dates import MODEL_DATE_SPAN, MODEL_EPOCH_S
 from aerotruth.errors import DataError
 
 REQUIRED_COLUMNS = OBSERVATION_REQUIRED
@@ -33,23 +35,21 @@ def _numeric(df: pd.DataFrame, col: str, source: str) -> np.ndarray:
     return num.to_numpy(dtype=float)
 
 
-# epoch seconds of 1950-01-01 and 2200-01-01: a plausible report time (epoch milliseconds
-# of any date since 1970-04 lie beyond the latter)
-_TIME_RANGE_S = (-631152000.0, 7258118400.0)
-
-
 def _times(df: pd.DataFrame, source: str) -> np.ndarray:
-    """UTC epoch seconds from epoch numbers or ISO-8601 text, checked to lie in 1950-2200."""
+    """UTC epoch seconds from epoch numbers or ISO-8601 text, checked to lie in the dates
+    aerotruth models (aerotruth.dates: the span of the magnetic field model every true
+    heading and declination comes from)."""
     t = _parse_times(df, source)
-    bad = (t < _TIME_RANGE_S[0]) | (t > _TIME_RANGE_S[1])  # NaN (empty cells) passes
+    lo, hi = MODEL_EPOCH_S
+    bad = (t < lo) | (t >= hi)  # NaN (empty cells) passes
     if bad.any():
         i = int(np.flatnonzero(bad)[0])
         v = df["time"].iloc[i]
         v = v.item() if isinstance(v, np.generic) else v
-        hint = " (milliseconds?)" if t[i] > _TIME_RANGE_S[1] else ""
+        hint = " (milliseconds?)" if lo <= t[i] / 1000.0 < hi else ""
         raise DataError(
-            f"{source}: column 'time', data row {i + 1}: {v!r} is not a time between 1950 and "
-            f"2200 in UTC epoch seconds{hint}"
+            f"{source}: column 'time', data row {i + 1}: {v!r} is not a time from {MODEL_DATE_SPAN} in UTC "
+            f"epoch seconds{hint} (the dates aerotruth models: the span of the magnetic field model)"
         )
     return t
 
@@ -190,6 +190,8 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
     a, t, r = ac_code[order], out["time_s"][order], ref_code[order]
     dup = np.zeros(len(order), dtype=bool)
     dup[1:] = (a[1:] == a[:-1]) & (t[1:] == t[:-1]) & (r[1:] == r[:-1])
+    if dup.any():
+        _check_repeats(out, order, dup, source)
     order = order[~dup]
     if len(order) == 0:
         raise DataError(f"{source}: every row has an empty required cell")
@@ -202,6 +204,47 @@ def validate_observations(obs: pd.DataFrame, source: str = "observation table") 
     _check_report_rows(df, source)
     df.attrs.update(source=source, dropped_empty=int((~keep).sum()), dropped_duplicates=int(dup.sum()))
     return df
+
+
+def _check_repeats(out: dict[str, Any], order: np.ndarray, dup: np.ndarray, source: str) -> None:
+    """Rows repeating an (aircraft, time, ref_source) must repeat it exactly (a file written
+    twice, a merge that overlaps): they are dropped and counted. Two such rows that differ
+    in any column are two different reports of one instant, and keeping either would be a
+    guess: DataError naming the first pair (its data rows, aircraft, time, reference and
+    the column). `order` the rows in (aircraft, time, ref_source) order, `dup[k]` whether
+    row order[k] repeats order[k - 1]."""
+    k = np.flatnonzero(dup)
+    prev, cur = order[k - 1], order[k]
+    differs = np.zeros(len(k), dtype=bool)
+    first_col = np.full(len(k), "", dtype=object)
+    for c, v in out.items():
+        if c in ("aircraft", "time_s", "ref_source"):
+            continue
+        if isinstance(v, pd.Categorical):
+            x, y = v.codes[prev], v.codes[cur]
+            d = x != y
+        else:
+            x, y = v[prev], v[cur]
+            d = (x != y) & ~(np.isnan(x) & np.isnan(y))
+        first_col[d & ~differs] = c
+        differs |= d
+    if not differs.any():
+        return
+    j = int(np.flatnonzero(differs)[0])
+    i0, i1, c = int(prev[j]), int(cur[j]), str(first_col[j])
+    v = out[c]
+    shown = (
+        (repr(v[i0]), repr(v[i1]))
+        if isinstance(v, pd.Categorical)
+        else tuple("empty" if np.isnan(x) else f"{x:g}" for x in (v[i0], v[i1]))
+    )
+    when = dt.datetime.fromtimestamp(float(out["time_s"][i0]), tz=dt.UTC).isoformat().replace("+00:00", "Z")
+    lo, hi = sorted((i0, i1))
+    raise DataError(
+        f"{source}: data rows {lo + 1} and {hi + 1} are one report (aircraft {out['aircraft'][i0]}, time {when}, "
+        f"ref_source {out['ref_source'][i0]}) with different '{c}' ({shown[0]} vs {shown[1]}); expected one row "
+        "per aircraft, time and reference model (exact repeats are dropped and counted)"
+    )
 
 
 def _sort_order(ac: np.ndarray, t: np.ndarray, ref: np.ndarray) -> np.ndarray:

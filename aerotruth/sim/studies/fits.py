@@ -60,7 +60,9 @@ class FitsStudyConfig(Section):
 
     runways: list[RunwayRef] = Field(min_length=1)
     periods: list[str] = Field(min_length=1, description="campaign periods whose dates are flown")
-    approaches_per_day: int = Field(default=1, ge=1, description="per runway and date, 20 min apart")
+    approaches_per_day: int = Field(
+        default=1, ge=1, le=72, description="per runway and date, 20 min apart (at most 72: one day)"
+    )
     start_hour_utc: float = Field(default=15.0, ge=0, lt=24)
     turbulence: bool = Field(
         default=True,
