@@ -519,7 +519,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     free = {
         b.label[5:]: {
             "slope": float(be[0]),
-            "se": float(standard_errors(v)[0]),
+            "se": float(standard_errors(v)[0]) if n_blocks >= 2 else float("nan"),  # one cluster: no se
             "unit": "deg per unit" if b.label.startswith("free:transverse") else "kt per unit",
         }
         for b, be, v in fit_end.coef("base", -1)
@@ -569,8 +569,10 @@ def model_fit(d: WindData, st: State, fit: Fit) -> dict:
     for i, name in enumerate(d.names):
         sel = d.aircraft == i
         row: dict[str, Any] = {"n_rows": int(sel.sum()), "flights": int(len(np.unique(d.flight[sel])))}
+        # a cluster-robust se needs two clusters (6-h weather blocks): from one it is ~0, not small
+        one_cluster = len(np.unique(d.cluster[sel])) < 2
         for b, be, v in fit.coef("base", i) + fit.coef("soft_iron", i):
-            se = standard_errors(v)
+            se = standard_errors(v) if not one_cluster else np.full(len(be), np.nan)
             if b.label == "A":
                 row["A_deg"] = float(be[-1] * r2d)
                 row["A_se_deg"] = float(se[-1] * r2d)
