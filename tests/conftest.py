@@ -25,12 +25,15 @@ if os.environ.get("PYTEST_XDIST_WORKER"):
         os.environ.setdefault(var, "1")
 
 # the longest files, in the order they should start (their summed test times on two
-# processes, 27 Nov 2026: 228, 112, 80, 70, 54, 52, 38, 29, 26, 24, 23, 23, 23 s)
+# processes, 27 Nov 2026: 228, 112, 80, 70, 54, 52, 38, 29, 26, 24, 23, 23, 23 s; the two
+# halves of the fuzz corpus, added later: 41 and 37 s on one process)
 LONGEST_FIRST = (
     "test_quick_regression.py",
     "test_diagnose_wind.py",
     "test_diagnose.py",
     "test_flight.py",
+    "test_fuzz_campaigns.py",
+    "test_fuzz.py",
     "test_toy_study.py",
     "test_honest_caching.py",
     "test_inspection_study.py",

@@ -279,7 +279,9 @@ def test_a_table_correction_beyond_any_accepted_heading_error_is_refused(periods
     err = capsys.readouterr().err.strip()
     assert "big.csv" in err and "'N401XJ'" in err and "lut_045_deg" in err and "45 deg" in err, err
     assert len(err.splitlines()) == 1
-    dev.loc[0, "lut_045_deg"] = -29.5  # large but possible: applied
+    # large but possible: applied (a table of its coefficients: an offset of 29.5 deg, every entry -29.5)
+    dev.loc[0, ["A_deg", "B_deg", "C_deg", "D_deg", "E_deg"]] = [29.5, 0.0, 0.0, 0.0, 0.0]
+    dev.loc[0, [f"lut_{k:03d}_deg" for k in range(0, 360, 45)]] = -29.5
     dev.to_csv(tmp_path / "large.csv", index=False)
     assert (
         main(

@@ -72,7 +72,7 @@ def test_bad_baseline_is_one_line_exit_2(tmp_path, run_dir, capsys):
     assert main(["regress", str(run_dir), b]) == 2
     assert (
         capsys.readouterr().err.strip()
-        == "aerotruth regress: metrics.w.speed.abs: expected a non-negative number, got -1"
+        == f"aerotruth regress: {b}: metrics.w.speed.abs: expected a non-negative number, got -1"
     )
     with pytest.raises(BaselineError, match="not valid JSON"):
         p = tmp_path / "broken.json"

@@ -17,6 +17,8 @@ from aerotruth.errors import UserError
 
 def _non_negative_int(text: str) -> int:
     try:
+        if len(text.strip()) > 40:  # int() of a long text is slow, beyond 4,300 digits an error
+            raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {len(text.strip())} characters")
         value = int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a non-negative integer, got {text!r}") from None
@@ -88,11 +90,41 @@ def _pass_height_ft(text: str) -> float:
     return value
 
 
-def _positive_float(text: str) -> float:
-    value = _non_negative_float(text)
-    if value <= 0:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text}")
-    return value
+def _integer(text: str) -> int:
+    """A whole number as typed (the bounds are the command's): at most 40 characters, as
+    int() of a longer text is slow and beyond 4,300 digits an error; a longer one is said by
+    its length, not echoed."""
+    t = text.strip()
+    try:
+        if len(t) > 40:
+            raise ValueError
+        return int(t)
+    except ValueError:
+        shown = repr(t) if len(t) <= 40 else f"{len(t)} characters"
+        raise argparse.ArgumentTypeError(f"expected a whole number, got {shown}") from None
+
+
+def _positive_up_to(most: float, unit: str, beyond: str):
+    """An argparse type: a number above 0 and at most `most` (`beyond`: why a larger one means nothing)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            value = math.nan
+        if not 0 < value <= most:
+            raise argparse.ArgumentTypeError(
+                f"expected a number above 0 and at most {most:,.0f} {unit} ({beyond}), got {text[:40]!r}"
+            )
+        return value
+
+    return parse
+
+
+# the consensus neighbourhood's largest extents: beyond them every sample is in every neighbourhood
+RADIUS_KM_MAX = 20_015.0  # half the Earth's circumference
+LAYER_FT_MAX = 72_000.0  # the span of the reports' pressure altitudes, -2,000 to 70,000 ft
+WINDOW_S_MAX = 4_102_444_800.0  # the span of the dates aerotruth models, 1900-2029 (aerotruth.dates)
 
 
 def _positive_int(text: str) -> int:
@@ -180,6 +212,15 @@ def _cmd_fly(args: argparse.Namespace) -> int:
         )
     origin, destination = args.origin.strip().upper(), args.destination.strip().upper()
     weather_seed = args.seed if args.weather_seed is None else args.weather_seed
+    from aerotruth.truth.airports import airport
+
+    for flag, code in (("--from", origin), ("--to", destination)):
+        try:
+            airport(code)
+        except ValueError as e:
+            raise UserError(f"{flag}: {e}") from None
+    if origin == destination:
+        raise UserError(f"--to: {destination} is the departure airport (--from); expected another airport")
     try:
         departure = _model_date(parse_departure(args.date), args.date)
         airframe(args.aircraft)
@@ -648,12 +689,23 @@ def build_parser() -> argparse.ArgumentParser:
         "interpolated to each report; its rows' ref_source is the file's stem",
     )
     traffic.add_argument("--out", required=True, help="observation table to write (.parquet, .csv or .csv.gz)")
-    traffic.add_argument("--radius-km", type=_positive_float, default=50.0, help="consensus radius (km, default 50)")
     traffic.add_argument(
-        "--layer-ft", type=_positive_float, default=1000.0, help="consensus half-layer (ft, default 1000)"
+        "--radius-km",
+        type=_positive_up_to(RADIUS_KM_MAX, "km", "half the Earth's circumference"),
+        default=50.0,
+        help="consensus radius (km, default 50)",
     )
     traffic.add_argument(
-        "--window-s", type=_positive_float, default=900.0, help="consensus half-window (s, default 900)"
+        "--layer-ft",
+        type=_positive_up_to(LAYER_FT_MAX, "ft", "the span of pressure altitudes, -2,000 to 70,000 ft"),
+        default=1000.0,
+        help="consensus half-layer (ft, default 1000)",
+    )
+    traffic.add_argument(
+        "--window-s",
+        type=_positive_up_to(WINDOW_S_MAX, "s", "the span of the dates aerotruth models"),
+        default=900.0,
+        help="consensus half-window (s, default 900)",
     )
     traffic.set_defaults(func=_cmd_reports)
 
@@ -682,23 +734,23 @@ def build_parser() -> argparse.ArgumentParser:
     hfit.add_argument("--out", required=True, help="output folder")
     hfit.add_argument(
         "--bootstrap",
-        type=int,
+        type=_integer,
         default=200,
         metavar="N",
         help="cluster (flight or time-block) resamples for the 95 %% intervals of A..E and the table entries "
         "(deviation_ci.csv; default 200, 0: none; ~20 s per million rows and heading frame at 200)",
     )
-    hfit.add_argument("--seed", type=int, default=0, help="seed of the bootstrap's resampling (default 0)")
+    hfit.add_argument("--seed", type=_integer, default=0, help="seed of the bootstrap's resampling (default 0)")
     hfit.add_argument(
         "--min-reports",
-        type=int,
+        type=_integer,
         default=30,
         metavar="N",
         help="usable reports an aircraft needs for a table (default 30)",
     )
     hfit.add_argument(
         "--min-clusters",
-        type=int,
+        type=_integer,
         default=None,
         metavar="N",
         help="clusters (flights or time blocks, see --cluster-s) an aircraft needs (default 5 flights, "
@@ -766,8 +818,8 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         return int(args.func(args) or 0)
-    except UserError as e:
-        print(f"aerotruth {args.command}: {e}", file=sys.stderr)
+    except UserError as e:  # one line, whatever the message quotes (a reader's multi-line text)
+        print(f"aerotruth {args.command}: {' '.join(str(e).split())}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)

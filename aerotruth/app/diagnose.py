@@ -46,6 +46,9 @@ def diagnose_main(
     from aerotruth.measured.modes import track_from_measured
     from aerotruth.sim.campaign_loader import load_campaign
 
+    for flag, given in (("--aircraft-type", aircraft_type), ("--engine-type", engine_type)):
+        if given is not None and not given.strip():  # an empty value would be taken for none given
+            raise UserError(f"{flag}: empty; expected an ICAO type designator (e.g. A310) or jet / turboprop")
     output_folder(args.out)
     model = load_campaign(args.model) if args.model else None  # the simulation the data are compared with
     measured = _traffic_as_reports(args.measured, load_measured)

@@ -90,7 +90,7 @@ def _json_of(path: Path, read: Callable[[], Any]) -> Any:
         return read()
     except UserError:
         raise
-    except (ValueError, OSError) as e:
+    except (ValueError, OSError, RecursionError) as e:
         raise RunDirError(f"{path}: {unreadable(e)}; {REWRITE}") from None
 
 

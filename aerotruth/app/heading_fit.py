@@ -298,6 +298,12 @@ def _report(
     return "\n".join(out)
 
 
+def _digits(n: int) -> str:
+    """An integer option's value in a message: a long one by its number of digits."""
+    text = str(n)
+    return text if len(text) <= 24 else f"an integer of {len(text.lstrip('-'))} digits"
+
+
 def heading_fit_main(
     obs_path: str,
     out_dir: str,
@@ -317,18 +323,20 @@ def heading_fit_main(
     blocks. Returns 0; bad input raises DataError (a ValueError) with one line naming file and
     column or option."""
     if n_boot < 0 or n_boot == 1:
-        raise DataError(f"--bootstrap: expected 0 (none) or at least 2 resamples, got {n_boot}")
+        raise DataError(f"--bootstrap: expected 0 (none) or at least 2 resamples, got {_digits(n_boot)}")
     if n_boot > MAX_BOOTSTRAP:
-        raise DataError(f"--bootstrap: expected at most {MAX_BOOTSTRAP} resamples, got {n_boot}")
+        raise DataError(f"--bootstrap: expected at most {MAX_BOOTSTRAP} resamples, got {_digits(n_boot)}")
     if not 0 <= seed < 2**63:
-        raise DataError(f"--seed: expected a whole number from 0 to 2**63 - 1, got {seed}")
+        raise DataError(f"--seed: expected a whole number from 0 to 2**63 - 1, got {_digits(seed)}")
     if min_reports < 1:
-        raise DataError(f"--min-reports: expected a whole number >= 1, got {min_reports}")
+        raise DataError(f"--min-reports: expected a whole number >= 1, got {_digits(min_reports)}")
     if min_clusters is not None and min_clusters < 2:
-        raise DataError(f"--min-clusters: expected a whole number >= 2 (standard errors need two), got {min_clusters}")
+        raise DataError(
+            f"--min-clusters: expected a whole number >= 2 (standard errors need two), got {_digits(min_clusters)}"
+        )
     for name, v in (("--cluster-s", cluster_s), ("--position-step-deg", position_step_deg)):
         if v is not None and not (math.isfinite(v) and 0 <= v <= 1e6):
-            raise DataError(f"{name}: expected a number >= 0 (0: none), got {v}")
+            raise DataError(f"{name}: expected a number >= 0 and <= 1,000,000 (0: none), got {v:g}")
     if not (math.isfinite(max_sinusoid_se_deg) and max_sinusoid_se_deg > 0):
         raise DataError(f"--max-sinusoid-se-deg: expected a positive number of degrees, got {max_sinusoid_se_deg}")
     out = output_folder(out_dir)  # before the work

@@ -38,6 +38,8 @@ def unreadable(e: BaseException) -> str:
     """What kept a file from being read, in a few words for a one-line error."""
     if isinstance(e, json.JSONDecodeError):
         return f"not valid JSON, truncated or damaged ({e.msg}: line {e.lineno}, column {e.colno})"
+    if isinstance(e, RecursionError):
+        return "not valid JSON: nested too deep to read"
     if isinstance(e, UnicodeDecodeError):
         return f"not UTF-8 text (byte {e.object[e.start]:#04x} at offset {e.start})"
     if isinstance(e, IsADirectoryError):
@@ -62,6 +64,19 @@ def _is_number(v: Any) -> bool:
     return isinstance(v, (int, float)) and not isinstance(v, bool)
 
 
+def _finite(v: int | float) -> bool:
+    f = _as_float(v)
+    return f is not None and math.isfinite(f)
+
+
+def _as_float(v: int | float) -> float | None:
+    """`v` as a float, None for an integer too large for one (JSON integers have any length)."""
+    try:
+        return float(v)
+    except OverflowError:
+        return None
+
+
 def read_run_metrics(run_dir: str | Path) -> dict[str, Any]:
     """RUN_DIR/metrics.json, checked: an object whose 'metrics' maps names to numbers (or
     null); a missing, truncated, damaged or misshapen file is one RunDirError naming it."""
@@ -71,15 +86,14 @@ def read_run_metrics(run_dir: str | Path) -> dict[str, Any]:
         doc = store.read_metrics()
     except UserError:
         raise
-    except (ValueError, OSError) as e:
+    except (ValueError, OSError, RecursionError) as e:
         raise RunDirError(f"{path}: {unreadable(e)}; {REWRITE}") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("metrics"), dict):
         raise RunDirError(f"{path}: expected an object with a 'metrics' object; {REWRITE}")
     for name, value in doc["metrics"].items():
-        if value is not None and not isinstance(value, (int, float)):
-            raise RunDirError(
-                f"{path}: metric {name} is {json.dumps(value)[:40]}, expected a number or null; {REWRITE}"
-            )
+        if value is not None and (not isinstance(value, (int, float)) or _as_float(value) is None):
+            shown = f"an integer of {len(str(value))} digits" if isinstance(value, int) else json.dumps(value)[:40]
+            raise RunDirError(f"{path}: metric {name} is {shown}, expected a number or null; {REWRITE}")
     return doc
 
 
@@ -117,13 +131,18 @@ def _tolerances(spec: dict[str, Any], where: str) -> tuple[float | None, float |
     out = []
     for key in ("abs", "rel"):
         v = spec.get(key)
-        if v is not None and (not _is_number(v) or not math.isfinite(v) or v < 0):
-            raise BaselineError(f"{where}.{key}: expected a non-negative number, got {json.dumps(v)}")
+        if v is not None and (not _is_number(v) or not _finite(v) or v < 0):
+            raise BaselineError(f"{where}.{key}: expected a non-negative number, got {_shown(v)}")
         out.append(None if v is None else float(v))
     unknown = set(spec) - {"abs", "rel", "value"}
     if unknown:
         raise BaselineError(f"{where}: unknown key {sorted(unknown)[0]!r} (allowed: value, abs, rel)")
     return out[0], out[1]
+
+
+def _shown(v: Any) -> str:
+    """A JSON value in a message: a long integer by its digits."""
+    return f"an integer of {len(str(v))} digits" if isinstance(v, int) and len(str(v)) > 40 else json.dumps(v)[:60]
 
 
 def load_baseline(path: str | Path) -> dict[str, tuple[float | None, float, float]]:
@@ -143,6 +162,8 @@ def load_baseline(path: str | Path) -> dict[str, tuple[float | None, float, floa
         raise BaselineError(f"{p}: not valid JSON: {e.msg} (line {e.lineno})") from None
     except ValueError as e:  # a key given twice: one of the two would be dropped silently
         raise BaselineError(f"{p}: {e}") from None
+    except RecursionError:
+        raise BaselineError(f"{p}: not valid JSON: nested too deep to read") from None
     if not isinstance(doc, dict) or not isinstance(doc.get("metrics"), dict):
         raise BaselineError(f"{p}: expected an object with a 'metrics' object")
     if not doc["metrics"]:
@@ -156,19 +177,19 @@ def load_baseline(path: str | Path) -> dict[str, tuple[float | None, float, floa
     default = doc.get("default") or {}
     if not isinstance(default, dict):
         raise BaselineError(f"{p}: default: expected an object with abs and/or rel, got {json.dumps(default)}")
-    d_abs, d_rel = _tolerances(default, "default")
+    d_abs, d_rel = _tolerances(default, f"{p}: default")
     out = {}
     for name, spec in doc["metrics"].items():
         where = f"metrics.{name}"
         if isinstance(spec, dict):
             if "value" not in spec:
                 raise BaselineError(f"{p}: {where}.value: required field missing")
-            a, r = _tolerances(spec, where)
+            a, r = _tolerances(spec, f"{p}: {where}")
             value = spec["value"]
         else:
             a, r, value = None, None, spec
-        if value is not None and (not _is_number(value) or not math.isfinite(value)):
-            raise BaselineError(f"{p}: {where}: expected a finite number or null, got {json.dumps(value)}")
+        if value is not None and (not _is_number(value) or not _finite(value)):
+            raise BaselineError(f"{p}: {where}: expected a finite number or null, got {_shown(value)}")
         out[name] = (
             None if value is None else float(value),
             a if a is not None else (d_abs or 0.0),

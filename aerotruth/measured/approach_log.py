@@ -41,6 +41,20 @@ LEVER_ARM_RANGES = {
     ),
     "tvps_lever_arm_m": (-40.0, 40.0, "y of the reference point minus the TVPS camera's, within half a wing span"),
 }
+# What a number of a length or time column can be (check_values): a runway-frame position
+# within 1,000 km of the threshold (an INS drifts by kilometres, never by this), a radar
+# altimeter's height within the range of any (2,500-5,000 ft), a TVPS camera's cross-track
+# position within 1 km of the centreline (it sees the runway), a time in seconds (epoch
+# seconds are 2e9); empty cells pass (the rules of each column say where they may be).
+VALUE_LIMITS = {
+    "time_s": (-1e10, 1e10, "s", "a time in seconds"),
+    **{
+        c: (-1e6, 1e6, "m", "a runway-frame position within 1,000 km of the threshold")
+        for c in ("waas_x_m", "waas_y_m", "waas_z_m", "ins_x_m", "ins_y_m", "ins_z_m", *DGPS)
+    },
+    "ra_m": (-math.inf, 3000.0, "m", "a radar-altimeter height of at most 3,000 m (a radar altimeter's range)"),
+    "tvps_y_m": (-1000.0, 1000.0, "m", "a TVPS cross-track position within 1 km of the centreline"),
+}
 # Units from the physics (check_physics): a length reading against the WAAS (or DGPS)
 # position of the same instants. Reference errors taken as a bias per approach: WAAS 1.5 m
 # (its bias is 1-2 m 95 %, plus the 12-s cyclic noise), DGPS 0.5 m (a survey offset of a few
@@ -51,6 +65,9 @@ MIN_READINGS = 5  # rows with a reading and a reference an approach needs to cou
 # INS axis signs (ins_axis_signs): the WAAS epochs an approach needs (two 12-s cycles), the
 # blocks of the standard error (one cycle), the INS's least motion beyond its drift
 MIN_SIGN_EPOCHS, SIGN_BLOCK_S, MIN_SIGN_MOTION_M = 24, 12.0, 0.1
+# an INS axis's unit is judged only where its motion beyond a drift follows the WAAS's
+# (correlation at least this): along the course both are noise (the cubic takes the motion)
+MIN_UNIT_CORRELATION = 0.9
 
 
 def runway_geometry(path: Path) -> tuple[dict, str]:
@@ -60,11 +77,21 @@ def runway_geometry(path: Path) -> tuple[dict, str]:
     {"approaches": {approach: geometry}}."""
     raw, src = None, ""
     for side in (path.with_name(path.name + ".runway.json"), path.with_suffix(".runway.json")):
+        if side.is_dir():
+            raise DataError(f"{side}: is a folder, expected the log's runway geometry (a JSON file)")
         if side.is_file():
             try:
-                raw, src = json.loads(side.read_text()), str(side)
+                raw, src = json.loads(side.read_bytes().decode("utf-8")), str(side)
             except json.JSONDecodeError as exc:
                 raise DataError(f"{side}: not JSON ({exc.msg} at line {exc.lineno})") from None
+            except UnicodeDecodeError as exc:
+                raise DataError(
+                    f"{side}: not UTF-8 text (byte {exc.object[exc.start]:#04x} at offset {exc.start})"
+                ) from None
+            except RecursionError:
+                raise DataError(f"{side}: nested too deep to be a runway geometry") from None
+            except ValueError as exc:  # a number beyond int()'s 4,300 digits
+                raise DataError(f"{side}: not a runway geometry ({str(exc).split(':')[0]})") from None
             break
     if raw is None and path.suffix.lower() in (".parquet", ".pq"):
         import pyarrow.parquet as pq
@@ -76,6 +103,10 @@ def runway_geometry(path: Path) -> tuple[dict, str]:
                 raw = json.loads(meta[b"runway"])
             except (json.JSONDecodeError, UnicodeDecodeError) as exc:
                 raise DataError(f"{src}: not JSON ({getattr(exc, 'msg', exc)})") from None
+            except (ValueError, RecursionError) as exc:  # a number beyond int()'s 4,300 digits, deep nesting
+                raise DataError(
+                    f"{src}: not a runway geometry ({str(exc).split(':')[0] or 'nested too deep'})"
+                ) from None
     if raw is None:
         return {None: dict(DEFAULT_RUNWAY)}, "assumed (no runway geometry in the log)"
     if not isinstance(raw, dict):
@@ -94,9 +125,11 @@ def runway_geometry(path: Path) -> tuple[dict, str]:
         for k in DEFAULT_RUNWAY:
             if k in geo:
                 try:
+                    if isinstance(geo[k], bool):  # JSON true is not 1 m or 1 deg
+                        raise TypeError
                     g[k] = float(geo[k])
-                except (TypeError, ValueError):
-                    raise DataError(f"{where}: key {k!r}: expected a number, got {geo[k]!r}") from None
+                except (TypeError, ValueError, OverflowError):
+                    raise DataError(f"{where}: key {k!r}: expected a number, got {geo[k]!r}"[:300]) from None
         for k, (lo, hi) in RUNWAY_RANGES.items():
             if not lo <= g[k] <= hi:
                 raise DataError(f"{where}: key {k!r}: {g[k]:g} outside [{lo:g}, {hi:g}]")
@@ -108,7 +141,9 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
     """The log as a DataFrame with its columns checked (names, numbers)."""
     p = Path(path)
     if not p.is_file():
-        raise DataError(f"{p}: no such file (expected an approach log, CSV or Parquet)")
+        raise DataError(
+            f"{p}: {'is a folder' if p.is_dir() else 'no such file'} (expected an approach log, CSV or Parquet)"
+        )
     try:
         df = pd.read_parquet(p) if p.suffix.lower() in (".parquet", ".pq") else read_csv_table(p)
     except Exception as exc:  # noqa: BLE001 - any reader failure is one line about the file
@@ -133,13 +168,28 @@ def read_approach_log(path: str | Path) -> pd.DataFrame:
     for c in ("sv_change", "iono_update"):
         v = df[c].fillna(0.0)
         if not v.isin([0.0, 1.0]).all():
-            raise DataError(f"{p}: column {c!r}: expected 0/1 flags, got {v[~v.isin([0.0, 1.0])].iloc[0]!r}")
+            raise DataError(f"{p}: column {c!r}: expected 0/1 flags, got {float(v[~v.isin([0.0, 1.0])].iloc[0]):g}")
         df[c] = v
+    check_values(df, p)
     check_lever_arms(df, p)  # before the contract: its RA-WAAS height check adds the lever arm
     for a, g in df.groupby("approach", sort=False):
         check_approach(p, a, g)
     check_physics(df, p)
     return df
+
+
+def check_values(df: pd.DataFrame, p) -> None:
+    """Every time and length within what it can be (VALUE_LIMITS): an infinite or huge
+    value would overflow the filter's sums or move the fix by as much. Empty cells pass."""
+    for c, (lo, hi, unit, what) in VALUE_LIMITS.items():
+        if c not in df.columns:
+            continue
+        v = df[c].to_numpy(dtype=float)
+        with np.errstate(invalid="ignore"):
+            bad = np.isinf(v) | (v < lo) | (v > hi)
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            raise DataError(f"{p}: column {c!r} data row {i + 1}: {v[i]:g} {unit}; expected {what}")
 
 
 def check_lever_arms(df: pd.DataFrame, p) -> None:
@@ -163,7 +213,7 @@ def check_physics(df: pd.DataFrame, p) -> None:
     """What the contract of each approach (check_approach) cannot see, read from the physics
     across the log's approaches (rows already checked): the TVPS's and the radar altimeter's
     units against the WAAS (or DGPS) position of the same instants (`reading_units`), and
-    each INS axis's sign against the aircraft's motion the WAAS sees beyond a drift
+    each INS axis's sign and unit against the aircraft's motion the WAAS sees beyond a drift
     (`ins_axis_signs`). One DataError naming the column and what it looks like."""
     aps = [(a, approach_inputs(g)) for a, g in df.groupby("approach", sort=False)]
     dgps = all(c in df.columns for c in DGPS)
@@ -232,8 +282,11 @@ def ins_axis_signs(aps: list) -> list[str]:
     about 1 for an axis in the frame (the INS follows the motion) and -1 for an axis of the
     other sign; its standard error from the scores summed over 12-s blocks (the WAAS's
     cyclic noise). An axis is said when b <= -0.5 with b + 4 se < 0 and the INS moves at
-    least MIN_SIGN_MOTION_M beyond its drift. Unlike ins_frame.frame_error this needs no
-    3 approaches and no metre of motion: a sign is one number, not a rotation."""
+    least MIN_SIGN_MOTION_M beyond its drift; an axis in another unit, when b > 0 is off 1
+    by more than a factor 1.5 and 4 se where the two motions correlate (r >= MIN_UNIT_CORRELATION;
+    feet: b = 0.305, the INS moving 3.28 times as far).
+    Unlike ins_frame.frame_error this needs no 3 approaches and no metre of motion: a sign
+    (or a unit) is one number, not a rotation."""
     ws, ins, ts = [], [], []
     for ap in aps:
         ok = np.isfinite(ap.waas).all(axis=1) & np.isfinite(ap.ins_w).all(axis=1)
@@ -247,6 +300,7 @@ def ins_axis_signs(aps: list) -> list[str]:
         return []
     sxy = sum(np.sum(w * i, axis=0) for w, i in zip(ws, ins, strict=True))
     syy = sum(np.sum(i * i, axis=0) for i in ins)
+    sww = sum(np.sum(w * w, axis=0) for w in ws)
     n = sum(len(t) for t in ts)
     with np.errstate(invalid="ignore", divide="ignore"):
         b = sxy / syy
@@ -260,6 +314,8 @@ def ins_axis_signs(aps: list) -> list[str]:
     with np.errstate(invalid="ignore", divide="ignore"):
         se = np.sqrt((s**2).sum(axis=0) * g / max(g - 1, 1)) / syy
     motion = np.sqrt(syy / n)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        r = sxy / np.sqrt(sww * syy)  # the INS's and the WAAS's motions beyond a drift, correlated
     out = []
     for j, name in enumerate("xyz"):
         if motion[j] >= MIN_SIGN_MOTION_M and b[j] <= -0.5 and b[j] + 4.0 * se[j] < 0.0:
@@ -267,4 +323,13 @@ def ins_axis_signs(aps: list) -> list[str]:
                 f"ins_{name}_m has the opposite sign (beyond a drift it moves against waas_{name}_m: "
                 f"{b[j]:+.2f} +- {se[j]:.2f} m per m over {len(ws)} approach(es))"
             )
+        elif r[j] >= MIN_UNIT_CORRELATION and b[j] > 0 and abs(math.log(b[j])) > math.log(1.5):
+            if abs(b[j] - 1.0) > 4.0 * se[j]:  # the INS reads k = 1/b times the motion: another unit
+                k = 1.0 / b[j]
+                unit, factor = min(UNIT_FACTORS.items(), key=lambda u: abs(math.log(k / u[1])))
+                guess = f"in {unit}?" if abs(math.log(k / factor)) < math.log(1.5) else "a unit or a scale?"
+                out.append(
+                    f"ins_{name}_m moves {k:.3g} times as far as waas_{name}_m beyond a drift "
+                    f"({b[j]:.2f} +- {se[j]:.2f} m of WAAS per m over {len(ws)} approach(es)): {guess} expected metres"
+                )
     return out

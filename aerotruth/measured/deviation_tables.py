@@ -25,7 +25,8 @@ def read_tables(path: str | Path) -> FleetHeadingFit:
     DataError naming the file on anything else."""
     path = Path(path)
     if not path.is_file():
-        raise DataError(f"{path}: no such file (expected the deviation.csv of `aerotruth heading fit`)")
+        what = "is a folder" if path.is_dir() else "no such file"
+        raise DataError(f"{path}: {what} (expected the deviation.csv of `aerotruth heading fit`)")
     try:
         table = read_csv_table(path) if path.suffix.lower() != ".parquet" else pd.read_parquet(path)
     except Exception as e:  # noqa: BLE001 - pandas/pyarrow's many error types: one line naming the file

@@ -17,9 +17,14 @@ Kinds (docs/data-formats.md and ../shared/real-data/README.md):
 
 Gzip is recognised by its magic bytes. Times become UTC epoch seconds (`time_s`). A file
 that is none of these gets one DataError naming the file and what was expected. In the
-JSON kinds, text in a numeric field (NUMERIC_FIELDS) or a record without a timestamp is an
-error naming the record (or line) and field, and so is a file holding more than one
-aircraft (several `icao24`): diagnose takes one aircraft's flight.
+JSON kinds, text or true/false in a numeric field (NUMERIC_FIELDS), a value outside what the
+field can be (FIELD_RANGES: an infinite or huge number, a latitude past the pole), a time
+outside the dates aerotruth models, a heading or track column in radians, or a record
+without a timestamp is an error naming the record (or line) and field, and so is a file
+holding more than one aircraft (several `icao24`): diagnose takes one aircraft's flight.
+A null (or NaN) is a missing value. Speeds are checked against each other: the median
+ground speed over the TAS (check_speed_units) is about 1 whatever the wind, 0.51 or 1.94
+when one of them is in m/s.
 """
 
 from __future__ import annotations
@@ -31,11 +36,13 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from aerotruth.contracts import APPROACH_LOG_KEY, OBSERVATION_REQUIRED
+from aerotruth.dates import MODEL_DATE_SPAN, MODEL_EPOCH_S
 from aerotruth.errors import DataError
-from aerotruth.measured.tables import GZIP_MAGIC, read_csv_table
+from aerotruth.measured.tables import GZIP_MAGIC, CutShort, read_csv_table
 
 OBSERVATION_COLUMNS = OBSERVATION_REQUIRED
 APPROACH_COLUMNS = APPROACH_LOG_KEY
@@ -94,6 +101,8 @@ def _table(path: Path, data: bytes) -> pd.DataFrame | None:
         return None
     try:
         return read_csv_table(data)
+    except CutShort as e:
+        raise DataError(f"{path}: not a readable CSV table ({e})") from None
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError):
         return None
 
@@ -106,7 +115,7 @@ def _json(path: Path, data: bytes):
     if not text:
         return None
     try:
-        return json.loads(text)
+        return _loads(text, path)
     except json.JSONDecodeError:
         pass
     lines = text.splitlines()  # JSON lines; `text` is stripped: its last line is not blank
@@ -115,7 +124,7 @@ def _json(path: Path, data: bytes):
         if not line.strip():
             continue
         try:
-            records.append(json.loads(line))
+            records.append(_loads(line, path, f" line {i}"))
         except json.JSONDecodeError as e:
             if not records:
                 return None
@@ -124,6 +133,20 @@ def _json(path: Path, data: bytes):
                 f"{path}: line {i} is not valid JSON ({e.msg}){cut}; expected one JSON object per line"
             ) from None
     return records
+
+
+def _loads(text: str, path: Path, where: str = ""):
+    """json.loads, with what it cannot hold as a DataError naming the file: a number of more
+    than 4,300 digits (Python's bound for int()), nesting deeper than its stack. A text that
+    is not JSON raises json.JSONDecodeError, for the caller to try other kinds."""
+    try:
+        return json.loads(text)
+    except json.JSONDecodeError:
+        raise
+    except ValueError as e:  # "Exceeds the limit (4300 digits) for integer string conversion ..."
+        raise DataError(f"{path}:{where} a number too long to read ({str(e).split(':')[0]})") from None
+    except RecursionError:
+        raise DataError(f"{path}:{where} JSON nested too deep to read") from None
 
 
 def _epoch_seconds(ts: pd.Series) -> pd.Series:
@@ -188,20 +211,107 @@ NUMERIC_FIELDS = (
 )
 
 
+# what each numeric field can be, in the units of its name (the `traffic` library's: ft,
+# kt, deg, ft/min, deg/s); beyond it a value is no measurement (an overflow, a swapped field)
+FIELD_RANGES = {
+    "latitude": (-90.0, 90.0),
+    "longitude": (-180.0, 360.0),
+    "altitude": (-2000.0, 70000.0),
+    "groundspeed": (0.0, 1000.0),
+    "track": (-180.0, 360.0),
+    "vertical_rate": (-50000.0, 50000.0),
+    "heading": (-180.0, 360.0),
+    "TAS": (0.0, 1000.0),
+    "IAS": (0.0, 1000.0),
+    "CAS": (0.0, 1000.0),
+    "Mach": (0.0, 5.0),
+    "roll": (-180.0, 180.0),
+    "pitch": (-90.0, 90.0),
+    "track_rate": (-180.0, 180.0),
+    "drift": (-180.0, 180.0),
+}
+ANGLE_FIELDS = ("heading", "track")  # read in degrees: a column of them all within [0, 2 pi] is radians
+RADIANS_MIN_VALUES = 200  # as the observation table's wind directions (aerotruth.analysis.wind.observations)
+# the median ground speed over the TAS of a flight or a fleet: about 1 in any wind a
+# winds-aloft method can use (a 40 % headwind gives 0.6); 0.51 or 1.94 for a speed in m/s
+SPEED_RATIO = (0.55, 1.8)
+
+
+def check_speed_units(gs_kt, tas_kt, where: str, gs: str, tas: str) -> None:
+    """DataError naming both columns when the median of ground speed / TAS (rows with both,
+    at least RADIANS_MIN_VALUES of them) is outside SPEED_RATIO: one of them is in other units."""
+    g, a = np.asarray(gs_kt, float), np.asarray(tas_kt, float)
+    ok = np.isfinite(g) & np.isfinite(a) & (a > 0)
+    if ok.sum() < RADIANS_MIN_VALUES:
+        return
+    r = float(np.median(g[ok] / a[ok]))
+    lo, hi = SPEED_RATIO
+    if not lo <= r <= hi:
+        likely = f"{gs!r} in m/s or {tas!r} in km/h" if r < lo else f"{tas!r} in m/s or {gs!r} in km/h"
+        raise DataError(
+            f"{where}: columns {gs!r}, {tas!r}: the ground speed is {r:.3g} times the TAS (median of {int(ok.sum())} "
+            f"samples; about 1 in any wind): {likely}? expected knots"
+        )
+
+
+def check_values(
+    where: str, values: pd.Series, field: str, what: str = "data row", shown: str | None = None
+) -> np.ndarray:
+    """A numeric field's values (already numbers, in the units of `field`'s name) within
+    FIELD_RANGES (NaN, a missing value, passes); an angle field not in radians. DataError
+    naming the row and the field (as `shown`, the file's own name for it, when given)."""
+    name = field if shown is None else shown
+    v = values.to_numpy(dtype=float)
+    lo, hi = FIELD_RANGES.get(field, (-np.inf, np.inf))
+    with np.errstate(invalid="ignore"):
+        bad = np.isinf(v) | (v < lo) | (v > hi)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        raise DataError(f"{where}: {what} {i + 1}, field {name!r}: {v[i]:g} outside [{lo:g}, {hi:g}]")
+    fin = v[np.isfinite(v)]
+    if field in ANGLE_FIELDS and len(fin) >= RADIANS_MIN_VALUES:
+        if fin.min() >= 0.0 and fin.max() <= 2 * np.pi and fin.max() - fin.min() > 0.2:
+            raise DataError(
+                f"{where}: field {name!r}: all {len(fin)} values lie within [{fin.min():.3g}, {fin.max():.3g}]: "
+                "in radians? expected degrees"
+            )
+    return v
+
+
 def _checked_records(path: Path, df: pd.DataFrame, what: str) -> pd.DataFrame:
-    """Numbers as numbers (text in a numeric field is an error naming record and field),
-    every record timed, one aircraft."""
+    """Numbers as numbers within their ranges (text or true/false in a numeric field is an
+    error naming record and field), every record timed within the dates aerotruth models,
+    one aircraft."""
     for c in NUMERIC_FIELDS:
-        if c in df.columns and df[c].dtype.kind not in "biuf":
+        if c not in df.columns:
+            continue
+        if df[c].dtype.kind == "b" or (df[c].dtype == object and df[c].map(lambda v: isinstance(v, bool)).any()):
+            i = int(np.flatnonzero(df[c].map(lambda v: isinstance(v, bool)).to_numpy())[0])
+            raise DataError(f"{path}: {what} {i + 1}, field {c!r}: {df[c].iloc[i]!r} is not a number")
+        if df[c].dtype.kind not in "iuf":
             num = pd.to_numeric(df[c], errors="coerce")
             bad = num.isna() & df[c].notna()
             if bad.any():
                 i = int(bad.to_numpy().nonzero()[0][0])
                 raise DataError(f"{path}: {what} {i + 1}, field {c!r}: {df[c].iloc[i]!r} is not a number")
             df[c] = num.astype(float)
+        if c != "timestamp":
+            check_values(str(path), df[c], c, what)
     if df["timestamp"].isna().any():
         i = int(df["timestamp"].isna().to_numpy().nonzero()[0][0])
         raise DataError(f"{path}: {what} {i + 1}: no timestamp")
+    t = _epoch_seconds(df["timestamp"]).to_numpy()
+    lo, hi = MODEL_EPOCH_S
+    with np.errstate(invalid="ignore"):
+        late = ~((t >= lo) & (t < hi))
+    if late.any():
+        i = int(np.flatnonzero(late)[0])
+        raise DataError(
+            f"{path}: {what} {i + 1}, field 'timestamp': {df['timestamp'].iloc[i]!r} is not a time from "
+            f"{MODEL_DATE_SPAN} (epoch seconds or milliseconds)"
+        )
+    if "groundspeed" in df.columns and "TAS" in df.columns:
+        check_speed_units(df["groundspeed"], df["TAS"], str(path), "groundspeed", "TAS")
     if "icao24" in df.columns:
         ids = pd.unique(df["icao24"].dropna().astype(str).str.lower())
         if len(ids) > 1:
@@ -211,6 +321,31 @@ def _checked_records(path: Path, df: pd.DataFrame, what: str) -> pd.DataFrame:
                 f"records of one icao24"
             )
     return df
+
+
+def _one_state_per_time(path: Path, df: pd.DataFrame) -> pd.DataFrame:
+    """A trajectory's records (sorted by time) with exact repeats dropped; two records of one
+    instant that differ in a numeric field are a DataError naming them: which is the
+    aircraft's state cannot be told."""
+    fields = [c for c in NUMERIC_FIELDS if c in df.columns]
+    v = df[fields].to_numpy(dtype=float)
+    t = df["time_s"].to_numpy()
+    same = np.flatnonzero(t[1:] == t[:-1])
+    if not len(same):
+        return df
+    a, b = v[same], v[same + 1]
+    differs = ~((a == b) | (np.isnan(a) & np.isnan(b)))
+    if differs.any():
+        k = int(np.flatnonzero(differs.any(axis=1))[0])
+        f = fields[int(np.flatnonzero(differs[k])[0])]
+        rows = df.index.to_numpy()[[same[k], same[k] + 1]] + 1
+        raise DataError(
+            f"{path}: records {min(rows)} and {max(rows)} have the same timestamp and different {f!r} "
+            f"({a[k, fields.index(f)]:g} vs {b[k, fields.index(f)]:g}); expected one state per instant"
+        )
+    keep = np.ones(len(df), dtype=bool)
+    keep[same + 1] = False
+    return df[keep]
 
 
 def load_measured(path: str | Path) -> Measured:
@@ -249,5 +384,8 @@ def load_measured(path: str | Path) -> Measured:
             raise DataError(f"{path}: JSON records with keys {', '.join(sorted(cols)[:12])}; expected {_EXPECTED}")
         df = _checked_records(path, df, "line" if kind == "modes_raw" else "record")
         df.insert(0, "time_s", _epoch_seconds(df["timestamp"]))
-        return Measured(kind, df.sort_values("time_s", kind="stable").reset_index(drop=True), path)
+        df = df.sort_values("time_s", kind="stable")
+        if kind != "modes_raw":  # one state per instant (raw messages share instants)
+            df = _one_state_per_time(path, df)
+        return Measured(kind, df.reset_index(drop=True), path)
     raise DataError(f"{path}: not measured data aerotruth knows; expected {_EXPECTED}")

@@ -13,11 +13,16 @@ Two things a plain `pandas.read_csv` gets wrong on such files:
   value is a plain number, some written with a decimal comma (`61,2`, `-149,9`, `1,5e-3`),
   is read as those numbers. Anything else (grouped thousands `1.234,5`, a mix of points
   and commas in one column) is left as text for the caller's number check to name:
-  not guessed.
+  not guessed;
+* a file whose last line has fewer fields than its header and the line before it was cut
+  short (a copy or a download that stopped): pandas would pad that row with empty cells,
+  the row would be skipped and the rest of the file lost without a word. It is refused
+  (`CutShort`). A cut inside the last field cannot be told from a shorter value.
 """
 
 from __future__ import annotations
 
+import csv
 import gzip
 import io
 import re
@@ -31,6 +36,10 @@ from aerotruth.errors import DataError
 TEXT_COLUMNS = ("aircraft", "flight", "ref_source", "heading_input", "phase", "fleet", "stage")
 SEPARATORS = (",", ";", "\t")
 _DECIMAL_COMMA = re.compile(r"[+-]?(\d+(,\d*)?|,\d+)([eE][+-]?\d+)?")
+
+
+class CutShort(pd.errors.ParserError):
+    """A CSV file whose last line has fewer fields than its header: cut short."""
 
 
 def csv_separator(header_line: str) -> str:
@@ -51,6 +60,12 @@ def read_csv_table(source: str | Path | bytes) -> pd.DataFrame:
     compression = "gzip" if _is_gzip(source) else None
     sep = csv_separator(_first_line(source, compression).decode("utf-8", errors="replace"))
     columns = pd.read_csv(_readable(source), sep=sep, nrows=0, compression=compression).columns
+    last, before = _last_lines_fields(source, compression, sep)
+    if last < min(before, len(columns)):
+        raise CutShort(
+            f"its last line has {last} of the header's {len(columns)} fields: the file is cut short "
+            "(an interrupted copy or download?)"
+        )
     dtype = {c: str for c in TEXT_COLUMNS if c in columns}
     df = pd.read_csv(_readable(source), sep=sep, dtype=dtype, low_memory=False, compression=compression)
     return df if sep == "," else _decimal_commas(df)
@@ -115,6 +130,54 @@ def _is_gzip(source: str | Path | bytes) -> bool:
         with open(source, "rb") as f:
             return f.read(2) == GZIP_MAGIC
     return source[:2] == GZIP_MAGIC
+
+
+_BLOCK = 1 << 16  # the last line is looked for from the file's end, this much at a time
+
+
+def _last_line(data: bytes) -> tuple[int, int]:
+    """(start, end) of the last non-empty line of `data`; start is 0 when no line break
+    precedes it (then it may begin before `data` does)."""
+    end = len(data)
+    while end > 0 and data[end - 1] in b"\r\n":
+        end -= 1
+    return data.rfind(b"\n", 0, end) + 1, end
+
+
+def _last_lines_fields(source: str | Path | bytes, compression: str | None, sep: str) -> tuple[int, int]:
+    """The numbers of fields of the file's last two non-empty lines (read back from its end,
+    or through the gzip stream keeping its last two lines); a line that is not there has 0."""
+
+    def two_lines(data: bytes) -> int:  # where the last two lines start (0: maybe before `data`)
+        start, _ = _last_line(data)
+        return _last_line(data[: max(start - 1, 0)])[0] if start > 0 else 0
+
+    if compression == "gzip":
+        tail = b""
+        with gzip.open(_readable(source), "rb") as f:
+            while block := f.read(1 << 20):
+                tail += block
+                tail = tail[two_lines(tail) :]  # the last two lines so far, and what follows them
+    elif isinstance(source, (str, Path)):
+        with open(source, "rb") as f:
+            size = f.seek(0, io.SEEK_END)
+            back = _BLOCK
+            while True:
+                f.seek(max(0, size - back))
+                tail = f.read()
+                if two_lines(tail) > 0 or back >= size:
+                    break
+                back *= 4
+    else:
+        tail = source
+    out = []
+    for _ in range(2):
+        start, end = _last_line(tail)
+        line = tail[start:end]
+        text = line.decode("utf-8", errors="replace")
+        out.append(len(next(csv.reader([text], delimiter=sep), [])) if line.strip() else 0)
+        tail = tail[: max(start - 1, 0)] if start > 0 else b""
+    return out[0], out[1]
 
 
 def _first_line(source: str | Path | bytes, compression: str | None = None) -> bytes:

@@ -40,9 +40,10 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from aerotruth.dates import MODEL_DATE_SPAN, MODEL_EPOCH_S
 from aerotruth.errors import DataError
 from aerotruth.measured import frames, trackers
-from aerotruth.measured.kinds import epoch_seconds, file_bytes, json_of, table_of
+from aerotruth.measured.kinds import check_speed_units, check_values, epoch_seconds, file_bytes, json_of, table_of
 from aerotruth.measured.observations import table_kind
 from aerotruth.measured.tables import numeric_column, read_csv_table, read_parquet_table
 from aerotruth.units import FT, KT
@@ -143,11 +144,15 @@ def canonical_traffic(
         )
     frame = pd.DataFrame({"aircraft": df[out["aircraft"][0]].astype(str).str.strip().str.lower()})
     frame["time_s"] = epoch_seconds(df[out["time"][0]], source, str(out["time"][0])).to_numpy(dtype=float)
+    _check_times(frame["time_s"].to_numpy(), df[out["time"][0]], source, str(out["time"][0]))
     for name in NUMERIC:
         if name not in out:
             continue
         col, factor = out[name]
+        if df[col].dtype.kind == "b" or (df[col].dtype == object and df[col].map(lambda v: isinstance(v, bool)).any()):
+            raise DataError(f"{source}: column {str(col)!r} holds true/false, expected numbers")
         frame[name] = numeric_column(df, col, source).to_numpy() * factor
+        check_values(source, frame[name], RANGE_OF[name], "data row", shown=str(col))
     if "true_heading_deg" in frame:
         take = ~np.isfinite(frame["heading_mag_deg"].to_numpy()) & np.isfinite(frame["true_heading_deg"].to_numpy())
         take &= np.isfinite(frame[["time_s", "lat", "lon", "pressure_altitude_ft"]].to_numpy(dtype=float)).all(axis=1)
@@ -167,6 +172,8 @@ def canonical_traffic(
     attrs = dict(frame.attrs)
     frame["_ground"] = ground
     frame = frame[complete].sort_values(["aircraft", "time_s"], kind="stable").reset_index(drop=True)
+    _check_repeats(frame, source, {name: str(col) for name, (col, _) in out.items()})
+    check_speed_units(frame["gs_kt"], frame["tas_kt"], source, str(out["gs_kt"][0]), str(out["tas_kt"][0]))
     frame["flight"] = flight_numbers(
         frame["aircraft"].to_numpy(), frame["time_s"].to_numpy(), frame["_ground"].to_numpy(dtype=bool)
     )
@@ -179,6 +186,55 @@ def canonical_traffic(
     if len(frame) == 0:
         raise DataError(f"{source}: no airborne row has every value a winds-aloft method needs ({', '.join(REQUIRED)})")
     return frame
+
+
+# each canonical column's range: that of the Mode-S field of its unit (aerotruth.measured.kinds.FIELD_RANGES)
+RANGE_OF = {
+    "lat": "latitude",
+    "lon": "longitude",
+    "pressure_altitude_ft": "altitude",
+    "gs_kt": "groundspeed",
+    "track_deg": "track",
+    "heading_mag_deg": "heading",
+    "tas_kt": "TAS",
+    "vertical_rate_fpm": "vertical_rate",
+    "roll_deg": "roll",
+    "true_heading_deg": "heading",
+}
+
+
+def _check_times(t: np.ndarray, given: pd.Series, source: str, column: str) -> None:
+    """Times within the dates aerotruth models (the declination comes from IGRF); empty passes."""
+    lo, hi = MODEL_EPOCH_S
+    with np.errstate(invalid="ignore"):
+        bad = np.isinf(t) | (t < lo) | (t >= hi)
+    if bad.any():
+        i = int(np.flatnonzero(bad)[0])
+        v = given.iloc[i]
+        raise DataError(
+            f"{source}: column {column!r} data row {i + 1}: {v.item() if isinstance(v, np.generic) else v!r} "
+            f"is not a time from {MODEL_DATE_SPAN}"
+        )
+
+
+def _check_repeats(frame: pd.DataFrame, source: str, shown: dict[str, str]) -> None:
+    """Two rows of one aircraft at one time must agree (an exact repeat is harmless; two
+    different states of one instant cannot both be the aircraft's)."""
+    a, t = frame["aircraft"].to_numpy(), frame["time_s"].to_numpy()
+    same = np.flatnonzero((a[1:] == a[:-1]) & (t[1:] == t[:-1]))
+    if not len(same):
+        return
+    values = frame[list(REQUIRED[2:])].to_numpy(dtype=float)
+    differs = ~((values[same] == values[same + 1]) | (np.isnan(values[same]) & np.isnan(values[same + 1])))
+    if differs.any():
+        i = int(same[np.flatnonzero(differs.any(axis=1))[0]])
+        col = REQUIRED[2:][int(np.flatnonzero(differs[np.flatnonzero(differs.any(axis=1))[0]])[0])]
+        when = pd.Timestamp(t[i], unit="s", tz="UTC").isoformat()
+        raise DataError(
+            f"{source}: aircraft {a[i]!r} has two samples at {when} with different {shown.get(col, col)!r} "
+            f"({values[i, REQUIRED[2:].index(col)]:g} vs {values[i + 1, REQUIRED[2:].index(col)]:g}); "
+            "expected one state per aircraft and time"
+        )
 
 
 # the airborne/ground flag under the names decoders write (traffic, OpenSky: onground)

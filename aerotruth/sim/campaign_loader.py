@@ -303,7 +303,13 @@ def parse_campaign(text: str, base_dir: str | Path | None = None, size: str | No
     """Validate campaign YAML text; any problem raises ConfigError with one line.
     `base_dir` is where relative `study_modules:` files are found (the YAML's folder);
     `size` applies the overrides of that entry of `sizes:` (a reduced campaign)."""
-    loader = _CampaignLoader(text)
+    try:
+        loader = _CampaignLoader(text)  # its reader refuses characters YAML does not allow (a NUL, ...)
+    except yaml.reader.ReaderError as e:
+        ch = chr(e.character) if isinstance(e.character, int) else e.character
+        raise ConfigError(
+            f"not valid YAML: the character {ch!r} at offset {e.position} is not allowed in YAML text"
+        ) from None
     try:
         root = loader.get_single_node()  # composed within the bounds of _CampaignLoader
         check_duplicate_keys(root)
@@ -312,8 +318,8 @@ def parse_campaign(text: str, base_dir: str | Path | None = None, size: str | No
         mark = e.problem_mark or e.context_mark
         where = f" (line {mark.line + 1}, column {mark.column + 1})" if mark is not None else ""
         raise ConfigError(f"not valid YAML: {e.problem or e.context}{where}") from None
-    except yaml.YAMLError as e:
-        raise ConfigError(f"not valid YAML: {e}") from None
+    except yaml.YAMLError as e:  # a reader error met later in the text, ...
+        raise ConfigError(f"not valid YAML: {' '.join(str(e).split())}") from None
     finally:
         loader.dispose()
     if not isinstance(data, dict):

@@ -101,6 +101,9 @@ DEFAULT_POINTS_M: dict[str, tuple[float, float, float]] = {
 }
 
 
+MTOW_KG = 13155.0  # SAAB 340B maximum take-off mass: no landing is heavier
+
+
 @dataclass(frozen=True)
 class ApproachSpec:
     """One approach: where, when, how (heights above the threshold in ft, edges only)."""
@@ -133,8 +136,13 @@ class ApproachSpec:
             raise ValueError("points_m: the IMU point is required")
         if not 0.0 <= self.intercept_deg <= 45.0:
             raise ValueError(f"intercept_deg: expected 0..45 deg, got {self.intercept_deg}")
-        if abs(self.offset_nm) > 3.0:
+        if not abs(self.offset_nm) <= 3.0:  # NaN too
             raise ValueError(f"offset_nm: expected at most 3 nm either side, got {self.offset_nm}")
+        if not 0.0 < self.mass_kg <= MTOW_KG:  # the lower bound is the model's (fly_approach: _set_mass)
+            raise ValueError(
+                f"mass_kg: expected a landing mass above 0 and at most the SAAB 340B's maximum take-off mass, "
+                f"{MTOW_KG:,.0f} kg, got {self.mass_kg:g}"
+            )
 
 
 def find_runway(icao: str, ident: str) -> Runway:
@@ -263,7 +271,8 @@ def _set_mass(fdm, mass_kg: float) -> None:
     now = fdm["inertia/weight-lbs"] * kg_per_lb
     pax = fdm["inertia/pointmass-weight-lbs[0]"] * kg_per_lb + (mass_kg - now)
     if pax < 0.0:
-        raise ValueError(f"mass_kg: {mass_kg} kg is below the model's empty + fuel + baggage ({now - pax + 0:.0f} kg)")
+        without_pax = now - fdm["inertia/pointmass-weight-lbs[0]"] * kg_per_lb
+        raise ValueError(f"mass_kg: {mass_kg:g} kg is below the model's empty + fuel + baggage ({without_pax:.0f} kg)")
     fdm["inertia/pointmass-weight-lbs[0]"] = pax / kg_per_lb
 
 

@@ -202,6 +202,8 @@ def _used_arrays(rows: pd.DataFrame, heading: str) -> dict:
 # a lookup-table entry read from a file may not exceed the largest heading error the method
 # takes as a measurement (GateSpec.max_heading_error_deg: beyond it a report is a gross error)
 _MAX_TABLE_CORRECTION_DEG = GateSpec().max_heading_error_deg
+# a table's entries read back agree with its coefficients within this (a file rounded to 0.01 deg passes)
+LUT_AGREEMENT_DEG = 0.05
 
 
 class HeadingDeviationFit:
@@ -288,7 +290,8 @@ class HeadingDeviationFit:
         self.n_clusters_ = int(len(cluster_starts(self._g))) if len(sel) else 0
         self.n_flights_ = int(len(np.unique(a["flight"].take(sel))))
         self._src_names = [str(x) for x in a["src_names"]]
-        self.ref_sources_ = [self._src_names[i] for i in np.flatnonzero(np.bincount(self._src))]
+        # by name: nothing the fit writes follows the order of the table's rows
+        self.ref_sources_ = sorted(self._src_names[i] for i in np.flatnonzero(np.bincount(self._src)))
         self.valid_from_ = _iso_date(times.min()) if len(times) else ""
         self.valid_to_ = _iso_date(times.max()) if len(times) else ""
         self.data_from_ = _iso_time(times.min()) if len(times) else ""
@@ -416,7 +419,7 @@ class HeadingDeviationFit:
     def _consistency(self, k: int, reason: list[str]) -> None:
         """Each reference model alone, pairwise Wald test of equal coefficients."""
         counts = np.bincount(self._src)
-        srcs = [self._src_names[c] for c in np.flatnonzero(counts >= max(self.min_reports, 1))]
+        srcs = sorted(self._src_names[c] for c in np.flatnonzero(counts >= max(self.min_reports, 1)))
         if len(srcs) < 2:
             return
         flights = self._g[cluster_starts(self._g)]  # rows are sorted by flight
@@ -599,6 +602,39 @@ class HeadingDeviationFit:
         )
         return pd.DataFrame([row])
 
+    def _check_entries_against_coefficients(self) -> None:
+        """A table read back holds its eight entries and the coefficients they came from
+        (lut = -d(z) at z = 0, 45, ..., 315 deg): each coefficient must be a finite number of
+        degrees and each entry its coefficients' value within LUT_AGREEMENT_DEG (a hand-edited
+        or rounded file passes). Otherwise (an entry or a coefficient in radians, a damaged
+        cell) a ValueError naming the aircraft and the column: which of the two is right
+        cannot be told, and `heading apply` would correct by the entries alone."""
+        where = f"table: aircraft {self.aircraft_!r} ({self.status_})"
+        for t in TERM_NAMES:
+            v = self.coef_[t]
+            if not (math.isfinite(v) and abs(v) <= _MAX_TABLE_CORRECTION_DEG):
+                raise ValueError(
+                    f"{where}, column '{t}_deg': {v:g}; expected a finite coefficient of at most "
+                    f"{_MAX_TABLE_CORRECTION_DEG:g} deg (0 for a term not fitted)"
+                )
+        implied = -self.deviation(LUT_HEADINGS_DEG)
+        off = np.abs(self.lut_ - implied)
+        if not (off <= LUT_AGREEMENT_DEG).all():
+            i = int(np.argmax(np.where(np.isfinite(off), off, np.inf)))
+            ratio = float(self.lut_ @ implied / (implied @ implied)) if (implied @ implied) > 0 else math.nan
+            hint = (
+                " (the entries in radians?)"
+                if abs(ratio * 180 / math.pi - 1) < 0.05
+                else " (the coefficients in radians?)"
+                if abs(ratio * math.pi / 180 - 1) < 0.05
+                else ""
+            )
+            raise ValueError(
+                f"{where}, column '{LUT_COLUMNS[i]}': {self.lut_[i]:g} deg, but its coefficients A_deg..E_deg give "
+                f"{implied[i]:g} deg at {LUT_HEADINGS_DEG[i]:g} deg{hint}; expected the table of its coefficients, "
+                f"lut = -(A + B sin z + C cos z + D sin 2z + E cos 2z)"
+            )
+
     @classmethod
     def from_table(cls, table: pd.DataFrame | pd.Series) -> HeadingDeviationFit:
         """Rebuild a fitted estimator (coefficients, se, status, table, dates) from a row of to_table()."""
@@ -626,9 +662,10 @@ class HeadingDeviationFit:
         self.se_ = {t: num(f"{t}_se_deg") for t in TERM_NAMES}
         self.lut_ = np.array([num(c) for c in LUT_COLUMNS])
         if self.status_ != "refused" and not np.isfinite(self.lut_).all():
-            c = LUT_COLUMNS[int(np.flatnonzero(~np.isfinite(self.lut_))[0])]
+            i = int(np.flatnonzero(~np.isfinite(self.lut_))[0])
+            got = "empty" if np.isnan(self.lut_[i]) else f"{self.lut_[i]:g}"
             raise ValueError(
-                f"table: aircraft {self.aircraft_!r} ({self.status_}), column '{c}': empty; a table "
+                f"table: aircraft {self.aircraft_!r} ({self.status_}), column '{LUT_COLUMNS[i]}': {got}; a table "
                 f"that is not refused needs all eight corrections"
             )
         big = np.flatnonzero(np.abs(self.lut_) > _MAX_TABLE_CORRECTION_DEG)
@@ -639,6 +676,8 @@ class HeadingDeviationFit:
                 f"correction beyond +-{_MAX_TABLE_CORRECTION_DEG:g} deg exceeds any heading error the "
                 f"method accepts (larger ones are gross errors): expected degrees"
             )
+        if self.status_ != "refused":
+            self._check_entries_against_coefficients()
         self.valid_from_, self.valid_to_ = str(row["valid_from"]), str(row["valid_to"])
         # the fit's first and last report (UTC), when the table says them
         self.data_from_, self.data_to_ = (

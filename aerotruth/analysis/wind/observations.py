@@ -23,10 +23,10 @@ OPTIONAL_NUMERIC = OBSERVATION_OPTIONAL_NUMERIC
 
 def _numeric(df: pd.DataFrame, col: str, source: str) -> np.ndarray:
     s = df[col]
-    if s.dtype.kind in "biuf":
-        return s.to_numpy(dtype=float)
-    if s.dtype.kind == "b":
+    if s.dtype.kind == "b" or (s.dtype == object and s.map(lambda v: isinstance(v, bool)).any()):
         raise DataError(f"{source}: column '{col}' holds true/false, expected numbers")
+    if s.dtype.kind in "iuf":
+        return s.to_numpy(dtype=float)
     num = pd.to_numeric(s, errors="coerce")
     bad = num.isna() & s.notna() & (s.astype(str).str.strip() != "")
     if bad.any():
@@ -56,6 +56,8 @@ def _times(df: pd.DataFrame, source: str) -> np.ndarray:
 
 def _parse_times(df: pd.DataFrame, source: str) -> np.ndarray:
     s = df["time"]
+    if s.dtype.kind == "b" or (s.dtype == object and s.map(lambda v: isinstance(v, bool)).any()):
+        raise DataError(f"{source}: column 'time' holds true/false, expected UTC epoch seconds or ISO-8601 times")
     if s.dtype.kind in "iuf":
         return s.to_numpy(dtype=float)
     if s.dtype.kind == "M":
@@ -128,13 +130,15 @@ def _check_degrees(v: np.ndarray, col: str, source: str) -> None:
         )
 
 
-def _labels(values: pd.Series, fill: str | None = None, lower: bool = False) -> pd.Categorical:
+def _labels(values: pd.Series, fill: str | None = None, lower: bool = False, sort: bool = False) -> pd.Categorical:
     """Text labels as a Categorical: stripped (and lower-cased if `lower`); empty or missing
-    -> `fill` (None: missing)."""
+    -> `fill` (None: missing). Categories in the order the labels first appear, or sorted
+    (`sort`: the reference models and flights, whose order enters the numbers, e.g. a
+    consistency test's contrast, and must not follow the order of the rows)."""
     codes, uniques = pd.factorize(values, use_na_sentinel=True)
     names = np.array([(str(u).strip().lower() if lower else str(u).strip()) for u in uniques] + [""], dtype=object)
     names[names == ""] = fill if fill is not None else np.nan
-    ucodes, cats = pd.factorize(pd.Series(names, dtype=object), use_na_sentinel=True)
+    ucodes, cats = pd.factorize(pd.Series(names, dtype=object), use_na_sentinel=True, sort=sort)
     return pd.Categorical.from_codes(ucodes[codes], categories=pd.Index(cats, dtype=object))  # codes -1 -> last -> fill
 
 
