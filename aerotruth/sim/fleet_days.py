@@ -48,7 +48,12 @@ class FlightSelection(Section):
     legs: list[LegSpec] | None = Field(
         default=None, description="fly these legs every aircraft-day instead of a schedule"
     )
-    max_legs_per_day: StrictInt | None = Field(default=None, ge=1, description="keep only the first N legs of each day")
+    max_legs_per_day: StrictInt | None = Field(
+        default=None,
+        ge=1,
+        le=72,
+        description="keep only the first N legs of each day (at most 72: a day of 20-min legs)",
+    )
     turbulence: StrictBool = False
 
 

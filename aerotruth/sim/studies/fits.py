@@ -83,7 +83,9 @@ class FitsStudyConfig(Section):
     sensors: InspectionSensors = Field(default_factory=InspectionSensors)
     fits: FitsSpec = Field(default_factory=FitsSpec)
     from_nm: float = Field(default=10.0, gt=0, description="requirement scored from this distance to the threshold")
-    export_logs: int = Field(default=2, ge=0, description="approach logs of the first N approaches exported")
+    export_logs: int = Field(
+        default=2, ge=0, le=100_000, description="approach logs of the first N approaches exported"
+    )
     equivalence: list[EquivalenceTest] = Field(default_factory=list)
 
     @model_validator(mode="after")

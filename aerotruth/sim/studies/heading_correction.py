@@ -87,8 +87,10 @@ class Selection(Section):
     """How many aircraft get tables (largest before RMS) and how many are controls (smallest),
     ranked by which before-period RMS (`by`)."""
 
-    poor: StrictInt = Field(ge=1, description="aircraft with the largest before-period RMS get tables")
-    control: StrictInt = Field(ge=1, description="aircraft with the smallest before-period RMS are the control group")
+    poor: StrictInt = Field(ge=1, le=10_000, description="aircraft with the largest before-period RMS get tables")
+    control: StrictInt = Field(
+        ge=1, le=10_000, description="aircraft with the smallest before-period RMS are the control group"
+    )
     by: Literal["total", "transverse"] = Field(
         "total",
         description="rank by the total RMS vector difference (wind quality: 'chosen for their poorer wind "
@@ -124,7 +126,7 @@ class HeadingCorrectionConfig(Section):
 
     fleets: list[str] = Field(min_length=1)
     periods: PeriodRoles
-    max_legs_per_day: StrictInt | None = Field(default=None, ge=1)
+    max_legs_per_day: StrictInt | None = Field(default=None, ge=1, le=72)
     turbulence: StrictBool = Field(
         default=False,
         description="fly the truth legs with a real flight's disturbances "
