@@ -182,14 +182,20 @@ def check_values(df: pd.DataFrame, p) -> None:
     """Every time and length within what it can be (VALUE_LIMITS): an infinite or huge
     value would overflow the filter's sums or move the fix by as much. Empty cells pass."""
     for c, (lo, hi, unit, what) in VALUE_LIMITS.items():
-        if c not in df.columns:
-            continue
-        v = df[c].to_numpy(dtype=float)
-        with np.errstate(invalid="ignore"):
-            bad = np.isinf(v) | (v < lo) | (v > hi)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
-            raise DataError(f"{p}: column {c!r} data row {i + 1}: {v[i]:g} {unit}; expected {what}")
+        i, v = _first_outside(df, c, lo, hi)
+        if i is not None:
+            raise DataError(f"{p}: column {c!r} data row {i + 1}: {v:g} {unit}; expected {what}")
+
+
+def _first_outside(df: pd.DataFrame, c: str, lo: float, hi: float) -> tuple[int | None, float]:
+    """(row, value) of column c's first infinite value or value outside [lo, hi], (None, nan)
+    when none is or the column is absent; empty cells pass."""
+    if c not in df.columns:
+        return None, float("nan")
+    v = df[c].to_numpy(dtype=float)
+    with np.errstate(invalid="ignore"):
+        bad = np.flatnonzero(np.isinf(v) | (v < lo) | (v > hi))
+    return (int(bad[0]), float(v[bad[0]])) if len(bad) else (None, float("nan"))
 
 
 def check_lever_arms(df: pd.DataFrame, p) -> None:
@@ -197,15 +203,10 @@ def check_lever_arms(df: pd.DataFrame, p) -> None:
     value would move the threshold fix by as much, and the RA-WAAS check would blame the
     radar altimeter's units. Empty cells pass (the row's RA or TVPS reading is not used)."""
     for c, (lo, hi, what) in LEVER_ARM_RANGES.items():
-        if c not in df.columns:
-            continue
-        v = df[c].to_numpy(dtype=float)
-        with np.errstate(invalid="ignore"):
-            bad = np.isinf(v) | (v < lo) | (v > hi)
-        if bad.any():
-            i = int(np.flatnonzero(bad)[0])
+        i, v = _first_outside(df, c, lo, hi)
+        if i is not None:
             raise DataError(
-                f"{p}: column {c!r} data row {i + 1}: {v[i]:g} m; expected {lo:g} to {hi:g} m ({what}) or empty"
+                f"{p}: column {c!r} data row {i + 1}: {v:g} m; expected {lo:g} to {hi:g} m ({what}) or empty"
             )
 
 
