@@ -443,31 +443,48 @@ def covariates(f) -> list[str]:
     )
 
 
-def label(f) -> str:
-    """A finding in one word: the library effect, or `unexplained:` and its covariates."""
-    if not f.effect.startswith("unexplained:"):
-        return f.effect
-    covs = covariates(f)
+def _label_of(effect: str, covs: list[str]) -> str:
+    if not effect.startswith("unexplained:"):
+        return effect
     if covs and covs[0].startswith("period_"):
         return f"unexplained:periodic_{float(covs[0].split('_')[1]) / 3600:.1f}h"
     if covs and covs[0].startswith("fleet_step_"):
         return "unexplained:fleet_step"
-    ch = f.effect.split(":")[1]
+    ch = effect.split(":")[1]
     return f"unexplained:{ch}:" + "+".join(covs)
 
 
-def is_hidden(f, effect: str) -> bool:
-    """Whether finding f names the hidden effect (module docstring)."""
+def members(f) -> list[tuple[str, list[str]]]:
+    """(effect, covariates) of the finding and of every rival it is confusable with (a
+    finding that says "X or Y: these data cannot tell" names both)."""
+    return [(f.effect, covariates(f))] + [
+        (c["effect"], list(c.get("covariates", []))) for c in f.parameters.get("confusable_with", [])
+    ]
+
+
+def label(f) -> str:
+    """A finding in one word: the library effect, or `unexplained:` and its covariates; a
+    confusable group as its members joined by `|`."""
+    return "|".join(_label_of(e, c) for e, c in members(f))
+
+
+def _names_effect(eff: str, covs: list[str], effect: str) -> bool:
     if effect in LIBRARY:
-        return f.effect == effect
-    if effect not in OUTSIDE or not f.effect.startswith("unexplained:"):
+        return eff == effect
+    if effect not in OUTSIDE or not eff.startswith("unexplained:"):
         return False
-    for c in covariates(f):
+    for c in covs:
         if effect == "time_of_day" and c.startswith("period_") and 20.0 <= float(c.split("_")[1]) / 3600 <= 28.0:
             return True
         if any(c.startswith(k) or k in c for k in _OUTSIDE_COVARIATES[effect]):
             return True
     return False
+
+
+def is_hidden(f, effect: str) -> bool:
+    """Whether finding f names the hidden effect (module docstring): the finding itself or
+    a member of its confusable group."""
+    return any(_names_effect(e, c, effect) for e, c in members(f))
 
 
 def classify(findings: list, effect: str) -> dict:
@@ -663,7 +680,9 @@ def summarize(rows: list[dict], generator: str, effects: list[str], sizes: dict,
 
 
 def _names(lab: str, effect: str) -> bool:
-    """is_hidden on a stored label."""
+    """is_hidden on a stored label (a confusable group: any of its `|`-joined members)."""
+    if "|" in lab:
+        return any(_names(x, effect) for x in lab.split("|"))
     if effect in LIBRARY:
         return lab == effect
     if effect not in OUTSIDE or not lab.startswith("unexplained:"):

@@ -161,7 +161,7 @@ def _diagnose_observations(args: SimpleNamespace, model, measured) -> int:
     if findings and model is not None:  # the campaign with the found effects: diagnose with it finds them no more
         extended = model.model_copy(update={"diagnose": {**model.diagnose, "wind": ext.model_dump(mode="json")}})
         atomic_write_text(out / "extended_model.yaml", extended.to_yaml())
-    names = ", ".join(f.effect for f in findings) or "none"
+    names = ", ".join(_group_name(f) for f in findings) or "none"
     if "not_tested" in baseline:
         names += f" (not tested: {baseline['weather_blocks']} six-hour weather blocks, too few; see report.md)"
     table = baseline["data"]
@@ -431,6 +431,12 @@ def _fmt_params(effect: str, p: dict) -> str:
     return "; ".join(parts) or (p.get("signature") or "")
 
 
+def _group_name(f) -> str:
+    """A finding's name, with the rivals the data cannot tell from it: "a or b (confusable)"."""
+    alts = [r["effect"] for r in f.parameters.get("confusable_with", [])]
+    return f.effect if not alts else f"{f.effect} or {' or '.join(alts)} (confusable)"
+
+
 def write_wind_diagnosis(
     measured: str, findings: list, baseline: dict, spec: WindModelSpec, extended: WindModelSpec, plots: dict, out_dir
 ) -> None:
@@ -497,7 +503,7 @@ def write_wind_diagnosis(
         pv = f"p = {ev['p_value']:.2g}" if "p_value" in ev else f"log10 p = {ev['log10_p']:.0f}"
         g = f.gain
         lines += [
-            f"## {i}. {f.effect}",
+            f"## {i}. {_group_name(f)}",
             "",
             f.cause,
             "",
@@ -506,6 +512,19 @@ def write_wind_diagnosis(
             f"* gain: {g['metric']}: {g['before']:.3g} → {g['after']:.3g}; held out {g['held_out_before']:.3g} → "
             f"{g['held_out_after']:.3g}",
         ]
+        for r in f.parameters.get("confusable_with", []):
+            lines.append(
+                f"* confusable: {r['effect']}" + (f" ({r['signature']})" if "signature" in r else "") + f": p = "
+                f"{r['p_value']:.2g}, held out {r['held_out_before_kt']:.3g} → {r['held_out_after_kt']:.3g}; "
+                f"with this finding in the model p = {r['p_given_the_finding']:.2g}; held-out contest t = "
+                f"{r['held_out_t']:+.2f} (positive: this finding predicts better)"
+            )
+        beaten = [k for k, v in ev.get("rivals", {}).items() if v["verdict"] == "beaten"]
+        if beaten:
+            lines.append(
+                "* beaten on held-out weather blocks (explained by this finding, and predicting worse): "
+                + ", ".join(beaten)
+            )
         if "forms_chosen" in ev:
             fc = ev["forms_chosen"]
             lines += [

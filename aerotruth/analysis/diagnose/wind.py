@@ -51,16 +51,34 @@ ALPHA_SCREEN over the screening tests, each Bonferroni-split (nominal 2 % in all
 
 Gain. Weather blocks alternate between two folds (in time order); parameters are
 learned on one fold and the residual RMS (kt) of the effect's channel measured on the
-other, both ways; an effect enters only if it lowers that held-out RMS. The round's
-entering effect is the significant candidate with the largest relative held-out gain;
-rounds repeat until none is left (forward selection).
+other, both ways; an effect enters only if it lowers that held-out RMS by MIN_REL_GAIN.
 
-Screening (effects outside the library, on the final residuals): each channel against
-heading harmonics (3z in the transverse channel, z..3z along), roll, flight phase, turn
-rate (course change between adjacent reports), pressure altitude, TAS, latitude and time;
-a Lomb-Scargle periodogram of the flight-mean residuals; a fleet-wide change-point. A
-significant one with a held-out gain is reported by its signature ("transverse residual
-~ pressure_altitude_ft, 0.05 deg per 1000 ft") and enters the model as a linear term.
+Causes compete, not queue. Each round fits every candidate explanation on the current
+model: the library's effects and the screening's signatures (effects outside the
+library, below) together. A candidate term is fitted by partialling the current model out
+of its columns (wind_model.Basis: Frisch-Waugh-Lovell, exactly the full fit). Of the
+significant candidates with a held-out gain, the one with the largest held-out gain of
+both channels leads (a library effect keeps the lead over a signature unless the
+signature beats it and explains it away: `_lead`). Every other significant candidate is
+then judged against the lead: *separate* when still significant with the lead in the
+model (it competes again in the next round), *beaten* when the lead predicts the held-out
+weather blocks better (held_out_contest: the difference of the two explanations' held-out
+squared residuals summed per block, one-sided t at ALPHA_BEATS), else *confusable*: the
+finding then names both ("stale declination or a pitch-coupled term: these data cannot
+tell"), never one of them alone, with what would tell them apart. Rounds repeat until no
+candidate is left.
+
+Screening (effects outside the library): each channel against heading harmonics (3z in
+the transverse channel, z..3z along), roll, flight phase, turn rate, pressure altitude,
+TAS, latitude, time, the pitch attitude (flight-path angle and q_ref/q, the angle of
+attack's shape at constant weight) and the local solar hour (a diurnal term); a
+least-squares periodogram of the flight-mean residuals; a fleet-wide change-point. Each
+covariate's noise is independent of the residual's: the turn rate comes from the
+report's neighbours' headings, never its own (whose error is in the transverse residual:
+an own-heading rate made white heading noise look like a turning error, errors in
+variables), the climb rates from altitudes (which do not enter the residual). A
+signature that enters is reported by its text ("transverse residual ~
+pressure_altitude_ft, 0.05 deg per 1000 ft") and becomes a linear term of the model.
 """
 
 from __future__ import annotations
@@ -77,10 +95,12 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
     CANDIDATES,
     CHANNEL,
     MIN_COVERAGE,
+    Basis,
     Block,
     Fit,
     State,
     WindModelSpec,
+    base_held_out,
     block_p,
     build_blocks,
     channel_rows,
@@ -91,6 +111,8 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
     fold_fits,
     group_means,
     held_out,
+    held_out_contest,
+    held_out_resid,
     known_offsets,
     kolmogorov_cusum,
     quantization_candidate,
@@ -107,24 +129,10 @@ from aerotruth.analysis.least_squares import clustered_se
 from aerotruth.analysis.wind.heading_correction import heading_spread
 from aerotruth.units import DEG, KT
 
-
-class _Candidate(TypedDict):
-    """A library effect tried in a round of `diagnose_wind` (the quantization: no fit,
-    its test's result in `q`)."""
-
-    effect: str
-    p: float
-    held_out: tuple[float, float]
-    rel: float
-    fit: NotRequired[Fit]
-    dgamma: NotRequired[float]
-    log10_p: NotRequired[float]
-    q: NotRequired[dict[str, Any]]
-
-
 ALPHA_LIBRARY = 0.01
 ALPHA_SCREEN = 0.01
-MAX_ROUNDS = 8
+MAX_ROUNDS = 10
+MAX_SCREENED = 3  # screening signatures entered at most (each a term outside the library)
 MIN_BLOCKS = 20  # fewest weather blocks (independent clusters) for any test: CR1 with fewer over-rejects
 # an effect must also matter: the held-out RMS must drop by >= 0.2 % (on null data the
 # screening found "turn rate" terms worth 0.02 %: the three-report heading's lag in a
@@ -384,64 +392,389 @@ def _plot_data(d: WindData, fit0: Fit, fit1: Fit, eff: str, channel: str) -> dic
     }
 
 
-def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, dict]:
-    """Forward selection over the library, then screening. Returns (findings, baseline, the
-    final state, plot data per finding)."""
+# a finding is named alone only where it predicts held-out blocks better than each rival at this level
+ALPHA_BEATS = 0.05
+
+
+class _Cand(TypedDict):
+    """A candidate explanation of a round: a library effect, a screening signature or the
+    reports' grid (`kind`)."""
+
+    effect: str  # library name, or "unexplained:<key>"
+    kind: str  # "library", "screen", "quantization"
+    p: float
+    level: float
+    held_out: tuple[float, float]  # RMS (kt) of its channel, held out, before and after
+    rel: float  # relative held-out gain on its channel
+    gain_all: float  # relative held-out gain of the squared residuals of both channels (the common yardstick)
+    channel: str
+    fit: NotRequired[Fit]
+    blocks: NotRequired[list[Block]]
+    resid_ho: NotRequired[np.ndarray]
+    dgamma: NotRequired[float]
+    sigs: NotRequired[list[dict]]
+    key: NotRequired[str]
+    q: NotRequired[dict[str, Any]]
+
+
+def _library_candidates(d, st, y, clusters, fit0, basis, r0) -> list[_Cand]:
+    n_lib = len(CANDIDATES) + 1
+    ss0 = float(np.sum(r0**2))
+    out: list[_Cand] = []
+    for eff in CANDIDATES:
+        if eff in st.entered:
+            continue
+        blocks = build_blocks(eff, d, st, fit0, None)
+        if not blocks:
+            continue
+        fit1, dg = fit_with(d, st, y, clusters, eff, blocks, basis=basis)
+        if eff in SCANNED:
+            scanned = [b.p for b in blocks if b.p is not None]
+            assert len(scanned) == len(blocks)  # a scan's blocks each carry its p-value
+            p = min(scanned)
+        else:
+            p = block_p(fit1, eff, d)
+        r1 = held_out_resid(d, st, y, clusters, eff, None, basis=basis)
+        if r1 is None:
+            continue
+        ch = channel_rows(d.n, CHANNEL[eff])
+        b_ho, a_ho = math.sqrt(np.mean(r0[ch] ** 2)) / KT, math.sqrt(np.mean(r1[ch] ** 2)) / KT
+        out.append(
+            {
+                "effect": eff,
+                "kind": "library",
+                "p": p,
+                "level": ALPHA_LIBRARY / n_lib,
+                "held_out": (b_ho, a_ho),
+                "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0,
+                "gain_all": (ss0 - float(np.sum(r1**2))) / ss0 if ss0 > 0 else 0.0,
+                "channel": CHANNEL[eff],
+                "fit": fit1,
+                "blocks": blocks,
+                "resid_ho": r1,
+                "dgamma": dg,
+            }
+        )
+    q = None if "quantization" in st.entered else quantization_candidate(d, st.spec.lat_lon_step_deg)
+    if q is not None:
+        out.append(
+            {
+                "effect": "quantization",
+                "kind": "quantization",
+                "p": 10 ** max(q["log10_p"], -300),
+                "level": ALPHA_LIBRARY / n_lib,
+                "held_out": (q["gain"]["held_out_before"], q["gain"]["held_out_after"]),
+                "rel": q["relative_gain"],
+                "gain_all": q["relative_gain"],
+                "channel": "ground track",
+                "q": q,
+            }
+        )
+    return out
+
+
+def _screen_candidates(d, st, y, clusters, fit0, basis, r0, done: set[str]) -> list[_Cand]:
+    """The screening signatures not yet entered (module docstring), each as a candidate."""
+    all_tests = _screen_tests(d, st.spec)
+    level = ALPHA_SCREEN / (len(all_tests) + 2)
+    ss0 = float(np.sum(r0**2))
+    tests: list[tuple[str, list[str], str, Callable[..., float]]] = [
+        (ch, covs, f"{ch}:{'+'.join(covs)}", lambda f1: block_p(f1, "screen", d))
+        for ch, covs in all_tests
+        if f"{ch}:{'+'.join(covs)}" not in done
+    ]
+    per = _periodic(d, fit0)
+    if per is not None and "periodic" not in done:
+        period, M = per
+        tests.append(
+            (
+                "transverse",
+                [f"period_{period:.0f}_sin", f"period_{period:.0f}_cos"],
+                "periodic",
+                lambda f1, M=M: min(1.0, M * block_p(f1, "screen", d)),
+            )
+        )
+    bm, t0, t1 = group_means(d, fit0.resid[: d.n], d.cluster)
+    p_cp, k = kolmogorov_cusum(bm)
+    if p_cp < level and len(bm) > 1 and "fleet_step" not in done:
+        tests.append(
+            ("transverse", [f"fleet_step_{0.5 * (t1[k] + t0[k + 1]):.0f}"], "fleet_step", lambda f1, p=p_cp: p)
+        )
+    out: list[_Cand] = []
+    for ch, covs, key, p_of in tests:
+        blocks, sigs = _screen_blocks(d, ch, covs)
+        fit1 = basis.fit(blocks)
+        p = p_of(fit1)
+        if not p < level:  # held out only where it could enter or rival (the cost of a round)
+            out.append(
+                {
+                    "effect": f"unexplained:{key}",
+                    "kind": "screen",
+                    "p": p,
+                    "level": level,
+                    "held_out": (math.nan, math.nan),
+                    "rel": 0.0,
+                    "gain_all": 0.0,
+                    "channel": ch,
+                    "key": key,
+                }
+            )
+            continue
+        r1 = held_out_resid(d, st, y, clusters, "screen", (blocks, ch), basis=basis)
+        assert r1 is not None  # the term's columns are given
+        m = channel_rows(d.n, ch)
+        b_ho, a_ho = math.sqrt(np.mean(r0[m] ** 2)) / KT, math.sqrt(np.mean(r1[m] ** 2)) / KT
+        out.append(
+            {
+                "effect": f"unexplained:{key}",
+                "kind": "screen",
+                "p": p,
+                "level": level,
+                "held_out": (b_ho, a_ho),
+                "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0,
+                "gain_all": (ss0 - float(np.sum(r1**2))) / ss0 if ss0 > 0 else 0.0,
+                "channel": ch,
+                "fit": fit1,
+                "blocks": blocks,
+                "resid_ho": r1,
+                "sigs": sigs,
+                "key": key,
+            }
+        )
+    return out
+
+
+def _rivals(d, basis, best: _Cand, others: list[_Cand]) -> list[dict]:
+    """What the round's best explanation is against each other explanation the data support.
+
+    For each rival y (significant, with a held-out gain): first whether y is a *separate*
+    effect, still significant at its own level with the best one in the model (then it
+    competes in a later round); else y explains what the best one explains, and the best
+    one is named alone only if it *beats* y: predicts the held-out weather blocks better
+    (held_out_contest, one-sided at ALPHA_BEATS). A rival it does not beat is *confusable*
+    with it: the finding names both."""
+    out = []
+    clusters2 = np.r_[d.cluster, d.cluster]
+    for c in others:
+        rb = [Block("rival", b.label, b.cols, b.aircraft) for b in c["blocks"]]
+        joint = basis.fit(best["blocks"] + rb)
+        p_sep = block_p(joint, "rival", d)
+        t, p_beat = held_out_contest(best["resid_ho"], c["resid_ho"], clusters2)
+        verdict = "separate" if p_sep < c["level"] else ("beaten" if p_beat < ALPHA_BEATS else "confusable")
+        out.append(
+            {
+                "effect": c["effect"],
+                "verdict": verdict,
+                "p_given_best": p_sep,
+                "held_out_t": t,
+                "p_not_beaten": p_beat,
+                "held_out_gain_all": c["gain_all"],
+                "candidate": c,
+            }
+        )
+    return out
+
+
+def _lead(d, basis, ok: list[_Cand]) -> _Cand:
+    """The round's finding among the significant candidates with a held-out gain. The
+    reports' grid first where it is off (a test on the coordinates, independent of the wind
+    residual). Otherwise the largest held-out gain of both channels, with one order between
+    the kinds: a signature outside the library leads a library effect only where it beats
+    the best library candidate on held-out blocks *and* explains it away (the library effect
+    no longer significant with the signature in the model). A fleet-wide signature is often
+    a coarse copy of a per-aircraft effect (a fleet time trend of two aircraft's drift, a
+    fleet step of three aircraft's recalibration) that the data cannot yet resolve; the
+    library's physical explanation keeps the lead unless the data reject it."""
+    quant = [c for c in ok if c["kind"] == "quantization"]
+    if quant:
+        return quant[0]
+    best = max(ok, key=lambda c: c["gain_all"])
+    lib = [c for c in ok if c["kind"] == "library"]
+    if best["kind"] != "screen" or not lib:
+        return best
+    best_lib = max(lib, key=lambda c: c["gain_all"])
+    (r,) = _rivals(d, basis, best, [best_lib])
+    return best if r["verdict"] == "beaten" else best_lib
+
+
+def _screen_finding(d, st, fit0, c: _Cand, plots: dict) -> Any:
     from aerotruth.analysis.diagnose.modes import Finding
 
+    ch, sigs, key, fit1 = c["channel"], c["sigs"], c["key"], c["fit"]
+    beta = fit1.coef("screen")[0][1]
+    cov = fit1.coef("screen")[0][2]
+    for sg, b in zip(sigs, beta, strict=False):  # deg per unit (transverse), kt per unit (along)
+        sg["slope"] = float(b)
+    text = _signature_text(sigs, beta)
+    params: dict[str, Any] = {
+        "signature": text,
+        "terms": [dict(sg, se=float(e)) for sg, e in zip(sigs, standard_errors(cov), strict=False)],
+    }
+    params["size"] = float(beta[0]) if len(beta) == 1 else float(math.hypot(*beta[:2]))
+    evidence = {
+        "test": "cluster-robust Wald on 6-h weather blocks (screening)"
+        if not key.startswith(("periodic", "fleet_step"))
+        else (
+            "strongest period of the flight means' periodogram; cluster-robust Wald on weather blocks x M frequencies"
+            if key == "periodic"
+            else "sup-CUSUM of the fleet's weather-block means"
+        ),
+        "p_value": c["p"],
+        "alpha": c["level"],
+    }
+    gain = {
+        "metric": f"RMS of the {ch} wind residual (kt)",
+        "before": rms_of_kt(fit0.resid, d.n, ch),
+        "after": rms_of_kt(fit1.resid, d.n, ch),
+        "held_out_before": c["held_out"][0],
+        "held_out_after": c["held_out"][1],
+        "held_out": "6-h weather blocks alternate between two folds; learned on one, measured on the other",
+    }
+    plots[c["effect"]] = _plot_data(d, fit0, fit1, "screen", ch)
+    return Finding(
+        c["effect"], "not in the effects library; described by its signature: " + text, params, evidence, gain
+    )
+
+
+def _library_finding(d, st, fit0, c: _Cand, base, y, clusters, plots: dict) -> Any:
+    from aerotruth.analysis.diagnose.modes import Finding
+
+    eff = c["effect"]
+    if eff == "quantization":
+        qq = c["q"]
+        params: dict[str, Any] = {
+            "lat_lon_step_deg": {
+                "value": qq["step"],
+                "se": 0.0,
+                "model": st.spec.lat_lon_step_deg,
+                "meaning": "grid of the reported lat/lon",
+            },
+            "share_on_model_grid": qq["share_on_model_grid"],
+        }
+        evidence = {
+            "test": "binomial: coordinates on the coarser grid vs the share the model's grid puts there",
+            "log10_p": qq["log10_p"],
+            "alpha": c["level"],
+        }
+        gain = qq["gain"]
+    else:
+        fit1 = c["fit"]
+        params = _parameters(eff, d, fit1, c["dgamma"], st)
+        ch = CHANNEL[eff]
+        evidence = {
+            "test": SCANNED.get(eff, "cluster-robust Wald on 6-h weather blocks"),
+            "p_value": c["p"],
+            "alpha": c["level"],
+            "flights": int(len(np.unique(d.flight))),
+            "rows": int(d.n),
+        }
+        if eff == "stale_declination":
+            evidence["aliased_with_A"] = (
+                f"{100 * (1 - declination_identifiable(d)):.0f} % of the regressor is a per-aircraft constant"
+            )
+        if eff == "reference_bias" and any(x["form"] == "scale" for x in params["bias_kt"].values()):
+            evidence["forms_chosen"] = _forms_chosen(d, st, y, clusters, base, params["bias_kt"])
+        gain = {
+            "metric": f"RMS of the {ch} wind residual (kt)"
+            if ch != "both"
+            else "RMS of the wind residual vector components (kt)",
+            "before": rms_of_kt(fit0.resid, d.n, ch),
+            "after": rms_of_kt(fit1.resid, d.n, ch),
+            "held_out_before": c["held_out"][0],
+            "held_out_after": c["held_out"][1],
+            "held_out": "6-h weather blocks alternate between two folds; learned on one, measured on the other",
+        }
+        plots[eff] = _plot_data(d, fit0, fit1, eff, ch)
+    params["size"] = _size(eff, params)
+    return Finding(eff, cause(eff, params), params, evidence, gain)
+
+
+def _rival_words(r: dict) -> dict:
+    """A confusable rival as the finding states it: its name, what it would mean, its numbers."""
+    c = r["candidate"]
+    out = {
+        "effect": c["effect"],
+        "p_value": c["p"],
+        "held_out_before_kt": c["held_out"][0],
+        "held_out_after_kt": c["held_out"][1],
+        "p_given_the_finding": r["p_given_best"],
+        "held_out_t": r["held_out_t"],
+    }
+    if c["kind"] == "screen":
+        beta = c["fit"].coef("screen")[0][1]
+        out["signature"] = _signature_text(c["sigs"], beta)
+        out["covariates"] = [sg["covariate"] for sg in c["sigs"]]
+        out["cause"] = "not in the effects library; described by its signature: " + out["signature"]
+    else:
+        out["cause"] = CAUSES.get(c["effect"], c["effect"])
+    return out
+
+
+# what varies for an explanation: data where two of these vary independently tell them apart
+VARIES_WITH = {
+    "soft_iron": "the heading, twice round (2z)",
+    "field_scaling": "the horizontal field (magnetic latitude) at the same heading",
+    "tas_scale": "the true airspeed, in the along-heading channel",
+    "stale_declination": "position across the network (the declination's secular change)",
+    "reference_bias": "the wind speed and direction of one reference model",
+    "recalibration": "time, as one step per aircraft",
+    "offset_drift": "time, as a steady ramp per aircraft",
+    "quantization": "the reports' position grid",
+}
+
+
+def _varies(effect: str, covs: list[str] | None = None) -> str:
+    if effect in VARIES_WITH:
+        return VARIES_WITH[effect]
+    return "its covariates (" + ", ".join(covs or [effect.split(":", 1)[-1]]) + ")"
+
+
+def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, dict]:
+    """Rounds of competing explanations (the library's effects and the screening's
+    signatures together): the round's best by held-out gain is named, with every rival it
+    does not beat named beside it as confusable. Returns (findings, baseline, the final
+    state, plot data per finding)."""
     y = stack_channels(d.trans, d.along, d.n) - known_offsets(d, spec)
     clusters = np.r_[d.cluster, d.cluster]
     steps = {d.names.index(a): list(ts) for a, ts in spec.recalibrations.items() if a in d.names}
     drifts = {d.names.index(a) for a in spec.offset_drifts if a in d.names}
     st = State(spec, [], spec.field_scaling, steps, drifts, [])
     fit_start = None  # the model before any effect: the first round's fit
-    findings, plots, rounds = [], {}, []
-    n_lib = len(CANDIDATES) + 1
+    findings: list = []
+    plots: dict = {}
+    rounds: list[dict] = []
+    done: set[str] = set()  # screening keys entered
     n_blocks = len(np.unique(d.cluster))
     testable = n_blocks >= MIN_BLOCKS
     for _ in range(MAX_ROUNDS):
-        fit0 = solve(current_blocks(d, st), y, clusters)
-        fit_start = fit_start or fit0
-        base = fold_fits(d, st, y, clusters) if testable else None  # for the candidates' held-out gains
-        cands: list[_Candidate] = []
-        for eff in CANDIDATES:
-            if eff in st.entered or not testable:
-                continue
-            blocks = build_blocks(eff, d, st, fit0, None)
-            if not blocks:
-                continue
-            fit1, dg = fit_with(d, st, y, clusters, eff, blocks)
-            if eff in SCANNED:
-                scanned = [b.p for b in blocks if b.p is not None]
-                assert len(scanned) == len(blocks)  # a scan's blocks each carry its p-value
-                p = min(scanned)
-            else:
-                p = block_p(fit1, eff, d)
-            b_ho, a_ho = held_out(d, st, y, clusters, eff, base=base)
-            cands.append(
-                {
-                    "effect": eff,
-                    "p": p,
-                    "held_out": (b_ho, a_ho),
-                    "fit": fit1,
-                    "dgamma": dg,
-                    "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0,
-                }
-            )
-        q = None if "quantization" in st.entered else quantization_candidate(d, spec.lat_lon_step_deg)
-        if q is not None:
-            cands.append(
-                {
-                    "effect": "quantization",
-                    "p": 10 ** max(q["log10_p"], -300),
-                    "log10_p": q["log10_p"],
-                    "q": q,
-                    "held_out": (q["gain"]["held_out_before"], q["gain"]["held_out_after"]),
-                    "rel": q["relative_gain"],
-                }
-            )
-        level = ALPHA_LIBRARY / n_lib
-        ok = [c for c in cands if c["p"] < level and c["rel"] >= MIN_REL_GAIN]
+        basis = Basis(d, st, y, clusters)
+        fit0 = basis.base_fit()
+        fit_start = fit_start or solve(current_blocks(d, st), y, clusters, with_cov=False)
+        if not testable:
+            q = None if "quantization" in st.entered else quantization_candidate(d, spec.lat_lon_step_deg)
+            if q is None or not (10 ** max(q["log10_p"], -300) < ALPHA_LIBRARY / (len(CANDIDATES) + 1)):
+                break
+            if q["relative_gain"] < MIN_REL_GAIN:
+                break
+            c: _Cand = {
+                "effect": "quantization",
+                "kind": "quantization",
+                "p": 10 ** max(q["log10_p"], -300),
+                "level": ALPHA_LIBRARY / (len(CANDIDATES) + 1),
+                "held_out": (q["gain"]["held_out_before"], q["gain"]["held_out_after"]),
+                "rel": q["relative_gain"],
+                "gain_all": q["relative_gain"],
+                "channel": "ground track",
+                "q": q,
+            }
+            findings.append(_library_finding(d, st, fit0, c, None, y, clusters, plots))
+            st.entered.append("quantization")
+            continue
+        base = [basis.base_fit(0), basis.base_fit(1)]
+        r0 = base_held_out(d, base)
+        cands = _library_candidates(d, st, y, clusters, fit0, basis, r0)
+        if len(done) < MAX_SCREENED:
+            cands += _screen_candidates(d, st, y, clusters, fit0, basis, r0, done)
         rounds.append(
             {
                 c["effect"]: {
@@ -452,68 +785,59 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
                 for c in cands
             }
         )
+        ok = [c for c in cands if c["p"] < c["level"] and c["rel"] >= MIN_REL_GAIN]
         if not ok:
             break
-        best = max(ok, key=lambda c: c["rel"])
-        eff = best["effect"]
-        if eff == "quantization":
-            qq = best["q"]
-            params: dict[str, Any] = {
-                "lat_lon_step_deg": {
-                    "value": qq["step"],
-                    "se": 0.0,
-                    "model": spec.lat_lon_step_deg,
-                    "meaning": "grid of the reported lat/lon",
-                },
-                "share_on_model_grid": qq["share_on_model_grid"],
-            }
-            evidence = {
-                "test": "binomial: coordinates on the coarser grid vs the share the model's grid puts there",
-                "log10_p": qq["log10_p"],
-                "alpha": level,
-            }
-            gain = qq["gain"]
+        best = _lead(d, basis, ok)
+        rivals: list[dict] = []
+        if best["kind"] != "quantization":
+            others = [c for c in ok if c is not best and c["kind"] != "quantization"]
+            rivals = _rivals(d, basis, best, others)
+        if best["kind"] == "screen":
+            f = _screen_finding(d, st, fit0, best, plots)
         else:
-            fit1 = best["fit"]
-            params = _parameters(eff, d, fit1, best["dgamma"], st)
-            ch = CHANNEL[eff]
-            evidence = {
-                "test": SCANNED.get(eff, "cluster-robust Wald on 6-h weather blocks"),
-                "p_value": best["p"],
-                "alpha": level,
-                "flights": int(len(np.unique(d.flight))),
-                "rows": int(d.n),
+            f = _library_finding(d, st, fit0, best, base, y, clusters, plots)
+        confusable = [_rival_words(r) for r in rivals if r["verdict"] == "confusable"]
+        f.evidence["rivals"] = {
+            r["effect"]: {
+                "verdict": r["verdict"],
+                "p_given_the_finding": r["p_given_best"],
+                "held_out_t": r["held_out_t"],
+                "p_not_beaten": r["p_not_beaten"],
             }
-            if eff == "stale_declination":
-                evidence["aliased_with_A"] = (
-                    f"{100 * (1 - declination_identifiable(d)):.0f} % of the regressor is a per-aircraft constant"
-                )
-            if eff == "reference_bias" and any(x["form"] == "scale" for x in params["bias_kt"].values()):
-                assert base is not None  # a library effect entered: the data were testable
-                evidence["forms_chosen"] = _forms_chosen(d, st, y, clusters, base, params["bias_kt"])
-            gain = {
-                "metric": f"RMS of the {ch} wind residual (kt)"
-                if ch != "both"
-                else "RMS of the wind residual vector components (kt)",
-                "before": rms_of_kt(fit0.resid, d.n, ch),
-                "after": rms_of_kt(fit1.resid, d.n, ch),
-                "held_out_before": best["held_out"][0],
-                "held_out_after": best["held_out"][1],
-                "held_out": "6-h weather blocks alternate between two folds; learned on one, measured on the other",
-            }
-            plots[eff] = _plot_data(d, fit0, fit1, eff, ch)
-        params["size"] = _size(eff, params)
-        findings.append(Finding(eff, cause(eff, params), params, evidence, gain))
+            for r in rivals
+        }
+        f.evidence["rivals_rule"] = (
+            "a rival (significant, with a held-out gain) is separate when still significant with this finding in the "
+            f"model; otherwise beaten when this finding predicts held-out weather blocks better (one-sided p < "
+            f"{ALPHA_BEATS:g}, Diebold-Mariano on block sums), else confusable"
+        )
+        if confusable:
+            f.parameters["confusable_with"] = confusable
+            lead_covs = [sg["covariate"] for sg in best.get("sigs", [])]
+            alts = "; or ".join(x["cause"] for x in confusable)
+            tell = "; ".join(
+                [_varies(best["effect"], lead_covs)] + [_varies(x["effect"], x.get("covariates")) for x in confusable]
+            )
+            f.cause = (
+                f"{f.cause}; or {alts}. These data cannot tell them apart (each explains what the other does, and "
+                f"neither predicts held-out weather blocks better); data where these vary independently would: {tell}"
+            )
+        findings.append(f)
+        if best["kind"] == "screen":
+            st.signatures.extend(best["sigs"])
+            done.add(best["key"])
+            continue
+        eff = best["effect"]
         st.entered.append(eff)
+        params = f.parameters
         if eff == "field_scaling":
             st.gamma = params["gamma"]["value"]
         if eff == "recalibration":
-            for a, s in params["steps"].items():
-                st.steps.setdefault(d.names.index(a), []).append(s["time_s"])
+            for a, s_ in params["steps"].items():
+                st.steps.setdefault(d.names.index(a), []).append(s_["time_s"])
         if eff == "offset_drift":
             st.drifts.update(d.names.index(a) for a in params["aircraft"])
-    if testable:
-        findings.extend(screen(d, st, y, clusters, plots))
     fit_end = solve(current_blocks(d, st), y, clusters)
     assert fit_start is not None  # set in the first round (MAX_ROUNDS >= 1)
     free = {
@@ -605,6 +929,8 @@ UNITS = {
     "time_days": "day",
     "roll_deg": "deg roll",
     "turn_deg_s": "deg/s of turn",
+    "flight_path_angle_deg": "deg of flight-path angle",
+    "inverse_dynamic_pressure": "unit of q_ref/q",
     "const": "(constant)",
 }
 
@@ -617,6 +943,11 @@ def _screen_tests(d: WindData, spec: WindModelSpec | None = None) -> list[tuple[
         ("transverse", ["sin3", "cos3"]),
         ("transverse", ["phase_ascent", "phase_descent"]),
         ("transverse", ["tas_kt"]),
+        # a pitch-coupled heading error: pitch = flight-path angle + angle of attack, the latter
+        # ~ 1/q at constant weight (lift = weight), so the pitch attitude is spanned by the two
+        ("transverse", ["flight_path_angle_deg", "inverse_dynamic_pressure"]),
+        # a diurnal error (temperature-driven: heating of the valve or the air-data probes)
+        ("transverse", ["local_hour_sin", "local_hour_cos"]),
     ]
     tests += [("transverse", [c]) for c in common]
     tests += [
@@ -683,6 +1014,17 @@ def _signature_text(sig: list[dict], beta: np.ndarray) -> str:
             f"{ch} residual is periodic, period {float(covs[0].split('_')[1]) / 3600:.1f} h, "
             f"amplitude {math.hypot(*beta[:2]):.2f} {unit}"
         )
+    if covs[0] == "flight_path_angle_deg":
+        return (
+            f"{ch} residual follows the pitch attitude: {beta[0]:+.3g} {unit} per deg of flight-path angle, "
+            f"{beta[1]:+.3g} {unit} per unit of q_ref/q (the angle of attack's shape at constant weight)"
+        )
+    if covs[0] == "local_hour_sin":
+        peak = (math.degrees(math.atan2(beta[0], beta[1])) / 15.0) % 24.0
+        return (
+            f"{ch} residual varies with the local solar hour (a diurnal term), amplitude "
+            f"{math.hypot(*beta[:2]):.2f} {unit}, largest at {peak:.1f} h"
+        )
     if covs[0].startswith("fleet_step_"):
         return f"{ch} residual of the whole fleet steps by {beta[0]:+.2f} {unit} at {_iso(float(covs[0][11:]))}"
     if covs[0] == "const":
@@ -691,97 +1033,6 @@ def _signature_text(sig: list[dict], beta: np.ndarray) -> str:
             "(an airspeed or reference bias not in the library)"
         )
     return f"{ch} residual ~ {covs[0]}, {beta[0]:+.3g} {unit} per {UNITS.get(covs[0], covs[0])}"
-
-
-def screen(d: WindData, st: State, y, clusters, plots: dict) -> list:
-    """Effects outside the library, by their signature (module docstring)."""
-    from aerotruth.analysis.diagnose.modes import Finding
-
-    out = []
-    done: set[str] = set()
-    for _ in range(3):
-        cur = current_blocks(d, st)
-        fit0 = solve(cur, y, clusters)
-        base = fold_fits(d, st, y, clusters)
-        untested = [(ch, covs) for ch, covs in _screen_tests(d, st.spec) if f"{ch}:{'+'.join(covs)}" not in done]
-        m_tests = len(_screen_tests(d, st.spec)) + 2
-        level = ALPHA_SCREEN / m_tests
-        # (channel, covariates, key, p of the fit with the term): the Wald test on weather
-        # blocks, for the periodogram's period times the M frequencies searched; the fleet
-        # step by the sup-CUSUM of the block means
-        tests: list[tuple[str, list[str], str, Callable[..., float]]] = [  # p_of(fit1): some bind defaults
-            (ch, covs, f"{ch}:{'+'.join(covs)}", lambda f1: block_p(f1, "screen", d)) for ch, covs in untested
-        ]
-        per = _periodic(d, fit0)
-        if per is not None and "periodic" not in done:
-            period, M = per
-            tests.append(
-                (
-                    "transverse",
-                    [f"period_{period:.0f}_sin", f"period_{period:.0f}_cos"],
-                    "periodic",
-                    lambda f1, M=M: min(1.0, M * block_p(f1, "screen", d)),
-                )
-            )
-        bm, t0, t1 = group_means(d, fit0.resid[: d.n], d.cluster)
-        p_cp, k = kolmogorov_cusum(bm)
-        if p_cp < level and len(bm) > 1 and "fleet_step" not in done:
-            tests.append(
-                ("transverse", [f"fleet_step_{0.5 * (t1[k] + t0[k + 1]):.0f}"], "fleet_step", lambda f1, p=p_cp: p)
-            )
-        cands = []
-        for ch, covs, key, p_of in tests:
-            blocks, sigs = _screen_blocks(d, ch, covs)
-            fit1 = solve(cur + blocks, y, clusters)
-            cands.append((ch, covs, p_of(fit1), blocks, sigs, fit1, key))
-        ok = []
-        for c in cands:
-            if c[2] < level:
-                b_ho, a_ho = held_out(d, st, y, clusters, "screen", (c[3], c[0]), base)
-                if b_ho > 0 and (b_ho - a_ho) / b_ho >= MIN_REL_GAIN:
-                    ok.append((c, b_ho, a_ho))
-        if not ok:
-            break
-        (ch, covs, p, blocks, sigs, fit1, key), b_ho, a_ho = max(ok, key=lambda x: (x[1] - x[2]) / x[1])
-        beta = fit1.coef("screen")[0][1]
-        cov = fit1.coef("screen")[0][2]
-        # deg per unit (transverse), kt per unit (along): the columns' scaling
-        for s, b in zip(sigs, beta, strict=False):
-            s["slope"] = float(b)
-        text = _signature_text(sigs, beta)
-        params: dict[str, Any] = {
-            "signature": text,
-            "terms": [dict(s, se=float(e)) for s, e in zip(sigs, standard_errors(cov), strict=False)],
-        }
-        params["size"] = float(beta[0]) if len(beta) == 1 else float(math.hypot(*beta[:2]))
-        evidence = {
-            "test": "cluster-robust Wald on 6-h weather blocks (screening)"
-            if not key.startswith(("periodic", "fleet_step"))
-            else (
-                "strongest period of the flight means' periodogram; cluster-robust Wald on weather blocks x M "
-                "frequencies"
-                if key == "periodic"
-                else "sup-CUSUM of the fleet's weather-block means"
-            ),
-            "p_value": p,
-            "alpha": level,
-        }
-        gain = {
-            "metric": f"RMS of the {ch} wind residual (kt)",
-            "before": rms_of_kt(fit0.resid, d.n, ch),
-            "after": rms_of_kt(fit1.resid, d.n, ch),
-            "held_out_before": b_ho,
-            "held_out_after": a_ho,
-            "held_out": "6-h weather blocks alternate between two folds; learned on one, measured on the other",
-        }
-        name = f"unexplained:{key}"
-        out.append(
-            Finding(name, "not in the effects library; described by its signature: " + text, params, evidence, gain)
-        )
-        plots[name] = _plot_data(d, fit0, fit1, "screen", ch)
-        st.signatures.extend(sigs)
-        done.add(key)
-    return out
 
 
 # ----------------------------------------------------------------------------- outputs

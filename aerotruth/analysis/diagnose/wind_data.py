@@ -54,8 +54,11 @@ class WindData:
     sv_deg_yr: np.ndarray  # declination change per year (IGRF, 5 years before the data)
     roll: np.ndarray | None
     phase: np.ndarray  # "ascent", "descent" or "level" per row
-    turn_deg_s: np.ndarray
+    turn_deg_s: np.ndarray  # heading change between the report's neighbours (its own heading left out)
     climb_fpm: np.ndarray  # pressure-altitude rate from the previous report of the flight (0 at the first)
+    fpa_deg: np.ndarray  # flight-path angle through the air, asin(climb rate / TAS), climb rate centred on the report
+    inv_q: np.ndarray  # q_ref / q, q = sigma(h) TAS^2: the angle of attack's shape at constant weight (lift = weight)
+    local_hour: np.ndarray  # local solar hour, UTC + lon / 15
     cluster: np.ndarray  # weather block of the row's flight (the unit of every test)
     fold: np.ndarray  # 0/1: alternating weather blocks
     report_lat: np.ndarray  # every report (not only gated), for the quantization
@@ -143,6 +146,47 @@ def _jitter(df: pd.DataFrame, first: np.ndarray) -> dict:
     }
 
 
+def isa_density_ratio(alt_ft: np.ndarray) -> np.ndarray:
+    """ISA density ratio sigma at pressure altitude (ft): troposphere (1 - 6.87559e-6 h)^4.25588,
+    above 36,089 ft 0.29707 exp(-(h - 36,089) / 20,806) (ICAO standard atmosphere)."""
+    h = np.asarray(alt_ft, dtype=float)
+    tropo = np.clip(1.0 - 6.87559e-6 * np.minimum(h, 36089.0), 1e-6, None) ** 4.25588
+    return np.where(h <= 36089.0, tropo, 0.29707 * np.exp(-(h - 36089.0) / 20806.0))
+
+
+def report_rates(flight: np.ndarray, t: np.ndarray, z: np.ndarray, alt_ft: np.ndarray):
+    """Per report (in time order within flights): (turn rate deg/s, climb rate ft/min from the
+    previous report, climb rate ft/min centred on the report).
+
+    The turn rate is the heading change between the report's two neighbours,
+    (z[k+1] - z[k-1]) / (t[k+1] - t[k-1]), 0 where a neighbour is missing. The report's own
+    heading is left out on purpose: its error is in the transverse residual (TAS sin d), so
+    a rate built from it (z[k] - z[k-1]) carries +sigma_z^2 / dt of covariance with the
+    residual whatever the aircraft does (errors in variables: 0.3 deg of white heading noise
+    and reports 3-7 min apart made a straight-flying fleet "turn-dependent" at p 3e-9). The
+    neighbours' errors are independent of it (white between reports; for errors correlated
+    in time, cov(e[k+1] - e[k-1], e[k]) = rho(dt+) - rho(dt-), zero on average over the
+    intervals). Altitudes do not enter the residual, so the climb rates may use report k."""
+    n = len(t)
+    prev_ok = np.r_[False, (flight[1:] == flight[:-1]) & (np.diff(t) > 0)]
+    next_ok = np.r_[prev_ok[1:], False]
+    zp, zn = np.r_[z[:1], z[:-1]], np.r_[z[1:], z[-1:]]
+    tp, tn = np.r_[t[:1], t[:-1]], np.r_[t[1:], t[-1:]]
+    ap, an = np.r_[alt_ft[:1], alt_ft[:-1]], np.r_[alt_ft[1:], alt_ft[-1:]]
+    both = prev_ok & next_ok
+    with np.errstate(invalid="ignore", divide="ignore"):
+        dz = np.degrees((zn - zp + np.pi) % (2 * np.pi) - np.pi)
+        turn = np.where(both, dz / (tn - tp), 0.0)
+        rate = np.where(prev_ok, (alt_ft - ap) / (t - tp) * 60.0, 0.0)
+        lo = np.where(prev_ok, tp, t)
+        hi = np.where(next_ok, tn, t)
+        a_lo = np.where(prev_ok, ap, alt_ft)
+        a_hi = np.where(next_ok, an, alt_ft)
+        rate_c = np.where(hi > lo, (a_hi - a_lo) / (hi - lo) * 60.0, 0.0)
+    assert len(turn) == n
+    return turn, rate, rate_c
+
+
 def track_gates(df: pd.DataFrame) -> GateSpec:
     """TRACK_GATES with the shortest span scaled to the reports' position resolution (read off
     the values, heading_errors.position_step_deg): 10 km for TAMDAR's 0.01 deg, in proportion
@@ -223,19 +267,20 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     )  # not the empty cells' fill "ref" when none is
     flight = r["flight"].to_numpy()
     cluster, fold = weather_blocks(flight, t)
-    # turn rate and flight phase: heading and altitude change between a flight's adjacent
-    # (used) reports, per report, then back on its rows
-    per = pd.DataFrame({"z": z, "t": t, "f": flight, "alt": alt}).groupby(rep).first()
-    dtr = np.r_[np.nan, np.diff(per["t"].to_numpy())]
-    same = np.r_[False, per["f"].to_numpy()[1:] == per["f"].to_numpy()[:-1]] & (dtr > 0)
-    dz = np.r_[np.nan, np.degrees((np.diff(per["z"].to_numpy()) + np.pi) % (2 * np.pi) - np.pi)]
-    da = np.r_[np.nan, np.diff(per["alt"].to_numpy())]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        turn_rep = np.where(same, dz / dtr, 0.0)
-        rate = np.where(same, da / dtr * 60.0, 0.0)
+    # turn rate, flight phase and flight-path angle from a flight's adjacent (used) reports,
+    # per report, then back on its rows
+    per = pd.DataFrame({"z": z, "t": t, "f": flight, "alt": alt, "tas": r["tas_ms"].to_numpy()}).groupby(rep).first()
+    turn_rep, rate, rate_c = report_rates(
+        per["f"].to_numpy(), per["t"].to_numpy(), per["z"].to_numpy(), per["alt"].to_numpy()
+    )
     ph_rep = np.where(rate > 300.0, "ascent", np.where(rate < -300.0, "descent", "level"))
     back = per.index.get_indexer(pd.Index(rep))  # (what get_indexer makes of an array itself)
     turn, phase, climb = turn_rep[back], ph_rep[back], rate[back]
+    tas = r["tas_ms"].to_numpy()
+    fpa = np.degrees(np.arcsin(np.clip(rate_c[back] * FT / 60.0 / np.maximum(tas, 1.0), -1.0, 1.0)))
+    q = isa_density_ratio(alt) * tas**2
+    inv_q = float(np.median(q)) / np.maximum(q, 1e-6)
+    local_hour = (t % 86400.0 / 3600.0 + lon / 15.0) % 24.0
     roll = df["roll_deg"].to_numpy()[used] if "roll_deg" in df.columns else None
     first = _report_rows(df)
     return WindData(
@@ -261,6 +306,9 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         phase=phase,
         turn_deg_s=turn,
         climb_fpm=climb,
+        fpa_deg=fpa,
+        inv_q=inv_q,
+        local_hour=local_hour,
         cluster=cluster,
         fold=fold,
         report_lat=df["lat"].to_numpy()[first],

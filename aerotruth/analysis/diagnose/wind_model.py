@@ -323,6 +323,13 @@ def covariate(d: WindData, name: str) -> np.ndarray:
         return d.roll if d.roll is not None else np.zeros(d.n)
     if name == "turn_deg_s":
         return d.turn_deg_s
+    if name == "flight_path_angle_deg":
+        return d.fpa_deg
+    if name == "inverse_dynamic_pressure":
+        return d.inv_q
+    if name in ("local_hour_sin", "local_hour_cos"):
+        arg = 2 * np.pi * d.local_hour / 24.0
+        return np.sin(arg) if name.endswith("sin") else np.cos(arg)
     if name.startswith("sin") or name.startswith("cos"):
         k = int(name[3])
         return np.sin(k * d.z) if name.startswith("sin") else np.cos(k * d.z)
@@ -379,6 +386,87 @@ class Fit:
         ]
 
 
+class Basis:
+    """The current model's design decomposed once a round, so that each candidate term is
+    fitted by partialling the model out of its columns (Frisch-Waugh-Lovell): for added
+    columns C, C~ = C - X0 (X0'X0)^-1 X0'C on the fitted rows, gamma = (C~'C~)^-1 C~'e0 with
+    e0 the current model's residual; the coefficient, the residual (e0 - C~ gamma on every
+    row) and the cluster-robust covariance of gamma (scores C~_g' e_g) are exactly those of
+    the full fit [X0 C] (tests/test_diagnose_wind.py checks it), at the cost of the added
+    columns only. Parts: None (all rows) and k = 0, 1 (trained on fold 1 - k, predicting
+    fold k)."""
+
+    def __init__(self, d: WindData, st: State, y: np.ndarray, clusters: np.ndarray):
+        self.d, self.y, self.clusters = d, y, clusters
+        self.blocks = current_blocks(d, st)
+        self.X0 = np.column_stack([b.cols for b in self.blocks])
+        self.slices, k = [], 0
+        for b in self.blocks:
+            self.slices.append(slice(k, k + b.cols.shape[1]))
+            k += b.cols.shape[1]
+        self.parts = {p: self._part(None if p is None else rows_of_fold(d, 1 - p)) for p in (None, 0, 1)}
+
+    def _part(self, rows: np.ndarray | None) -> dict:
+        Xr = self.X0 if rows is None else self.X0[rows]
+        yr = self.y if rows is None else self.y[rows]
+        beta, xtx = ols(Xr, yr)
+        live = live_columns(xtx)
+        return {
+            "rows": rows,
+            "beta": beta,
+            "live": live,
+            "inv": np.linalg.pinv(xtx[np.ix_(live, live)]),
+            "Xr": Xr[:, live],
+            "resid": self.y - self.X0 @ beta,
+        }
+
+    def base_fit(self, part: int | None = None) -> Fit:
+        """The current model's own fit (no covariance)."""
+        p = self.parts[part]
+        cov = np.full((self.X0.shape[1], self.X0.shape[1]), np.nan)
+        return Fit(self.blocks, p["beta"], cov, p["resid"], self.slices, self.clusters)
+
+    def fit(self, blocks: list[Block], part: int | None = None, with_cov: bool = True) -> Fit:
+        p = self.parts[part]
+        rows = p["rows"]
+        C = np.column_stack([b.cols for b in blocks])
+        Cr = C if rows is None else C[rows]
+        Pi = p["inv"] @ (p["Xr"].T @ Cr)
+        Ct = C - self.X0[:, p["live"]] @ Pi
+        Ctr = Ct if rows is None else Ct[rows]
+        # a column the model already spans (nothing left after partialling): coefficient 0
+        keep = np.sum(Ctr**2, axis=0) > 1e-18 * np.maximum(np.sum(Cr**2, axis=0), 1e-300)
+        Ctr_k = Ctr[:, keep]
+        e0r = p["resid"] if rows is None else p["resid"][rows]
+        gamma = np.zeros(C.shape[1])
+        xtx = Ctr_k.T @ Ctr_k
+        if keep.any():
+            gamma[keep], _ = ols(Ctr_k, e0r)
+        resid = p["resid"] - Ct[:, keep] @ gamma[keep]
+        cov = np.full((C.shape[1], C.shape[1]), np.nan)
+        if with_cov and keep.any():
+            g = self.clusters if rows is None else self.clusters[rows]
+            rr = resid if rows is None else resid[rows]
+            idx = np.flatnonzero(keep)
+            cov[np.ix_(idx, idx)] = cluster_robust(Ctr_k, rr, g, xtx)
+        slices, k = [], 0
+        for b in blocks:
+            slices.append(slice(k, k + b.cols.shape[1]))
+            k += b.cols.shape[1]
+        return Fit(blocks, gamma, cov, resid, slices, self.clusters)
+
+
+def cluster_robust(X: np.ndarray, resid: np.ndarray, g: np.ndarray, xtx: np.ndarray) -> np.ndarray:
+    """CR1 covariance (X'X)^-1 (G/(G-1) sum_g s_g s_g') (X'X)^-1, s_g = X_g' e_g."""
+    bread = np.linalg.pinv(xtx)
+    uniq, inv = np.unique(g, return_inverse=True)
+    G = len(uniq)
+    members = sparse.csr_matrix((np.ones(len(inv)), (inv, np.arange(len(inv)))), shape=(G, len(inv)))
+    scores = members @ (X * resid[:, None])
+    meat = scores.T @ scores * (G / max(G - 1, 1))
+    return bread @ meat @ bread
+
+
 def solve(
     blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.ndarray | None = None, with_cov: bool = True
 ) -> Fit:
@@ -395,15 +483,9 @@ def solve(
     cov = np.full((X.shape[1], X.shape[1]), np.nan)
     if with_cov:
         idx = np.flatnonzero(live)
-        bread = np.linalg.pinv(xtx[np.ix_(idx, idx)])
         g = clusters if rows is None else clusters[rows]
-        uniq, inv = np.unique(g, return_inverse=True)
-        G = len(uniq)
-        members = sparse.csr_matrix((np.ones(len(inv)), (inv, np.arange(len(inv)))), shape=(G, len(inv)))
         rr = resid if rows is None else resid[rows]
-        scores = (members @ (Xr * rr[:, None]))[:, idx]  # per-cluster score sums
-        meat = scores.T @ scores * (G / max(G - 1, 1))
-        cov[np.ix_(idx, idx)] = bread @ meat @ bread
+        cov[np.ix_(idx, idx)] = cluster_robust(Xr[:, idx], rr, g, xtx[np.ix_(idx, idx)])
     return Fit(blocks, beta, cov, resid, slices, clusters)
 
 
@@ -546,9 +628,15 @@ def group_means(
     """Mean transverse residual (as a heading angle, rad), first and last time of each group
     (flights: d.flight; weather blocks: d.cluster) of the rows in `sel`, in time order."""
     s = np.ones(d.n, dtype=bool) if sel is None else sel
-    g = pd.DataFrame({"f": groups[s], "r": resid_trans[s] / d.tas[s], "t": d.time_s[s]}).groupby("f")
-    agg = g.agg(r=("r", "mean"), t0=("t", "min"), t1=("t", "max")).sort_values("t0")
-    return agg["r"].to_numpy(), agg["t0"].to_numpy(), agg["t1"].to_numpy()
+    uniq, inv = np.unique(groups[s], return_inverse=True)
+    t = d.time_s[s]
+    m = np.bincount(inv, resid_trans[s] / d.tas[s], len(uniq)) / np.bincount(inv, minlength=len(uniq))
+    t0 = np.full(len(uniq), np.inf)
+    t1 = np.full(len(uniq), -np.inf)
+    np.minimum.at(t0, inv, t)
+    np.maximum.at(t1, inv, t)
+    order = np.argsort(t0, kind="stable")
+    return m[order], t0[order], t1[order]
 
 
 def _means_by_aircraft(d: WindData, fit: Fit, rows: np.ndarray | None, groups: np.ndarray):
@@ -734,10 +822,25 @@ def build_blocks(eff: str, d: WindData, st: State, fit: Fit, rows: np.ndarray | 
 
 
 def fit_with(
-    d: WindData, st: State, y, clusters, eff: str, blocks: list[Block], rows=None, with_cov=True
+    d: WindData,
+    st: State,
+    y,
+    clusters,
+    eff: str,
+    blocks: list[Block],
+    rows=None,
+    with_cov=True,
+    basis: Basis | None = None,
+    part: int | None = None,
 ) -> tuple[Fit, float]:
     """The current model plus `blocks`; for field_scaling, Gauss-Newton on gamma (returns
-    the total change of gamma; 0 otherwise)."""
+    the total change of gamma; 0 otherwise). With the round's `basis` (the current model
+    decomposed once) a term other than the field scaling is fitted by partialling out:
+    `part` None for all rows, k for the fit that predicts fold k (`rows` then unused)."""
+    if basis is not None and eff != "field_scaling":
+        return basis.fit(blocks, part, with_cov), 0.0
+    if basis is not None:
+        rows = None if part is None else rows_of_fold(d, 1 - part)
     cur = current_blocks(d, st)
     fit = solve(cur + blocks, y, clusters, rows, with_cov)
     if eff != "field_scaling":
@@ -769,28 +872,75 @@ def fold_fits(d: WindData, st: State, y, clusters) -> list[Fit]:
     return [solve(current_blocks(d, st), y, clusters, rows_of_fold(d, 1 - k), False) for k in (0, 1)]
 
 
+def held_out_resid(
+    d: WindData,
+    st: State,
+    y,
+    clusters,
+    eff: str,
+    build=None,
+    base: list[Fit] | None = None,
+    basis: Basis | None = None,
+) -> np.ndarray | None:
+    """Residual of every row (2n, both channels) as predicted from the other fold: fold k's
+    rows from the current model plus the effect learned on fold 1 - k (`build`: (blocks,
+    channel) of a term given as columns; None: the effect's own candidate built on the
+    training fold). None when the effect has no term to fit."""
+    if basis is not None:
+        base = [basis.base_fit(0), basis.base_fit(1)]
+    base = base or fold_fits(d, st, y, clusters)
+    out = np.empty(2 * d.n)
+    for k in (0, 1):
+        train, test = rows_of_fold(d, 1 - k), rows_of_fold(d, k)
+        blocks = build_blocks(eff, d, st, base[k], train) if build is None else build[0]
+        if not blocks:
+            return None
+        f1, _ = fit_with(d, st, y, clusters, eff, blocks, train, False, basis, k)
+        out[test] = f1.resid[test]
+    return out
+
+
+def base_held_out(d: WindData, base: list[Fit]) -> np.ndarray:
+    """The current model's held-out residual per row (fold k's rows from fit k)."""
+    out = np.empty(2 * d.n)
+    for k in (0, 1):
+        test = rows_of_fold(d, k)
+        out[test] = base[k].resid[test]
+    return out
+
+
 def held_out(
     d: WindData, st: State, y, clusters, eff: str, build=None, base: list[Fit] | None = None
 ) -> tuple[float, float]:
     """RMS (kt) of the effect's channel on held-out flights, without and with the effect
     (parameters learned on the other fold; both ways). `base`: fold_fits of the current
     model, when the caller has them."""
-    ch = channel_rows(d.n, CHANNEL.get(eff, "transverse") if build is None else build[1])
     base = base or fold_fits(d, st, y, clusters)
-    ss0 = ss1 = 0.0
-    cnt = 0
-    for k in (0, 1):
-        train, test = rows_of_fold(d, 1 - k), rows_of_fold(d, k)
-        f0 = base[k]
-        blocks = build_blocks(eff, d, st, f0, train) if build is None else build[0]
-        if not blocks:
-            return math.nan, math.nan
-        f1, _ = fit_with(d, st, y, clusters, eff, blocks, train, False)
-        t = test & ch
-        ss0 += float(np.sum(f0.resid[t] ** 2))
-        ss1 += float(np.sum(f1.resid[t] ** 2))
-        cnt += int(t.sum())
-    return math.sqrt(ss0 / cnt) / KT, math.sqrt(ss1 / cnt) / KT
+    r1 = held_out_resid(d, st, y, clusters, eff, build, base)
+    if r1 is None:
+        return math.nan, math.nan
+    ch = channel_rows(d.n, CHANNEL.get(eff, "transverse") if build is None else build[1])
+    r0 = base_held_out(d, base)
+    return math.sqrt(np.mean(r0[ch] ** 2)) / KT, math.sqrt(np.mean(r1[ch] ** 2)) / KT
+
+
+def held_out_contest(r_x: np.ndarray, r_y: np.ndarray, clusters: np.ndarray) -> tuple[float, float]:
+    """Whether explanation x predicts held-out rows better than explanation y: the
+    difference of their held-out squared residuals summed per weather block, D_b =
+    SS_y,b - SS_x,b (blocks are the independent units, as in every test here), its mean
+    over the G blocks against its standard error, Student's t with G - 1 degrees of freedom
+    (a Diebold-Mariano comparison of two forecasts on clusters). Returns (t, one-sided p
+    that x is no better than y)."""
+    uniq, inv = np.unique(clusters, return_inverse=True)
+    dss = np.bincount(inv, weights=r_y**2 - r_x**2, minlength=len(uniq))
+    G = len(uniq)
+    if G < 3:
+        return 0.0, 1.0
+    sd = float(np.std(dss, ddof=1))
+    if sd <= 0:
+        return 0.0, 1.0
+    t = float(np.mean(dss)) / (sd / math.sqrt(G))
+    return t, float(stats.t.sf(t, G - 1))
 
 
 def rms_of_kt(resid: np.ndarray, n: int, channel: str) -> float:
