@@ -94,6 +94,7 @@ from aerotruth.analysis.diagnose.wind_data import WindData, prepare  # noqa: F40
 from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSpec, wind_model_from_campaign re-exported)
     CANDIDATES,
     CHANNEL,
+    FORMS,
     MIN_COVERAGE,
     Basis,
     Block,
@@ -106,6 +107,7 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
     channel_rows,
     covariate,
     current_blocks,
+    cusum_permutation,
     declination_identifiable,
     fit_with,
     fold_fits,
@@ -114,7 +116,6 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
     held_out_contest,
     held_out_resid,
     known_offsets,
-    kolmogorov_cusum,
     quantization_candidate,
     reference_bias_column,
     reference_scale_column,
@@ -237,6 +238,17 @@ def _parameters(eff: str, d: WindData, fit: Fit, dgamma: float, st: State) -> di
                 "meaning": "B, C ~ (H0/H)^gamma, H0 the median horizontal field of the reports",
             },
             "H_ratio_range": [float(1 / d.h_ratio.max()), float(1 / d.h_ratio.min())],
+        }
+    if eff == "tas_scale" and parts and parts[0][0].aircraft < 0:  # one scale for the fleet
+        k, se = float(parts[0][1][0]), float(standard_errors(parts[0][2])[0])
+        return {
+            "k_median": {"value": k, "se": se, "meaning": "TAS reads (1 + k) x true, one k for the fleet"},
+            "form": "fleet",
+            "aircraft": {
+                d.names[i]: {"k": k, "se": se}
+                for i in range(len(d.names))
+                if np.any(parts[0][0].cols[d.n :][d.aircraft == i])
+            },
         }
     if eff == "tas_scale":
         per = {d.names[b.aircraft]: {"k": float(be[0]), "se": float(standard_errors(v)[0])} for b, be, v in parts}
@@ -424,17 +436,28 @@ def _library_candidates(d, st, y, clusters, fit0, basis, r0) -> list[_Cand]:
     for eff in CANDIDATES:
         if eff in st.entered:
             continue
-        blocks = build_blocks(eff, d, st, fit0, None)
-        if not blocks:
-            continue
-        fit1, dg = fit_with(d, st, y, clusters, eff, blocks, basis=basis)
-        if eff in SCANNED:
-            scanned = [b.p for b in blocks if b.p is not None]
-            assert len(scanned) == len(blocks)  # a scan's blocks each carry its p-value
-            p = min(scanned)
+        build = None
+        if eff in FORMS:  # the form with the smallest p, Bonferroni over the forms
+            forms = [(blocks, basis.fit(blocks)) for f in FORMS[eff] if (blocks := f(d, st, fit0))]
+            if not forms:
+                continue
+            ps = [block_p(f1, eff, d) for _, f1 in forms]
+            k = int(np.argmin(ps))
+            blocks, fit1 = forms[k]
+            p, dg = min(1.0, ps[k] * len(forms)), 0.0
+            build = (blocks, CHANNEL[eff])
         else:
-            p = block_p(fit1, eff, d)
-        r1 = held_out_resid(d, st, y, clusters, eff, None, basis=basis)
+            blocks = build_blocks(eff, d, st, fit0, None)
+            if not blocks:
+                continue
+            fit1, dg = fit_with(d, st, y, clusters, eff, blocks, basis=basis)
+            if eff in SCANNED:
+                scanned = [b.p for b in blocks if b.p is not None]
+                assert len(scanned) == len(blocks)  # a scan's blocks each carry its p-value
+                p = min(scanned)
+            else:  # field scaling: the test of its first linearisation, the partialled fit's (jackknife)
+                p = block_p(fit1 if eff != "field_scaling" else basis.fit(blocks), eff, d)
+        r1 = held_out_resid(d, st, y, clusters, eff, build, basis=basis)
         if r1 is None:
             continue
         ch = channel_rows(d.n, CHANNEL[eff])
@@ -495,7 +518,7 @@ def _screen_candidates(d, st, y, clusters, fit0, basis, r0, done: set[str]) -> l
             )
         )
     bm, t0, t1 = group_means(d, fit0.resid[: d.n], d.cluster)
-    p_cp, k = kolmogorov_cusum(bm)
+    p_cp, k = cusum_permutation(bm)
     if p_cp < level and len(bm) > 1 and "fleet_step" not in done:
         tests.append(
             ("transverse", [f"fleet_step_{0.5 * (t1[k] + t0[k + 1]):.0f}"], "fleet_step", lambda f1, p=p_cp: p)
