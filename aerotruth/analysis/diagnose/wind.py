@@ -437,14 +437,24 @@ def _library_candidates(d, st, y, clusters, fit0, basis, r0) -> list[_Cand]:
         if eff in st.entered:
             continue
         build = None
-        if eff in FORMS:  # the form with the smallest p, Bonferroni over the forms
+        if eff in FORMS:
+            # p: the smallest form's, Bonferroni over the forms; the form: of those significant
+            # at the library's level, the one that predicts held-out blocks best (a form with
+            # a parameter per aircraft can be significant and still predict worse than one
+            # for the fleet), else the one with the smallest p
             forms = [(blocks, basis.fit(blocks)) for f in FORMS[eff] if (blocks := f(d, st, fit0))]
             if not forms:
                 continue
-            ps = [block_p(f1, eff, d) for _, f1 in forms]
-            k = int(np.argmin(ps))
+            ps = [min(1.0, block_p(f1, eff, d) * len(forms)) for _, f1 in forms]
+            sig = [k for k, q in enumerate(ps) if q < ALPHA_LIBRARY / n_lib]
+            if len(sig) > 1:
+                ho = [held_out_resid(d, st, y, clusters, eff, (forms[k][0], CHANNEL[eff]), basis=basis) for k in sig]
+                ss = [float(np.sum(r**2)) if r is not None else math.inf for r in ho]
+                k = sig[int(np.argmin(ss))]
+            else:
+                k = int(np.argmin(ps))
             blocks, fit1 = forms[k]
-            p, dg = min(1.0, ps[k] * len(forms)), 0.0
+            p, dg = min(ps), 0.0
             build = (blocks, CHANNEL[eff])
         else:
             blocks = build_blocks(eff, d, st, fit0, None)
@@ -752,6 +762,23 @@ def _varies(effect: str, covs: list[str] | None = None) -> str:
     return "its covariates (" + ", ".join(covs or [effect.split(":", 1)[-1]]) + ")"
 
 
+def _name_confusable(f, best: _Cand, rivals: list[dict]) -> None:
+    """The finding names every rival the data cannot tell from it, and what would."""
+    if not rivals:
+        return
+    confusable = [_rival_words(r) for r in rivals]
+    f.parameters["confusable_with"] = confusable
+    lead_covs = [sg["covariate"] for sg in best.get("sigs", [])]
+    alts = "; or ".join(x["cause"] for x in confusable)
+    tell = "; ".join(
+        [_varies(best["effect"], lead_covs)] + [_varies(x["effect"], x.get("covariates")) for x in confusable]
+    )
+    f.cause = (
+        f"{f.cause}; or {alts}. These data cannot tell them apart (each explains what the other does, and "
+        f"neither predicts held-out weather blocks better); data where these vary independently would: {tell}"
+    )
+
+
 def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, dict]:
     """Rounds of competing explanations (the library's effects and the screening's
     signatures together): the round's best by held-out gain is named, with every rival it
@@ -767,6 +794,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     plots: dict = {}
     rounds: list[dict] = []
     done: set[str] = set()  # screening keys entered
+    pending: list[tuple[Any, _Cand, list[dict]]] = []  # (finding, its candidate, its rivals)
     n_blocks = len(np.unique(d.cluster))
     testable = n_blocks >= MIN_BLOCKS
     for _ in range(MAX_ROUNDS):
@@ -820,7 +848,6 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
             f = _screen_finding(d, st, fit0, best, plots)
         else:
             f = _library_finding(d, st, fit0, best, base, y, clusters, plots)
-        confusable = [_rival_words(r) for r in rivals if r["verdict"] == "confusable"]
         f.evidence["rivals"] = {
             r["effect"]: {
                 "verdict": r["verdict"],
@@ -833,19 +860,10 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         f.evidence["rivals_rule"] = (
             "a rival (significant, with a held-out gain) is separate when still significant with this finding in the "
             f"model; otherwise beaten when this finding predicts held-out weather blocks better (one-sided p < "
-            f"{ALPHA_BEATS:g}, Diebold-Mariano on block sums), else confusable"
+            f"{ALPHA_BEATS:g}, Diebold-Mariano on block sums), else confusable; a separate rival that this finding "
+            "did not beat and that never enters on its own is confusable after all"
         )
-        if confusable:
-            f.parameters["confusable_with"] = confusable
-            lead_covs = [sg["covariate"] for sg in best.get("sigs", [])]
-            alts = "; or ".join(x["cause"] for x in confusable)
-            tell = "; ".join(
-                [_varies(best["effect"], lead_covs)] + [_varies(x["effect"], x.get("covariates")) for x in confusable]
-            )
-            f.cause = (
-                f"{f.cause}; or {alts}. These data cannot tell them apart (each explains what the other does, and "
-                f"neither predicts held-out weather blocks better); data where these vary independently would: {tell}"
-            )
+        pending.append((f, best, rivals))
         findings.append(f)
         if best["kind"] == "screen":
             st.signatures.extend(best["sigs"])
@@ -861,6 +879,13 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
                 st.steps.setdefault(d.names.index(a), []).append(s_["time_s"])
         if eff == "offset_drift":
             st.drifts.update(d.names.index(a) for a in params["aircraft"])
+    named = {f.effect for f in findings}
+    for f, best, rivals in pending:
+        for r in rivals:  # "separate" promised a round of its own; without one it could not be told apart
+            if r["verdict"] == "separate" and r["effect"] not in named and r["p_not_beaten"] >= ALPHA_BEATS:
+                r["verdict"] = "confusable"
+                f.evidence["rivals"][r["effect"]]["verdict"] = "confusable (separate, but never entered on its own)"
+        _name_confusable(f, best, [r for r in rivals if r["verdict"] == "confusable"])
     fit_end = solve(current_blocks(d, st), y, clusters)
     assert fit_start is not None  # set in the first round (MAX_ROUNDS >= 1)
     free = {
