@@ -638,22 +638,28 @@ def cand_reference_bias(d: WindData, st: State, fit: Fit | None) -> list[Block]:
     return [Block("reference_bias", src, reference_bias_column(d, m)[:, None]) for m, src in enumerate(d.sources)]
 
 
+def _cusum(x: np.ndarray) -> tuple[np.ndarray, int, float]:
+    """(deviations from the mean, the index after which the mean changes, sup |CUSUM|)."""
+    e = x - x.mean()
+    s = np.cumsum(e)[:-1]
+    k = int(np.argmax(np.abs(s)))
+    return e, k, float(abs(s[k]))
+
+
 def kolmogorov_cusum(x: np.ndarray) -> tuple[float, int]:
     """p-value of the sup |CUSUM| of a series (Brownian-bridge limit, long-run variance with
     Bartlett weights to lag 2) and the index after which the mean changes."""
     n = len(x)
     if n < 6:
         return 1.0, 0
-    e = x - x.mean()
-    s = np.cumsum(e)[:-1]
-    k = int(np.argmax(np.abs(s)))
+    _, k, sup = _cusum(x)
     # the long-run variance from the residuals about the two segments' means (about the
     # overall mean, a real step would inflate it and hide itself)
     r = np.r_[x[: k + 1] - x[: k + 1].mean(), x[k + 1 :] - x[k + 1 :].mean()]
     lrv = np.mean(r**2) + 2 * sum((1 - j / 3) * np.mean(r[j:] * r[:-j]) for j in (1, 2))
     if lrv <= 0:
         return 1.0, 0
-    stat = abs(s[k]) / math.sqrt(n * lrv)
+    stat = sup / math.sqrt(n * lrv)
     return float(stats.kstwobign.sf(stat)), k
 
 
@@ -669,10 +675,7 @@ def cusum_permutation(x: np.ndarray, stages: tuple[int, ...] = (1999, 39999)) ->
     n = len(x)
     if n < 6:
         return 1.0, 0
-    e = x - x.mean()
-    s = np.cumsum(e)[:-1]
-    k = int(np.argmax(np.abs(s)))
-    stat = float(np.abs(s[k]))
+    e, k, stat = _cusum(x)
     rng = np.random.default_rng(20261128)
     hits = total = 0
     for m in stages:
