@@ -488,22 +488,29 @@ def _library_candidates(d, st, y, clusters, fit0, basis, r0) -> list[_Cand]:
                 "dgamma": dg,
             }
         )
-    q = None if "quantization" in st.entered else quantization_candidate(d, st.spec.lat_lon_step_deg)
+    q = _quantization(d, st)
     if q is not None:
-        out.append(
-            {
-                "effect": "quantization",
-                "kind": "quantization",
-                "p": 10 ** max(q["log10_p"], -300),
-                "level": ALPHA_LIBRARY / n_lib,
-                "held_out": (q["gain"]["held_out_before"], q["gain"]["held_out_after"]),
-                "rel": q["relative_gain"],
-                "gain_all": q["relative_gain"],
-                "channel": "ground track",
-                "q": q,
-            }
-        )
+        out.append(q)
     return out
+
+
+def _quantization(d, st) -> _Cand | None:
+    """The reports' grid as a candidate (a test on the coordinates; no fit), None once it
+    entered or where the grid is the model's."""
+    q = None if "quantization" in st.entered else quantization_candidate(d, st.spec.lat_lon_step_deg)
+    if q is None:
+        return None
+    return {
+        "effect": "quantization",
+        "kind": "quantization",
+        "p": 10 ** max(q["log10_p"], -300),
+        "level": ALPHA_LIBRARY / (len(CANDIDATES) + 1),
+        "held_out": (q["gain"]["held_out_before"], q["gain"]["held_out_after"]),
+        "rel": q["relative_gain"],
+        "gain_all": q["relative_gain"],
+        "channel": "ground track",
+        "q": q,
+    }
 
 
 def _screen_candidates(d, st, y, clusters, fit0, basis, r0, done: set[str]) -> list[_Cand]:
@@ -798,29 +805,16 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     n_blocks = len(np.unique(d.cluster))
     testable = n_blocks >= MIN_BLOCKS
     for _ in range(MAX_ROUNDS):
-        basis = Basis(d, st, y, clusters)
-        fit0 = basis.base_fit()
         fit_start = fit_start or solve(current_blocks(d, st), y, clusters, with_cov=False)
-        if not testable:
-            q = None if "quantization" in st.entered else quantization_candidate(d, spec.lat_lon_step_deg)
-            if q is None or not (10 ** max(q["log10_p"], -300) < ALPHA_LIBRARY / (len(CANDIDATES) + 1)):
+        if not testable:  # only the reports' grid, which needs no weather blocks (and no fit)
+            c = _quantization(d, st)
+            if c is None or not (c["p"] < c["level"] and c["rel"] >= MIN_REL_GAIN):
                 break
-            if q["relative_gain"] < MIN_REL_GAIN:
-                break
-            c: _Cand = {
-                "effect": "quantization",
-                "kind": "quantization",
-                "p": 10 ** max(q["log10_p"], -300),
-                "level": ALPHA_LIBRARY / (len(CANDIDATES) + 1),
-                "held_out": (q["gain"]["held_out_before"], q["gain"]["held_out_after"]),
-                "rel": q["relative_gain"],
-                "gain_all": q["relative_gain"],
-                "channel": "ground track",
-                "q": q,
-            }
-            findings.append(_library_finding(d, st, fit0, c, None, y, clusters, plots))
+            findings.append(_library_finding(d, st, fit_start, c, None, y, clusters, plots))
             st.entered.append("quantization")
             continue
+        basis = Basis(d, st, y, clusters)
+        fit0 = basis.base_fit()
         base = [basis.base_fit(0), basis.base_fit(1)]
         r0 = base_held_out(d, base)
         cands = _library_candidates(d, st, y, clusters, fit0, basis, r0)
