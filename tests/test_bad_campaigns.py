@@ -15,6 +15,7 @@ import sys
 from pathlib import Path
 
 import pytest
+from tiny_campaign import TINY_CAMPAIGN
 
 from aerotruth.app.cli import main
 from aerotruth.dates import FIRST_DATE, LAST_DATE, MODEL_DATE_SPAN, MODEL_EPOCH_S, check_model_date
@@ -28,21 +29,7 @@ ROOT = Path(__file__).resolve().parents[1]
 HANG_S = 20  # a command that takes longer on a bad file hangs on it
 
 # one wind-climatology task (no JSBSim): a run takes a second or two
-GOOD = """\
-name: tiny1
-seed: 3
-periods:
-  - name: p
-    dates: [2009-08-15]
-studies:
-  wind_climatology:
-    regions:
-      - {name: box, lat_deg: [44, 46], lon_deg: [-94, -92]}
-    periods: [p]
-    flight_levels: [100]
-    hours_utc: [0]
-    points: 20
-"""
+GOOD = TINY_CAMPAIGN
 
 # ~400 bytes: 9 levels of 9 aliases each, 9^9 (387 million) strings once expanded
 LAUGHS = "".join(

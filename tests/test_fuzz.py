@@ -58,6 +58,7 @@ import obs_generator as gen
 import pandas as pd
 import pytest
 import traffic_generator as tgen
+from tiny_campaign import TINY_CAMPAIGN
 
 from aerotruth.app.cli import main
 
@@ -66,21 +67,7 @@ CASE_TIMEOUT_S = 20
 pytestmark = pytest.mark.timeout(CASE_TIMEOUT_S)
 
 # a one-task campaign (wind climatology, no JSBSim): a run takes a second or two
-TINY = """\
-name: fuzz
-seed: 3
-periods:
-  - name: p
-    dates: [2009-08-15]
-studies:
-  wind_climatology:
-    regions:
-      - {name: box, lat_deg: [44, 46], lon_deg: [-94, -92]}
-    periods: [p]
-    flight_levels: [100]
-    hours_utc: [0]
-    points: 20
-"""
+TINY = TINY_CAMPAIGN.replace("name: tiny1", "name: fuzz", 1)
 TRUTHS = [gen.AircraftTruth("N401XJ", A=2.0, B=-3.0, C=1.5), gen.AircraftTruth("N402XJ", A=-1.0, B=1.0, C=2.5)]
 KT = 1852.0 / 3600.0
 
