@@ -326,6 +326,15 @@ def _cmd_fits(args: argparse.Namespace) -> int:
         raise UserError(str(e)) from None
 
 
+def _cmd_realism(args: argparse.Namespace) -> int:
+    from aerotruth.app.realism import realism_cli
+
+    try:
+        return realism_cli(args)
+    except ValueError as e:  # DataError and other bad-input errors: one line
+        raise UserError(str(e)) from None
+
+
 def _cmd_reports(args: argparse.Namespace) -> int:
     from aerotruth.app.reports import reports_main
 
@@ -669,6 +678,24 @@ def build_parser() -> argparse.ArgumentParser:
         "finds as waas_latency); each epoch is put at its time minus this",
     )
     fits.set_defaults(func=_cmd_fits)
+
+    rea = sub.add_parser(
+        "realism",
+        help="the truth beside real flights: flight-profile statistics, simulated through Mode-S vs measured",
+        description="Route legs and ILS approaches of the truth (from the truth store, flown if missing), "
+        "passed through the Mode-S sensor and decoded to 1-s trajectories, beside measured flights "
+        "(the files given, else every file of the real-data folder): climb and descent rates by "
+        "altitude, roll and roll rate, cross-track wander on straight stretches, bank in turns, "
+        "the approach path's straightness and angle. Prints `label: value` lines: p5/p50/p95 of "
+        "each side, the Wasserstein-1 distance and the KS statistic (docs/commands.md).",
+    )
+    rea.add_argument("real", nargs="*", help="measured flight files (default: the real-data folder)")
+    rea.add_argument("--legs", type=int, default=8, help="simulated route legs (default 8)")
+    rea.add_argument("--approaches", type=int, default=12, help="simulated ILS approaches (default 12)")
+    rea.add_argument("--turbulence", action="store_true", help="fly the simulated side in turbulence")
+    rea.add_argument("--store", default=None, help="truth store folder (default: the user cache)")
+    rea.add_argument("--figures", default=None, metavar="DIR", help="draw the distributions into DIR")
+    rea.set_defaults(func=_cmd_realism)
 
     traffic = sub.add_parser(
         "reports",

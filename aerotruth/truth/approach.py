@@ -334,6 +334,7 @@ class _Guide:
         self._set("ap/target/altitude-t0-sec", t)
         self._set("ap/target/vs-max-fpm", 1500.0 if self.mode == "go-around" else 1000.0)
         self._set("ap/target/vs-min-fpm", -1500.0)
+        self._set("ap/target/path-mode", float(self.mode in ("glidepath", "pass")))
         # speed and flaps
         if self.mode == "level":
             ias = self.sched.initial_ias_kt

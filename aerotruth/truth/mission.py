@@ -251,6 +251,7 @@ class _MissionGuide:
         self._set("ap/target/altitude-t0-sec", t)
         self._set("ap/target/vs-max-fpm", 1500.0)
         self._set("ap/target/vs-min-fpm", -1500.0)
+        self._set("ap/target/path-mode", float(approachlike and kind == "run" and self.vmode in ("glidepath", "pass")))
         self._set("ap/target/speed-mode", 0)
         self._set("ap/target/ias-kt", ias)
         self._set("fcs/flap-cmd-norm", flaps / 35.0)
