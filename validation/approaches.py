@@ -2,7 +2,10 @@
 the day's truth atmosphere with JSBSim turbulence, AFIS profile (every 5th a
 go-around). Prints `label: value` lines: the share stabilised at 1,000 ft (within 1 dot
 on localizer and glide slope, Vref -5/+10 kt, sink <= 1,000 fpm), medians and worst
-cases of the figures, divergences by seed (none dropped silently).
+cases of the figures, divergences by seed (none dropped silently), and the path while
+configuring: the CG height against the distance to the threshold 1.5-6 nm out fitted by a
+straight line (runway frame, geometric: its angle against the glide slope, the 95th
+percentile and largest |residual|; the slowing to Vapp and flaps 35 fall inside).
 
     python validation/approaches.py [--n 50]
 """
@@ -19,6 +22,7 @@ from aerotruth.truth.approach import approach_metrics, approach_spec, fly_approa
 from aerotruth.truth.days import day_atmosphere
 from aerotruth.truth.flight import FlightDiverged
 from aerotruth.truth.weather import region_for_airport
+from aerotruth.units import NM
 
 RUNWAYS = [
     ("KDLH", "27"),
@@ -31,6 +35,19 @@ RUNWAYS = [
     ("KCMH", "28L"),
 ]
 DAYS = [dt.date(2009, 8, 15), dt.date(2009, 9, 20), dt.date(2010, 1, 20), dt.date(2010, 3, 25), dt.date(2010, 10, 30)]
+
+
+def path_fit(track) -> dict[str, float]:
+    """Straight-line fit of z on x, 1.5-6 nm before the threshold (runway frame)."""
+    x, z = track.df["x_m"].to_numpy(float), track.df["z_m"].to_numpy(float)
+    sel = (x <= -1.5 * NM) & (x >= -6.0 * NM)
+    coef = np.polyfit(x[sel], z[sel], 1)
+    r = np.abs(z[sel] - np.polyval(coef, x[sel]))
+    return {
+        "path_angle_deg_1p5_6nm": float(np.degrees(np.arctan(-coef[0]))),  # z falls as x grows
+        "path_resid_p95_m_1p5_6nm": float(np.percentile(r, 95)),
+        "path_resid_max_m_1p5_6nm": float(r.max()),
+    }
 
 
 def main() -> None:
@@ -49,7 +66,7 @@ def main() -> None:
             continue
         try:
             t = fly_approach(spec, seed=child(named_sequence(i, "approach", icao, rwy), "flight"), atmosphere=atm)
-            rows.append(approach_metrics(t))
+            rows.append(approach_metrics(t) | path_fit(t))
         except FlightDiverged as e:
             diverged.append(f"{icao} {rwy} seed {i}: {e.reason}")
     keys = rows[0].keys()
@@ -74,6 +91,9 @@ def main() -> None:
         "pitch_threshold_deg",
         "roll_threshold_deg",
         "recorded_past_threshold_s",
+        "path_angle_deg_1p5_6nm",
+        "path_resid_p95_m_1p5_6nm",
+        "path_resid_max_m_1p5_6nm",
     ):
         v = m[k]
         print(f"{k}_median: {np.median(v):.3f}")

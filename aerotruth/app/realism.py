@@ -120,7 +120,13 @@ def simulated_side(n_legs: int, n_approaches: int, turbulence: bool, store_root:
             notes.append(f"leg {org}-{dst} {day}: diverged ({out.diverged})")
             continue
         traj = _modes_trajectory(out.track.df, seeds.generator(seeds.child(root, "modes", "leg", i)), 1)
-        samples.append(realism.profile_samples(traj, f"leg {org}-{dst}"))
+        leg_samples = realism.profile_samples(traj, f"leg {org}-{dst}")
+        # a route leg ends on final 2,000 ft above the runway, not at it: its last descent is
+        # no approach (the approaches are flown for that)
+        for k in realism.SAMPLE_KEYS:
+            if k.startswith("approach_"):
+                leg_samples[k] = np.empty(0)
+        samples.append(leg_samples)
     for i in range(n_approaches):
         icao, rwy, offset, intercept = APPROACHES[i % len(APPROACHES)]
         day = DATES[(i // len(APPROACHES)) % len(DATES)]

@@ -38,6 +38,9 @@ class SpeedSchedule:
     arrival_ias_kt: float
     climb_vs_fpm: float
     descent_vs_fpm: float
+    # climb power (throttle 0..1) of a level change: the climb's rate is then the flight
+    # model's; None climbs at climb_vs_fpm and descends at descent_vs_fpm (a fixed schedule)
+    climb_throttle: float | None = None
 
 
 @dataclass(frozen=True)
@@ -96,6 +99,11 @@ AIRFRAMES["saab340"] = Airframe(
         arrival_ias_kt=180.0,
         climb_vs_fpm=2000.0,
         descent_vs_fpm=-1500.0,
+        # climb power: the published initial climb, ~2,000 fpm at MTOW at sea level
+        # (../shared/saab340b-facts.md), is 1,930 fpm at 0.90 and 2,210 at 1.0 between 1,000
+        # and 3,000 ft in ISA at 13,155 kg (the model's CT7-9B); 0.92 also leaves ~200 fpm
+        # at FL250, the published service ceiling
+        climb_throttle=0.92,
     ),
     fuel_lbs=None,  # the model's default load: 12,000 kg with 1,760 kg of fuel
     extra_ic={

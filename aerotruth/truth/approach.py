@@ -47,6 +47,7 @@ from aerotruth.truth.fdm import (
     params_digest,
     seed_repr,
     set_atmosphere,
+    set_mass,
     trim_or_settle,
 )
 from aerotruth.truth.guidance import GreatCircleLeg
@@ -138,7 +139,7 @@ class ApproachSpec:
             raise ValueError(f"intercept_deg: expected 0..45 deg, got {self.intercept_deg}")
         if not abs(self.offset_nm) <= 3.0:  # NaN too
             raise ValueError(f"offset_nm: expected at most 3 nm either side, got {self.offset_nm}")
-        if not 0.0 < self.mass_kg <= MTOW_KG:  # the lower bound is the model's (fly_approach: _set_mass)
+        if not 0.0 < self.mass_kg <= MTOW_KG:  # the lower bound is the model's (fdm.set_mass)
             raise ValueError(
                 f"mass_kg: expected a landing mass above 0 and at most the SAAB 340B's maximum take-off mass, "
                 f"{MTOW_KG:,.0f} kg, got {self.mass_kg:g}"
@@ -239,7 +240,7 @@ def initial_conditions(
     fdm["ic/terrain-elevation-ft"] = (frame.h0_m - 50.0) / FT
     for k, v in af.extra_ic.items():
         fdm[k] = v
-    _set_mass(fdm, mass_kg)
+    set_mass(fdm, mass_kg)
     fdm["fcs/flap-cmd-norm"] = flaps_deg / 35.0
     fdm["fcs/flap-pos-deg"] = flaps_deg
     set_atmosphere(fdm, _Und(undulation), atmosphere, lat, lon, t0_s)
@@ -262,18 +263,6 @@ def initial_conditions(
 @dataclass(frozen=True)
 class _Und:
     undulation_m: float
-
-
-def _set_mass(fdm, mass_kg: float) -> None:
-    """Gross mass by the passenger point mass, fuel at the model default (1,760 kg)."""
-    kg_per_lb = 0.45359237
-    fdm.run_ic()
-    now = fdm["inertia/weight-lbs"] * kg_per_lb
-    pax = fdm["inertia/pointmass-weight-lbs[0]"] * kg_per_lb + (mass_kg - now)
-    if pax < 0.0:
-        without_pax = now - fdm["inertia/pointmass-weight-lbs[0]"] * kg_per_lb
-        raise ValueError(f"mass_kg: {mass_kg:g} kg is below the model's empty + fuel + baggage ({without_pax:.0f} kg)")
-    fdm["inertia/pointmass-weight-lbs[0]"] = pax / kg_per_lb
 
 
 class _Guide:

@@ -205,3 +205,15 @@ def trim_or_settle(fdm, af: Airframe) -> None:
             fdm[f"fcs/throttle-cmd-norm[{i}]"] = thr
     fdm["ap/trim/throttle"] = thr
     fdm["ap/trim/elevator"] = elev
+
+
+def set_mass(fdm, mass_kg: float) -> None:
+    """Gross mass by the passenger point mass, fuel at the model default (1,760 kg)."""
+    kg_per_lb = 0.45359237
+    fdm.run_ic()
+    now = fdm["inertia/weight-lbs"] * kg_per_lb
+    pax = fdm["inertia/pointmass-weight-lbs[0]"] * kg_per_lb + (mass_kg - now)
+    if pax < 0.0:
+        without_pax = now - fdm["inertia/pointmass-weight-lbs[0]"] * kg_per_lb
+        raise ValueError(f"mass_kg: {mass_kg:g} kg is below the model's empty + fuel + baggage ({without_pax:.0f} kg)")
+    fdm["inertia/pointmass-weight-lbs[0]"] = pax / kg_per_lb

@@ -17,6 +17,7 @@ from datetime import UTC, datetime
 import jsbsim
 import numpy as np
 
+from aerotruth import seeds
 from aerotruth.truth.airframes import Airframe, airframe, new_fdm
 from aerotruth.truth.fdm import (
     ATMOSPHERE_EVERY,
@@ -31,9 +32,11 @@ from aerotruth.truth.fdm import (
     property_node,
     seed_repr,
     set_atmosphere,
+    set_mass,
     trim_or_settle,
 )
 from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, turn_anticipation_m
+from aerotruth.truth.profile import VerticalProfile, draw_profile
 from aerotruth.truth.steering import SteeringWander
 from aerotruth.truth.track import PHASES, TruthTrack
 from aerotruth.truth.turbulence import ChopGusts, TurbulencePatches
@@ -42,7 +45,18 @@ from aerotruth.units import DEG, FT, KT, NM
 
 TEN_THOUSAND_FT = 10000 * FT
 US_SPEED_LIMIT_KT = 250.0  # 14 CFR 91.117(a): 250 KIAS below 10,000 ft MSL
-TURN_BANK_DEG = 20.0  # bank assumed for turn anticipation (autopilot limit is 25 deg)
+TURN_BANK_DEG = 20.0  # bank assumed for turn anticipation (below the planned bank: the roll-in takes ~7 s)
+# the bank the FMS plans its turns at, at most: "banks are planned between 0 and 23 deg with
+# 25 deg as a maximum" (Honeywell FMZ-series FMS pilot's manual, A28-1146-181 rev. 3, 2009,
+# p. 7-23); the autopilot's own limit (gains_*.xml, 25 deg) stays for the approach's turn
+# onto final. At the SAAB 340's speeds a rate-one turn (3 deg/s) needs 23 deg at 150 KTAS
+# and more above, so the plan is this cap wherever the LNAV turns.
+PLANNED_BANK_DEG = 23.0
+# the climb's level change (_Guide._level_change) and the descent path's vertical-speed limits
+FLCH_KP_FPM_PER_KT, FLCH_KI_FPM_PER_KT_S = 70.0, 2.2
+FLCH_VS_MIN_FPM, FLCH_VS_MAX_FPM = 300.0, 4000.0
+FLCH_CAPTURE_FT = 300.0  # the altitude law captures the level from here
+DESCENT_VS_MIN_FPM = -2500.0  # rejoining the path after a level-off: an expedited descent at most
 
 
 @dataclass(frozen=True)
@@ -78,9 +92,13 @@ class _Guide:
     """Python's 1 Hz part of the guidance: leg sequencing, distance to go, phases, targets.
     Targets are written through property nodes and only when they change."""
 
-    def __init__(self, route: Route, af: Airframe, fdm: jsbsim.FGFDMExec):
+    def __init__(self, route: Route, af: Airframe, fdm: jsbsim.FGFDMExec, profile: VerticalProfile | None = None):
         self.route = route
         self.af = af
+        self.profile = profile or VerticalProfile()
+        self.flch_i = min(af.schedule.climb_vs_fpm, FLCH_VS_MAX_FPM)  # the level change's integral (fpm)
+        self.hold_since: dict[str, float] = {}  # level-offs: "climb"/"descent" -> start time
+        self.hold_done: set[str] = set()
         legs = route.legs
         self.geom = [LegGeometry(leg, legs[i + 1] if i + 1 < len(legs) else None) for i, leg in enumerate(legs)]
         self.lengths = [g.length_m for g in self.geom]
@@ -93,6 +111,7 @@ class _Guide:
         self._last: dict[str, float] = {}
         self._pm = pm
         self._set("ap/nav/mode", 1)
+        self._set("ap/gain/bank-max-rad", math.radians(PLANNED_BANK_DEG))
         self._set_leg(0)
 
     def _set(self, prop: str, value: float) -> None:
@@ -109,6 +128,31 @@ class _Guide:
         self._set("ap/nav/nx", nx)
         self._set("ap/nav/ny", ny)
         self._set("ap/nav/nz", nz)
+
+    def _level_change(self, speed_excess_kt: float) -> float:
+        """The level change's vertical speed (fpm) from the speed above its target: PI at the
+        1-s guidance rate, its integral frozen while the output is limited. Gains for a
+        speed loop through the flight path of natural frequency 0.05 rad/s, damping 0.8 at
+        165 KTAS (dV/dt = -g VS / V: 70 fpm per kt, 2.2 fpm per kt-second)."""
+        raw = FLCH_KP_FPM_PER_KT * speed_excess_kt + self.flch_i
+        out = min(max(raw, FLCH_VS_MIN_FPM), FLCH_VS_MAX_FPM)
+        if raw == out:
+            self.flch_i += FLCH_KI_FPM_PER_KT_S * speed_excess_kt
+        return out
+
+    def _level_off(self, which: str, level_off, t: float, p_alt_ft: float, rising: bool) -> float | None:
+        """The pressure altitude (ft) of an ATC level-off still to come or being held, else
+        None: held from reaching it for its duration."""
+        if level_off is None or which in self.hold_done:
+            return None
+        alt_ft, dur_s = level_off
+        since = self.hold_since.get(which)
+        if since is None and (p_alt_ft >= alt_ft - 50.0 if rising else p_alt_ft <= alt_ft + 50.0):
+            self.hold_since[which] = since = t
+        if since is not None and t - since >= dur_s:
+            self.hold_done.add(which)
+            return None
+        return alt_ft
 
     def distance_to_go_m(self, lat: float, lon: float) -> float:
         return self.geom[self.leg].to_go_m(lat, lon) + sum(self.lengths[self.leg + 1 :])
@@ -139,7 +183,9 @@ class _Guide:
         to_go = self.distance_to_go_m(lat, lon)
         r = self.route
         final = self.leg == len(self.geom) - 1
-        descent_needed_m = (h_ell_m - r.arrival_h_ellipsoid_m) / (abs(s.descent_vs_fpm) * FT / 60.0) * gs_mps
+        grad = self.profile.descent_gradient
+        # top of descent: where the planned path from the arrival height (8 nm out) meets the aircraft
+        descent_needed_m = (h_ell_m - r.arrival_h_ellipsoid_m) / grad
         if self.phase < 2 and to_go <= descent_needed_m + 8 * NM:
             self.phase = 2
         if self.phase == 2 and final:
@@ -154,34 +200,58 @@ class _Guide:
                 self._set(prop, value)
             self._phase_applied = self.phase
         levelled = self.level_since is not None
+        ias = {0: s.climb_ias_kt, 1: s.climb_ias_kt, 2: s.descent_ias_kt, 3: s.arrival_ias_kt}[self.phase]
+        if self.phase == 0:
+            # no faster than the cruise TAS: its calibrated equivalent here is cruise_tas * CAS/TAS
+            ias = min(ias, s.cruise_tas_kt * cas_kt / max(tas_kt, 1.0))
+        if to_go < 25 * NM:
+            ias = min(ias, s.arrival_ias_kt)
+        if h_ell_m - r.undulation_m < TEN_THOUSAND_FT:
+            ias = min(ias, US_SPEED_LIMIT_KT)
         if self.phase <= 1:
+            target_ft = r.cruise_pressure_altitude_m / FT
+            held = self._level_off("climb", self.profile.climb_level_off, t, p_alt_m / FT, rising=True)
+            if held is not None:
+                target_ft = held
             self._set("ap/target/use-pressure-altitude", 1)
-            self._set("ap/target/altitude-ft", r.cruise_pressure_altitude_m / FT)
-            self._set("ap/target/vs-max-fpm", s.climb_vs_fpm)
+            self._set("ap/target/altitude-ft", target_ft)
+            self._set("ap/target/altitude-rate-fps", 0.0)
             self._set("ap/target/vs-min-fpm", -1000.0)
+            power = s.climb_throttle
+            if power is not None and self.phase == 0 and target_ft - p_alt_m / FT > FLCH_CAPTURE_FT:
+                self._set("ap/target/throttle-fixed", power)
+                self._set("ap/target/vs-max-fpm", self._level_change(cas_kt - ias))
+            else:
+                self._set("ap/target/throttle-fixed", -1.0)
+                self._set("ap/target/vs-max-fpm", s.climb_vs_fpm)
         else:
+            self._set("ap/target/throttle-fixed", -1.0)
             self._set("ap/target/use-pressure-altitude", 0)
-            self._set("ap/target/altitude-ft", r.arrival_h_ellipsoid_m / FT)
+            along = max(0.0, to_go - 8 * NM)
+            target_m = r.arrival_h_ellipsoid_m + along * grad
+            rate = -gs_mps * grad if along > 0.0 else 0.0
+            held = self._level_off("descent", self.profile.descent_level_off, t, p_alt_m / FT, rising=False)
+            if held is not None:  # the restriction's pressure altitude as a height here
+                hold_m = h_ell_m + (held * FT - p_alt_m)
+                if hold_m > target_m:
+                    target_m, rate = hold_m, 0.0
+            self._set("ap/target/altitude-ft", target_m / FT)
+            self._set("ap/target/altitude-rate-fps", rate / FT)
+            self._set("ap/target/altitude-t0-sec", t)
             self._set("ap/target/vs-max-fpm", 1000.0)
-            self._set("ap/target/vs-min-fpm", s.descent_vs_fpm)
+            self._set("ap/target/vs-min-fpm", s.descent_vs_fpm if s.climb_throttle is None else DESCENT_VS_MIN_FPM)
         if self.phase == 1 or (self.phase == 0 and levelled):
             self._set("ap/target/speed-mode", 2)
             self._set("ap/target/tas-kt", s.cruise_tas_kt)
         else:
-            ias = {0: s.climb_ias_kt, 2: s.descent_ias_kt, 3: s.arrival_ias_kt}[self.phase]
-            if self.phase == 0:
-                # no faster than the cruise TAS: its calibrated equivalent here is cruise_tas * CAS/TAS
-                ias = min(ias, s.cruise_tas_kt * cas_kt / max(tas_kt, 1.0))
-            if to_go < 25 * NM:
-                ias = min(ias, s.arrival_ias_kt)
-            if h_ell_m - r.undulation_m < TEN_THOUSAND_FT:
-                ias = min(ias, US_SPEED_LIMIT_KT)
             self._set("ap/target/speed-mode", 0)
             self._set("ap/target/ias-kt", ias)
         return True
 
 
-def _initial_conditions(fdm, route: Route, af: Airframe, atmosphere: Atmosphere, t0_s: float) -> None:
+def _initial_conditions(
+    fdm, route: Route, af: Airframe, atmosphere: Atmosphere, t0_s: float, mass_kg: float | None = None
+) -> None:
     lat, lon = route.waypoints[0][1], route.waypoints[0][2]
     fdm["ic/lat-geod-deg"] = lat
     fdm["ic/long-gc-deg"] = lon
@@ -192,6 +262,8 @@ def _initial_conditions(fdm, route: Route, af: Airframe, atmosphere: Atmosphere,
             fdm[f"propulsion/tank[{i}]/contents-lbs"] = lbs
     for k, v in af.extra_ic.items():
         fdm[k] = v
+    if mass_kg is not None:
+        set_mass(fdm, mass_kg)
     set_atmosphere(fdm, route, atmosphere, lat, lon, t0_s)
     u, v, w = (
         float(np.asarray(c).ravel()[0])
@@ -238,15 +310,25 @@ def fly_route(
 ) -> TruthTrack:
     """Fly `route` with JSBSim and return its TruthTrack (10 Hz). `turbulence`: the
     disturbances of a real flight (MIL-F-8785C patches, light chop and the autopilot's
-    steering wander, aerotruth.truth.steering); without it the flight is calm and its
-    guidance noiseless. Raises FlightDiverged."""
+    steering wander, aerotruth.truth.steering); without it the air is calm and the guidance
+    noiseless. The vertical profile's draws (aerotruth.truth.profile) are part of every
+    flight. Raises FlightDiverged."""
     af = aircraft if isinstance(aircraft, Airframe) else airframe(aircraft)
     atmosphere = atmosphere if atmosphere is not None else UniformAtmosphere()
     rng = np.random.default_rng(seed)
     day0 = route.departure_utc.replace(hour=0, minute=0, second=0, microsecond=0)
     t0_s = (route.departure_utc - day0).total_seconds()
     fdm = new_fdm(af, DT)
-    _initial_conditions(fdm, route, af, atmosphere, t0_s)
+    # the flight's vertical profile (mass, descent path, ATC level-offs) from its own named
+    # stream, the same calm or turbulent (aerotruth.truth.profile)
+    seq = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    profile = draw_profile(
+        seeds.generator(seeds.child(seq, "profile")),
+        route.cruise_pressure_altitude_m / FT,
+        (route.arrival_h_ellipsoid_m - route.undulation_m) / FT,
+        mass=af.name == "saab340",
+    )
+    _initial_conditions(fdm, route, af, atmosphere, t0_s, profile.mass_kg)
     # JSBSim's milspec turbulence in patches along the path with the MIL-F-8785C climatology
     # (aerotruth.truth.turbulence); its generator is seeded from the flight's stream
     patches = TurbulencePatches(fdm, rng) if turbulence else None
@@ -259,7 +341,7 @@ def fly_route(
     # autopilot (filters, rate limiters) during initialisation and trim, and stale targets
     # there (altitude 0, the default leg normal) started every leg with a -1,200 fpm dive
     # and a 17 deg roll transient
-    guide = _Guide(route, af, fdm)
+    guide = _Guide(route, af, fdm, profile)
     s = af.schedule
     for prop, value in (
         ("ap/target/use-pressure-altitude", 1),
@@ -378,6 +460,7 @@ def fly_route(
             "turbulence_patches": patches.meta() if patches is not None else [],
             "chop_patches": [[round(a, 1), round(sw, 3)] for a, sw in chop.patches] if chop is not None else [],
             "rate_hz": 1.0 / (DT * RECORD_EVERY),
+            "vertical_profile": asdict(profile),
         }
     )
     meta["config_hash"] = params_digest({k: meta[k] for k in sorted(meta) if k != "config_hash"})
@@ -420,7 +503,8 @@ def fly_leg(
 ) -> TruthTrack:
     """Fly a routes.LegPlan through the day's truth atmosphere (unless one is given).
     `seed` (int or SeedSequence) selects the atmosphere realization of the day and the
-    flight's own draws (turbulence, chop, steering wander). Raises FlightDiverged."""
+    flight's own draws (turbulence, chop, steering wander, vertical profile). Raises
+    FlightDiverged."""
     if atmosphere is None:
         from aerotruth.truth.weather import truth_atmosphere_for
 
