@@ -236,3 +236,26 @@ def test_realism_command_without_measured_flights_says_where_it_looked(tmp_path,
     assert main(["realism", "--legs", "0", "--approaches", "0"]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and "no measured flights" in err[0] and "empty" in err[0]
+
+
+def test_multi_aircraft_traffic_is_read_per_flight(tmp_path):
+    """A state table of two aircraft (the traffic library's columns) is two trajectories, each
+    measured on its own: the one flying a 20-m cosine about its great circle shows a wander of
+    20 / sqrt(2) m, the straight one none."""
+    from aerotruth.app.realism import real_trajectories
+
+    rows = []
+    for icao, lat0, amp in (("abc123", 45.0, 20.0), ("def456", 46.0, 0.0)):
+        df = _straight(1201, lat0, -93.0, 60.0, 250.0, cross_m=lambda t, a=amp: a * np.cos(2 * np.pi * t / 150.0))
+        df["timestamp"] = 1_250_341_200.0 + df["time_s"]
+        df["icao24"] = icao
+        df = df.rename(columns={"altitude_ft": "altitude", "groundspeed_kt": "groundspeed", "track_deg": "track"})
+        df["heading"], df["TAS"], df["vertical_rate"], df["roll"] = 58.0, 240.0, 0.0, 0.0
+        rows.append(df.drop(columns=["time_s", "roll_deg"]))
+    f = tmp_path / "traffic.csv"
+    pd.concat(rows).to_csv(f, index=False)
+    out = dict(real_trajectories(f))
+    assert sorted(out) == ["traffic.csv:abc123:1", "traffic.csv:def456:1"]
+    wander = realism.profile_samples(out["traffic.csv:abc123:1"])["wander_rms_m"]
+    np.testing.assert_allclose(wander, 20.0 / math.sqrt(2), rtol=0.03)
+    assert realism.profile_samples(out["traffic.csv:def456:1"])["wander_rms_m"].max() < 0.5

@@ -154,10 +154,11 @@ def real_trajectories(path: Path) -> list[tuple[str, pd.DataFrame]]:
 
     try:
         m = load_measured(path)
-    except DataError as e:
-        if "more than one aircraft" not in str(e) and "icao24" not in str(e):
-            raise
-        return _traffic_trajectories(path)
+    except DataError as e:  # several aircraft, or a traffic format of its own: the traffic reader's
+        try:
+            return _traffic_trajectories(path)
+        except DataError:
+            raise e from None
     df = m.df
     if m.kind == "modes_raw":
         return [(path.name, _raw_trajectory(df, path))]
@@ -175,12 +176,29 @@ def real_trajectories(path: Path) -> list[tuple[str, pd.DataFrame]]:
 def _traffic_trajectories(path: Path) -> list[tuple[str, pd.DataFrame]]:
     from aerotruth.measured.traffic import read_traffic
 
-    tr = read_traffic(path)
+    tr = read_traffic(path)  # the canonical traffic table (aerotruth.measured.traffic)
+    keys = [k for k in ("aircraft", "flight") if k in tr]
     out = []
-    key = "flight" if "flight" in tr else "icao24"
-    for name, g in tr.groupby(key, sort=True):
-        if len(g) >= 60:
-            out.append((f"{path.name}:{name}", measured_trajectory(g.sort_values("time_s"))))
+    for name, g in tr.groupby(keys, sort=True):
+        if len(g) < 60:
+            continue
+        g = g.sort_values("time_s")
+        traj = pd.DataFrame(
+            {
+                "time_s": g["time_s"].to_numpy(float),
+                "altitude_ft": g["pressure_altitude_ft"].to_numpy(float),
+                "groundspeed_kt": g["gs_kt"].to_numpy(float),
+                "track_deg": g["track_deg"].to_numpy(float) % 360.0,
+                "latitude": g["lat"].to_numpy(float),
+                "longitude": g["lon"].to_numpy(float),
+            }
+        )
+        if "roll_deg" in g:
+            traj["roll_deg"] = g["roll_deg"].to_numpy(float)
+        label = ":".join(str(v) for v in (name if isinstance(name, tuple) else (name,)))
+        out.append((f"{path.name}:{label}", traj))
+    if not out:
+        raise DataError(f"{path}: no aircraft with 60 or more states: no flight profile to compare")
     return out
 
 
