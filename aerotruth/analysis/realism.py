@@ -6,8 +6,8 @@ Input: a trajectory table with `time_s` (s), `altitude_ft` (barometric), `ground
 `roll_deg`. Samples need not be regular; gaps longer than GAP_S split the trajectory into
 pieces that are measured apart. Manoeuvring beyond any airline profile (a 30-s vertical
 rate above 6,000 fpm, as in a parabolic flight) is left out with 2 min either side.
-`position_track_check` tells whether a file's track column is the track its positions
-fly. Every statistic is a set of samples (one per second, per window, per turn or per
+`with_position_track` puts the positions' track in place of a track column that is not the
+track the positions fly. Every statistic is a set of samples (one per second, per window, per turn or per
 approach, as named), so that two sources are compared as distributions (`compare`).
 
 What each measures (all heights barometric, as Mode-S reports them):
@@ -90,22 +90,24 @@ def _pieces(t: np.ndarray) -> list[slice]:
     return [slice(int(a), int(b)) for a, b in zip(edges[:-1], edges[1:], strict=True) if b > a]
 
 
-def vertical_rate_fpm(t: np.ndarray, alt_ft: np.ndarray, half_s: float = RATE_HALF_WINDOW_S) -> np.ndarray:
-    """(alt(t + h) - alt(t - h)) / 2h in ft/min, the altitude interpolated in time; NaN
-    where the window leaves the samples. One piece (no gaps) of finite altitudes."""
+def centred_rate(t: np.ndarray, x: np.ndarray, half_s: float) -> np.ndarray:
+    """(x(t + h) - x(t - h)) / 2h per second, x interpolated in time; NaN where the window
+    leaves the samples. One piece (no gaps) of finite values."""
     out = np.full(len(t), np.nan)
     ok = (t - half_s >= t[0]) & (t + half_s <= t[-1])
     if ok.any():
-        up = np.interp(t[ok] + half_s, t, alt_ft)
-        dn = np.interp(t[ok] - half_s, t, alt_ft)
-        out[ok] = (up - dn) / (2.0 * half_s) * 60.0
+        out[ok] = (np.interp(t[ok] + half_s, t, x) - np.interp(t[ok] - half_s, t, x)) / (2.0 * half_s)
     return out
+
+
+def vertical_rate_fpm(t: np.ndarray, alt_ft: np.ndarray, half_s: float = RATE_HALF_WINDOW_S) -> np.ndarray:
+    """The altitude's centred rate over +-half_s in ft/min."""
+    return centred_rate(t, alt_ft, half_s) * 60.0
 
 
 def track_rate_deg_s(t: np.ndarray, track_deg: np.ndarray, half_s: float = 2.5) -> np.ndarray:
     """Centred track rate (deg/s) over +-half_s, the track unwrapped first."""
-    u = np.degrees(np.unwrap(np.radians(track_deg)))
-    return vertical_rate_fpm(t, u, half_s) / 60.0
+    return centred_rate(t, np.degrees(np.unwrap(np.radians(track_deg))), half_s)
 
 
 def _circ_dev_deg(track_deg: np.ndarray, ref_deg: float) -> np.ndarray:
@@ -318,6 +320,20 @@ def position_track_check(traj: pd.DataFrame) -> float:
         return math.nan
     reported = d["track_deg"].to_numpy(float)[fast]
     return float(np.median(np.abs((reported - pt[fast] + 180.0) % 360.0 - 180.0)))
+
+
+def with_position_track(traj: pd.DataFrame) -> tuple[pd.DataFrame, float]:
+    """The trajectory with its track column checked against its positions: where the median
+    disagreement exceeds TRACK_AGREE_DEG the track becomes the positions' (samples sorted,
+    one per time). Returns (trajectory, median disagreement in deg, NaN without positions)."""
+    off = position_track_check(traj)
+    if not (math.isfinite(off) and off > TRACK_AGREE_DEG):
+        return traj, off
+    out = traj.sort_values("time_s").drop_duplicates("time_s").reset_index(drop=True)
+    out["track_deg"] = position_track_deg(
+        out["time_s"].to_numpy(float), out["latitude"].to_numpy(float), out["longitude"].to_numpy(float)
+    )
+    return out, off
 
 
 def profile_samples(traj: pd.DataFrame, where: str = "trajectory") -> dict[str, np.ndarray]:

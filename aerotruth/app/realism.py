@@ -53,7 +53,6 @@ STUDY_SEED = 48  # the study's own streams: ("realism", ...) children of it
 class Side:
     """One side of the comparison: its trajectories' samples and what was left out."""
 
-    name: str
     samples: list[dict[str, np.ndarray]]
     notes: list[str]
 
@@ -61,23 +60,43 @@ class Side:
         return realism.pooled(self.samples)
 
 
+# source column -> trajectory column, per source: a decoded Mode-S track or measured state
+# table (aerotruth.measured.kinds), and the canonical traffic table (aerotruth.measured.traffic)
+MEASURED_COLUMNS = {
+    "altitude": "altitude_ft",
+    "groundspeed": "groundspeed_kt",
+    "track": "track_deg",
+    "latitude": "latitude",
+    "longitude": "longitude",
+    "roll": "roll_deg",
+}
+TRAFFIC_COLUMNS = {
+    "pressure_altitude_ft": "altitude_ft",
+    "gs_kt": "groundspeed_kt",
+    "track_deg": "track_deg",
+    "lat": "latitude",
+    "lon": "longitude",
+    "roll_deg": "roll_deg",
+}
+
+
+def _trajectory(t: np.ndarray, frame: pd.DataFrame, columns: dict[str, str]) -> pd.DataFrame:
+    """The trajectory aerotruth.analysis.realism reads: times `t` and the frame's columns
+    renamed by `columns` (the first three required, the others where present)."""
+    out = pd.DataFrame({"time_s": t})
+    for i, (src, dst) in enumerate(columns.items()):
+        if i < 3 or src in frame:
+            out[dst] = pd.to_numeric(frame[src], errors="coerce").to_numpy(float)
+    out["track_deg"] %= 360.0
+    return out
+
+
 def measured_trajectory(track: pd.DataFrame) -> pd.DataFrame:
     """A decoded Mode-S track (aerotruth.sensors.modes.decoded_track's columns) or a
     measured state table (time_s, altitude, groundspeed, track, latitude, longitude, roll)
     as the trajectory aerotruth.analysis.realism reads."""
     t = track["time_s"].to_numpy(float) if "time_s" in track else track["timestamp"].to_numpy(float) / 1000.0
-    out = pd.DataFrame(
-        {
-            "time_s": t,
-            "altitude_ft": track["altitude"].to_numpy(float),
-            "groundspeed_kt": track["groundspeed"].to_numpy(float),
-            "track_deg": track["track"].to_numpy(float) % 360.0,
-        }
-    )
-    for src, dst in (("latitude", "latitude"), ("longitude", "longitude"), ("roll", "roll_deg")):
-        if src in track:
-            out[dst] = pd.to_numeric(track[src], errors="coerce").to_numpy(float)
-    return out
+    return _trajectory(t, track, MEASURED_COLUMNS)
 
 
 def _modes_trajectory(truth_df: pd.DataFrame, rng: np.random.Generator, every: int) -> pd.DataFrame:
@@ -144,7 +163,7 @@ def simulated_side(n_legs: int, n_approaches: int, turbulence: bool, store_root:
             continue
         traj = _modes_trajectory(flown.track.df, seeds.generator(seeds.child(root, "modes", "approach", i)), 5)
         samples.append(realism.profile_samples(traj, f"approach {icao} {rwy}"))
-    return Side("sim", samples, notes)
+    return Side(samples, notes)
 
 
 def real_trajectories(path: Path) -> list[tuple[str, pd.DataFrame]]:
@@ -183,18 +202,7 @@ def _traffic_trajectories(path: Path) -> list[tuple[str, pd.DataFrame]]:
         if len(g) < 60:
             continue
         g = g.sort_values("time_s")
-        traj = pd.DataFrame(
-            {
-                "time_s": g["time_s"].to_numpy(float),
-                "altitude_ft": g["pressure_altitude_ft"].to_numpy(float),
-                "groundspeed_kt": g["gs_kt"].to_numpy(float),
-                "track_deg": g["track_deg"].to_numpy(float) % 360.0,
-                "latitude": g["lat"].to_numpy(float),
-                "longitude": g["lon"].to_numpy(float),
-            }
-        )
-        if "roll_deg" in g:
-            traj["roll_deg"] = g["roll_deg"].to_numpy(float)
+        traj = _trajectory(g["time_s"].to_numpy(float), g, TRAFFIC_COLUMNS)
         label = ":".join(str(v) for v in (name if isinstance(name, tuple) else (name,)))
         out.append((f"{path.name}:{label}", traj))
     if not out:
@@ -241,16 +249,12 @@ def real_side(paths: list[Path]) -> Side:
     positions' track, and said."""
     samples, notes = [], []
     for p in paths:
-        for label, traj in real_trajectories(p):
-            off = realism.position_track_check(traj)
-            if math.isfinite(off) and off > realism.TRACK_AGREE_DEG:
-                traj = traj.sort_values("time_s").drop_duplicates("time_s").reset_index(drop=True)
-                traj["track_deg"] = realism.position_track_deg(
-                    traj["time_s"].to_numpy(float), traj["latitude"].to_numpy(float), traj["longitude"].to_numpy(float)
-                )
+        for label, measured in real_trajectories(p):
+            traj, off = realism.with_position_track(measured)
+            if traj is not measured:
                 notes.append(f"{label}: track column {off:.0f} deg (median) from the positions' track; positions used")
             samples.append(realism.profile_samples(traj, label))
-    return Side("real", samples, notes)
+    return Side(samples, notes)
 
 
 def default_real_files() -> list[Path]:
