@@ -115,18 +115,25 @@ def _day():
 
 @pytest.mark.slow
 @pytest.mark.parametrize(
-    "hidden, effect, param, size",
+    "hidden, effect, param, size, seed",
     [
-        ({}, None, None, None),
-        ({"table_error_deg": 4.0}, "heading_offset", "A_deg", 4.0),
-        ({"heading_lag_s": 2.0}, "heading_time_offset", "D_s", 2.0),
+        # nothing hidden, four sensor seeds on the same flights: the day's own structure (its
+        # wind against each heading, the autopilot's weave) is common to all four, so a
+        # jackknife that leaves it in every replicate names it in several (interleaved
+        # 900-s blocks named a -0.36 deg heading offset at p 0.001 with seed 2)
+        ({}, None, None, None, 0),
+        ({}, None, None, None, 1),
+        ({}, None, None, None, 2),
+        ({}, None, None, None, 3),
+        ({"table_error_deg": 4.0}, "heading_offset", "A_deg", 4.0, 0),
+        ({"heading_lag_s": 2.0}, "heading_time_offset", "D_s", 2.0, 0),
     ],
 )
-def test_effects_hidden_in_a_simulated_mode_s_day_are_found_and_nothing_else(hidden, effect, param, size):
+def test_effects_hidden_in_a_simulated_mode_s_day_are_found_and_nothing_else(hidden, effect, param, size, seed):
     from aerotruth.measured.modes import track_from_measured
     from aerotruth.sim.modes_data import simulated_modes_day
 
-    frame, _ = track_from_measured(simulated_modes_day(_day(), rng=np.random.default_rng(0), **hidden))
+    frame, _ = track_from_measured(simulated_modes_day(_day(), rng=np.random.default_rng(seed), **hidden))
     findings, _ = diagnose_track(frame)
     if effect is None:
         assert findings == []

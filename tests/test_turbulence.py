@@ -147,6 +147,26 @@ def test_steering_wander_is_gauss_markov_with_its_variance_and_correlation_time(
     assert rho == pytest.approx(np.exp(-1.0), abs=0.04)
 
 
+def test_navigation_error_is_gauss_markov_in_feet_with_its_variance_and_correlation_time():
+    # the same first-order Gauss-Markov checks for the FMS's cross-track error, which is set
+    # into JSBSim in feet (the metres it is drawn in / 0.3048), stepped at the 1-s guidance tick
+    from aerotruth.truth.steering import NAV_PROPERTY, NavigationError
+
+    sigma, tau, n_runs, n = 15.0, 60.0, 200, 600
+    x = np.empty((n_runs, n))
+    for r in range(n_runs):
+        fdm = _Fdm()
+        e = NavigationError(fdm, np.random.default_rng([11, r]), sigma_m=sigma, tau_s=tau)
+        for _k in range(n):
+            e.step(1.0)
+        x[r] = np.asarray(fdm.pm.nodes[NAV_PROPERTY].values[1:]) * 0.3048
+    assert np.std(x[:, 0]) == pytest.approx(sigma, rel=0.15)
+    assert np.std(x) == pytest.approx(sigma, rel=0.05)
+    lag = int(tau)
+    rho = np.mean(x[:, :-lag] * x[:, lag:]) / np.mean(x * x)
+    assert rho == pytest.approx(np.exp(-1.0), abs=0.05)
+
+
 def test_mil8785_intensity_matches_hand_worked_values():
     from aerotruth.truth.turbulence import mil8785_intensity
 

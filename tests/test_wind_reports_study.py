@@ -69,15 +69,15 @@ def _steady_level(obs, perfect_valve: bool = False):
     return obs[sel]
 
 
-def _straight_for(obs, rows, seconds: float) -> np.ndarray:
+def _straight_for(obs, rows, seconds: float, turn_deg: float = 1.0) -> np.ndarray:
     """Whether each of `rows` comes `seconds` after the flight's last turn: the first level
-    report, or a truth-heading change of more than 1 deg between consecutive reports."""
+    report, or a truth-heading change of more than `turn_deg` between consecutive reports."""
     ok = []
     for _, r in rows.iterrows():
         f = obs[(obs["flight"] == r["flight"]) & (obs["time"] <= r["time"])].sort_values("time")
         lv = f[f["phase"] == "level"]
         dpsi = ((f["truth_heading_deg"].diff() + 180.0) % 360.0 - 180.0).abs()
-        turns = f["time"][dpsi > 1.0]
+        turns = f["time"][dpsi > turn_deg]
         start = max(lv["time"].min(), turns.max() if len(turns) else -np.inf)
         ok.append(r["time"] - start >= seconds)
     return np.array(ok, dtype=bool)
@@ -110,14 +110,19 @@ def test_ideal_sensors_report_the_truth_wind_and_a_sensor_change_reflies_nothing
     # only the sensors change: the same two legs come from the store, nothing is flown
     s2, obs2, _ = _run(campaign(HARD_IRON_VALVE, NO_NOISE), tmp_path / "b")
     assert s2.legs_flown == 0
-    # the same reports whose windows the perfect valve showed steady (the same flights and triggers)
-    steady = _steady_level(obs, perfect_valve=True).set_index(["flight", "sample_index"]).index
+    # the same reports of the same flights, paired: the pendulum's tilt (the autopilot's
+    # steering wander banks the valve by ~0.65 deg rms, tan(I) ~ 3.5 at Minnesota) is the
+    # same in both runs, so the hard-iron valve's error less the perfect valve's is the
+    # deviation alone (to first order: the deviation's slope, <= 0.03 deg/deg, times the
+    # tilt's ~0.5 deg)
+    key = ["flight", "sample_index"]
+    perfect = _steady_level(obs).set_index(key)
     level = _steady_level(obs2)
-    level = level[level.set_index(["flight", "sample_index"]).index.isin(steady)]
-    # after five slaving time constants of straight level flight (the tilt errors of the
-    # climb and of en-route course changes decayed): a change of the truth heading of more
-    # than 1 deg between consecutive reports restarts the clock
-    level = level[_straight_for(obs2, level, 300.0)]
+    level = level[level.set_index(key).index.isin(perfect.index)]
+    # after five slaving time constants of straight level flight (the slaved gyro has moved
+    # to the new heading's deviation): a course change (truth heading changing by more than
+    # 3 deg between consecutive reports: more than the wander's ~1 deg) restarts the clock
+    level = level[_straight_for(obs2, level, 300.0, turn_deg=3.0)]
     assert len(level) >= 3
     _, valve = aircraft_heading(
         11, "f", "N1", FluxValveFleetSpec(poor_fraction=1, soft_iron_sigma=0, mounting_sigma_deg=0)
@@ -136,15 +141,14 @@ def test_ideal_sensors_report_the_truth_wind_and_a_sensor_change_reflies_nothing
     psi = np.radians(level["truth_heading_deg"].to_numpy() - dec)
     expected = np.degrees(np.arctan2(h * np.sin(psi) - py, h * np.cos(psi) + px) - psi)
     expected = (expected + 180) % 360 - 180
-    measured = (level["heading_deg"] - level["truth_heading_deg"] + 180) % 360 - 180
+    tilt = perfect.loc[level.set_index(key).index]
+    measured = (level["heading_deg"].to_numpy() - tilt["heading_deg"].to_numpy() + 180) % 360 - 180
     assert np.max(np.abs(expected)) > 0.5  # the hard iron is large enough to matter
-    # what remains is the pendulum's tilt, filtered by the slaving and the 10-s mean of the
-    # reported heading: under the truth's gusts, and steadily while the autopilot turns
-    # slowly to hold its track in a wind that changes along it (on this leg the truth
-    # heading drifts 24.7 -> 23.7 deg over the three reports at -0.03 to -0.06 deg of bank:
-    # residuals -0.10 to -0.16 deg)
-    residual = measured.to_numpy() - expected
-    assert np.max(np.abs(residual)) < 0.3 and abs(np.mean(residual)) < 0.2
+    # what remains: the slaved gyro's approach to the deviation where the heading drifts
+    # (the autopilot holding its track through the wind's change along it) and the 10-s
+    # mean of a heading that wanders by a fraction of a degree
+    residual = measured - expected
+    assert np.max(np.abs(residual)) < 0.15 and abs(np.mean(residual)) < 0.1
 
 
 @pytest.mark.parametrize(

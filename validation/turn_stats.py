@@ -8,7 +8,7 @@ than 1 deg/s (in turbulence, gusts too), `roll_in` only those banked more than 3
 rolling further away from wings level.
 
 The truth side: the legs of Mesaba aircraft-days (the campaign's daily schedules in the
-day's truth weather; turbulence, light chop and the steering wander on unless `--calm`),
+day's truth weather; turbulence and light chop on unless `--calm`; the steering wander is in every flight),
 resampled to 1 Hz as the recorder is.
 
 Prints `label: value` lines (A320 and truth side by side, and the truth/A320 ratios).

@@ -37,7 +37,7 @@ from aerotruth.truth.fdm import (
 )
 from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, turn_anticipation_m
 from aerotruth.truth.profile import VerticalProfile, draw_profile
-from aerotruth.truth.steering import SteeringWander
+from aerotruth.truth.steering import NavigationError, SteeringWander
 from aerotruth.truth.track import PHASES, TruthTrack
 from aerotruth.truth.turbulence import ChopGusts, TurbulencePatches
 from aerotruth.truth.weather import Atmosphere, UniformAtmosphere
@@ -309,10 +309,10 @@ def fly_route(
     meta: dict | None = None,
 ) -> TruthTrack:
     """Fly `route` with JSBSim and return its TruthTrack (10 Hz). `turbulence`: the
-    disturbances of a real flight (MIL-F-8785C patches, light chop and the autopilot's
-    steering wander, aerotruth.truth.steering); without it the air is calm and the guidance
-    noiseless. The vertical profile's draws (aerotruth.truth.profile) are part of every
-    flight. Raises FlightDiverged."""
+    atmosphere's disturbances (MIL-F-8785C patches and light chop); without it the air is
+    calm. The guidance's own errors (the autopilot's steering wander and the FMS's
+    navigation error, aerotruth.truth.steering) and the vertical profile's draws
+    (aerotruth.truth.profile) are part of every flight. Raises FlightDiverged."""
     af = aircraft if isinstance(aircraft, Airframe) else airframe(aircraft)
     atmosphere = atmosphere if atmosphere is not None else UniformAtmosphere()
     rng = np.random.default_rng(seed)
@@ -334,8 +334,10 @@ def fly_route(
     patches = TurbulencePatches(fdm, rng) if turbulence else None
     # light chop below the MIL-F-8785C curves (the A320 recorder's climatology), its own stream
     chop = ChopGusts(fdm, rng.spawn(1)[0], fdm["metrics/bw-ft"] * FT) if turbulence else None
-    # the autopilot's steering wander (the A320 recorder's weave in straight flight), its own stream
-    wander = SteeringWander(fdm, rng.spawn(1)[0]) if turbulence else None
+    # the autopilot's steering wander (the A320 recorder's weave in straight flight) and the
+    # FMS's navigation error: in every flight, calm or not, each on its own named stream
+    wander = SteeringWander(fdm, seeds.generator(seeds.child(seq, "steering")))
+    nav_error = NavigationError(fdm, seeds.generator(seeds.child(seq, "navigation")))
     path_m = 0.0
     # guidance and targets before the initial condition is run: JSBSim evaluates the
     # autopilot (filters, rate limiters) during initialisation and trim, and stale targets
@@ -413,8 +415,9 @@ def fly_route(
         dt_g = GUIDE_EVERY * DT
         ground = route.departure_elevation_msl_m if guide.phase < 2 else route.arrival_elevation_msl_m
         wind_ahead.update(t, lat, lon, h_ft * FT, route.undulation_m, vn, ve, vd, ground)
+        nav_error.step(dt_g)
         if patches is not None:
-            assert chop is not None  # patches, chop and wander all exist iff turbulence
+            assert chop is not None  # patches and chop exist iff turbulence
             if patches.due(path_m):
                 patches.update_from(path_m, atmosphere, lat, lon, ground, t0_s + t)
             if chop.due(path_m):
@@ -428,9 +431,8 @@ def fly_route(
             rows.append([g() for g in getters])
             tags.append(tag)
             if chop is not None:
-                assert wander is not None
                 chop.step(g_vt() * FPS, g_psi())
-                wander.step()
+            wander.step()
             for _ in range(RECORD_EVERY):
                 run()
 
@@ -503,8 +505,8 @@ def fly_leg(
 ) -> TruthTrack:
     """Fly a routes.LegPlan through the day's truth atmosphere (unless one is given).
     `seed` (int or SeedSequence) selects the atmosphere realization of the day and the
-    flight's own draws (turbulence, chop, steering wander, vertical profile). Raises
-    FlightDiverged."""
+    flight's own draws (turbulence, chop, steering wander, navigation error, vertical
+    profile). Raises FlightDiverged."""
     if atmosphere is None:
         from aerotruth.truth.weather import truth_atmosphere_for
 

@@ -1,5 +1,20 @@
-"""The lateral guidance's steering wander: the small turns an airline autopilot keeps making
-in straight flight, which a noiseless guidance loop does not.
+"""The lateral guidance's own errors, in calm air as in turbulence: the steering wander (the
+small turns an airline autopilot keeps making in straight flight, which a noiseless guidance
+loop does not) and the navigation error (the FMS flies the path where it believes it is).
+
+Navigation error (NavigationError). The LNAV steers the cross-track the FMS computes from
+its position estimate, so the aircraft flies its path offset by the estimate's cross-track
+error plus the path-steering law's own slow error (flight technical error): a first-order
+Gauss-Markov offset, NAV_SIGMA_M rms with correlation time NAV_TAU_S, updated at the 1-Hz
+guidance tick, added to the cross-track the XML steers (`ap/nav/position-error-ft`). The
+LNAV closes a cross-track error with a ~60-s time constant at cruise speed
+(gains_saab340.xml: 4e-5 rad of intercept per ft), so the truth follows the offset's
+slow part. Sizes: a GNSS-updated position errs by a few metres with correlation times of
+tens of minutes, autopilot path steering by tens of metres; real airliners' 600-s straight
+stretches leave 3-13 m rms about their great circle in calm air (Mode-S positions; the
+`aerotruth realism` study measures it: `wander_rms_m`), which a 15-m, 600-s process gives
+after the window's own great-circle fit takes out its offset and heading (an estimate fitted
+to those figures, not a published navigation-error statistic).
 
 What it stands for. In straight flight above 10,000 ft the real A320 recorder extract
 (../shared/real-data/fuelflow_a320.json.gz, 1 Hz) banks 0.32 deg rms (|roll| < 3 deg,
@@ -61,6 +76,9 @@ STEER_SIGMA_RAD = 0.65 * DEG  # rms error of the bank the roll channel commands 
 STEER_TAU_S = 5.0  # its correlation time
 STEER_DT_S = 0.1  # updated at the truth's 10 Hz
 STEER_PROPERTY = "ap/roll/wander-rad"
+NAV_SIGMA_M = 15.0  # rms of the navigation (position + path-steering) cross-track error
+NAV_TAU_S = 600.0  # its correlation time
+NAV_PROPERTY = "ap/nav/position-error-ft"
 
 
 class SteeringWander:
@@ -80,4 +98,31 @@ class SteeringWander:
         self.node.set_double_value(self.e)
 
 
-__all__ = ["STEER_DT_S", "STEER_PROPERTY", "STEER_SIGMA_RAD", "STEER_TAU_S", "SteeringWander"]
+class NavigationError:
+    """Gauss-Markov cross-track error of the FMS's path (module docstring), set into JSBSim
+    at every `step(dt_s)`."""
+
+    def __init__(self, fdm, rng: np.random.Generator, sigma_m: float = NAV_SIGMA_M, tau_s: float = NAV_TAU_S):
+        self.rng, self.sigma, self.tau = rng, sigma_m, tau_s
+        self.node = fdm.get_property_manager().get_node(NAV_PROPERTY, True)
+        self.e = sigma_m * float(rng.standard_normal())  # stationary from the start
+        self.node.set_double_value(self.e / 0.3048)
+
+    def step(self, dt_s: float) -> None:
+        """Advances the error by dt_s (exact discretization) and sets it (ft)."""
+        a = math.exp(-dt_s / self.tau)
+        self.e = a * self.e + self.sigma * math.sqrt(1.0 - a * a) * float(self.rng.standard_normal())
+        self.node.set_double_value(self.e / 0.3048)
+
+
+__all__ = [
+    "NAV_PROPERTY",
+    "NAV_SIGMA_M",
+    "NAV_TAU_S",
+    "STEER_DT_S",
+    "STEER_PROPERTY",
+    "STEER_SIGMA_RAD",
+    "STEER_TAU_S",
+    "NavigationError",
+    "SteeringWander",
+]

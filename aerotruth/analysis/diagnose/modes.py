@@ -160,36 +160,51 @@ def _cv_rms(track: pd.DataFrame, effects: tuple[str, ...], knot_s: float, folds:
     return math.sqrt(sq / n)
 
 
+def _jackknife_groups(t: np.ndarray) -> np.ndarray:
+    """The jackknife's groups: the record cut in time order into JACKKNIFE_GROUPS contiguous
+    pieces of equal sample count. Contiguous, not interleaved: what decides a heading effect
+    happens leg by leg and turn by turn (the day's wind against each heading, the weave of a
+    straight segment, register timing), and the wind spline couples neighbouring samples, so
+    short blocks dealt round the groups leave each leg's own error in every replicate and
+    the spread understates it (on null simulated days, interleaved 900-s blocks gave a
+    -0.36 deg heading offset p 0.001 that contiguous groups put at p 0.12)."""
+    rank = np.empty(len(t), dtype=int)
+    rank[np.argsort(t, kind="stable")] = np.arange(len(t))
+    return (rank * JACKKNIFE_GROUPS) // max(len(t), 1)
+
+
 def _jackknife_p(
-    track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], eff: str, f: dict, t: np.ndarray, block_s: float
+    track: pd.DataFrame, knot_s: float, effects: tuple[str, ...], eff: str, f: dict, t: np.ndarray
 ) -> tuple[float, np.ndarray]:
     """p-value of `eff`'s parameters = 0 and their standard errors: a Wald test with the
-    delete-one-group jackknife covariance, groups JACKKNIFE_GROUPS interleaved blocks of
-    `block_s`, F(q, J - 1). The errors that matter are not the samples' noise but what
-    happens turn by turn (register timing, gusts): the least-squares se, even inflated for
-    AR(1), made null days' timing offsets of 0.2-0.5 s look like p < 1e-10 (and on
-    simulated 4-leg days with a hidden 2-deg table error the estimates scatter 1.7x their
-    least-squares se). With fewer than 3 groups: p 1, se NaN."""
+    delete-one-group jackknife covariance (groups: `_jackknife_groups`), referred to
+    Hotelling's T^2 distribution for J groups, (J - q) / (q (J - 1)) W ~ F(q, J - q): the
+    covariance is itself estimated from J replicates, so W is not chi^2 (with J = 8 and
+    q = 2 a W of 12.4 is p 0.047, not the chi^2's 0.002). The errors that matter are not
+    the samples' noise but what happens turn by turn (register timing, gusts): the
+    least-squares se, even inflated for AR(1), made null days' timing offsets of 0.2-0.5 s
+    look like p < 1e-10 (and on simulated 4-leg days with a hidden 2-deg table error the
+    estimates scatter 1.7x their least-squares se). With fewer than q + 2 groups: p 1,
+    se NaN."""
     idx = [f["names"].index(nm) for nm in EFFECT_COLUMNS[eff]]
-    groups = (np.floor((t - t.min()) / block_s).astype(int)) % JACKKNIFE_GROUPS
+    groups = _jackknife_groups(t)
     thetas = []
     for g in np.unique(groups):
         keep = groups != g
         if keep.sum() < 50:
             continue
         thetas.append(fit(track, knot_s, effects, rows=keep)["coef"][idx])
-    J = len(thetas)
-    if J < 3:
-        return 1.0, np.full(len(idx), np.nan)
+    J, q = len(thetas), len(idx)
+    if J < max(3, q + 2):
+        return 1.0, np.full(q, np.nan)
     th = np.array(thetas)
     cov = (J - 1) / J * (th - th.mean(axis=0)).T @ (th - th.mean(axis=0))
     b = f["coef"][idx]
     w = float(b @ np.linalg.pinv(np.atleast_2d(cov)) @ b)
-    q = len(idx)
-    return float(stats.f.sf(w / q, q, J - 1)), np.sqrt(np.diag(np.atleast_2d(cov)))
+    return float(stats.f.sf(w * (J - q) / (q * (J - 1)), q, J - q)), np.sqrt(np.diag(np.atleast_2d(cov)))
 
 
-def heading_free_scale(track: pd.DataFrame, knot_s: float, t: np.ndarray, block_s: float) -> dict:
+def heading_free_scale(track: pd.DataFrame, knot_s: float, t: np.ndarray) -> dict:
     """The heading-free TAS scale (modes_wind.tas_scale_heading_free) with its
     delete-one-group jackknife standard error (groups as `_jackknife_p`'s). Identifiable as
     the heading-based scale is: the ground track in MIN_OCTANTS["tas_scale"] octants, at
@@ -207,7 +222,7 @@ def heading_free_scale(track: pd.DataFrame, knot_s: float, t: np.ndarray, block_
             f"not identifiable: {octants} ground-track octant(s) occupied, needs {MIN_OCTANTS['tas_scale']}"
         )
         return out
-    groups = (np.floor((t - t.min()) / block_s).astype(int)) % JACKKNIFE_GROUPS
+    groups = _jackknife_groups(t)
     thetas = [
         tas_scale_heading_free(track, knot_s, rows=groups != g) for g in np.unique(groups) if (groups != g).sum() >= 50
     ]
@@ -230,7 +245,6 @@ def diagnose_track(
     t = track["time_s"].to_numpy(float)
     span = float(t.max() - t.min()) if len(t) else 0.0
     block_s = min(block_s, span / (2 * k)) if span > 0 else block_s  # >= 2 blocks per fold on short records
-    jk_block_s = min(block_s, span / JACKKNIFE_GROUPS) if span > 0 else block_s
     folds = _folds(t, block_s, k)
     current: tuple[str, ...] = tuple(start)
     base_fit = fit(track, knot_s, current)
@@ -248,7 +262,7 @@ def diagnose_track(
     baseline["heading_octants_occupied"] = occupied
     turning = int(np.sum(np.abs(np.degrees(track["heading_rate_rad_s"].to_numpy(float))) > TURN_RATE_DEG_S))
     baseline["turning_samples"] = turning
-    free = heading_free_scale(track, knot_s, t, jk_block_s)
+    free = heading_free_scale(track, knot_s, t)
     baseline["tas_scale_heading_free"] = free
     baseline["rounds"] = []
     while True:
@@ -280,7 +294,7 @@ def diagnose_track(
             n = f["n"]
             dbic = n * math.log(f["rss"] / cur_fit["rss"]) + (f["p"] - cur_fit["p"]) * math.log(n)
             cv = _cv_rms(track, trial, knot_s, folds, k)
-            p, jk_se = _jackknife_p(track, knot_s, trial, eff, f, t, jk_block_s)
+            p, jk_se = _jackknife_p(track, knot_s, trial, eff, f, t)
             ok = dbic < DBIC_THRESHOLD and p < ALPHA / len(EFFECT_COLUMNS) and cv < (1 - MIN_HELD_OUT_GAIN) * cur_cv
             ses = dict(zip(EFFECT_COLUMNS[eff], map(float, jk_se), strict=False))  # the block jackknife's, as the test
             outcome = "passes" if ok else "not significant"

@@ -129,9 +129,10 @@ class HeadingCorrectionConfig(Section):
     max_legs_per_day: StrictInt | None = Field(default=None, ge=1, le=72)
     turbulence: StrictBool = Field(
         default=False,
-        description="fly the truth legs with a real flight's disturbances "
-        "(MIL-F-8785C patches and light chop, aerotruth.truth.turbulence; the "
-        "autopilot's steering wander, aerotruth.truth.steering)",
+        description="fly the truth legs with the atmosphere's disturbances "
+        "(MIL-F-8785C patches and light chop, aerotruth.truth.turbulence); the "
+        "autopilot's steering wander and the FMS's navigation error "
+        "(aerotruth.truth.steering) are in every leg",
     )
     sensors: WindSensors = Field(default_factory=WindSensors)
     selection: Selection
