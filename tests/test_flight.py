@@ -67,6 +67,35 @@ def test_truth_wind_varies_along_the_flight(msp_dlh):
 
 
 @pytest.mark.slow
+def test_fly_by_turns_bank_at_half_the_course_change_up_to_23_deg(msp_dlh, anc_dlg):
+    # DO-236B's fly-by transition: bank min(course change / 2, 23 deg). The course change
+    # at each waypoint from pyproj's geodesic azimuths (not the truth's guidance geometry);
+    # the bank the largest |roll| within 90 s of the waypoint's closest approach (the
+    # steering wander adds ~0.65 deg rms)
+    import pyproj
+
+    geod = pyproj.Geod(ellps="WGS84")
+    checked = []
+    for plan, track in (msp_dlh, anc_dlg):
+        df = track.df
+        lat, lon, t = df["lat_deg"].to_numpy(), df["lon_deg"].to_numpy(), df["time_s"].to_numpy()
+        roll = np.degrees(np.abs(df["roll_rad"].to_numpy()))
+        wp = plan.waypoints
+        for k in range(1, len(wp) - 1):
+            back = geod.inv(wp[k - 1].lon, wp[k - 1].lat, wp[k].lon, wp[k].lat)[1]
+            out = geod.inv(wp[k].lon, wp[k].lat, wp[k + 1].lon, wp[k + 1].lat)[0]
+            change = abs((out - back - 180.0 + 180.0) % 360.0 - 180.0)
+            if change < 16.0:
+                continue
+            d = geod.inv(np.full_like(lon, wp[k].lon), np.full_like(lat, wp[k].lat), lon, lat)[2]
+            near = np.abs(t - t[int(np.argmin(d))]) < 90.0
+            planned = min(change / 2.0, 23.0)
+            checked.append(planned)
+            assert planned - 1.0 < roll[near].max() < planned + 2.5, (plan.origin, k, change)
+    assert min(checked) < 20.0 and max(checked) == 23.0  # both sides of the cap are flown
+
+
+@pytest.mark.slow
 def test_altitude_capture_does_not_overshoot_the_cruise_level(msp_dlh):
     plan, track = msp_dlh
     climb_cruise = track.df["phase"].isin(["climb", "cruise"])

@@ -41,17 +41,29 @@ from aerotruth.truth.steering import NavigationError, SteeringWander
 from aerotruth.truth.track import PHASES, TruthTrack
 from aerotruth.truth.turbulence import ChopGusts, TurbulencePatches
 from aerotruth.truth.weather import Atmosphere, UniformAtmosphere
-from aerotruth.units import DEG, FT, KT, NM
+from aerotruth.units import DEG, FT, G0, KT, NM
 
 TEN_THOUSAND_FT = 10000 * FT
 US_SPEED_LIMIT_KT = 250.0  # 14 CFR 91.117(a): 250 KIAS below 10,000 ft MSL
-TURN_BANK_DEG = 20.0  # bank assumed for turn anticipation (below the planned bank: the roll-in takes ~7 s)
 # the bank the FMS plans its turns at, at most: "banks are planned between 0 and 23 deg with
 # 25 deg as a maximum" (Honeywell FMZ-series FMS pilot's manual, A28-1146-181 rev. 3, 2009,
 # p. 7-23); the autopilot's own limit (gains_*.xml, 25 deg) stays for the approach's turn
-# onto final. At the SAAB 340's speeds a rate-one turn (3 deg/s) needs 23 deg at 150 KTAS
-# and more above, so the plan is this cap wherever the LNAV turns.
+# onto final. Below the cap, a fly-by turn is planned at half its course change (the fly-by
+# transition of RTCA DO-236B, section 3.2.5.4.1: bank = min(course change / 2, 23 deg)
+# below FL195), so a 30-deg turn is flown at 15 deg and only turns of 46 deg or more reach
+# the cap.
 PLANNED_BANK_DEG = 23.0
+# turn anticipation assumes this share of the planned bank: the roll-in takes ~7 s
+ANTICIPATION_BANK_SHARE = 20.0 / 23.0
+TURN_SETTLE_S = 15.0  # the turn's bank limit is held this long past the planned turn's duration
+
+
+def planned_bank_deg(course_change_deg: float) -> float:
+    """The bank a fly-by turn of `course_change_deg` is planned at: half the course change,
+    PLANNED_BANK_DEG at most (DO-236B's fly-by transition, module constants)."""
+    return min(abs(course_change_deg) / 2.0, PLANNED_BANK_DEG)
+
+
 # the climb's level change (_Guide._level_change) and the descent path's vertical-speed limits
 FLCH_KP_FPM_PER_KT, FLCH_KI_FPM_PER_KT_S = 70.0, 2.2
 FLCH_VS_MIN_FPM, FLCH_VS_MAX_FPM = 300.0, 4000.0
@@ -112,6 +124,7 @@ class _Guide:
         self._pm = pm
         self._set("ap/nav/mode", 1)
         self._set("ap/gain/bank-max-rad", math.radians(PLANNED_BANK_DEG))
+        self.turn_until = -math.inf  # the planned turn's bank limit holds until then
         self._set_leg(0)
 
     def _set(self, prop: str, value: float) -> None:
@@ -176,10 +189,19 @@ class _Guide:
         g = self.geom[self.leg]
         to_leg_end = g.to_go_m(lat, lon)
         if self.leg + 1 < len(self.geom):
-            if to_leg_end <= turn_anticipation_m(gs_mps, g.turn_deg, TURN_BANK_DEG):
+            bank = planned_bank_deg(g.turn_deg)
+            if bank > 0.0 and to_leg_end <= turn_anticipation_m(gs_mps, g.turn_deg, ANTICIPATION_BANK_SHARE * bank):
+                self._set_leg(self.leg + 1)
+                # the turn flown at its planned bank, then the LNAV's full limit again
+                rate = G0 * math.tan(math.radians(bank)) / max(gs_mps, 1.0)
+                self.turn_until = t + math.radians(abs(g.turn_deg)) / rate + TURN_SETTLE_S
+                self._set("ap/gain/bank-max-rad", math.radians(bank))
+            elif bank == 0.0 and to_leg_end <= 0.0:
                 self._set_leg(self.leg + 1)
         elif to_leg_end <= 0.0:
             return False
+        if t > self.turn_until:
+            self._set("ap/gain/bank-max-rad", math.radians(PLANNED_BANK_DEG))
         to_go = self.distance_to_go_m(lat, lon)
         r = self.route
         final = self.leg == len(self.geom) - 1
