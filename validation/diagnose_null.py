@@ -82,7 +82,8 @@ def main() -> None:
                     continue
                 m += 1
                 hit += bool(got) and got[0].effect == effect
-            print(f"power_{effect}_{size:g}: {hit / max(m, 1):.2f}")
+            if m:  # with --power 0 (or no usable day) there is no share to print
+                print(f"power_{effect}_{size:g}: {hit / m:.2f} ({hit} of {m})")
 
 
 if __name__ == "__main__":
