@@ -156,9 +156,9 @@ def test_navigation_error_is_gauss_markov_in_feet_with_its_variance_and_correlat
     x = np.empty((n_runs, n))
     for r in range(n_runs):
         fdm = _Fdm()
-        e = NavigationError(fdm, np.random.default_rng([11, r]), sigma_m=sigma, tau_s=tau)
+        e = NavigationError(fdm, np.random.default_rng([11, r]), sigma_m=sigma, tau_s=tau, dt_s=1.0)
         for _k in range(n):
-            e.step(1.0)
+            e.step()
         x[r] = np.asarray(fdm.pm.nodes[NAV_PROPERTY].values[1:]) * 0.3048
     assert np.std(x[:, 0]) == pytest.approx(sigma, rel=0.15)
     assert np.std(x) == pytest.approx(sigma, rel=0.05)

@@ -359,7 +359,7 @@ def fly_route(
     # the autopilot's steering wander (the A320 recorder's weave in straight flight) and the
     # FMS's navigation error: in every flight, calm or not, each on its own named stream
     wander = SteeringWander(fdm, seeds.generator(seeds.child(seq, "steering")))
-    nav_error = NavigationError(fdm, seeds.generator(seeds.child(seq, "navigation")))
+    nav_error = NavigationError(fdm, seeds.generator(seeds.child(seq, "navigation")), dt_s=GUIDE_EVERY * DT)
     path_m = 0.0
     # guidance and targets before the initial condition is run: JSBSim evaluates the
     # autopilot (filters, rate limiters) during initialisation and trim, and stale targets
@@ -437,7 +437,7 @@ def fly_route(
         dt_g = GUIDE_EVERY * DT
         ground = route.departure_elevation_msl_m if guide.phase < 2 else route.arrival_elevation_msl_m
         wind_ahead.update(t, lat, lon, h_ft * FT, route.undulation_m, vn, ve, vd, ground)
-        nav_error.step(dt_g)
+        nav_error.step()
         if patches is not None:
             assert chop is not None  # patches and chop exist iff turbulence
             if patches.due(path_m):

@@ -70,7 +70,7 @@ import math
 
 import numpy as np
 
-from aerotruth.units import DEG
+from aerotruth.units import DEG, FT
 
 STEER_SIGMA_RAD = 0.65 * DEG  # rms error of the bank the roll channel commands (module docstring)
 STEER_TAU_S = 5.0  # its correlation time
@@ -81,41 +81,52 @@ NAV_TAU_S = 600.0  # its correlation time
 NAV_PROPERTY = "ap/nav/position-error-ft"
 
 
-class SteeringWander:
-    """Gauss-Markov wander of the autopilot's bank command, set into JSBSim every
-    STEER_DT_S (module docstring)."""
+class GaussMarkovProperty:
+    """A first-order Gauss-Markov process of rms `sigma` and correlation time `tau_s`,
+    advanced by `dt_s` at every `step()` (exact discretization) and set into the JSBSim
+    property `prop` as value / `per_unit`; drawn stationary from the start."""
 
-    def __init__(self, fdm, rng: np.random.Generator, sigma_rad: float = STEER_SIGMA_RAD, tau_s: float = STEER_TAU_S):
-        self.rng = rng
-        self.node = fdm.get_property_manager().get_node(STEER_PROPERTY, True)
-        self.a = math.exp(-STEER_DT_S / tau_s)
-        self.b = sigma_rad * math.sqrt(1.0 - self.a * self.a)
-        self.e = sigma_rad * float(rng.standard_normal())  # stationary from the start
+    def __init__(
+        self, fdm, rng: np.random.Generator, prop: str, sigma: float, tau_s: float, dt_s: float, per_unit: float = 1.0
+    ):
+        self.rng, self.per_unit = rng, per_unit
+        self.node = fdm.get_property_manager().get_node(prop, True)
+        self.a = math.exp(-dt_s / tau_s)
+        self.b = sigma * math.sqrt(1.0 - self.a * self.a)
+        self.e = sigma * float(rng.standard_normal())
 
     def step(self) -> None:
-        """Advances the wander by STEER_DT_S and sets it."""
+        """Advances the process by its dt_s and sets it."""
         self.e = self.a * self.e + self.b * float(self.rng.standard_normal())
-        self.node.set_double_value(self.e)
+        self.node.set_double_value(self.e / self.per_unit)
 
 
-class NavigationError:
-    """Gauss-Markov cross-track error of the FMS's path (module docstring), set into JSBSim
-    at every `step(dt_s)`."""
+class SteeringWander(GaussMarkovProperty):
+    """Gauss-Markov wander of the autopilot's bank command (rad), set into JSBSim every
+    STEER_DT_S (module docstring); first set at the first step."""
 
-    def __init__(self, fdm, rng: np.random.Generator, sigma_m: float = NAV_SIGMA_M, tau_s: float = NAV_TAU_S):
-        self.rng, self.sigma, self.tau = rng, sigma_m, tau_s
-        self.node = fdm.get_property_manager().get_node(NAV_PROPERTY, True)
-        self.e = sigma_m * float(rng.standard_normal())  # stationary from the start
-        self.node.set_double_value(self.e / 0.3048)
+    def __init__(self, fdm, rng: np.random.Generator, sigma_rad: float = STEER_SIGMA_RAD, tau_s: float = STEER_TAU_S):
+        super().__init__(fdm, rng, STEER_PROPERTY, sigma_rad, tau_s, STEER_DT_S)
 
-    def step(self, dt_s: float) -> None:
-        """Advances the error by dt_s (exact discretization) and sets it (ft)."""
-        a = math.exp(-dt_s / self.tau)
-        self.e = a * self.e + self.sigma * math.sqrt(1.0 - a * a) * float(self.rng.standard_normal())
-        self.node.set_double_value(self.e / 0.3048)
+
+class NavigationError(GaussMarkovProperty):
+    """Gauss-Markov cross-track error of the FMS's path (m, set in ft; module docstring),
+    stepped every `dt_s` (the guidance tick), set from the start."""
+
+    def __init__(
+        self,
+        fdm,
+        rng: np.random.Generator,
+        sigma_m: float = NAV_SIGMA_M,
+        tau_s: float = NAV_TAU_S,
+        dt_s: float = 1.0,
+    ):
+        super().__init__(fdm, rng, NAV_PROPERTY, sigma_m, tau_s, dt_s, per_unit=FT)
+        self.node.set_double_value(self.e / self.per_unit)
 
 
 __all__ = [
+    "GaussMarkovProperty",
     "NAV_PROPERTY",
     "NAV_SIGMA_M",
     "NAV_TAU_S",
