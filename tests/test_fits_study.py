@@ -149,6 +149,36 @@ def test_exported_log_runs_through_aerotruth_fits_with_its_runway_sidecar(run, t
 
 
 @pytest.mark.slow
+def test_bias_error_compares_each_segment_between_flagged_jumps_like_with_like(run, tmp_path):
+    """WAAS jumping ~every 2 min (the module's truth, sensors only): on each segment between
+    the log's flagged epochs the FITS position error's mean is the truth's bias there minus
+    the bias the FITS took off (the cyclic residual and the Gauss-Markov noise average to a
+    few cm), computed here from the exported log's flags and the epoch rows' errors alone."""
+    waas = "{jump_rate_per_h: 30}"
+    m, rows = _run(campaign("[{grade: automotive}]", waas=waas), tmp_path / "jumps")
+    log = pd.read_parquet(tmp_path / "jumps" / "data" / "fits.approach_log.parquet")
+    ep = rows[rows["kind"] == "epoch"]
+    means, n_jumps = [], 0
+    for name, lg in log.groupby("approach", sort=False):
+        w = lg[np.isfinite(lg["waas_x_m"])]
+        flag = ((w["sv_change"] > 0) | (w["iono_update"] > 0)).to_numpy().copy()
+        flag[0] = False  # nothing before the first epoch to refer it to
+        n_jumps += int(flag.sum())
+        seg = np.cumsum(flag)
+        e = ep[ep["approach"] == name.split("/")[0]]
+        assert np.allclose(e["time_s"].to_numpy(), w["time_s"].to_numpy())
+        err = e[["along_m", "cross_m", "vertical_m"]].to_numpy()
+        means += [err[seg == k].mean(axis=0) for k in np.unique(seg)]
+    assert n_jumps >= 2  # segments other than the threshold's exist
+    expected = np.sqrt(np.mean(np.square(means), axis=0))
+    got = np.array([m[f"fits.automotive.bias_err_rms_m.{a}"] for a in "xyz"])
+    assert np.all(np.abs(got - expected) <= 0.1), (got, expected)
+    sg = rows[rows["kind"] == "segment"]
+    assert len(sg) == len(means)
+    assert np.allclose(sg[["bias_err_x_m", "bias_err_y_m", "bias_err_z_m"]].to_numpy(), -np.array(means), atol=0.1)
+
+
+@pytest.mark.slow
 def test_changing_a_sensor_never_reflies(run, tmp_path):
     store = TruthStore()
     before = store.flown_count()

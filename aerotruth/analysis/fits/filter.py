@@ -231,6 +231,13 @@ def carry_with_ins(tq, t_w, p_w, t_ins, ins_xyz) -> np.ndarray:
     return interp_rows(tq, t_ins, ins_xyz) + interp_rows(tq, t_w, corr)
 
 
+def _cumulative_steps(n: int, idx: np.ndarray, steps: np.ndarray) -> np.ndarray:
+    """(n, 3): the steps at epochs `idx` summed up to each epoch."""
+    shift = np.zeros((n, 3))
+    np.add.at(shift, idx, steps)
+    return np.cumsum(shift, axis=0)
+
+
 @dataclass(frozen=True)
 class Noiseless:
     """Eqs. 3, 8-17 with jump compensation, on the WAAS epochs."""
@@ -240,6 +247,15 @@ class Noiseless:
     jump_m: np.ndarray  # (k, 3) estimated steps
     n_hat: np.ndarray  # (n, 3) estimated cyclic noise
     noiseless: np.ndarray  # (n, 3) eq. 17, referred to the bias before the first jump
+
+    def jump_shift(self) -> np.ndarray:
+        """(n, 3) the estimated steps of the flagged jumps summed up to each epoch: what was
+        taken off the WAAS positions to refer them to the bias before the first jump."""
+        return _cumulative_steps(len(self.t_s), self.jump_idx, self.jump_m)
+
+    def segment_index(self) -> np.ndarray:
+        """(n,) the segment of each epoch: 0 before the first flagged jump, k after the k-th."""
+        return np.searchsorted(self.jump_idx, np.arange(len(self.t_s)), side="right")
 
 
 def period_samples(t_s: np.ndarray, period_s: float) -> int:
@@ -270,9 +286,7 @@ def waas_noiseless(t_s, waas_xyz, ins_xyz, jump_flags, spec: FitsSpec = DEFAULT_
     flags = np.flatnonzero(np.asarray(jump_flags) > 0)
     flags = flags[flags > 0]  # a flag on the first epoch has nothing before it to refer to
     steps = estimate_jumps(dz, flags, T, spec.jump_window_periods)
-    shift = np.zeros_like(dz)
-    np.add.at(shift, flags, steps)
-    shift = np.cumsum(shift, axis=0)
+    shift = _cumulative_steps(len(t), flags, steps)
     waas_c = waas - shift
     n_hat = cyclic_noise(dz - shift, T, spec.edge_fit_periods).n_hat
     return Noiseless(t, flags, steps, n_hat, waas_c - n_hat)  # eq. 17
@@ -327,6 +341,14 @@ class FitsResult:
     noiseless: Noiseless
     bias_m: np.ndarray
     xyz_m: np.ndarray
+
+    def applied_bias_m(self) -> np.ndarray:
+        """(n, 3) the bias the FITS takes off at each WAAS epoch (besides the cyclic noise):
+        B_hat of eq. 18, which refers to the segment before the first jump, plus the
+        estimated steps of the flagged jumps before the epoch. On the threshold's segment
+        it is what the RA, TVPS and event mark fixed; on the others it also carries the
+        error of each step between that segment and the threshold's."""
+        return self.bias_m + self.noiseless.jump_shift()
 
     def on_grid(self, t_ins, ins_xyz, rate_hz: float = 8.0) -> tuple[np.ndarray, np.ndarray]:
         """(t, xyz) on the runway-frame grid at `rate_hz` (the paper's 8 Hz), between WAAS

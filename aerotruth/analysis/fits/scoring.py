@@ -8,6 +8,12 @@ requirement, and the equivalence of two INS grades.
 * Position error e = z_true_hat (eq. 19) - truth of the reference point, seen from the
   localizer and glide-path antennas (aerotruth.analysis.fits.ils_metrics) from `from_nm` to the
   threshold.
+* Bias error per segment: the flagged jumps cut an approach into segments; on each, the
+  bias the FITS takes off (B_hat of eq. 18 plus the estimated steps of the jumps before it,
+  `FitsResult.applied_bias_m`) minus the truth's bias there (the drawn bias plus the jumps
+  before it). Comparing B_hat alone with the truth's bias at the threshold would set the
+  bias of the segment before the first jump (which B_hat refers to) against the bias after
+  every jump up to the threshold.
 * Equivalence (two one-sided tests, TOST; Schuirmann 1987): for paired approaches (same
   truth and WAAS noise, only the INS differs) d_i = RMS_i(a) - RMS_i(b) of the interior
   residual over the three axes; H0: |mean d| >= margin is rejected at level alpha when
@@ -63,12 +69,47 @@ def epoch_rows(result: FitsResult, truth: pd.DataFrame, geometry: dict, waas_xyz
     return pd.DataFrame({"time_s": nl.t_s, **{c: errors[c].to_numpy() for c in errors.columns}, **more})
 
 
-def approach_summary(ep: pd.DataFrame, bias_hat: np.ndarray, bias_true: np.ndarray, from_nm: float) -> dict:
+def segment_rows(result: FitsResult, truth: pd.DataFrame) -> pd.DataFrame:
+    """One row per segment between flagged jumps: its first and last epoch time, epochs,
+    the truth's bias there (`bias_true_{a}_m`: the mean over the segment's epochs of the
+    truth's bias + jumps), the bias the FITS applied there (`bias_applied_{a}_m`), their
+    difference (`bias_err_{a}_m`), and `threshold` for the segment holding the epoch nearest
+    the threshold (x = 0), where the RA, TVPS and event mark fixed the bias."""
+    nl = result.noiseless
+    tt = truth["time_s"].to_numpy(float)
+    i = np.searchsorted(tt, nl.t_s - 1e-6)
+    if len(i) and (i.max() >= len(tt) or not np.allclose(tt[i], nl.t_s, atol=1e-6)):
+        raise ValueError("truth: expected a row at every WAAS epoch")
+    b_true = truth[["bias_x_m", "bias_y_m", "bias_z_m"]].to_numpy(float)[i]
+    b_applied = result.applied_bias_m()
+    seg = nl.segment_index()
+    thr = int(seg[int(np.argmin(np.abs(truth["x_m"].to_numpy(float)[i])))])
+    rows = []
+    for k in np.unique(seg):
+        sel = seg == k
+        row = {
+            "segment": int(k),
+            "t_start_s": float(nl.t_s[sel][0]),
+            "t_end_s": float(nl.t_s[sel][-1]),
+            "epochs": int(sel.sum()),
+            "threshold": bool(k == thr),
+        }
+        for j, a in enumerate(AXES):
+            bt, ba = float(b_true[sel, j].mean()), float(b_applied[sel, j].mean())
+            row.update({f"bias_true_{a}_m": bt, f"bias_applied_{a}_m": ba, f"bias_err_{a}_m": ba - bt})
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def approach_summary(ep: pd.DataFrame, bias_hat: np.ndarray, segments: pd.DataFrame, from_nm: float) -> dict:
     """Per approach: residual RMS and share < 0.1 m (interior and edges), the removed share
-    1 - RMS(r)/RMS(N), bias error at the threshold and the requirement verdicts."""
+    1 - RMS(r)/RMS(N), B_hat (`bias_hat_{a}_m`), the bias error on the threshold's segment
+    (`bias_err_{a}_m`) and over every segment (`bias_err_seg_rms_{a}_m`; `segments` rows
+    from `segment_rows`), and the requirement verdicts."""
     is_edge = ep["edge"].to_numpy(bool)
     inner, edge = np.flatnonzero(~is_edge), np.flatnonzero(is_edge)
-    out: dict = {"epochs": len(ep)}
+    out: dict = {"epochs": len(ep), "segments": len(segments)}
+    at_thr = segments[segments["threshold"].to_numpy(bool)].iloc[0]
     r = ep[[f"resid_{a}_m" for a in AXES]].to_numpy()
     r_in = r[inner]
     for i, a in enumerate(AXES):
@@ -78,7 +119,8 @@ def approach_summary(ep: pd.DataFrame, bias_hat: np.ndarray, bias_true: np.ndarr
         n_rms = float(np.sqrt(np.mean(ep[f"n_true_{a}_m"].to_numpy()[inner] ** 2)))
         out[f"removed_share_{a}"] = 1.0 - out[f"resid_rms_{a}_m"] / n_rms if n_rms > 0 else float("nan")
         out[f"bias_hat_{a}_m"] = float(bias_hat[i])
-        out[f"bias_err_{a}_m"] = float(bias_hat[i] - bias_true[i])
+        out[f"bias_err_{a}_m"] = float(at_thr[f"bias_err_{a}_m"])
+        out[f"bias_err_seg_rms_{a}_m"] = float(np.sqrt(np.mean(segments[f"bias_err_{a}_m"].to_numpy(float) ** 2)))
     out["resid_rms_m"] = float(np.sqrt(np.mean(r_in**2)))
     out.update({f"verdict_{k}": v for k, v in approach_verdict(ep, from_nm).items()})
     return out

@@ -14,8 +14,10 @@ as `aerotruth fits` does (aerotruth.analysis.fits.approach_log.run_approach).
 
 Rows: `kind = approach` (one per approach and INS: residual and bias summaries, verdicts;
 or the divergence), `kind = epoch` (one per WAAS epoch and INS: residual, errors, angular
-view), `kind = log` (the approach logs of the first `export_logs` approaches, exported
-to RUN_DIR/data/fits.approach_log.parquet/.csv with the runway geometry beside them).
+view), `kind = segment` (one per segment between flagged jumps and INS: the truth's bias
+and the applied bias there, aerotruth.analysis.fits.scoring.segment_rows), `kind = log`
+(the approach logs of the first `export_logs` approaches, exported to
+RUN_DIR/data/fits.approach_log.parquet/.csv with the runway geometry beside them).
 """
 
 from __future__ import annotations
@@ -193,6 +195,7 @@ class FitsStudy(ApproachStudy):
         from aerotruth.analysis.fits.scoring import (
             approach_summary,
             epoch_rows,
+            segment_rows,
             waas_at_epochs,
         )
         from aerotruth.sensors.inspection_log import approach_logs
@@ -222,9 +225,8 @@ class FitsStudy(ApproachStudy):
             result = run_approach(log, section.fits)
             T = period_samples(result.noiseless.t_s, section.fits.period_s)
             ep = epoch_rows(result, logs.truth, logs.geometry, waas_at_epochs(log), T)
-            thr = logs.truth.iloc[int(np.argmin(np.abs(logs.truth["x_m"].to_numpy())))]
-            bias_true = thr[["bias_x_m", "bias_y_m", "bias_z_m"]].to_numpy(float)
-            summ = approach_summary(ep, result.bias_m, bias_true, section.from_nm)
+            seg = segment_rows(result, logs.truth)
+            summ = approach_summary(ep, result.bias_m, seg, section.from_nm)
             parts.append(
                 pd.DataFrame(
                     [
@@ -242,6 +244,7 @@ class FitsStudy(ApproachStudy):
                 )
             )
             parts.append(ep.assign(kind="epoch", ins=ins_label, approach=label))
+            parts.append(seg.assign(kind="segment", ins=ins_label, approach=label))
             if task.params["export"]:
                 parts.append(
                     log.assign(
@@ -262,6 +265,9 @@ class FitsStudy(ApproachStudy):
         appr = rows[rows["kind"] == "approach"] if len(rows) else rows
         ok = appr[~appr["diverged"].astype(bool)] if len(appr) else appr
         ep = rows[rows["kind"] == "epoch"] if len(rows) else rows
+        sg = rows[rows["kind"] == "segment"] if len(rows) else rows
+        if len(sg):
+            sg = sg[sg["approach"].isin(ok["approach"])]
         w = section.sensors.waas
         T = int(round(w.cyclic_period_s * w.rate_hz))
         floor = noise_floor_rms(T, w.white_sigma_m, w.gm_sigma_m, w.gm_tau_s, 1.0 / w.rate_hz)
@@ -296,7 +302,10 @@ class FitsStudy(ApproachStudy):
                 metrics[f"{v}.resid_rms_m.{ax}"] = rms
                 metrics[f"{v}.resid_rms_over_floor.{ax}"] = rms / floor if rms is not None and floor > 0 else None
                 metrics[f"{v}.removed_share.{ax}"] = float(a[f"removed_share_{ax}"].mean()) if len(a) else None
-                metrics[f"{v}.bias_err_rms_m.{ax}"] = (
+                # over every segment between flagged jumps of every approach (scoring.segment_rows)
+                b = sg.loc[sg["ins"] == v, f"bias_err_{ax}_m"].to_numpy(float) if len(sg) else np.array([])
+                metrics[f"{v}.bias_err_rms_m.{ax}"] = float(np.sqrt(np.mean(b**2))) if len(b) else None
+                metrics[f"{v}.bias_err_threshold_rms_m.{ax}"] = (
                     float(np.sqrt(np.mean(a[f"bias_err_{ax}_m"] ** 2))) if len(a) else None
                 )
                 row[f"|r| < 0.1 m {ax} (inner)"] = share
