@@ -9,6 +9,7 @@ exported log (it must reproduce the study's estimate)."""
 
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -20,6 +21,8 @@ from aerotruth.sim.campaign_file import ConfigError
 from aerotruth.sim.campaign_loader import parse_campaign
 from aerotruth.sim.executors import ExecutorChoice
 from aerotruth.truth.store import TruthStore
+
+ROOT = Path(__file__).resolve().parents[1]
 
 
 def campaign(ins: str, extra: str = "", waas: str = "{}") -> str:
@@ -176,6 +179,49 @@ def test_bias_error_compares_each_segment_between_flagged_jumps_like_with_like(r
     sg = rows[rows["kind"] == "segment"]
     assert len(sg) == len(means)
     assert np.allclose(sg[["bias_err_x_m", "bias_err_y_m", "bias_err_z_m"]].to_numpy(), -np.array(means), atol=0.1)
+
+
+@pytest.mark.slow
+def test_the_campaigns_negative_control_is_detected_at_its_size_with_the_margin_from_the_requirement(tmp_path):
+    """campaigns/fits_automotive.yaml on its first day (8 approaches flown as the campaign
+    flies them: turbulence, the turn onto final) with the INS of its pairs. The margin is a
+    tenth of the requirement's floor on the 95 % error: 0.1 x 0.3048 m / 1.96 = 15.55 mm
+    vertical, 0.1 x 0.6096 m / 1.96 = 31.1 mm horizontal, by hand. From these approaches'
+    paired differences of the vertical residual RMS, the power of the TOST to refuse the
+    control at the campaign's 200 approaches (normal approximation, by hand:
+    Phi((|mean| - margin) / (sd / sqrt 200) - z_0.95)) must reach 0.8, and the claimed pair
+    must differ by less than a fifth of the margin."""
+    import yaml
+    from scipy import stats
+
+    from aerotruth.sim.studies.fits import _channel_rms
+
+    data = yaml.safe_load((ROOT / "campaigns" / "fits_automotive.yaml").read_text())
+    fits = data["studies"]["fits"]
+    control = next(e for e in fits["equivalence"] if e.get("expect") == "different")
+    claim = next(e for e in fits["equivalence"] if e.get("expect", "equivalent") == "equivalent")
+    used = {control["a"], control["b"], claim["a"], claim["b"]}
+    fits["sensors"]["ins"] = [i for i in fits["sensors"]["ins"] if (i.get("name") or i["grade"]) in used]
+    fits["export_logs"] = 0
+    data["periods"][0]["end"] = data["periods"][0]["start"]  # the first day
+    data.pop("sizes")
+    m, rows = _run(yaml.safe_dump(data), tmp_path / "c")
+    key = f"fits.tost.{control['a']}_vs_{control['b']}"
+    margin = 0.1 * 0.3048 / 1.959964
+    assert m[f"{key}.vertical.margin_m"] == pytest.approx(margin, rel=1e-6)
+    assert m[f"{key}.horizontal.margin_m"] == pytest.approx(0.1 * 0.6096 / 1.959964, rel=1e-6)
+    appr = rows[rows["kind"] == "approach"]
+    assert appr["approach"].nunique() == 8
+    rms = _channel_rms(appr)["vertical"].set_axis(appr["approach"] + "/" + appr["ins"])
+
+    def diff(a, b):
+        return np.array([rms[f"{x}/{a}"] - rms[f"{x}/{b}"] for x in appr["approach"].unique()])
+
+    d = diff(control["a"], control["b"])
+    power = stats.norm.cdf((abs(d.mean()) - margin) / (d.std(ddof=1) / math.sqrt(200)) - stats.norm.ppf(0.95))
+    assert power >= 0.8, (d.mean(), d.std(ddof=1), power)
+    assert abs(diff(claim["a"], claim["b"]).mean()) < 0.2 * margin
+    assert m[f"{key}.vertical.expect_met"] == 1.0  # refused already on 8 approaches
 
 
 @pytest.mark.slow

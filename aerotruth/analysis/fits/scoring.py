@@ -18,6 +18,14 @@ requirement, and the equivalence of two INS grades.
   truth and WAAS noise, only the INS differs) d_i = RMS_i(a) - RMS_i(b) of the interior
   residual over the three axes; H0: |mean d| >= margin is rejected at level alpha when
   both one-sided t-tests reject, p = max(p_lower, p_upper). Equivalent means p < alpha.
+* The equivalence margin from the requirement (`requirement_margins`): the requirement is
+  tightest at its floor near the threshold (1 ft vertical, 2 ft horizontal;
+  aerotruth.analysis.fits.ils_metrics). The residual adds to the FITS error, so a change d
+  of its RMS changes the error's RMS by at most d and the error's 95 % bound (1.96 sigma)
+  by at most 1.96 d. Two INS are equivalent when the 95 % error moves by at most a share s
+  of the floor: margin = s x floor / 1.96 (s = 0.1: 15.6 mm vertical, 31.1 mm horizontal).
+  The horizontal channel takes the cross-track floor (the along-track axis has no
+  requirement); the channel of all three axes the vertical one, the tightest.
 """
 
 from __future__ import annotations
@@ -27,9 +35,25 @@ import pandas as pd
 from scipy import stats
 
 from aerotruth.analysis.fits.filter import FitsResult
-from aerotruth.analysis.fits.ils_metrics import approach_errors, approach_verdict
+from aerotruth.analysis.fits.ils_metrics import (
+    FLOOR_HORIZONTAL_M,
+    FLOOR_VERTICAL_M,
+    approach_errors,
+    approach_verdict,
+)
 
 AXES = ("x", "y", "z")
+Z95 = 1.959963984540054  # two-sided 95 % point of the standard normal
+
+
+def requirement_margins(share: float) -> dict[str, float]:
+    """Equivalence margins (m) on the per-approach residual RMS of each channel (all,
+    horizontal, vertical) such that the FITS error's 95 % bound moves by at most `share`
+    of the requirement's floor (module docstring)."""
+    if not 0 < share <= 1:
+        raise ValueError(f"share: expected a fraction in (0, 1], got {share!r}")
+    vertical = share * FLOOR_VERTICAL_M / Z95
+    return {"all": vertical, "horizontal": share * FLOOR_HORIZONTAL_M / Z95, "vertical": vertical}
 
 
 def waas_at_epochs(log: pd.DataFrame) -> np.ndarray:

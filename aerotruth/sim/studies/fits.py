@@ -25,6 +25,7 @@ from __future__ import annotations
 import datetime as dt
 import json
 from pathlib import Path
+from typing import Literal
 
 import numpy as np
 import pandas as pd
@@ -49,12 +50,39 @@ class RunwayRef(Section):
 
 
 class EquivalenceTest(Section):
-    """A TOST between two INS variants of the sensors (paired approaches)."""
+    """A TOST between two INS variants of the sensors (paired approaches), per channel;
+    the margin derived from the requirement unless given (aerotruth.analysis.fits.scoring:
+    the share of the requirement's floor the 95 % error may move by)."""
 
     a: str
     b: str
-    margin_m: float = Field(default=0.01, gt=0, description="equivalence margin on the per-approach residual RMS")
+    margin_m: float | None = Field(
+        default=None,
+        gt=0,
+        description="equivalence margin on the per-approach residual RMS (m), every channel; "
+        "default: derived from the requirement with `requirement_share`",
+    )
+    requirement_share: float = Field(
+        default=0.1,
+        gt=0,
+        le=1,
+        description="the share of the requirement's floor (1 ft vertical, 2 ft horizontal) an "
+        "equivalent INS may move the FITS error's 95 % bound by",
+    )
+    expect: Literal["equivalent", "different"] = Field(
+        default="equivalent",
+        description="what the pair is: a claim of equivalence, or a negative control the test must "
+        "not call equivalent (`expect_met` per channel in the equivalence table)",
+    )
     alpha: float = Field(default=0.05, gt=0, lt=0.5)
+
+    def margins(self) -> dict[str, float]:
+        """The margin (m) of each channel: all, horizontal, vertical."""
+        from aerotruth.analysis.fits.scoring import requirement_margins
+
+        if self.margin_m is not None:
+            return dict.fromkeys(("all", "horizontal", "vertical"), self.margin_m)
+        return requirement_margins(self.requirement_share)
 
 
 class FitsStudyConfig(Section):
@@ -346,14 +374,19 @@ class FitsStudy(ApproachStudy):
                         )
         tost_rows = []
         for t in section.equivalence:
+            margins = t.margins()
             for channel, rms in _channel_rms(ok).items():
                 pa = rms[ok["ins"] == t.a].set_axis(ok.loc[ok["ins"] == t.a, "approach"])
                 pb = rms[ok["ins"] == t.b].set_axis(ok.loc[ok["ins"] == t.b, "approach"])
                 common = pa.index.intersection(pb.index)
-                res = tost_paired(pa.loc[common].to_numpy(), pb.loc[common].to_numpy(), t.margin_m, t.alpha)
+                res = tost_paired(pa.loc[common].to_numpy(), pb.loc[common].to_numpy(), margins[channel], t.alpha)
+                res["expect_met"] = bool(res["equivalent"] == (t.expect == "equivalent"))
                 key = f"tost.{t.a}_vs_{t.b}.{channel}"
                 metrics.update({f"{key}.{k}": float(v) for k, v in res.items()})  # equivalent: 1.0 / 0.0
-                tost_rows.append({"a": t.a, "b": t.b, "channel": channel, "margin (m)": t.margin_m, **res})
+                metrics[f"{key}.margin_m"] = margins[channel]
+                tost_rows.append(
+                    {"a": t.a, "b": t.b, "expect": t.expect, "channel": channel, "margin (m)": margins[channel], **res}
+                )
         tables = {"by_ins": pd.DataFrame(per_ins)}
         if per_dist:
             tables["error_by_distance"] = pd.DataFrame(per_dist)
