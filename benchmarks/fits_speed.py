@@ -27,7 +27,7 @@ import numpy as np
 
 from aerotruth.analysis.fits.approach_log import run_approach
 from aerotruth.analysis.fits.filter import FitsSpec, period_samples
-from aerotruth.analysis.fits.scoring import approach_summary, epoch_rows, segment_rows, waas_at_epochs
+from aerotruth.analysis.fits.scoring import approach_summary, dgps_noise, epoch_rows, segment_rows, waas_at_epochs
 from aerotruth.sensors.ins import InsSpec
 from aerotruth.sensors.inspection_log import InspectionSensors, approach_logs
 from aerotruth.truth.approach import approach_spec, fly_approach
@@ -43,6 +43,7 @@ def one(track, sensors, spec, k):
         T = period_samples(r.noiseless.t_s, spec.period_s)
         ep = epoch_rows(r, logs.truth, logs.geometry, waas_at_epochs(log), T)
         approach_summary(ep, r.bias_m, segment_rows(r, logs.truth), 10.0)
+        dgps_noise(r, log, ep, 10.0)
     return t1 - t0, time.process_time() - t1
 
 

@@ -368,3 +368,29 @@ def test_a_parquet_logs_runway_metadata_that_is_not_json_is_one_line(tmp_path):
     with pytest.raises(ValueError, match=r"log\.parquet \(metadata key 'runway'\): not JSON") as err:
         fits_main(str(tmp_path / "log.parquet"), str(tmp_path / "o"))
     assert "\n" not in str(err.value)
+
+
+def test_noise_against_a_reference_takes_a_line_and_a_step_off_each_segment():
+    """est - ref = a line in time per segment (a different one after the jump) plus white
+    noise of 0.2 m: the measure is the white noise alone (its sample RMS after a 2-parameter
+    fit per segment: sigma sqrt((n - 2) / n) on average), kept epochs only."""
+    from aerotruth.analysis.fits.scoring import noise_against_reference
+
+    rng = np.random.default_rng(3)
+    t = np.arange(600.0)
+    seg = (t >= 250).astype(int)
+    trend = np.where(seg[:, None] == 0, 1.0 + 0.01 * t[:, None], -3.0 - 0.02 * t[:, None]) * np.array([1, -2, 0.5])
+    white = 0.2 * rng.standard_normal((600, 3))
+    ref = rng.normal(0, 5, (600, 3))
+    keep = t < 500
+    rms, n = noise_against_reference(t, ref + trend + white, ref, seg, keep)
+    assert n == 500
+    expected = np.sqrt(
+        (
+            np.sum((white[:250] - white[:250].mean(0)) ** 2, 0)
+            + np.sum((white[250:500] - white[250:500].mean(0)) ** 2, 0)
+        )
+        / 500
+    )
+    assert np.allclose(rms, expected, rtol=0.02)  # the line's slope takes a little more than the mean
+    assert np.all(np.abs(rms - 0.2) < 0.02)

@@ -222,6 +222,7 @@ class FitsStudy(ApproachStudy):
         from aerotruth.analysis.fits.filter import period_samples
         from aerotruth.analysis.fits.scoring import (
             approach_summary,
+            dgps_noise,
             epoch_rows,
             segment_rows,
             waas_at_epochs,
@@ -255,6 +256,7 @@ class FitsStudy(ApproachStudy):
             ep = epoch_rows(result, logs.truth, logs.geometry, waas_at_epochs(log), T)
             seg = segment_rows(result, logs.truth)
             summ = approach_summary(ep, result.bias_m, seg, section.from_nm)
+            summ.update(dgps_noise(result, log, ep, section.from_nm))
             parts.append(
                 pd.DataFrame(
                     [
@@ -339,6 +341,15 @@ class FitsStudy(ApproachStudy):
                 row[f"|r| < 0.1 m {ax} (inner)"] = share
                 row[f"|r| < 0.1 m {ax} (edges)"] = metrics[f"{v}.edge_resid_share_lt_0p1.{ax}"]
                 row[f"RMS r {ax} (m)"] = rms
+            for ax in AXES:
+                # the flight test's measure (section V): noise of X - DGPS, the FITS against the raw WAAS
+                if len(a) and f"dgps_noise_fits_{ax}_m" in a:
+                    w_rms = float(np.sqrt(np.nanmean(a[f"dgps_noise_waas_{ax}_m"].to_numpy(float) ** 2)))
+                    f_rms = float(np.sqrt(np.nanmean(a[f"dgps_noise_fits_{ax}_m"].to_numpy(float) ** 2)))
+                    metrics[f"{v}.dgps_noise_waas_m.{ax}"] = w_rms
+                    metrics[f"{v}.dgps_noise_fits_m.{ax}"] = f_rms
+                    metrics[f"{v}.dgps_noise_improvement.{ax}"] = 1.0 - f_rms / w_rms if w_rms > 0 else None
+                    row[f"noise improvement vs DGPS {ax}"] = metrics[f"{v}.dgps_noise_improvement.{ax}"]
             for col, name in (("along_m", "along"), ("cross_m", "cross"), ("vertical_m", "vertical")):
                 x = np.abs(e[col].to_numpy(float))
                 metrics[f"{v}.error_p95_m.{name}"] = float(np.percentile(x, 95)) if len(x) else None
