@@ -3,6 +3,7 @@
 import math
 
 import numpy as np
+import pandas as pd
 import pytest
 
 from aerotruth.analysis.fits.ils_metrics import (
@@ -58,3 +59,44 @@ def test_percentiles_by_distance_bin():
     t = percentile_by_distance(e, "vertical_m", [0, 0.5, 1.0])
     assert list(t["n"]) == [2, 2]
     assert list(t["vertical_m_p95"]) == pytest.approx([1.95, 3.95])  # numpy's linear interpolation
+
+
+def test_the_papers_waas_assumption_fails_the_requirement_where_the_angle_by_hand_says():
+    """FITS paper Figs. 3/4 with its assumed WAAS 95 % (6 ft vertical, 3 ft horizontal) on a
+    runway with the glide-path mast 300 m past the threshold and 120 m aside and the
+    localizer 3,300 m past it. By hand: 6 ft subtends 0.05 deg at 1.8288 / tan(0.05 deg)
+    = 2,095.6 m from the mast, sqrt(2095.6^2 - 120^2) - 300 = 1,792 m = 0.968 nm from the
+    threshold; 0.015 deg at 6,985.5 m, 3.61 nm; 3 ft at 0.05 deg needs 1,047.8 m from the
+    localizer, never this close (0 nm); at 0.015 deg 3,492.7 m, 0.104 nm. The answer is
+    the outer edge of the farthest 0.25-nm bin failing at its median range, so within a
+    bin of the hand value."""
+    from aerotruth.analysis.fits.ils_metrics import PAPER_WAAS_95_M, fails_within_nm, waas_alone_by_distance
+
+    d = np.linspace(0.0, 10 * 1852.0, 4001)
+    errors = pd.DataFrame(
+        {
+            "distance_to_threshold_m": d,
+            "range_loc_m": 3300.0 + d,
+            "range_gp_m": np.hypot(d + 300.0, 120.0),
+            "waas_err_y_m": np.zeros_like(d),
+            "waas_err_z_m": np.zeros_like(d),
+        }
+    )
+    by = waas_alone_by_distance(errors, 10.0)
+
+    def hand(r_needed, gp=True):
+        x = math.sqrt(r_needed**2 - 120.0**2) - 300.0 if gp else r_needed - 3300.0
+        return max(x, 0.0) / 1852.0
+
+    cases = {
+        ("vertical", "minimum"): hand(6 * 0.3048 / math.tan(math.radians(0.05))),
+        ("vertical", "desired"): hand(6 * 0.3048 / math.tan(math.radians(0.015))),
+        ("cross", "minimum"): 0.0,
+        ("cross", "desired"): hand(3 * 0.3048 / math.tan(math.radians(0.015)), gp=False),
+    }
+    assert cases[("vertical", "minimum")] == pytest.approx(0.968, abs=0.001)
+    for (axis, req), expected in cases.items():
+        got = fails_within_nm(by, axis, req, PAPER_WAAS_95_M[axis])
+        assert (got == 0.0) if expected == 0.0 else abs(got - expected) <= 0.25, (axis, req, got, expected)
+    # the simulated error (zero here) never fails
+    assert fails_within_nm(by, "vertical", "desired") == 0.0

@@ -194,3 +194,23 @@ def test_inertial_vertical_channel_grows_as_cosh_with_the_gravity_gradient():
     assert np.allclose(x, out, rtol=1e-6, atol=1e-6)
     assert x[120] == pytest.approx(0.5 * beta * 60.0**2, rel=1e-3)  # early: eq. 4's free channel
     assert x[-1] > 5 * 0.5 * beta * 3600.0**2  # an hour on: the instability dominates (x13.6)
+
+
+def test_barometric_height_error_is_the_hypsometric_thickness_ratio_in_a_warm_column():
+    """An ISA + 15 K column with the ISA's sea-level pressure, written here from the
+    hypsometric equation: T = t0 - L h, p = p0 (T / t0)^(g / (R L)) with t0 = 303.15 K.
+    The ISA reaches the same pressure at H = h x 288.15 / t0 (equate the two power laws),
+    so an altimeter referred to the field at 200 m errs by -(h - 200) x 15 / 303.15
+    (-48.0 m at 1,170 m); the OAT ratio T / T_ISA(H) is t0 / 288.15 at every height, so
+    the corrected reading is exact; "none" adds nothing."""
+    from aerotruth.sensors.air_data import barometric_height_error
+
+    g, r, lapse, t0 = 9.80665, 287.05287, 0.0065, 288.15 + 15.0
+    h = np.array([200.0, 500.0, 800.0, 1170.0])
+    temp = t0 - lapse * h
+    p = 101325.0 * (temp / t0) ** (g / (r * lapse))
+    e = barometric_height_error(p, temp, h, 0, "uncorrected")
+    assert np.allclose(e, -(h - 200.0) * 15.0 / t0, atol=1e-6)
+    assert e[-1] == pytest.approx(-48.0, abs=0.05)
+    assert np.allclose(barometric_height_error(p, temp, h, 0, "oat_corrected"), 0.0, atol=1e-6)
+    assert not barometric_height_error(p, temp, h, 0, "none").any()

@@ -115,3 +115,40 @@ def ideal_air_data(truth: pd.DataFrame) -> pd.DataFrame:
     if missing:
         raise ValueError(f"truth: missing columns {missing} (expected TruthTrack columns)")
     return pd.DataFrame({c: truth[c].to_numpy(dtype=float) for c in AIR_DATA_COLUMNS})
+
+
+BARO_TEMPERATURE = ("none", "uncorrected", "oat_corrected")
+
+
+def barometric_height_error(static_pressure_pa, temperature_k, height_m, ref_index: int, correction: str) -> np.ndarray:
+    """Error (m) of a barometric height against the truth atmosphere, its reading set to
+    the true height at sample `ref_index` (a QNH set at the field, or an AFIS's runway
+    update at the threshold).
+
+    The altimeter turns pressure into height with the ISA: its height change from the
+    reference is the pressure-altitude difference dH = H(p) - H(p_ref) (ISA geopotential,
+    aerotruth.truth.isa.pressure_altitude_m). By the hypsometric equation a layer's
+    thickness is proportional to its mean temperature, so in air warmer than the ISA the
+    true climb dh is larger: dH - dh ~ -dh (T - T_ISA) / T, 3.5 % of the height above the
+    reference at ISA + 10 K (~34 m at 10 nm on a 3 deg path). A horizontal pressure gradient
+    along the path adds its own error (the truth atmosphere has both).
+
+    `correction`: "uncorrected" (the error above), "oat_corrected" (the usual ratio
+    correction with the outside air temperature measured at the aircraft, dH x T /
+    T_ISA(H): exact in an ISA + dT column, what is left is the column's departure from a
+    constant dT and the pressure gradient), "none" (no atmosphere error: zeros). The
+    geopotential-to-geometric difference (0.03 % at 1 km) is left out."""
+    from aerotruth.truth.isa import isa_temperature_k, pressure_altitude_m
+
+    if correction not in BARO_TEMPERATURE:
+        raise ValueError(f"correction: expected one of {', '.join(BARO_TEMPERATURE)}, got {correction!r}")
+    h = np.asarray(height_m, float)
+    if correction == "none":
+        return np.zeros_like(h)
+    p = np.asarray(static_pressure_pa, float)
+    hp = pressure_altitude_m(p)
+    dh_ind = hp - hp[ref_index]
+    if correction == "oat_corrected":
+        t = np.asarray(temperature_k, float)
+        dh_ind = dh_ind * t / isa_temperature_k(hp)
+    return dh_ind - (h - h[ref_index])

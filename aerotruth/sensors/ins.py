@@ -89,6 +89,12 @@ class InsSpec(InertialErrorSpec):
     baro_gm_tau_s: float = Field(default=60.0, gt=0)
     baro_white_sigma_m: float = Field(default=0.3, ge=0, description="barometric altitude noise per reading")
     baro_rate_hz: float = Field(default=1.0, gt=0, description="barometric altitude readings per second (held between)")
+    baro_temperature: Literal["none", "uncorrected", "oat_corrected"] = Field(
+        default="oat_corrected",
+        description="the barometer's error from the truth atmosphere (temperature, pressure gradient), "
+        "referred to the threshold: uncorrected, corrected with the outside air temperature (the "
+        "compensation assumed of an AFIS), or none (aerotruth.sensors.air_data.barometric_height_error)",
+    )
 
     @property
     def label(self) -> str:
@@ -122,7 +128,7 @@ def ins_positions(
         )
         if spec.vertical in ("baro", "inertial"):
             up = (
-                baro_inertial_error(t, draw, spec, rng)
+                baro_inertial_error(t, draw, spec, rng, _atmosphere_error(df, p_true, spec))
                 if spec.vertical == "baro"
                 else -inertial_vertical_error(t, draw)
             )
@@ -173,9 +179,38 @@ def inertial_vertical_error(t: np.ndarray, draw: InertialErrors) -> np.ndarray:
     )
 
 
-def baro_inertial_error(t: np.ndarray, draw: InertialErrors, spec: InsSpec, rng: np.random.Generator) -> np.ndarray:
+def _atmosphere_error(df, p_true: np.ndarray, spec: InsSpec) -> np.ndarray | None:
+    """The barometer's error from the truth atmosphere on the track's samples, referred to
+    the sample nearest the threshold (x = 0), or None when `baro_temperature` is none."""
+    from aerotruth.sensors.air_data import barometric_height_error
+
+    if spec.baro_temperature == "none":
+        return None
+    missing = [c for c in ("static_pressure_pa", "temperature_k", "h_ellipsoid_m") if c not in df.columns]
+    if missing:
+        raise ValueError(f"track: the barometer's atmosphere error needs the truth columns {missing}")
+    ref = int(np.argmin(np.abs(p_true[:, 0])))
+    # height, not the runway frame's z: the tangent plane leaves the Earth by d^2 / 2R (27 m at 10 nm)
+    return barometric_height_error(
+        df["static_pressure_pa"].to_numpy(float),
+        df["temperature_k"].to_numpy(float),
+        df["h_ellipsoid_m"].to_numpy(float),
+        ref,
+        spec.baro_temperature,
+    )
+
+
+def baro_inertial_error(
+    t: np.ndarray,
+    draw: InertialErrors,
+    spec: InsSpec,
+    rng: np.random.Generator,
+    atmosphere_error_m: np.ndarray | None = None,
+) -> np.ndarray:
     """Height error (up, m) of the baro-inertial loop (module docstring) on the epochs t:
-    accelerometer vertical error from the draw (up = -down), barometer error drawn here."""
+    accelerometer vertical error from the draw (up = -down), barometer error drawn here,
+    plus `atmosphere_error_m` (on t; the truth atmosphere's, `_atmosphere_error`) read at
+    the barometer's readings."""
     from scipy.signal import lfilter
 
     # a drawn realization (InertialErrors.draw) carries the white noise and initial errors
@@ -190,6 +225,8 @@ def baro_inertial_error(t: np.ndarray, draw: InertialErrors, spec: InsSpec, rng:
     u = spec.baro_gm_sigma_m * rng.standard_normal(len(t_b))
     u[1:] *= np.sqrt(1.0 - rho**2)
     e_b = lfilter([1.0], [1.0, -rho], u) + spec.baro_white_sigma_m * rng.standard_normal(len(t_b))
+    if atmosphere_error_m is not None:
+        e_b = e_b + np.interp(t_b, t, np.asarray(atmosphere_error_m, float))
     e_baro = e_b[np.clip(np.searchsorted(t_b, t + 1e-9, side="right") - 1, 0, len(t_b) - 1)]
     tau = spec.baro_loop_time_constant_s
     k1, k2, k3 = 3.0 / tau, 3.0 / tau**2, 1.0 / tau**3

@@ -162,8 +162,10 @@ def approach_logs(
         "ve_mps",
         "vd_mps",
         "h_ellipsoid_m",
+        "static_pressure_pa",  # the barometer of a baro-coupled INS
+        "temperature_k",
     ]
-    sub = _Rows(pd.DataFrame({c: df[c].to_numpy()[rows] for c in need}), track.meta)
+    sub = _Rows(pd.DataFrame({c: df[c].to_numpy()[rows] for c in need if c in df.columns}), track.meta)
     pts = point_positions(sub)
     ref = pts[REFERENCE_POINT]
     n = len(rows)

@@ -29,6 +29,7 @@ vertical in this model (level flight, small tilts), so three small filters run.
 from __future__ import annotations
 
 import math
+from typing import Literal
 
 import numpy as np
 from pydantic import Field
@@ -58,6 +59,12 @@ class AfisSpec(Section):
     baro_sigma_m: float = Field(default=3.0, gt=0, description="barometric altitude error (Gauss-Markov), 1 sigma")
     baro_tau_s: float = Field(default=600.0, gt=0)
     baro_white_m: float = Field(default=0.3, gt=0, description="baro reading noise per epoch")
+    baro_temperature: Literal["none", "uncorrected", "oat_corrected"] = Field(
+        default="oat_corrected",
+        description="the barometer's error from the truth atmosphere, referred to the threshold: "
+        "uncorrected, corrected with the outside air temperature (the compensation assumed of an "
+        "AFIS: the FITS paper does not say), or none (aerotruth.sensors.air_data.barometric_height_error)",
+    )
     ra_sigma_m: float = Field(default=0.30 / 1.96, gt=0)
     tvps_sigma_m: float = Field(default=0.60 / 1.96, gt=0)
     event_sigma_s: float = Field(default=0.05, ge=0, description="spread of the pilot's reaction")

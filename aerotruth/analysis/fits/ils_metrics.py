@@ -101,3 +101,48 @@ def percentile_by_distance(errors: pd.DataFrame, column: str, edges_nm, q: float
             }
         )
     return pd.DataFrame(rows)
+
+
+PAPER_WAAS_95_M = {"cross": 3 * FT, "vertical": 6 * FT}  # FITS paper section III-A: "assumed to be 3ft ... and 6ft"
+
+
+def waas_alone_by_distance(errors: pd.DataFrame, from_nm: float = 10.0, bin_nm: float = 0.25) -> pd.DataFrame:
+    """The WAAS alone against the requirement (FITS paper Figs. 3/4), in distance bins from
+    the threshold out to `from_nm`: per bin the 95th percentile of the WAAS's |cross-track|
+    and |vertical| error (columns `waas_err_y_m`, `waas_err_z_m` of the epochs), the median
+    ranges to the localizer and glide-path antennas, and the requirement there for each
+    line (`req_{axis}_{desired|minimum}_m`, floors included)."""
+    d = errors["distance_to_threshold_m"].to_numpy(float)
+    edges = np.arange(0.0, from_nm + 1e-9, bin_nm) * NM
+    idx = np.digitize(d, edges) - 1
+    rows = []
+    for i in range(len(edges) - 1):
+        sel = idx == i
+        if not sel.any():
+            continue
+        r_loc = float(np.median(errors["range_loc_m"].to_numpy(float)[sel]))
+        r_gp = float(np.median(errors["range_gp_m"].to_numpy(float)[sel]))
+        row = {
+            "from_nm": edges[i] / NM,
+            "to_nm": edges[i + 1] / NM,
+            "epochs": int(sel.sum()),
+            "range_loc_m": r_loc,
+            "range_gp_m": r_gp,
+            "waas_cross_p95_m": float(np.percentile(np.abs(errors["waas_err_y_m"].to_numpy(float)[sel]), 95)),
+            "waas_vertical_p95_m": float(np.percentile(np.abs(errors["waas_err_z_m"].to_numpy(float)[sel]), 95)),
+        }
+        for name, alpha in REQUIREMENTS.items():
+            row[f"req_cross_{name}_m"] = float(required_error_m(r_loc, alpha, FLOOR_HORIZONTAL_M))
+            row[f"req_vertical_{name}_m"] = float(required_error_m(r_gp, alpha, FLOOR_VERTICAL_M))
+        rows.append(row)
+    return pd.DataFrame(rows)
+
+
+def fails_within_nm(by_distance: pd.DataFrame, axis: str, requirement: str, error_95_m: float | None = None) -> float:
+    """The distance (nm) from the threshold inside which the 95 % error exceeds the
+    requirement: the outer edge of the farthest bin that fails (0 when none does). The
+    error is the bin's simulated WAAS 95 % or, given, a constant (the paper's assumption)."""
+    req = by_distance[f"req_{axis}_{requirement}_m"].to_numpy(float)
+    err = by_distance[f"waas_{axis}_p95_m"].to_numpy(float) if error_95_m is None else np.full(len(req), error_95_m)
+    fail = err > req
+    return float(by_distance["to_nm"].to_numpy(float)[fail].max()) if fail.any() else 0.0

@@ -399,6 +399,25 @@ class FitsStudy(ApproachStudy):
                     {"a": t.a, "b": t.b, "expect": t.expect, "channel": channel, "margin (m)": margins[channel], **res}
                 )
         tables = {"by_ins": pd.DataFrame(per_ins)}
+        # FITS paper Figs. 3/4: the WAAS alone against the requirement (one INS's epochs: the WAAS is shared)
+        if len(ep):
+            from aerotruth.analysis.fits.ils_metrics import (
+                PAPER_WAAS_95_M,
+                fails_within_nm,
+                waas_alone_by_distance,
+            )
+
+            first = section.sensors.ins[0].label
+            e0 = ep[(ep["ins"] == first) & ep["approach"].isin(ok["approach"])]
+            alone = waas_alone_by_distance(e0, section.from_nm)
+            if len(alone):
+                tables["waas_alone_by_distance"] = alone
+                for axis in ("cross", "vertical"):
+                    for req in REQUIREMENTS:
+                        metrics[f"waas_alone.fails_within_nm.{axis}.{req}"] = fails_within_nm(alone, axis, req)
+                        metrics[f"waas_alone_paper_assumption.fails_within_nm.{axis}.{req}"] = fails_within_nm(
+                            alone, axis, req, PAPER_WAAS_95_M[axis]
+                        )
         if per_dist:
             tables["error_by_distance"] = pd.DataFrame(per_dist)
         if tost_rows:

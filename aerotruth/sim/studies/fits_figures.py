@@ -161,6 +161,32 @@ def draw(rows: pd.DataFrame, summary: Summary, out_dir: Path) -> list[Figure]:
             "the 2 ft/1 ft floors, per INS (FITS paper Figs. 15-20)",
         )
     )
+    # Figs. 3/4: the WAAS alone against the requirement by distance
+    alone = summary.tables.get("waas_alone_by_distance")
+    if alone is not None and len(alone):
+        from aerotruth.analysis.fits.ils_metrics import PAPER_WAAS_95_M
+
+        mid = (alone["from_nm"] + alone["to_nm"]).to_numpy(float) / 2
+        fig, axes = plt.subplots(1, 2, figsize=(10, 3.8), sharex=True)
+        for ax, axis, name in ((axes[0], "vertical", "vertical"), (axes[1], "cross", "horizontal (cross-track)")):
+            ax.plot(mid, alone[f"waas_{axis}_p95_m"], "k-", lw=1.4, label="simulated WAAS, 95 %")
+            paper = PAPER_WAAS_95_M[axis]
+            ax.axhline(paper, color="C3", lw=1.0, label=f"paper's assumption {paper:.2f} m")
+            ax.plot(mid, alone[f"req_{axis}_minimum_m"], "C0-", lw=1.0, label="0.05 deg (minimum)")
+            ax.plot(mid, alone[f"req_{axis}_desired_m"], "C0--", lw=1.0, label="0.015 deg (desired)")
+            ax.set(xlabel="distance to threshold (NM)", ylabel="error (m)", title=f"WAAS alone, {name}", yscale="log")
+            ax.grid(alpha=0.3, which="both")
+        axes[0].legend(fontsize=7)
+        fig.tight_layout()
+        out_dir.save(fig, "fits_waas_alone")
+        figs.append(
+            Figure(
+                "fits_waas_alone",
+                "The WAAS alone against the ILS requirement by distance: the simulated WAAS's 95 % error and "
+                "the paper's assumed 3 ft / 6 ft beside the 0.015 and 0.05 deg lines with their floors "
+                "(FITS paper Figs. 3/4)",
+            )
+        )
     # section VI: per-approach residual RMS of each INS
     appr = rows[(rows["kind"] == "approach") & ~rows["diverged"].astype(bool)]
     if len(appr):
