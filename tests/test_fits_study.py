@@ -248,6 +248,40 @@ def test_the_campaigns_negative_control_is_detected_at_its_size_with_the_margin_
 
 
 @pytest.mark.slow
+def test_a_log_without_tvps_runs_with_no_tvps_fix_and_keeps_the_waas_cross_track_bias(run, tmp_path, capsys):
+    """The exported log with every TVPS reading blanked: refused by default (one line naming
+    tvps_y_m and the way out), accepted with --no-tvps-fix; its cross-track then carries
+    the WAAS's own bias: the FITS's mean cross-track error against the truth on the
+    threshold's segment equals the drawn WAAS bias there within the cyclic residual and
+    the Gauss-Markov noise (a few cm), while the along-track and vertical fixes stand."""
+    from aerotruth.app.cli import main
+
+    out, m, rows = run
+    log = pd.read_parquet(out / "data" / "fits.approach_log.parquet")
+    log = log[log["approach"].str.endswith("/tactical")].copy()
+    log["tvps_y_m"] = np.nan
+    path = tmp_path / "no_tvps.parquet"
+    log.to_parquet(path)
+    (tmp_path / "no_tvps.runway.json").write_text((out / "data" / "fits.approach_log.runway.json").read_text())
+    assert main(["fits", str(path), "--out", str(tmp_path / "refused")]) != 0
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "tvps_y_m" in err[0] and "--no-tvps-fix" in err[0]
+    assert main(["fits", str(path), "--out", str(tmp_path / "o"), "--no-tvps-fix"]) == 0
+    bias = pd.read_csv(tmp_path / "o" / "bias.csv").set_index("approach")
+    traj = pd.read_csv(tmp_path / "o" / "trajectory.csv")
+    ep = rows[(rows["kind"] == "epoch") & (rows["ins"] == "tactical")]
+    for name, b in bias.iterrows():
+        assert b["bias_y_m"] == 0.0
+        label = name.split("/")[0]
+        e = ep[ep["approach"] == label].reset_index(drop=True)
+        t = traj[traj["approach"] == name].reset_index(drop=True)
+        near = (e["distance_to_threshold_m"].abs() < 1000).to_numpy()
+        waas_bias_y = (e["waas_err_y_m"] - e["n_true_y_m"]).to_numpy()[near].mean()  # bias + slow noise
+        fits_err_y = (t["y_m"] - e["y_true_m"]).to_numpy()[near].mean()
+        assert fits_err_y == pytest.approx(waas_bias_y, abs=0.08)
+
+
+@pytest.mark.slow
 def test_changing_a_sensor_never_reflies(run, tmp_path):
     store = TruthStore()
     before = store.flown_count()

@@ -319,7 +319,11 @@ def _cmd_fits(args: argparse.Namespace) -> int:
     from aerotruth.analysis.fits.filter import FitsSpec
     from aerotruth.app.fits import fits_main
 
-    spec = FitsSpec(ra_lever_arm_m=args.ra_lever_arm, waas_latency_s=args.waas_latency)
+    spec = FitsSpec(
+        ra_lever_arm_m=args.ra_lever_arm,
+        waas_latency_s=args.waas_latency,
+        cross_track_fix="none" if args.no_tvps_fix else "tvps",
+    )
     try:
         return fits_main(args.log, args.out, spec)
     except ValueError as e:  # DataError and other bad-input errors: one line
@@ -676,6 +680,12 @@ def build_parser() -> argparse.ArgumentParser:
         default=0.0,
         help="seconds by which the log's WAAS positions are stamped late (what `aerotruth diagnose` "
         "finds as waas_latency); each epoch is put at its time minus this",
+    )
+    fits.add_argument(
+        "--no-tvps-fix",
+        action="store_true",
+        help="leave the WAAS's cross-track bias (no TVPS fix at the threshold; the FITS paper's flight "
+        "test): for logs whose TVPS readings are missing or not to be trusted",
     )
     fits.set_defaults(func=_cmd_fits)
 

@@ -58,12 +58,14 @@ the first row after the press: the log reader takes half a row off). Along-track
 B_x = x_nl(t_threshold) (the threshold is x = 0). Vertical: the mean of z_nl - (h_RA + RA
 lever arm) over the radar-altimeter readings within `fix_window_s` of the threshold time
 (runway surface flat at z = 0). Cross-track: the mean of y_nl - y_TVPS over the TVPS
-readings in the same window.
+readings in the same window, or none (`cross_track_fix: none`, the paper's flight test:
+the WAAS's own cross-track bias stays).
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal
 
 import numpy as np
 from numpy.lib.stride_tricks import sliding_window_view
@@ -91,6 +93,12 @@ class FitsSpec(Section):
         description="height of the position reference point above the RA antenna (m): within an airframe's height",
     )
     grid_rate_hz: float = Field(default=8.0, gt=0, description="output grid (FITS paper section V: 8 Hz)")
+    cross_track_fix: Literal["tvps", "none"] = Field(
+        default="tvps",
+        description="fix the cross-track bias from the TVPS at the threshold (eq. 18), or leave the "
+        "WAAS's own (none: FITS paper section V's flight test, where the TVPS was not accurate "
+        "enough, and Figs. 19/20)",
+    )
     waas_latency_s: float = Field(
         default=0.0,
         ge=-2.0,
@@ -321,16 +329,19 @@ def threshold_bias(
         raise ValueError(
             f"ra_m: no radar-altimeter reading within {spec.fix_window_s:g} s of the threshold (t = {t_thr:.2f} s)"
         )
-    if not use_tv.any():
+    if spec.cross_track_fix == "none":
+        use_tv = np.zeros(len(t_rows), bool)  # the WAAS's own cross-track bias stays
+    elif not use_tv.any():
         raise ValueError(
-            f"tvps_y_m: no TVPS reading within {spec.fix_window_s:g} s of the threshold (t = {t_thr:.2f} s)"
+            f"tvps_y_m: no TVPS reading within {spec.fix_window_s:g} s of the threshold (t = {t_thr:.2f} s); "
+            "without a TVPS fix, leave the WAAS's cross-track bias (aerotruth fits --no-tvps-fix)"
         )
     tq = np.concatenate([[t_thr], t_rows[use_ra], t_rows[use_tv]])
     p = carry_with_ins(tq, nl.t_s, nl.noiseless, t_rows, ins_rows)
     n_ra = int(use_ra.sum())
     b_x = p[0, 0]  # eq. 18, along-track: threshold at x = 0
     b_z = np.mean(p[1 : 1 + n_ra, 2] - (ra[use_ra] + lev_ra[use_ra]))  # eq. 18, vertical
-    b_y = np.mean(p[1 + n_ra :, 1] - (tv[use_tv] + lev_tv[use_tv]))  # eq. 18, cross-track
+    b_y = np.mean(p[1 + n_ra :, 1] - (tv[use_tv] + lev_tv[use_tv])) if use_tv.any() else 0.0  # eq. 18, cross-track
     return np.array([b_x, b_y, b_z])
 
 

@@ -350,6 +350,14 @@ class FitsStudy(ApproachStudy):
                     metrics[f"{v}.dgps_noise_fits_m.{ax}"] = f_rms
                     metrics[f"{v}.dgps_noise_improvement.{ax}"] = 1.0 - f_rms / w_rms if w_rms > 0 else None
                     row[f"noise improvement vs DGPS {ax}"] = metrics[f"{v}.dgps_noise_improvement.{ax}"]
+                    # Figs. 15/16: the bias against DGPS per approach, against 2 sigma of the WAAS's bias
+                    b = a[f"dgps_bias_{ax}_m"].to_numpy(float)
+                    b = b[np.isfinite(b)]
+                    two_sigma = 2 * (w.bias_sigma_vertical_m if ax == "z" else w.bias_sigma_horizontal_m)
+                    if len(b):
+                        metrics[f"{v}.dgps_bias_mean_m.{ax}"] = float(b.mean())
+                        metrics[f"{v}.dgps_bias_rms_m.{ax}"] = float(np.sqrt(np.mean(b**2)))
+                        metrics[f"{v}.dgps_bias_beyond_2sigma_share.{ax}"] = float(np.mean(np.abs(b) > two_sigma))
             for col, name in (("along_m", "along"), ("cross_m", "cross"), ("vertical_m", "vertical")):
                 x = np.abs(e[col].to_numpy(float))
                 metrics[f"{v}.error_p95_m.{name}"] = float(np.percentile(x, 95)) if len(x) else None
