@@ -41,9 +41,10 @@ def one(track, sensors, spec, k):
     for log in logs.logs.values():
         r = run_approach(log, spec)
         T = period_samples(r.noiseless.t_s, spec.period_s)
-        ep = epoch_rows(r, logs.truth, logs.geometry, waas_at_epochs(log), T)
+        waas = waas_at_epochs(log)
+        ep = epoch_rows(r, logs.truth, logs.geometry, waas, T)
         approach_summary(ep, r.bias_m, segment_rows(r, logs.truth), 10.0)
-        dgps_noise(r, log, ep, 10.0)
+        dgps_noise(r, log, ep, 10.0, waas)
     return t1 - t0, time.process_time() - t1
 
 

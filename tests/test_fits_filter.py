@@ -394,3 +394,20 @@ def test_noise_against_a_reference_takes_a_line_and_a_step_off_each_segment():
     )
     assert np.allclose(rms, expected, rtol=0.02)  # the line's slope takes a little more than the mean
     assert np.all(np.abs(rms - 0.2) < 0.02)
+
+
+def test_aerotruth_fits_across_flagged_jumps_keeps_the_residual_under_the_lines_on_independent_logs(tmp_path):
+    """Logs from tests/approach_log_generator.py (not aerotruth's sensors) with a flagged
+    WAAS jump every ~2 minutes (~3 per approach, 1 m per axis): over every epoch, the edges
+    included, at least 97 % of the cross-track residual under 0.1 m and of the vertical
+    under 0.15 m (issue's acceptance; the floor of the generator's white and Gauss-Markov
+    noise through the high pass is 0.029 m, so a missed jump would show as metres)."""
+    log, truth = gen.make_log(8, seed=22, jumps_per_s=1 / 120.0)
+    out = tmp_path / "out"
+    assert fits_main(write(log, tmp_path / "log.parquet"), str(out), FitsSpec()) == 0
+    assert pd.read_csv(out / "bias.csv")["jumps"].sum() >= 16
+    noise = pd.read_csv(out / "cyclic_noise.csv").merge(truth, on=["approach", "time_s"])
+    r = noise[["n_y_m", "n_z_m"]].to_numpy() - noise[["cyclic_y_m", "cyclic_z_m"]].to_numpy()
+    assert len(r) == log["waas_x_m"].notna().sum()
+    assert (np.abs(r[:, 0]) < 0.1).mean() >= 0.97
+    assert (np.abs(r[:, 1]) < 0.15).mean() >= 0.97

@@ -92,7 +92,7 @@ def test_noise_against_dgps_is_the_waas_noise_by_hand_and_the_fits_leaves_the_dg
     sqrt(cycle^2 + 0.03^2 + 0.1^2) and sqrt(cycle^2 + 0.05^2 + 0.03^2 + 0.1^2). The FITS
     removes the cycle: FITS - DGPS at least the DGPS's own noise, at most the DGPS, white,
     Gauss-Markov and the residual floor together."""
-    _, m, _ = run
+    out, m, _ = run
     cycle2 = 0.5**2 * (1 + 0.3**2 / 2) / 2
     for ax, dgps in (("y", 0.05), ("z", 0.10)):
         waas = m[f"fits.tactical.dgps_noise_waas_m.{ax}"]
@@ -104,6 +104,10 @@ def test_noise_against_dgps_is_the_waas_noise_by_hand_and_the_fits_leaves_the_dg
         fits = m[f"fits.tactical.dgps_noise_fits_m.{ax}"]
         assert dgps * 0.95 <= fits <= math.sqrt(dgps**2 + 0.03**2 + 0.05**2 + _floor() ** 2) * 1.05
         assert m[f"fits.tactical.dgps_noise_improvement.{ax}"] == pytest.approx(1 - fits / waas, abs=1e-6)
+    # the report's table beside the paper carries the same number
+    vs = pd.read_csv(out / "tables" / "fits.versus_paper.csv").set_index("claim")
+    row = vs.loc["Fig. 16: vertical noise against DGPS improved (tactical, vertical free)"]
+    assert row["aerotruth"].startswith(f"{m['fits.tactical.dgps_noise_improvement.z']:.1%}")
 
 
 @pytest.mark.slow

@@ -63,9 +63,15 @@ def requirement_margins(share: float) -> dict[str, float]:
     return {"all": vertical, "horizontal": share * FLOOR_HORIZONTAL_M / Z95, "vertical": vertical}
 
 
+def _columns(df: pd.DataFrame, names) -> np.ndarray:
+    """(n, len(names)) float array of the columns (one column at a time: a list index costs
+    pandas ~1 ms of index lookup per call, the arithmetic here is less)."""
+    return np.column_stack([df[c].to_numpy(dtype=float) for c in names])
+
+
 def waas_at_epochs(log: pd.DataFrame) -> np.ndarray:
     """The log's WAAS positions (k, 3) at its WAAS epochs, in time order."""
-    w = log[["waas_x_m", "waas_y_m", "waas_z_m"]].to_numpy(dtype=float)
+    w = _columns(log, ("waas_x_m", "waas_y_m", "waas_z_m"))
     return w[np.isfinite(w[:, 0])]
 
 
@@ -77,8 +83,8 @@ def epoch_rows(result: FitsResult, truth: pd.DataFrame, geometry: dict, waas_xyz
     i = np.searchsorted(tt, nl.t_s - 1e-6)
     if len(i) and (i.max() >= len(tt) or not np.allclose(tt[i], nl.t_s, atol=1e-6)):
         raise ValueError("truth: expected a row at every WAAS epoch")
-    p_true = truth[["x_m", "y_m", "z_m"]].to_numpy()[i]
-    n_true = truth[["cyclic_x_m", "cyclic_y_m", "cyclic_z_m"]].to_numpy()[i]
+    p_true = _columns(truth, ("x_m", "y_m", "z_m"))[i]
+    n_true = _columns(truth, ("cyclic_x_m", "cyclic_y_m", "cyclic_z_m"))[i]
     errors = approach_errors(
         p_true[:, 0],
         result.xyz_m,
@@ -111,7 +117,7 @@ def segment_rows(result: FitsResult, truth: pd.DataFrame) -> pd.DataFrame:
     i = np.searchsorted(tt, nl.t_s - 1e-6)
     if len(i) and (i.max() >= len(tt) or not np.allclose(tt[i], nl.t_s, atol=1e-6)):
         raise ValueError("truth: expected a row at every WAAS epoch")
-    b_true = truth[["bias_x_m", "bias_y_m", "bias_z_m"]].to_numpy(float)[i]
+    b_true = _columns(truth, ("bias_x_m", "bias_y_m", "bias_z_m"))[i]
     b_applied = result.applied_bias_m()
     seg = nl.segment_index()
     thr = int(seg[int(np.argmin(np.abs(truth["x_m"].to_numpy(float)[i])))])
@@ -153,14 +159,17 @@ def noise_against_reference(t_s, est, ref, segment, keep) -> tuple[np.ndarray, i
     return (np.sqrt(sq / n) if n else np.full(3, np.nan)), n
 
 
-def dgps_noise(result: FitsResult, log: pd.DataFrame, ep: pd.DataFrame, from_nm: float) -> dict:
+def dgps_noise(
+    result: FitsResult, log: pd.DataFrame, ep: pd.DataFrame, from_nm: float, waas_xyz: np.ndarray | None = None
+) -> dict:
     """Per approach: the noise of the raw WAAS and of the FITS against the log's DGPS
     (`noise_against_reference`, module docstring) per axis, `dgps_noise_waas_{a}_m`,
     `dgps_noise_fits_{a}_m`, the mean of FITS - DGPS (`dgps_bias_{a}_m`: the bias the
-    paper's Figs. 15/16 show) and the epochs used, `dgps_epochs`."""
+    paper's Figs. 15/16 show) and the epochs used, `dgps_epochs`. `waas_xyz`: the log's
+    WAAS positions at its epochs when the caller has them (`waas_at_epochs`)."""
     nl = result.noiseless
     t = log["time_s"].to_numpy(float)
-    dg = log[["dgps_x_m", "dgps_y_m", "dgps_z_m"]].to_numpy(float)
+    dg = _columns(log, ("dgps_x_m", "dgps_y_m", "dgps_z_m"))
     has = np.isfinite(dg[:, 0])
     i = np.searchsorted(t[has], nl.t_s - 1e-6)
     i = np.clip(i, 0, max(int(has.sum()) - 1, 0))
@@ -171,7 +180,7 @@ def dgps_noise(result: FitsResult, log: pd.DataFrame, ep: pd.DataFrame, from_nm:
     d = ep["distance_to_threshold_m"].to_numpy(float)
     keep = (d >= 0) & (d <= from_nm * 1852.0)
     seg = nl.segment_index()
-    waas = waas_at_epochs(log)
+    waas = waas_at_epochs(log) if waas_xyz is None else waas_xyz
     n_w, n = noise_against_reference(nl.t_s, waas, ref, seg, keep)
     n_f, _ = noise_against_reference(nl.t_s, result.xyz_m, ref, seg, keep)
     out: dict = {"dgps_epochs": n}
