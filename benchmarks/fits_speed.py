@@ -7,6 +7,8 @@ Prints `label: value` lines:
 * `ins_path`: the INS path of the main rate (error_model: FITS paper eq. 4);
 * `approaches/s`: sensors + FITS + metrics per second of this process's CPU time
   (target >= 50 per core);
+* `message_stream_approaches/s` (and its ratio to the main rate): the same with the WAAS
+  built from the message stream (aerotruth.sensors.waas_messages);
 * `strapdown_approaches/s`: the same with the INS integrated by the strapdown of the
   50 Hz IMU record;
 * `sensors_share`, `fits_share`: where the time goes on the main path.
@@ -30,6 +32,7 @@ from aerotruth.analysis.fits.filter import FitsSpec, period_samples
 from aerotruth.analysis.fits.scoring import approach_summary, dgps_noise, epoch_rows, segment_rows, waas_at_epochs
 from aerotruth.sensors.ins import InsSpec
 from aerotruth.sensors.inspection_log import InspectionSensors, approach_logs
+from aerotruth.sensors.waas import WaasSpec
 from aerotruth.truth.approach import approach_spec, fly_approach
 from aerotruth.truth.track import TruthTrack
 
@@ -76,6 +79,10 @@ def main() -> None:
     print(f"approaches/s: {r:.1f}")
     print(f"sensors_share: {s_share:.2f}")
     print(f"fits_share: {f_share:.2f}")
+    ms_sensors = InspectionSensors(ins=[InsSpec(grade="tactical")], waas=WaasSpec(model="message_stream"))
+    r_ms, _ = rate(track, ms_sensors, args.n, args.rounds)
+    print(f"message_stream_approaches/s: {r_ms:.1f}")
+    print(f"message_stream_over_eq6: {r_ms / r:.2f}")
     sd_sensors = InspectionSensors(ins=[InsSpec(grade="tactical", mechanization="strapdown")])
     r_sd, _ = rate(track, sd_sensors, max(3, args.n // 10), args.rounds)
     print(f"strapdown_approaches/s: {r_sd:.2f}")

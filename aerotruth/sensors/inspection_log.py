@@ -90,6 +90,12 @@ class ApproachLogs:
     ground_speed_rows: np.ndarray | None = None  # m/s at t_rows
 
 
+def _runway_frame(track):
+    from aerotruth.truth.runway import RunwayFrame
+
+    return RunwayFrame(**track.meta["runway_frame"])
+
+
 def geometry(track) -> dict:
     """The runway geometry of the log's sidecar (`<log>.runway.json`, docs/data-formats.md)."""
     meta = track.meta
@@ -170,7 +176,7 @@ def approach_logs(
     ref = pts[REFERENCE_POINT]
     n = len(rows)
     # WAAS on its epochs
-    werr = WaasErrors.draw(sensors.waas, rng("waas"), t[w_rows])
+    werr = WaasErrors.draw(sensors.waas, rng("waas"), t[w_rows], _runway_frame(track))
     waas = np.full((n, 3), np.nan)
     waas[w_rows] = werr.apply(ref[w_rows], t[w_rows])
     sv, iono = np.zeros(n, np.int8), np.zeros(n, np.int8)

@@ -43,6 +43,7 @@ from scipy.signal import lfilter
 
 from aerotruth.ellipsoid import radii
 from aerotruth.schema import Section
+from aerotruth.sensors.waas_messages import WaasMessageSpec, draw_message_stream
 
 
 class WaasSpec(Section):
@@ -84,6 +85,15 @@ class WaasSpec(Section):
     cyclic_waveform: Literal["sine", "stepped"] = Field(
         default="sine", description="sine, or stepped (each fast correction held 6 s)"
     )
+    model: Literal["eq6", "message_stream"] = Field(
+        default="eq6",
+        description="eq6: the paper's model (this module); message_stream: the errors built from the fast "
+        "corrections, the satellite geometry and the receiver (aerotruth.sensors.waas_messages; needs the "
+        "runway frame), where the cyclic noise is not drawn",
+    )
+    messages: WaasMessageSpec = Field(
+        default_factory=WaasMessageSpec, description="the message-stream model's settings (model: message_stream)"
+    )
     gm_sigma_m: float = Field(default=0.05, ge=0, description="Gauss-Markov noise per axis, 1 sigma")
     gm_tau_s: float = Field(default=100.0, gt=0, description="Gauss-Markov correlation time")
     white_sigma_m: float = Field(default=0.03, ge=0, description="white noise per axis per epoch, 1 sigma")
@@ -100,9 +110,10 @@ class WaasSpec(Section):
         n = int(np.floor(duration_s * self.rate_hz + 1e-9)) + 1
         return t0_s + np.arange(n) / self.rate_hz
 
-    def draw(self, rng: np.random.Generator, duration_s: float, t0_s: float = 0.0) -> WaasErrors:
-        """One approach's errors at the receiver epochs over `duration_s`."""
-        return WaasErrors.draw(self, rng, self.epochs(duration_s, t0_s))
+    def draw(self, rng: np.random.Generator, duration_s: float, t0_s: float = 0.0, frame=None) -> WaasErrors:
+        """One approach's errors at the receiver epochs over `duration_s` (`frame`: the
+        runway frame, for the message-stream model)."""
+        return WaasErrors.draw(self, rng, self.epochs(duration_s, t0_s), frame)
 
 
 def _uniform_epochs(t_s) -> np.ndarray:
@@ -130,9 +141,19 @@ class WaasErrors:
     iono_update: np.ndarray
 
     @classmethod
-    def draw(cls, spec: WaasSpec, rng: np.random.Generator, t_s) -> WaasErrors:
-        """Draw every component at the epochs t_s (increasing, uniform spacing)."""
+    def draw(cls, spec: WaasSpec, rng: np.random.Generator, t_s, frame=None) -> WaasErrors:
+        """Draw every component at the epochs t_s (increasing, uniform spacing); the
+        message-stream model needs the runway frame (aerotruth.truth.runway.RunwayFrame)."""
         t = _uniform_epochs(t_s)
+        if spec.model == "message_stream":
+            if frame is None:
+                raise ValueError("waas.model message_stream: expected the runway frame (the satellite geometry's site)")
+            p = draw_message_stream(spec.messages, rng, t, frame)
+            zero = np.zeros((len(t), 3))
+            slow = p["slow"]
+            return cls(
+                t, slow[0].copy(), slow - slow[0], p["fast"], p["receiver"], zero, p["sv_change"], p["iono_update"]
+            )
         n, dt = len(t), float(t[1] - t[0])
         sig_b = np.array([spec.bias_sigma_horizontal_m, spec.bias_sigma_horizontal_m, spec.bias_sigma_vertical_m])
         bias = sig_b * rng.standard_normal(3)
