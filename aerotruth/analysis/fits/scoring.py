@@ -69,6 +69,15 @@ def _columns(df: pd.DataFrame, names) -> np.ndarray:
     return np.column_stack([df[c].to_numpy(dtype=float) for c in names])
 
 
+def _truth_rows(truth: pd.DataFrame, t_s: np.ndarray) -> np.ndarray:
+    """Indices of the truth's rows at the WAAS epochs t_s (every epoch must have one)."""
+    tt = truth["time_s"].to_numpy(float)
+    i = np.searchsorted(tt, t_s - 1e-6)
+    if len(i) and (i.max() >= len(tt) or not np.allclose(tt[i], t_s, atol=1e-6)):
+        raise ValueError("truth: expected a row at every WAAS epoch")
+    return i
+
+
 def waas_at_epochs(log: pd.DataFrame) -> np.ndarray:
     """The log's WAAS positions (k, 3) at its WAAS epochs, in time order."""
     w = _columns(log, ("waas_x_m", "waas_y_m", "waas_z_m"))
@@ -79,10 +88,7 @@ def epoch_rows(result: FitsResult, truth: pd.DataFrame, geometry: dict, waas_xyz
     """One row per WAAS epoch: truth, WAAS error, cyclic noise true and estimated, the
     residual, the FITS error and its angular view (ils_metrics columns)."""
     nl = result.noiseless
-    tt = truth["time_s"].to_numpy(float)
-    i = np.searchsorted(tt, nl.t_s - 1e-6)
-    if len(i) and (i.max() >= len(tt) or not np.allclose(tt[i], nl.t_s, atol=1e-6)):
-        raise ValueError("truth: expected a row at every WAAS epoch")
+    i = _truth_rows(truth, nl.t_s)
     p_true = _columns(truth, ("x_m", "y_m", "z_m"))[i]
     n_true = _columns(truth, ("cyclic_x_m", "cyclic_y_m", "cyclic_z_m"))[i]
     errors = approach_errors(
@@ -113,10 +119,7 @@ def segment_rows(result: FitsResult, truth: pd.DataFrame) -> pd.DataFrame:
     difference (`bias_err_{a}_m`), and `threshold` for the segment holding the epoch nearest
     the threshold (x = 0), where the RA, TVPS and event mark fixed the bias."""
     nl = result.noiseless
-    tt = truth["time_s"].to_numpy(float)
-    i = np.searchsorted(tt, nl.t_s - 1e-6)
-    if len(i) and (i.max() >= len(tt) or not np.allclose(tt[i], nl.t_s, atol=1e-6)):
-        raise ValueError("truth: expected a row at every WAAS epoch")
+    i = _truth_rows(truth, nl.t_s)
     b_true = _columns(truth, ("bias_x_m", "bias_y_m", "bias_z_m"))[i]
     b_applied = result.applied_bias_m()
     seg = nl.segment_index()
