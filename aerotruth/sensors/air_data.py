@@ -23,6 +23,7 @@ ISA geopotential height (aerotruth.truth.isa), so p_m is the exact inverse of h_
 from __future__ import annotations
 
 from dataclasses import dataclass
+from typing import Literal, get_args
 
 import numpy as np
 import pandas as pd
@@ -117,7 +118,8 @@ def ideal_air_data(truth: pd.DataFrame) -> pd.DataFrame:
     return pd.DataFrame({c: truth[c].to_numpy(dtype=float) for c in AIR_DATA_COLUMNS})
 
 
-BARO_TEMPERATURE = ("none", "uncorrected", "oat_corrected")
+BaroTemperature = Literal["none", "uncorrected", "oat_corrected"]
+BARO_TEMPERATURE: tuple[str, ...] = get_args(BaroTemperature)
 
 
 def barometric_height_error(static_pressure_pa, temperature_k, height_m, ref_index: int, correction: str) -> np.ndarray:
@@ -152,3 +154,25 @@ def barometric_height_error(static_pressure_pa, temperature_k, height_m, ref_ind
         t = np.asarray(temperature_k, float)
         dh_ind = dh_ind * t / isa_temperature_k(hp)
     return dh_ind - (h - h[ref_index])
+
+
+def baro_error_from_truth(df: pd.DataFrame, rows, x_m, correction: str) -> np.ndarray | None:
+    """`barometric_height_error` on a truth track's `rows` (indices into `df`, or None for
+    all), referred to the row nearest the threshold (runway-frame x_m = 0, given per row),
+    from the truth's static pressure, temperature and ellipsoidal height (height, not the
+    runway frame's z: the tangent plane leaves the Earth by d^2 / 2R, 27 m at 10 nm);
+    None when `correction` is none."""
+    if correction == "none":
+        return None
+    missing = [c for c in ("static_pressure_pa", "temperature_k", "h_ellipsoid_m") if c not in df.columns]
+    if missing:
+        raise ValueError(f"track: the barometer's atmosphere error needs the truth columns {missing}")
+
+    def col(name: str) -> np.ndarray:
+        v = df[name].to_numpy(float)
+        return v if rows is None else v[rows]
+
+    ref = int(np.argmin(np.abs(np.asarray(x_m, float))))
+    return barometric_height_error(
+        col("static_pressure_pa"), col("temperature_k"), col("h_ellipsoid_m"), ref, correction
+    )

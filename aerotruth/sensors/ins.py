@@ -59,6 +59,7 @@ from pydantic import Field
 from scipy.spatial.transform import Rotation
 
 from aerotruth.sensors import strapdown as sd
+from aerotruth.sensors.air_data import BaroTemperature, baro_error_from_truth
 from aerotruth.sensors.inertial_errors import InertialErrors, InertialErrorSpec
 
 MECHANIZATIONS = ("error_model", "strapdown")
@@ -89,7 +90,7 @@ class InsSpec(InertialErrorSpec):
     baro_gm_tau_s: float = Field(default=60.0, gt=0)
     baro_white_sigma_m: float = Field(default=0.3, ge=0, description="barometric altitude noise per reading")
     baro_rate_hz: float = Field(default=1.0, gt=0, description="barometric altitude readings per second (held between)")
-    baro_temperature: Literal["none", "uncorrected", "oat_corrected"] = Field(
+    baro_temperature: BaroTemperature = Field(
         default="oat_corrected",
         description="the barometer's error from the truth atmosphere (temperature, pressure gradient), "
         "referred to the threshold: uncorrected, corrected with the outside air temperature (the "
@@ -128,7 +129,9 @@ def ins_positions(
         )
         if spec.vertical in ("baro", "inertial"):
             up = (
-                baro_inertial_error(t, draw, spec, rng, _atmosphere_error(df, p_true, spec))
+                baro_inertial_error(
+                    t, draw, spec, rng, baro_error_from_truth(df, None, p_true[:, 0], spec.baro_temperature)
+                )
                 if spec.vertical == "baro"
                 else -inertial_vertical_error(t, draw)
             )
@@ -179,27 +182,6 @@ def inertial_vertical_error(t: np.ndarray, draw: InertialErrors) -> np.ndarray:
     )
 
 
-def _atmosphere_error(df, p_true: np.ndarray, spec: InsSpec) -> np.ndarray | None:
-    """The barometer's error from the truth atmosphere on the track's samples, referred to
-    the sample nearest the threshold (x = 0), or None when `baro_temperature` is none."""
-    from aerotruth.sensors.air_data import barometric_height_error
-
-    if spec.baro_temperature == "none":
-        return None
-    missing = [c for c in ("static_pressure_pa", "temperature_k", "h_ellipsoid_m") if c not in df.columns]
-    if missing:
-        raise ValueError(f"track: the barometer's atmosphere error needs the truth columns {missing}")
-    ref = int(np.argmin(np.abs(p_true[:, 0])))
-    # height, not the runway frame's z: the tangent plane leaves the Earth by d^2 / 2R (27 m at 10 nm)
-    return barometric_height_error(
-        df["static_pressure_pa"].to_numpy(float),
-        df["temperature_k"].to_numpy(float),
-        df["h_ellipsoid_m"].to_numpy(float),
-        ref,
-        spec.baro_temperature,
-    )
-
-
 def baro_inertial_error(
     t: np.ndarray,
     draw: InertialErrors,
@@ -209,7 +191,8 @@ def baro_inertial_error(
 ) -> np.ndarray:
     """Height error (up, m) of the baro-inertial loop (module docstring) on the epochs t:
     accelerometer vertical error from the draw (up = -down), barometer error drawn here,
-    plus `atmosphere_error_m` (on t; the truth atmosphere's, `_atmosphere_error`) read at
+    plus `atmosphere_error_m` (on t; the truth atmosphere's,
+    aerotruth.sensors.air_data.baro_error_from_truth) read at
     the barometer's readings."""
     from scipy.signal import lfilter
 

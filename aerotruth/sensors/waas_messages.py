@@ -149,8 +149,8 @@ def fast_correction_residual(
 def draw_message_stream(spec: WaasMessageSpec, rng: np.random.Generator, t_s, frame) -> dict:
     """The parts of one approach's WAAS error at the epochs t_s (1-D, uniform) for the
     runway frame `frame` (aerotruth.truth.runway.RunwayFrame): keys fast, receiver, slow
-    ((n, 3) runway frame), sv_change, iono_update (int8 (n,)), n_sat ((n,) satellites used),
-    period-free (nothing drawn periodic)."""
+    ((n, 3), runway frame) and the receiver flags sv_change, iono_update (int8, (n,)).
+    Nothing periodic is drawn."""
     t = np.asarray(t_s, float)
     n = len(t)
     u0, theta0 = rng.uniform(0, 2 * np.pi, 2)
@@ -204,7 +204,6 @@ def draw_message_stream(spec: WaasMessageSpec, rng: np.random.Generator, t_s, fr
     out["slow"] = np.einsum("kis,sk->ki", m, slow)
     out["sv_change"] = change
     out["iono_update"] = np.where(change > 0, 0, iono).astype(np.int8)
-    out["n_sat"] = n_used
     return out
 
 

@@ -29,13 +29,13 @@ vertical in this model (level flight, small tilts), so three small filters run.
 from __future__ import annotations
 
 import math
-from typing import Literal
 
 import numpy as np
 from pydantic import Field
 
 from aerotruth.analysis.kalman import Measurement, kalman_rts
 from aerotruth.schema import Section
+from aerotruth.sensors.air_data import BaroTemperature
 from aerotruth.units import EARTH_RADIUS_M, G0
 
 MICRO_G = 1e-6 * G0
@@ -59,7 +59,7 @@ class AfisSpec(Section):
     baro_sigma_m: float = Field(default=3.0, gt=0, description="barometric altitude error (Gauss-Markov), 1 sigma")
     baro_tau_s: float = Field(default=600.0, gt=0)
     baro_white_m: float = Field(default=0.3, gt=0, description="baro reading noise per epoch")
-    baro_temperature: Literal["none", "uncorrected", "oat_corrected"] = Field(
+    baro_temperature: BaroTemperature = Field(
         default="oat_corrected",
         description="the barometer's error from the truth atmosphere, referred to the threshold: "
         "uncorrected, corrected with the outside air temperature (the compensation assumed of an "

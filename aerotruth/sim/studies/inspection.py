@@ -249,6 +249,7 @@ class InspectionStudy(ApproachStudy):
         from aerotruth.analysis.fits.afis import afis_trajectory
         from aerotruth.analysis.fits.approach_log import run_approach
         from aerotruth.analysis.fits.filter import carry_with_ins
+        from aerotruth.sensors.air_data import baro_error_from_truth
         from aerotruth.sensors.ins import InsSpec, ins_positions
         from aerotruth.sensors.inspection_log import REFERENCE_POINT
 
@@ -279,18 +280,12 @@ class InspectionStudy(ApproachStudy):
             for k in range(1, len(t)):  # exact Gauss-Markov recursion on the log rows
                 e[k] = rho[k] * e[k - 1] + a.baro_sigma_m * math.sqrt(1 - rho[k] ** 2) * u[k]
             baro = ref[:, 2] + e + a.baro_white_m * brng.standard_normal(len(t))
-            if a.baro_temperature != "none":  # the truth atmosphere's error, referred to the threshold
-                from aerotruth.sensors.air_data import barometric_height_error
-
-                tt = track.df["time_s"].to_numpy(float)
-                k = np.clip(np.searchsorted(tt, t - 1e-9), 0, len(tt) - 1)
-                baro = baro + barometric_height_error(
-                    track.df["static_pressure_pa"].to_numpy(float)[k],
-                    track.df["temperature_k"].to_numpy(float)[k],
-                    track.df["h_ellipsoid_m"].to_numpy(float)[k],  # height: z leaves the Earth by d^2 / 2R
-                    int(np.argmin(np.abs(ref[:, 0]))),
-                    a.baro_temperature,
-                )
+            # the truth atmosphere's error, referred to the threshold
+            tt = track.df["time_s"].to_numpy(float)
+            k = np.clip(np.searchsorted(tt, t - 1e-9), 0, len(tt) - 1)
+            atmosphere = baro_error_from_truth(track.df, k, ref[:, 0], a.baro_temperature)
+            if atmosphere is not None:
+                baro = baro + atmosphere
             ra = rows["ra_m"].to_numpy(float) + rows["ra_lever_arm_m"].to_numpy(float)
             tv = rows["tvps_y_m"].to_numpy(float) + rows["tvps_lever_arm_m"].to_numpy(float)
             est, _ = afis_trajectory(
