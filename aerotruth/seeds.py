@@ -45,6 +45,13 @@ def child(seq: np.random.SeedSequence, *names: Name) -> np.random.SeedSequence:
     return np.random.SeedSequence(seq.entropy, spawn_key=tuple(seq.spawn_key) + name_words(*names))
 
 
+def named_child(seed: int | np.random.SeedSequence, *names: Name) -> np.random.SeedSequence:
+    """The child named `names` of a flight's seed, an int or a SeedSequence (an int seed is
+    SeedSequence(seed) first): a consumer's own stream inside one flight."""
+    seq = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
+    return child(seq, *names)
+
+
 def generator(seq: np.random.SeedSequence) -> np.random.Generator:
     """PCG64 generator on `seq`."""
     return np.random.Generator(np.random.PCG64(seq))

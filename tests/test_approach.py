@@ -118,6 +118,26 @@ def test_calm_approach_is_stabilised_and_passes_level_over_the_runway(calm_afis)
     assert np.abs(df["roll_rad"]).max() < 5 * DEG
 
 
+def test_calm_final_weaves_as_an_airliners_coupled_final_does(calm_afis):
+    """Roll on the straight final (6 to 1.5 nm) in calm air: the autopilot's steering
+    wander (truth/steering.py, 0.65 deg of bank command, 5 s) gives |roll| of a few tenths
+    of a degree, as the airliner recorders' coupled finals show (A320 and A310 files of the
+    real-data folder through the realism study: |roll| p50 0.35 deg, p95 1.4 deg), not the
+    noiseless loop's hundredths; the aircraft stays on the localizer (a few metres)."""
+    df = calm_afis.df
+    final = ((df["x_m"] > -6 * NM) & (df["x_m"] < -1.5 * NM)).to_numpy()
+    roll = np.abs(df["roll_rad"].to_numpy()[final]) / DEG
+    assert 0.15 < np.median(roll) < 0.8
+    assert 0.6 < np.percentile(roll, 95) < 2.0
+    y = df["y_m"].to_numpy()[final]
+    assert np.sqrt(np.mean(y**2)) < 10.0
+    # the wander is the flight's own named stream: another seed weaves otherwise
+    other = fly_approach(approach_spec("KDLH", "27", DAY), seed=2)
+    fo = ((other.df["x_m"] > -6 * NM) & (other.df["x_m"] < -1.5 * NM)).to_numpy()
+    n = min(final.sum(), fo.sum())
+    assert not np.allclose(df["roll_rad"].to_numpy()[final][:n], other.df["roll_rad"].to_numpy()[fo][:n], atol=1e-4)
+
+
 @pytest.mark.slow
 def test_inertial_truth_closes_through_an_independent_strapdown_mechanization(calm_afis, tmp_path):
     """A strapdown (aerotruth.sensors.strapdown, ECEF, J2 gravity) of the recorded dv,

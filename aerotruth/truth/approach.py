@@ -35,6 +35,7 @@ from typing import TYPE_CHECKING, Any, Protocol
 import jsbsim
 import numpy as np
 
+from aerotruth import seeds
 from aerotruth.truth.airframes import Airframe, airframe, new_fdm
 from aerotruth.truth.airports import Runway, airport
 from aerotruth.truth.fdm import (
@@ -53,6 +54,7 @@ from aerotruth.truth.fdm import (
 from aerotruth.truth.guidance import GreatCircleLeg
 from aerotruth.truth.ils import IlsFacilitySpec
 from aerotruth.truth.runway import RunwayFrame
+from aerotruth.truth.steering import STEER_DT_S, SteeringWander
 from aerotruth.truth.track import TruthTrack
 from aerotruth.truth.turbulence import Mil8785Gusts, TurbulencePatches
 from aerotruth.truth.weather import Atmosphere, UniformAtmosphere
@@ -398,6 +400,7 @@ def fly_loop(
     min_height_m: float = 3.0,
     max_bank_deg: float = 45.0,
     turbulence: TurbulencePatches | None = None,
+    steering: SteeringWander | None = None,
 ):
     """The recorded flight loop shared by approaches and inspection missions: every
     second the guidance `step(t, x, y, z, h_ell, vn, ve, vd, vc_kt)` (runway frame, m,
@@ -412,7 +415,9 @@ def fly_loop(
     above the runway (Mil8785Gusts: below 1,000 ft sigma_w = 0.1 x that wind, so the
     approach's gusts follow the day's surface wind) and updated at 50 Hz. No light chop
     here: the chop climatology was measured in cruise, and near the ground the
-    low-altitude model's gusts are of its size already."""
+    low-altitude model's gusts are of its size already. `steering`: the autopilot's
+    steering wander (aerotruth.truth.steering), stepped every STEER_DT_S of flight time,
+    calm or turbulent: a coupled approach weaves on its bank commands as the cruise does."""
     rec = Recorder(fdm)
     pm = fdm.get_property_manager()
     getters = rec.getters + [pm.get_node(p).get_double_value for p in extra_props]
@@ -444,6 +449,9 @@ def fly_loop(
         gusts = Mil8785Gusts(fdm, turbulence.rng.spawn(1)[0], fdm["metrics/bw-ft"] * FT, turbulence)
         g_vt, g_psi = (pm.get_node(p).get_double_value for p in ("velocities/vtrue-fps", "attitude/psi-rad"))
     pairs_per_sample = steps_per_sample // 2  # the gusts are updated every second step (50 Hz)
+    pairs_per_steer = int(round(STEER_DT_S / (2 * DT)))  # the wander's update, in pairs of steps
+    steer = steering.step if steering is not None else None
+    pairs = 0
     rows_append, tags_append = rows.append, tags.append
     while True:
         t = g["t"]()
@@ -472,6 +480,9 @@ def fly_loop(
                 rows_append([gg() for gg in getters])
                 tags_append(tag)
                 for _ in range(pairs_per_sample):
+                    if steer is not None and pairs % pairs_per_steer == 0:
+                        steer()
+                    pairs += 1
                     run()
                     run()
             continue
@@ -479,6 +490,9 @@ def fly_loop(
             if k % pairs_per_sample == 0:
                 rows_append([gg() for gg in getters])
                 tags_append(tag)
+            if steer is not None and pairs % pairs_per_steer == 0:
+                steer()
+            pairs += 1
             gusts.step(2 * DT, g["h"]() * FT - frame.h0_m, g_vt() * FPS, g_psi())
             run()
             run()
@@ -584,6 +598,7 @@ def fly_approach(
         return state["end_t"] is not None and t >= state["end_t"]
 
     turb = TurbulencePatches(fdm, ils.rng) if spec.turbulence else None
+    steering = SteeringWander(fdm, seeds.generator(seeds.named_child(seed, "steering")))
     rec, rows, tags = fly_loop(
         fdm,
         frame,
@@ -597,6 +612,7 @@ def fly_approach(
         INERTIAL_PROPS,
         min_height_m=3.0,
         turbulence=turb,
+        steering=steering,
     )
     nrec = len(rec.PROPS)
     data = np.asarray(rows, dtype=float)

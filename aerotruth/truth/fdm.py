@@ -5,7 +5,8 @@ temperature, the trim, and the divergence a flight ends with instead of truth.
 
 Route legs (aerotruth.truth.flight, 10 Hz, great-circle guidance, light chop and steering
 wander) and runway-frame flights (aerotruth.truth.approach.fly_loop: approaches and
-missions, 50 Hz, the low-altitude gust model) run their own loops over these parts.
+missions, 50 Hz, the low-altitude gust model and the same steering wander) run their own
+loops over these parts.
 """
 
 from __future__ import annotations
