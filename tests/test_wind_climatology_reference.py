@@ -67,6 +67,7 @@ def by_region(u: float, v: float = 0.0, mean: float = 20.0, sd: float = 6.0) -> 
                 "mean_mps": mean,
                 "sd_mps": sd,
                 "p50_mps": mean,
+                "p90_mps": mean + 1.2816 * sd,
                 "p95_mps": mean,
                 "u_mean_mps": u,
                 "v_mean_mps": v,
@@ -119,21 +120,27 @@ def test_a_cell_the_truth_did_not_sample_is_off():
 
 
 def with_reference(cells: str) -> str:
-    return CAMPAIGN + "    reference:\n      source: test\n      cells:\n" + cells
+    return CAMPAIGN + "    references:\n    - source: test\n      cells:\n" + cells
 
 
 def test_bad_reference_cells_get_one_line_naming_the_field():
     with pytest.raises(
         ConfigError,
-        match=r'reference\.cells\[0\]\.region: expected one of the study.s regions \(midwest\), got "nowhere"',
+        match=r'references\[0\]\.cells\[0\]\.region: expected one of the study.s regions \(midwest\), got "nowhere"',
     ):
         parse_campaign(with_reference("        - {region: nowhere, period: a, flight_level: 100, mean_speed_kt: 20}\n"))
-    with pytest.raises(ConfigError, match=r"reference\.cells\[0\]\.flight_level.*100, 300.*180"):
+    with pytest.raises(ConfigError, match=r"references\[0\]\.cells\[0\]\.flight_level.*100, 300.*180"):
         parse_campaign(with_reference("        - {region: midwest, period: a, flight_level: 180, mean_speed_kt: 20}\n"))
     with pytest.raises(ConfigError, match="both mean_u_mps and mean_v_mps"):
         parse_campaign(with_reference("        - {region: midwest, period: a, flight_level: 100, mean_u_mps: 3}\n"))
-    with pytest.raises(ConfigError, match="expected mean_speed_kt, or mean_u_mps and mean_v_mps"):
+    with pytest.raises(ConfigError, match="expected mean_speed_kt, p50_speed_kt, or mean_u_mps and mean_v_mps"):
         parse_campaign(with_reference("        - {region: midwest, period: b, flight_level: 100}\n"))
+    with pytest.raises(ConfigError, match="p90_speed_kt needs p50_speed_kt below it"):
+        parse_campaign(
+            with_reference(
+                "        - {region: midwest, period: b, flight_level: 100, p50_speed_kt: 30, p90_speed_kt: 20}\n"
+            )
+        )
 
 
 def test_a_campaign_with_a_reference_reports_each_cell_beside_the_truth(tmp_path):
@@ -163,3 +170,21 @@ def test_a_campaign_with_a_reference_reports_each_cell_beside_the_truth(tmp_path
     report = write_report(out).read_text()
     assert "wind_versus_reference.png" in report and "| midwest | b | FL300 | mean wind vector (m/s) | 500 |" in report
     assert (out / "figures" / "wind_versus_reference.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_median_and_90th_percentile_are_judged_and_a_stand_in_reference_only_shown():
+    # truth median 20 m/s = 38.9 kt; 90th percentile 20 + 1.2816 x 6 = 27.69 m/s = 53.8 kt
+    t = judged(by_region(5.0, mean=20.0, sd=6.0), p50_speed_kt=40.0, p90_speed_kt=80.0)
+    p50, p90 = t.iloc[0], t.iloc[1]
+    assert p50["statistic"] == "median speed (kt)" and p50["truth"] == pytest.approx(20.0 / KT)
+    assert not p50["off"]  # 2.8 % low
+    assert p90["statistic"] == "90 % speed (kt)" and p90["truth"] == pytest.approx((20.0 + 1.2816 * 6.0) / KT)
+    assert p90["ratio"] == pytest.approx(53.83 / 80.0, rel=1e-3) and p90["off"]  # 33 % and 26 kt low
+    shown = ReferenceClimatology(
+        source="a station outside the region",
+        judged=False,
+        cells=[{"region": "r", "period": "a", "flight_level": 300, "p50_speed_kt": 40.0, "p90_speed_kt": 80.0}],
+    )
+    vs = versus_reference(by_region(5.0, mean=20.0, sd=6.0), shown, 2)
+    assert not vs["off"].any() and set(vs["source_index"]) == {2} and not vs["judged"].any()
+    assert list(vs["ratio"].round(3)) == [round(p50["ratio"], 3), round(p90["ratio"], 3)]

@@ -122,7 +122,9 @@ def isa_point(
     """(temperature K, pressure Pa) of the ISA + delta_t column at one height; floats. The
     one-point form of isa_temperature_k and isa_pressure_pa for the truth loop's per-step
     calls, where numpy's per-call overhead made the array form ~150x slower on one point;
-    equal to it to the last bit (tests/test_atmosphere.py)."""
+    the same temperature to the last bit and the same pressure within two units in the last
+    place (numpy's vectorised exp and power may round otherwise than math's;
+    tests/test_atmosphere.py)."""
     h = float(h_geopotential_m)
     if not (H_BOTTOM_M <= h <= H_TOP_M):
         raise ValueError(

@@ -13,10 +13,14 @@ boundary-layer factor is 1, so the difference is the mesoscale field alone); and
 region, period and level (`wind_by_region`) the mean, standard deviation, median and 95th
 percentile of the speed with the mean u, v - the truth side of a climatology comparison
 (flight levels 50, 180 and 300 are the 843, 506 and 301 hPa pressure altitudes, the
-radiosonde's 850, 500 and 300 hPa within 10 hPa). A `reference:` section holds a cited
-climatology's cells (region, period, level; mean speed and its spread, or the mean wind
-vector); the report puts each beside the truth with their ratio and flags a mean off by
-more than `tolerance` (default 30 %) and by more than `min_difference_kt` (default 5 kt).
+radiosonde's 850, 500 and 300 hPa within 10 hPa). `references:` lists cited
+climatologies, each with its cells (region, period, level; the mean speed and its spread,
+the median and 90th percentile of the speed, or the mean wind vector); the report puts
+each beside the truth with their ratio and flags a judged statistic off by more than the
+reference's `tolerance` (default 30 %) and by more than its `min_difference_kt` (default
+5 kt); a reference standing in for a region it does not cover is `judged: false`, shown
+only. Per reference j: `reference.j.cells_off`, and the RMS of log(truth / source) over
+its judged speed statistics (`reference.j.speed_rms_log_ratio`).
 """
 
 from __future__ import annotations
@@ -76,6 +80,8 @@ class ReferenceCell(Section):
     flight_level: StrictInt = Field(ge=0, le=450)
     mean_speed_kt: float | None = Field(default=None, gt=0)
     sd_speed_kt: float | None = Field(default=None, gt=0)
+    p50_speed_kt: float | None = Field(default=None, gt=0)
+    p90_speed_kt: float | None = Field(default=None, gt=0)
     mean_u_mps: float | None = None
     mean_v_mps: float | None = None
 
@@ -83,10 +89,12 @@ class ReferenceCell(Section):
     def _one_statistic_at_least(self) -> ReferenceCell:
         if (self.mean_u_mps is None) != (self.mean_v_mps is None):
             raise ValueError("give both mean_u_mps and mean_v_mps (the mean wind vector), or neither")
-        if self.mean_speed_kt is None and self.mean_u_mps is None:
-            raise ValueError("expected mean_speed_kt, or mean_u_mps and mean_v_mps")
+        if self.mean_speed_kt is None and self.mean_u_mps is None and self.p50_speed_kt is None:
+            raise ValueError("expected mean_speed_kt, p50_speed_kt, or mean_u_mps and mean_v_mps")
         if self.sd_speed_kt is not None and self.mean_speed_kt is None:
             raise ValueError("sd_speed_kt needs mean_speed_kt")
+        if self.p90_speed_kt is not None and (self.p50_speed_kt is None or self.p90_speed_kt <= self.p50_speed_kt):
+            raise ValueError("p90_speed_kt needs p50_speed_kt below it")
         return self
 
 
@@ -96,6 +104,11 @@ class ReferenceClimatology(Section):
     them)."""
 
     source: str = Field(min_length=1, description="citation: who, what data, which years")
+    judged: bool = Field(
+        default=True,
+        description="false: shown beside the truth, not judged (a source standing in for a region it does not "
+        "cover, e.g. a station outside the region's box)",
+    )
     tolerance: float = Field(
         default=0.30, gt=0, lt=1, description="flag a truth mean off the source's by more than this fraction"
     )
@@ -115,8 +128,8 @@ class WindClimatologyConfig(Section):
 
     regions: list[RegionBox] = Field(min_length=1)
     periods: list[str] = Field(min_length=1)
-    reference: ReferenceClimatology | None = Field(
-        default=None, description="a cited climatology shown beside the truth"
+    references: list[ReferenceClimatology] = Field(
+        default=[], description="cited climatologies shown beside the truth, each judged on its own tolerance"
     )
     flight_levels: list[StrictInt] = Field(
         default=[50, 100, 150, 200, 250], min_length=1, description="hundreds of feet"
@@ -194,12 +207,12 @@ class WindClimatology(Study):
         for i, n in enumerate(names):
             if names.index(n) != i:
                 raise refs.error(("regions", i, "name"), f"duplicate name {n!r}")
-        if cfg.reference is not None:
-            for i, c in enumerate(cfg.reference.cells):
+        for j, ref in enumerate(cfg.references):
+            for i, c in enumerate(ref.cells):
                 for field, known in (("region", names), ("period", cfg.periods), ("flight_level", cfg.flight_levels)):
                     if getattr(c, field) not in known:
                         raise refs.error(
-                            ("reference", "cells", i, field),
+                            ("references", j, "cells", i, field),
                             f"expected one of the study's {field}s ({', '.join(map(str, known))}), "
                             f"got {refs.value(getattr(c, field))}",
                         )
@@ -290,15 +303,24 @@ class WindClimatology(Study):
             metrics[f"{key}.speed_mean_mps"] = r.mean_mps
             metrics[f"{key}.speed_sd_mps"] = r.sd_mps
             metrics[f"{key}.speed_p50_mps"] = r.p50_mps
+            metrics[f"{key}.speed_p90_mps"] = r.p90_mps
         tables = self._tables(metrics)
         tables["wind_by_region"] = _region_table(by_region)
-        if section.reference is not None:
-            vs = versus_reference(by_region, section.reference)
+        if section.references:
+            vs = pd.concat(
+                [versus_reference(by_region, ref, j) for j, ref in enumerate(section.references)], ignore_index=True
+            )
             tables["versus_reference"] = vs
-            metrics["reference_cells"] = int(len(vs))
-            metrics["reference_cells_off"] = int(vs["off"].sum())
-            metrics["reference_tolerance"] = float(section.reference.tolerance)
-            metrics["reference_min_difference_kt"] = float(section.reference.min_difference_kt)
+            for j, ref in enumerate(section.references):
+                one = vs[vs["source_index"] == j]
+                metrics[f"reference.{j}.cells"] = int(len(one))
+                metrics[f"reference.{j}.judged"] = int(ref.judged)
+                metrics[f"reference.{j}.cells_off"] = int(one["off"].sum())
+                metrics[f"reference.{j}.tolerance"] = float(ref.tolerance)
+                metrics[f"reference.{j}.min_difference_kt"] = float(ref.min_difference_kt)
+                ratio = one.loc[one["statistic"].isin(JUDGED_SPEED_STATISTICS), "ratio"].to_numpy(float)
+                if len(ratio):
+                    metrics[f"reference.{j}.speed_rms_log_ratio"] = float(np.sqrt(np.nanmean(np.log(ratio) ** 2)))
         return Summary(metrics, tables)
 
     def _metrics(self, rows: pd.DataFrame) -> dict[str, Any]:
@@ -378,17 +400,20 @@ class WindClimatology(Study):
         if vs is not None and len(vs):
             stats = [k for k in REFERENCE_STATISTICS if k != "speed sd (kt)" and (vs["statistic"] == k).any()]
             fig, axes = plt.subplots(1, len(stats), figsize=(5.2 * len(stats), 4.8), squeeze=False)
-            tol = float(summary.metrics.get("reference_tolerance", 0.3))
-            floor_kt = float(summary.metrics.get("reference_min_difference_kt", 0.0))
             for ax, stat in zip(axes[0], stats, strict=False):
                 g = vs[vs["statistic"] == stat]
                 top = 1.1 * float(np.nanmax(np.r_[g["source"], g["truth"]]))
                 x = np.linspace(0.0, top, 100)
-                band = np.maximum(tol * x, floor_kt * REFERENCE_STATISTICS[stat])
-                ax.fill_between(x, x - band, x + band, color="0.9", label=f"within {tol:.0%} or {floor_kt:g} kt")
+                judged = sorted(set(g.loc[g["judged"].astype(bool), "source_index"]))
+                if judged:  # the band of the references judged in this panel
+                    j = int(judged[0])
+                    tol = float(summary.metrics.get(f"reference.{j}.tolerance", 0.3))
+                    floor_kt = float(summary.metrics.get(f"reference.{j}.min_difference_kt", 0.0))
+                    band = np.maximum(tol * x, floor_kt * REFERENCE_STATISTICS[stat])
+                    ax.fill_between(x, x - band, x + band, color="0.9", label=f"within {tol:.0%} or {floor_kt:g} kt")
                 ax.plot(x, x, "k-", lw=0.8)
                 for fl, marker in zip(sorted(g["flight_level"].unique()), "o^sDv", strict=False):
-                    h = g[g["flight_level"] == fl]
+                    h = g[(g["flight_level"] == fl) & g["judged"].astype(bool)]
                     ax.scatter(
                         h["source"],
                         h["truth"],
@@ -398,18 +423,30 @@ class WindClimatology(Study):
                         edgecolors="k",
                         linewidths=0.4,
                     )
+                    h = g[(g["flight_level"] == fl) & ~g["judged"].astype(bool)]
+                    if len(h):
+                        ax.scatter(
+                            h["source"],
+                            h["truth"],
+                            marker=marker,
+                            facecolors="none",
+                            edgecolors="0.4",
+                            linewidths=0.6,
+                            label=f"{fl} (shown)",
+                        )
                 ax.set_xlim(0, top)
                 ax.set_ylim(0, top)
                 ax.set_xlabel(f"source: {stat}")
                 ax.set_ylabel(f"truth: {stat}")
                 ax.grid(alpha=0.3)
-                ax.legend(fontsize="small", title="red: off")
-            fig.suptitle(f"Truth atmosphere vs {str(vs['reference'].iloc[0]).split(':')[0]}", fontsize=9)
+                ax.legend(fontsize="x-small", title="red: off; hollow: not judged")
+            names = "; ".join(dict.fromkeys(str(r).split(" (")[0].split(":")[0] for r in vs["reference"]))
+            fig.suptitle(f"Truth atmosphere vs {names}", fontsize=8)
             out_dir.save(fig, "wind_versus_reference")
             figs.append(
                 Figure(
                     "wind_versus_reference",
-                    "Truth wind statistics against the cited climatology, per region, "
+                    "Truth wind statistics against the cited climatologies, per region, "
                     "season and level (red: off by more than the tolerance)",
                 )
             )
@@ -418,12 +455,19 @@ class WindClimatology(Study):
 
 PERIOD_SEP = "|"  # joins the names of the periods a sampled day belongs to
 # the statistics a reference cell may give, with the size of 1 kt in each one's unit
-REFERENCE_STATISTICS = {"mean wind vector (m/s)": KT, "mean speed (kt)": 1.0, "speed sd (kt)": 1.0}
+REFERENCE_STATISTICS = {
+    "mean wind vector (m/s)": KT,
+    "mean speed (kt)": 1.0,
+    "speed sd (kt)": 1.0,
+    "median speed (kt)": 1.0,
+    "90 % speed (kt)": 1.0,
+}
+JUDGED_SPEED_STATISTICS = ("mean speed (kt)", "median speed (kt)", "90 % speed (kt)")
 
 
 def wind_by_region(rows: pd.DataFrame) -> pd.DataFrame:
     """Speed statistics (m/s) per region, period and flight level: samples, mean, standard
-    deviation (ddof 1), median, 95th percentile, mean u and v, first and last date. A day in
+    deviation (ddof 1), median, 90th and 95th percentiles, mean u and v, first and last date. A day in
     several periods counts in each."""
     cols = [
         "region",
@@ -433,6 +477,7 @@ def wind_by_region(rows: pd.DataFrame) -> pd.DataFrame:
         "mean_mps",
         "sd_mps",
         "p50_mps",
+        "p90_mps",
         "p95_mps",
         "u_mean_mps",
         "v_mean_mps",
@@ -458,6 +503,7 @@ def wind_by_region(rows: pd.DataFrame) -> pd.DataFrame:
                 "mean_mps": float(sp.mean()),
                 "sd_mps": float(sp.std(ddof=1)) if len(sp) > 1 else math.nan,
                 "p50_mps": float(np.percentile(sp, 50)),
+                "p90_mps": float(np.percentile(sp, 90)),
                 "p95_mps": float(np.percentile(sp, 95)),
                 "u_mean_mps": float(g["u_mps"].mean()),
                 "v_mean_mps": float(g["v_mps"].mean()),
@@ -484,6 +530,7 @@ def _region_table(by_region: pd.DataFrame) -> pd.DataFrame:
             "mean speed (kt)": b["mean_mps"] / KT,
             "sd (kt)": b["sd_mps"] / KT,
             "median (kt)": b["p50_mps"] / KT,
+            "90 % (kt)": b["p90_mps"] / KT,
             "95 % (kt)": b["p95_mps"] / KT,
             "mean u (m/s)": b["u_mean_mps"],
             "mean v (m/s)": b["v_mean_mps"],
@@ -491,13 +538,15 @@ def _region_table(by_region: pd.DataFrame) -> pd.DataFrame:
     )
 
 
-def versus_reference(by_region: pd.DataFrame, ref: ReferenceClimatology) -> pd.DataFrame:
+def versus_reference(by_region: pd.DataFrame, ref: ReferenceClimatology, index: int = 0) -> pd.DataFrame:
     """Each cited statistic beside the truth's, one row per cell and statistic: the mean
-    speed (kt), its spread (kt), the mean wind vector's magnitude (m/s, with the truth's
-    and the source's u, v), the ratio truth / source, and `off` where a mean (speed or
-    vector) is outside the source's by more than the tolerance and by more than
+    speed (kt), its spread (kt), the median and 90th percentile of the speed (kt), the mean
+    wind vector's magnitude (m/s, with the truth's and the source's u, v), the ratio truth
+    / source, and `off` where a judged statistic (a mean, the median or the 90th
+    percentile) is outside the source's by more than the tolerance and by more than
     `min_difference_kt`; a cell the truth did not sample is off, its truth NaN. The spread
-    is shown, not judged."""
+    is shown, not judged; a reference with `judged: false` is shown, its `off` always
+    false. `source_index` numbers the reference (its place in `references`)."""
     idx = by_region.set_index(["region", "period", "flight_level"]) if len(by_region) else None
     rows = []
     for c in ref.cells:
@@ -510,6 +559,10 @@ def versus_reference(by_region: pd.DataFrame, ref: ReferenceClimatology) -> pd.D
             stats.append(("mean speed (kt)", c.mean_speed_kt, get("mean_mps") / KT, True, {}))
         if c.sd_speed_kt is not None:
             stats.append(("speed sd (kt)", c.sd_speed_kt, get("sd_mps") / KT, False, {}))
+        if c.p50_speed_kt is not None:
+            stats.append(("median speed (kt)", c.p50_speed_kt, get("p50_mps") / KT, True, {}))
+        if c.p90_speed_kt is not None:
+            stats.append(("90 % speed (kt)", c.p90_speed_kt, get("p90_mps") / KT, True, {}))
         if c.mean_u_mps is not None:
             tu, tv = get("u_mean_mps"), get("v_mean_mps")
             stats.append(
@@ -531,14 +584,14 @@ def versus_reference(by_region: pd.DataFrame, ref: ReferenceClimatology) -> pd.D
                     "source": src,
                     "truth": tru,
                     "ratio": ratio,
-                    "off": bool(judged and not (abs(tru - src) <= max(ref.tolerance * src, floor))),
+                    "off": bool(ref.judged and judged and not (abs(tru - src) <= max(ref.tolerance * src, floor))),
                     **{
                         k: extra.get(k, math.nan)
                         for k in ("source_u_mps", "source_v_mps", "truth_u_mps", "truth_v_mps")
                     },
                 }
             )
-    return pd.DataFrame(rows).assign(reference=ref.source)
+    return pd.DataFrame(rows).assign(reference=ref.source, source_index=index, judged=ref.judged)
 
 
 def _by_level(rows: pd.DataFrame):
