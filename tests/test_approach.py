@@ -118,6 +118,36 @@ def test_calm_approach_is_stabilised_and_passes_level_over_the_runway(calm_afis)
     assert np.abs(df["roll_rad"]).max() < 5 * DEG
 
 
+@pytest.mark.parametrize("turbulence", [False, True])
+def test_the_steering_wander_is_stepped_every_tenth_of_a_second_of_flight(monkeypatch, turbulence):
+    """fly_loop's two loops (calm; gusts updated every second step) step the wander every
+    STEER_DT_S = 0.1 s of flight: as many steps as tenths of a second flown (the last
+    second's ten included), on the flight's own 'steering' stream."""
+    import aerotruth.truth.approach as approach_mod
+    from aerotruth import seeds
+    from aerotruth.truth.steering import STEER_SIGMA_RAD, SteeringWander
+
+    made = []
+
+    class Counting(SteeringWander):
+        def __init__(self, fdm, rng):
+            super().__init__(fdm, rng)
+            self.calls = 0
+            self.e0 = self.e  # the stationary start, the stream's first draw
+            made.append(self)
+
+        def step(self):
+            self.calls += 1
+            super().step()
+
+    monkeypatch.setattr(approach_mod, "SteeringWander", Counting)
+    tr = fly_approach(approach_spec("KDLH", "27", DAY, turbulence=turbulence), seed=5)
+    (w,) = made
+    seconds = round((tr.df["time_s"].iloc[-1] - tr.df["time_s"].iloc[0]) + 0.02)  # 50 Hz rows of whole seconds
+    assert w.calls == 10 * seconds
+    assert w.e0 == STEER_SIGMA_RAD * seeds.generator(seeds.named_child(5, "steering")).standard_normal()
+
+
 def test_calm_final_weaves_as_an_airliners_coupled_final_does(calm_afis):
     """Roll on the straight final (6 to 1.5 nm) in calm air: the autopilot's steering
     wander (truth/steering.py, 0.65 deg of bank command, 5 s) gives |roll| of a few tenths

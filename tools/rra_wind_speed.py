@@ -23,7 +23,9 @@ Method:
   means, standard deviations and correlation (a Rice-like speed; drawn, fixed seed). It
   matches the table's mean speed within ~5 % but not its spread (10-15 % low at 300 hPa:
   the soundings' speeds are more skewed, ~0.9 against ~0.5), so the cells come from the
-  speed's own moments, and the Gaussian model's figures are printed beside them.
+  speed's own moments, and the Gaussian model's figures are printed beside them. (A
+  Pearson III with a large skewness may put a little probability below 0 kt at the lowest
+  level; its median and 90th percentile are not affected.)
 
     python tools/rra_wind_speed.py RRA_DIR SITE PERIOD=YYYY-MM-DD:YYYY-MM-DD ... \
         [--levels 843,506,301] [--region NAME]
@@ -179,7 +181,12 @@ def main() -> None:
         sys.exit(f"rra_wind_speed: {e}")
     for name, start, end in periods:
         for p, fl in zip(levels, fls, strict=True):
-            cell, gauss, months = period_cell(t1s, t2s, p, start, end)
+            try:
+                if end < start:
+                    raise ValueError(f"{name}: the period ends before it starts")
+                cell, gauss, months = period_cell(t1s, t2s, p, start, end)
+            except (KeyError, ValueError) as e:
+                sys.exit(f"rra_wind_speed: {a.site} {name} {p:g} hPa: {e}")
             print(
                 f"      - {{region: {a.region}, period: {name}, flight_level: {fl}, "
                 + ", ".join(f"{k}: {v:.1f}" for k, v in cell.items())

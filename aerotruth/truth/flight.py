@@ -343,9 +343,8 @@ def fly_route(
     fdm = new_fdm(af, DT)
     # the flight's vertical profile (mass, descent path, ATC level-offs) from its own named
     # stream, the same calm or turbulent (aerotruth.truth.profile)
-    seq = seed if isinstance(seed, np.random.SeedSequence) else np.random.SeedSequence(seed)
     profile = draw_profile(
-        seeds.generator(seeds.child(seq, "profile")),
+        seeds.generator(seeds.named_child(seed, "profile")),
         route.cruise_pressure_altitude_m / FT,
         (route.arrival_h_ellipsoid_m - route.undulation_m) / FT,
         mass=af.name == "saab340",
@@ -358,8 +357,8 @@ def fly_route(
     chop = ChopGusts(fdm, rng.spawn(1)[0], fdm["metrics/bw-ft"] * FT) if turbulence else None
     # the autopilot's steering wander (the A320 recorder's weave in straight flight) and the
     # FMS's navigation error: in every flight, calm or not, each on its own named stream
-    wander = SteeringWander(fdm, seeds.generator(seeds.child(seq, "steering")))
-    nav_error = NavigationError(fdm, seeds.generator(seeds.child(seq, "navigation")), dt_s=GUIDE_EVERY * DT)
+    wander = SteeringWander(fdm, seeds.generator(seeds.named_child(seed, "steering")))
+    nav_error = NavigationError(fdm, seeds.generator(seeds.named_child(seed, "navigation")), dt_s=GUIDE_EVERY * DT)
     path_m = 0.0
     # guidance and targets before the initial condition is run: JSBSim evaluates the
     # autopilot (filters, rate limiters) during initialisation and trim, and stale targets

@@ -72,8 +72,9 @@ class RegionBox(Section):
 class ReferenceCell(Section):
     """One cell of a cited wind climatology for a region, period and flight level (the
     pressure altitude nearest the source's level): the mean wind speed (kt, with its spread
-    where the source gives it), or the mean wind vector (m/s east and north: what a
-    climatological-mean model gives), or both."""
+    where the source gives it), the median and 90th percentile of the speed (kt), or the
+    mean wind vector (m/s east and north: what a climatological-mean model gives), or
+    several of these."""
 
     region: str = Field(min_length=1)
     period: str = Field(min_length=1)
@@ -100,8 +101,9 @@ class ReferenceCell(Section):
 
 class ReferenceClimatology(Section):
     """A published climatology (radiosonde or reanalysis statistics, or an empirical model
-    fitted to such data), cited, its cells shown beside the truth's (nothing computes from
-    them)."""
+    fitted to such data), cited, its cells shown beside the truth's and, when `judged`,
+    each mean, median and 90th percentile flagged where the truth is off (the truth is never
+    computed from them)."""
 
     source: str = Field(min_length=1, description="citation: who, what data, which years")
     judged: bool = Field(
@@ -110,7 +112,10 @@ class ReferenceClimatology(Section):
         "cover, e.g. a station outside the region's box)",
     )
     tolerance: float = Field(
-        default=0.30, gt=0, lt=1, description="flag a truth mean off the source's by more than this fraction"
+        default=0.30,
+        gt=0,
+        lt=1,
+        description="flag a judged truth statistic off the source's by more than this fraction",
     )
     min_difference_kt: float = Field(
         default=5.0,
