@@ -3,6 +3,7 @@ climatology: hand-worked numbers, and bad reference cells named in one line."""
 
 from __future__ import annotations
 
+import json
 import math
 
 import numpy as np
@@ -167,6 +168,9 @@ def test_a_campaign_with_a_reference_reports_each_cell_beside_the_truth(tmp_path
     assert set(by.loc[by["period"] == "a", "samples"]) == {20} and set(by.loc[by["period"] == "b", "samples"]) == {10}
     from aerotruth.app.report import write_report
 
+    m = json.loads((out / "metrics.json").read_text())["metrics"]
+    assert m["wind_climatology.reference.0.cells"] == 2 and m["wind_climatology.reference.0.cells_off"] == 2
+    assert m["wind_climatology.reference.0.cells_unsampled"] == 0
     report = write_report(out).read_text()
     assert "wind_versus_reference.png" in report and "| midwest | b | FL300 | mean wind vector (m/s) | 500 |" in report
     assert (out / "figures" / "wind_versus_reference.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
@@ -188,3 +192,30 @@ def test_median_and_90th_percentile_are_judged_and_a_stand_in_reference_only_sho
     vs = versus_reference(by_region(5.0, mean=20.0, sd=6.0), shown, 2)
     assert not vs["off"].any() and set(vs["source_index"]) == {2} and not vs["judged"].any()
     assert list(vs["ratio"].round(3)) == [round(p50["ratio"], 3), round(p90["ratio"], 3)]
+
+
+def test_each_reference_is_judged_on_its_own_and_a_stand_in_never_flags(tmp_path):
+    from aerotruth.sim.campaign import run_campaign
+    from aerotruth.sim.executors import ExecutorChoice
+
+    text = (
+        CAMPAIGN
+        + "    references:\n"
+        + "    - source: judged\n      tolerance: 0.2\n      cells:\n"
+        + "        - {region: midwest, period: a, flight_level: 300, p50_speed_kt: 1.0e-3, p90_speed_kt: 1.0}\n"
+        + "    - source: shown\n      judged: false\n      cells:\n"
+        + "        - {region: midwest, period: a, flight_level: 300, p50_speed_kt: 1.0e-3, p90_speed_kt: 1.0}\n"
+    )
+    out = tmp_path / "run"
+    run_campaign(parse_campaign(text), ExecutorChoice("local", workers=1), out=out, progress=False, log=lambda m: None)
+    m = json.loads((out / "metrics.json").read_text())["metrics"]
+    # no truth wind has a 0.001-kt median: off where judged, shown only where not
+    assert (m["wind_climatology.reference.0.cells_off"], m["wind_climatology.reference.1.cells_off"]) == (2, 0)
+    assert (m["wind_climatology.reference.0.judged"], m["wind_climatology.reference.1.judged"]) == (1, 0)
+    # the same cells, the same ratios: the same RMS of log ratio for both
+    assert (
+        m["wind_climatology.reference.0.speed_rms_log_ratio"] == m["wind_climatology.reference.1.speed_rms_log_ratio"]
+    )
+    assert m["wind_climatology.reference.0.speed_rms_log_ratio"] > 5.0  # log(~20 kt / 0.001 kt) ~ 10
+    vs = pd.read_csv(out / "tables" / "wind_climatology.versus_reference.csv")
+    assert list(vs["source_index"]) == [0, 0, 1, 1] and list(vs["judged"]) == [True, True, False, False]

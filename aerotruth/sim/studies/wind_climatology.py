@@ -19,8 +19,9 @@ the median and 90th percentile of the speed, or the mean wind vector); the repor
 each beside the truth with their ratio and flags a judged statistic off by more than the
 reference's `tolerance` (default 30 %) and by more than its `min_difference_kt` (default
 5 kt); a reference standing in for a region it does not cover is `judged: false`, shown
-only. Per reference j: `reference.j.cells_off`, and the RMS of log(truth / source) over
-its judged speed statistics (`reference.j.speed_rms_log_ratio`).
+only. Per reference j: `reference.j.cells_off`, the statistics the truth did not sample
+(`reference.j.cells_unsampled`), and the RMS of log(truth / source) over its sampled speed
+statistics (`reference.j.speed_rms_log_ratio`).
 """
 
 from __future__ import annotations
@@ -323,9 +324,11 @@ class WindClimatology(Study):
                 metrics[f"reference.{j}.cells_off"] = int(one["off"].sum())
                 metrics[f"reference.{j}.tolerance"] = float(ref.tolerance)
                 metrics[f"reference.{j}.min_difference_kt"] = float(ref.min_difference_kt)
+                metrics[f"reference.{j}.cells_unsampled"] = int(one["truth"].isna().sum())
                 ratio = one.loc[one["statistic"].isin(JUDGED_SPEED_STATISTICS), "ratio"].to_numpy(float)
+                ratio = ratio[np.isfinite(ratio) & (ratio > 0)]
                 if len(ratio):
-                    metrics[f"reference.{j}.speed_rms_log_ratio"] = float(np.sqrt(np.nanmean(np.log(ratio) ** 2)))
+                    metrics[f"reference.{j}.speed_rms_log_ratio"] = float(np.sqrt(np.mean(np.log(ratio) ** 2)))
         return Summary(metrics, tables)
 
     def _metrics(self, rows: pd.DataFrame) -> dict[str, Any]:
