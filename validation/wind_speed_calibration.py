@@ -8,9 +8,13 @@ judged; Wallops Island and Great Falls for the Chautauqua and Mesaba regions, sh
 the HWM14 mean-vector cells of the campaign off by more than 30 % and 5 kt.
 
 Prints per variant `label: value` lines: `<site>.rms_log` (RMS of log(truth / RRA) over the
-24 statistics), `<site>.worst_log`, `<site>.beyond_20pct`, `hwm14_cells_off`.
+24 statistics), `<site>.worst_log`, `<site>.beyond_20pct`, `hwm14_cells_off`; with
+`--station`, the same for Kodiak at the station's own column (`kod13_station.*`;
+validation/plans/wind-speed-station.md). A variant f,p,L,S also sets the summer jet's
+latitude L and its day-to-day sd S.
 
     python validation/wind_speed_calibration.py RRA_DIR 1.0,0.45 1.7,0.30 ...
+    python validation/wind_speed_calibration.py RRA_DIR --station 1.7,0.30,51,5 1.9,0.30,53,7 ...
 
 RRA_DIR holds the RRA tables T1/T2 of kod13, wal13 and gtf06 (tools/rra_wind_speed.py).
 """
@@ -93,6 +97,34 @@ def truth_cells(spec: WindFieldSpec, seed: int = 2010, points: int = 100):
     return out
 
 
+KODIAK_BOX = (56.75, 58.75, -152.0, -149.0)  # the campaign's region kodiak: +-1 deg around the station
+
+
+def station_cells(spec: WindFieldSpec, seed: int = 2010, points: int = 100):
+    """{(period, FL): (p50 kt, p90 kt)} of the truth at Kodiak's column (its own realization,
+    centred on the box, as the campaign samples an explicit box)."""
+    s_, n_, w_, e_ = KODIAK_BOX
+    centre = (0.5 * (s_ + n_), 0.5 * (w_ + e_))
+    out = {}
+    for per, (a, b) in PERIODS.items():
+        d, end = dt.date.fromisoformat(a), dt.date.fromisoformat(b)
+        rng = np.random.default_rng(1)
+        sp: dict[int, list] = {fl: [] for fl in LEVELS}
+        while d <= end:
+            atm = TruthAtmosphere.for_day(d, weather_seed(seed, d), centre, spec)
+            for fl in LEVELS:
+                for hour in (0, 12):
+                    lat, lon = sample_points(rng, KODIAK_BOX, points)
+                    t = np.full(points, hour * 3600.0)
+                    z = msl_height_of_flight_level(atm, lat, lon, fl, t)
+                    u, v, _ = (np.asarray(c) for c in atm.wind(lat, lon, z, t))
+                    sp[fl].append(np.hypot(u, v) / KT)
+            d += dt.timedelta(days=1)
+        for fl in LEVELS:
+            out[per, fl] = tuple(np.percentile(np.concatenate(sp[fl]), [50, 90]))
+    return out
+
+
 def hwm14_off(truth) -> int:
     doc = yaml.safe_load((ROOT / "campaigns" / "wind_climatology.yaml").read_text())
     ref = doc["studies"]["wind_climatology"]["references"][0]
@@ -108,16 +140,37 @@ def hwm14_off(truth) -> int:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("rra_dir", type=Path)
-    ap.add_argument("variants", nargs="+", help="f,p: the wave amplitudes' factor and the surface fraction")
+    ap.add_argument(
+        "variants",
+        nargs="+",
+        help="f,p[,L,S]: the wave amplitudes' factor and the surface fraction, and optionally the summer jet's "
+        "latitude L and its day-to-day sd S (deg)",
+    )
+    ap.add_argument(
+        "--station",
+        action="store_true",
+        help="also compare Kodiak's soundings with the truth at the station's own column (+-1 deg, the "
+        "atmosphere's realization centred there, as the campaign's region kodiak): `kod13_station.*` lines",
+    )
     a = ap.parse_args()
     ref = rra_cells(a.rra_dir)
     base = WindFieldSpec()
     lo0, hi0 = (8.0, 18.0)  # the amplitudes before calibration (m/s at the jet, x jet speed / 45)
     for variant in a.variants:
-        f, p = (float(x) for x in variant.split(","))
+        vals = [float(x) for x in variant.split(",")]
+        f, p = vals[0], vals[1]
         spec = dataclasses.replace(base, wave_amplitude_ms=(lo0 * f, hi0 * f), wave_surface_fraction=p)
-        truth = truth_cells(spec)
         label = f"f{f:g}_p{p:g}"
+        if len(vals) == 4:
+            spec = dataclasses.replace(spec, jet_latitude_summer_deg=vals[2], jet_latitude_sd_deg=vals[3])
+            label += f"_lat{vals[2]:g}_sd{vals[3]:g}"
+        truth = truth_cells(spec)
+        if a.station:
+            st = station_cells(spec)
+            logs = [math.log(st[k[1:]][i] / ref[k][i]) for k in ref if k[0] == "penair" for i in (0, 1)]
+            print(f"{label}.kod13_station.rms_log: {math.sqrt(np.mean(np.square(logs))):.3f}")
+            print(f"{label}.kod13_station.worst_log: {max(map(abs, logs)):.3f}")
+            print(f"{label}.kod13_station.beyond_20pct: {sum(not 0.8 <= math.exp(x) <= 1.2 for x in logs)}")
         for net, site in SITES.items():
             logs = [math.log(truth[k][i] / ref[k][i]) for k in ref if k[0] == net for i in (0, 1)]
             print(f"{label}.{site}.rms_log: {math.sqrt(np.mean(np.square(logs))):.3f}")
