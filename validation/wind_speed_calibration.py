@@ -67,61 +67,57 @@ def rra_cells(rra_dir: Path) -> dict[tuple[str, str, int], tuple[float, float]]:
     return out
 
 
-def truth_cells(spec: WindFieldSpec, seed: int = 2010, points: int = 100):
-    """{(network, period, FL): (p50 kt, p90 kt, mean u, mean v)} of the truth."""
+def period_samples(spec: WindFieldSpec, region, box, period: str, seed: int = 2010, points: int = 100):
+    """{FL: (p50 kt, p90 kt, mean u, mean v)} of the truth over `box` in `period`: every day's
+    realization of `region` (a network's region name or a centre), 00 and 12 UTC, `points`
+    uniform over the box area at each flight level's height."""
+    a, b = PERIODS[period]
+    d, end = dt.date.fromisoformat(a), dt.date.fromisoformat(b)
+    rng = np.random.default_rng(1)
+    sp: dict[int, list] = {fl: [] for fl in LEVELS}
+    uv: dict[int, list] = {fl: [] for fl in LEVELS}
+    while d <= end:
+        atm = TruthAtmosphere.for_day(d, weather_seed(seed, d), region, spec)
+        for fl in LEVELS:
+            for hour in (0, 12):
+                lat, lon = sample_points(rng, box, points)
+                t = np.full(points, hour * 3600.0)
+                z = msl_height_of_flight_level(atm, lat, lon, fl, t)
+                u, v, _ = (np.asarray(c) for c in atm.wind(lat, lon, z, t))
+                sp[fl].append(np.hypot(u, v) / KT)
+                uv[fl].append(np.c_[u, v])
+        d += dt.timedelta(days=1)
+    out = {}
+    for fl in LEVELS:
+        s, w = np.concatenate(sp[fl]), np.concatenate(uv[fl])
+        out[fl] = (*np.percentile(s, [50, 90]), *w.mean(axis=0))
+    return out
+
+
+def truth_cells(spec: WindFieldSpec):
+    """{(network, period, FL): (p50 kt, p90 kt, mean u, mean v)} of the truth over each
+    network's region box, in its region's realization."""
     out = {}
     for net in SITES:
-        region = NETWORK_REGION[net]
         box = region_box(RegionBox(name=net, network=net))
-        for per, (a, b) in PERIODS.items():
-            d, end = dt.date.fromisoformat(a), dt.date.fromisoformat(b)
-            rng = np.random.default_rng(1)
-            sp: dict[int, list] = {fl: [] for fl in LEVELS}
-            uv: dict[int, list] = {fl: [] for fl in LEVELS}
-            while d <= end:
-                atm = TruthAtmosphere.for_day(d, weather_seed(seed, d), region, spec)
-                for fl in LEVELS:
-                    for hour in (0, 12):
-                        lat, lon = sample_points(rng, box, points)
-                        t = np.full(points, hour * 3600.0)
-                        u, v, _ = (
-                            np.asarray(c)
-                            for c in atm.wind(lat, lon, msl_height_of_flight_level(atm, lat, lon, fl, t), t)
-                        )
-                        sp[fl].append(np.hypot(u, v) / KT)
-                        uv[fl].append(np.c_[u, v])
-                d += dt.timedelta(days=1)
-            for fl in LEVELS:
-                s, w = np.concatenate(sp[fl]), np.concatenate(uv[fl])
-                out[net, per, fl] = (*np.percentile(s, [50, 90]), *w.mean(axis=0))
+        for per in PERIODS:
+            for fl, cell in period_samples(spec, NETWORK_REGION[net], box, per).items():
+                out[net, per, fl] = cell
     return out
 
 
 KODIAK_BOX = (56.75, 58.75, -152.0, -149.0)  # the campaign's region kodiak: +-1 deg around the station
 
 
-def station_cells(spec: WindFieldSpec, seed: int = 2010, points: int = 100):
-    """{(period, FL): (p50 kt, p90 kt)} of the truth at Kodiak's column (its own realization,
-    centred on the box, as the campaign samples an explicit box)."""
+def station_cells(spec: WindFieldSpec):
+    """{(period, FL): (p50 kt, p90 kt, mean u, mean v)} of the truth at Kodiak's column (its
+    own realization, centred on the box, as the campaign samples an explicit box)."""
     s_, n_, w_, e_ = KODIAK_BOX
     centre = (0.5 * (s_ + n_), 0.5 * (w_ + e_))
     out = {}
-    for per, (a, b) in PERIODS.items():
-        d, end = dt.date.fromisoformat(a), dt.date.fromisoformat(b)
-        rng = np.random.default_rng(1)
-        sp: dict[int, list] = {fl: [] for fl in LEVELS}
-        while d <= end:
-            atm = TruthAtmosphere.for_day(d, weather_seed(seed, d), centre, spec)
-            for fl in LEVELS:
-                for hour in (0, 12):
-                    lat, lon = sample_points(rng, KODIAK_BOX, points)
-                    t = np.full(points, hour * 3600.0)
-                    z = msl_height_of_flight_level(atm, lat, lon, fl, t)
-                    u, v, _ = (np.asarray(c) for c in atm.wind(lat, lon, z, t))
-                    sp[fl].append(np.hypot(u, v) / KT)
-            d += dt.timedelta(days=1)
-        for fl in LEVELS:
-            out[per, fl] = tuple(np.percentile(np.concatenate(sp[fl]), [50, 90]))
+    for per in PERIODS:
+        for fl, cell in period_samples(spec, centre, KODIAK_BOX, per).items():
+            out[per, fl] = cell
     return out
 
 
