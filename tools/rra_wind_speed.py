@@ -129,9 +129,10 @@ def pearson3_mixture(moments: list[tuple[float, float, float]], weights: list[fl
     return mean, math.sqrt(second - mean * mean), q[0], q[1]
 
 
-def period_cell(t1s, t2s, p_hpa: float, start: dt.date, end: dt.date, seed: int = 2010):
+def period_cell(t1s, t2s, p_hpa: float, start: dt.date, end: dt.date, seed: int = 2010, check: bool = True):
     """(cell statistics in kt from the speed's moments, the same from the Gaussian (u, v)
-    model, per-month rows) of one level and period."""
+    model, per-month rows) of one level and period; `check=False` skips the Gaussian model
+    (its figures None and NaN)."""
     rng = np.random.default_rng(seed)
     days = month_days(start, end)
     moments, weights, draws, months = [], [], [], []
@@ -141,11 +142,16 @@ def period_cell(t1s, t2s, p_hpa: float, start: dt.date, end: dt.date, seed: int 
         w = wind_at(t1s[name], z)
         moments.append((w["mean_ws"], w["sd_ws"], w["skew_ws"]))
         weights.append(n)
+        if not check:
+            months.append((name, z, w, math.nan, math.nan))
+            continue
         s = speed_draws(w, rng)
         months.append((name, z, w, float(s.mean()), float(s.std())))
         draws.append(rng.choice(s, size=int(round(DRAWS * n / sum(days.values()))), replace=False))
     mean, sd, p50, p90 = pearson3_mixture(moments, weights)
     cell = {"mean_speed_kt": mean / KT, "sd_speed_kt": sd / KT, "p50_speed_kt": p50 / KT, "p90_speed_kt": p90 / KT}
+    if not check:
+        return cell, None, months
     g = np.concatenate(draws)
     gauss = {
         "mean": g.mean() / KT,

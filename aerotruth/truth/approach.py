@@ -503,7 +503,8 @@ def fly_loop(
 class IlsSetup:
     """What an ILS flight (an approach, a flight-inspection mission) starts from: the
     airframe, the runway with its 3-D frame and glide path, the atmosphere, the flight's
-    random stream, the start time (s after 0 UTC), the geoid undulation and a fresh FDM."""
+    random stream, the start time (s after 0 UTC), the geoid undulation, a fresh FDM and the
+    autopilot's steering wander on it (the flight's "steering" stream)."""
 
     af: Airframe
     runway: Runway
@@ -514,6 +515,7 @@ class IlsSetup:
     t0_s: float
     undulation_m: float
     fdm: jsbsim.FGFDMExec
+    steering: SteeringWander  # the autopilot's steering wander, on the flight's "steering" stream
 
 
 def ils_setup(
@@ -525,6 +527,7 @@ def ils_setup(
     if af.name != "saab340":
         raise ValueError(f"aircraft: {what} are flown by the saab340 only{why}, got {af.name!r}")
     runway = find_runway(spec.airport, spec.runway)
+    fdm = new_fdm(af, DT)
     day0 = spec.start_utc.replace(hour=0, minute=0, second=0, microsecond=0)
     return IlsSetup(
         af,
@@ -535,7 +538,8 @@ def ils_setup(
         np.random.default_rng(seed),
         (spec.start_utc - day0).total_seconds(),
         runway.undulation_m,
-        new_fdm(af, DT),
+        fdm,
+        SteeringWander(fdm, seeds.generator(seeds.named_child(seed, "steering"))),
     )
 
 
@@ -598,7 +602,6 @@ def fly_approach(
         return state["end_t"] is not None and t >= state["end_t"]
 
     turb = TurbulencePatches(fdm, ils.rng) if spec.turbulence else None
-    steering = SteeringWander(fdm, seeds.generator(seeds.named_child(seed, "steering")))
     rec, rows, tags = fly_loop(
         fdm,
         frame,
@@ -612,7 +615,7 @@ def fly_approach(
         INERTIAL_PROPS,
         min_height_m=3.0,
         turbulence=turb,
-        steering=steering,
+        steering=ils.steering,
     )
     nrec = len(rec.PROPS)
     data = np.asarray(rows, dtype=float)

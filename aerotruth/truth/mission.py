@@ -40,7 +40,6 @@ from typing import TYPE_CHECKING, Literal
 import numpy as np
 from pydantic import Field
 
-from aerotruth import seeds
 from aerotruth.schema import Section
 from aerotruth.truth.airframes import Airframe
 from aerotruth.truth.approach import (
@@ -58,7 +57,6 @@ from aerotruth.truth.fdm import FlightDiverged, params_digest, seed_repr
 from aerotruth.truth.guidance import GreatCircleLeg
 from aerotruth.truth.ils import IlsFacilitySpec
 from aerotruth.truth.runway import RunwayFrame
-from aerotruth.truth.steering import SteeringWander
 from aerotruth.truth.track import TruthTrack
 from aerotruth.truth.turbulence import TurbulencePatches
 from aerotruth.truth.weather import Atmosphere
@@ -309,7 +307,6 @@ def fly_mission(
         return guide.done
 
     turb = TurbulencePatches(fdm, ils.rng) if spec.turbulence else None
-    steering = SteeringWander(fdm, seeds.generator(seeds.named_child(seed, "steering")))
     cg_props = tuple(f"inertia/cg-{a}-in" for a in "xyz")
     rec, rows, tags = fly_loop(
         fdm,
@@ -324,7 +321,7 @@ def fly_mission(
         cg_props,
         min_height_m=3.0,
         turbulence=turb,
-        steering=steering,
+        steering=ils.steering,
     )
     nrec = len(rec.PROPS)
     data = np.asarray(rows, dtype=float)
