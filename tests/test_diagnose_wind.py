@@ -305,8 +305,8 @@ def test_rows_left_out_are_counted_in_the_report_and_on_the_command_line(tmp_pat
     )
 
 
-def test_weather_blocks_keep_flights_whole_and_alternate_folds():
-    from aerotruth.analysis.diagnose.wind_data import WEATHER_BLOCK_S, weather_blocks
+def test_weather_blocks_keep_flights_whole_and_deal_the_folds():
+    from aerotruth.analysis.diagnose.wind_data import N_FOLDS, WEATHER_BLOCK_S, weather_blocks
 
     h = 3600.0
     # flight 7: 05:00-07:30 (mid 06:15 -> block 1); flight 3: 00:10-01:00 (block 0);
@@ -316,7 +316,10 @@ def test_weather_blocks_keep_flights_whole_and_alternate_folds():
     assert WEATHER_BLOCK_S == 6 * h
     cluster, fold = weather_blocks(flight, t)
     assert cluster.tolist() == [1, 1, 1, 0, 0, 2, 2, 0, 0]
-    assert fold.tolist() == [1, 1, 1, 0, 0, 0, 0, 0, 0]
+    assert N_FOLDS == 5
+    assert fold.tolist() == [1, 1, 1, 0, 0, 2, 2, 0, 0]  # block k in fold k mod 5
+    c2, f2 = weather_blocks(np.arange(12), np.arange(12) * WEATHER_BLOCK_S + 60.0)
+    assert c2.tolist() == list(range(12)) and f2.tolist() == [0, 1, 2, 3, 4, 0, 1, 2, 3, 4, 0, 1]
 
 
 @pytest.mark.slow

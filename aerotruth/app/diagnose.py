@@ -542,10 +542,17 @@ def write_wind_diagnosis(
     for s in baseline["not_identifiable"]:
         lines += [f"* not identifiable: {s}"]
     fits = baseline["model_fit"]
+    dh = baseline.get("deviation_heading")
+    lines += ["", "## The model's fit per aircraft", ""]
+    if dh:
+        rms = dh["transverse_rms_kt"]
+        how = "as the model states" if dh["asked"] != "auto" else "the one the data follow"
+        lines += [
+            f"The deviation's harmonics are of the {dh['chosen']} heading ({how}; transverse residual RMS "
+            f"{rms['magnetic']:.3f} kt of the magnetic heading, {rms['true']:.3f} kt of the true heading).",
+            "",
+        ]
     lines += [
-        "",
-        "## The model's fit per aircraft",
-        "",
         "| aircraft | status | A (deg) | B (deg) | C (deg) | flights | reason |",
         "|---|---|---|---|---|---|---|",
     ]

@@ -8,14 +8,14 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Literal
 
 import numpy as np
 import pandas as pd
 from pydantic import Field, ValidationError, field_validator
 from scipy import sparse, stats
 
-from aerotruth.analysis.diagnose.wind_data import WindData
+from aerotruth.analysis.diagnose.wind_data import N_FOLDS, WindData
 from aerotruth.analysis.least_squares import live_columns, ols
 from aerotruth.analysis.wind.heading_correction import heading_spread
 from aerotruth.errors import ConfigError
@@ -25,6 +25,7 @@ from aerotruth.units import DEG, KT
 MIN_COVERAGE = 0.1  # smaller eigenvalue of the (sin, cos) covariance: the heading-correction criterion
 MIN_FLIGHTS = 4
 QUANT_STEPS = (1e-4, 2e-4, 2.5e-4, 5e-4, 1e-3, 2e-3, 2.5e-3, 5e-3, 0.01, 0.02, 0.025, 0.05, 0.1, 0.2, 0.25, 0.5, 1.0)
+FOLDS = tuple(range(N_FOLDS))  # the held-out folds (wind_data.N_FOLDS)
 SENSOR_DYNAMICS = ("roll_deg", "turn_deg_s", "phase_ascent", "phase_descent")  # model_of_sensors
 QUANT_SHARE = 0.99  # share of coordinates that must lie on a grid for the data to be quantized on it
 
@@ -35,6 +36,14 @@ class WindModelSpec(Section):
 
     deviation_terms: int = Field(
         default=3, description="3: A, B, C (wind paper eq. 2 as the method fits it); 5: + D, E (soft iron)"
+    )
+    deviation_heading: Literal["auto", "magnetic", "true"] = Field(
+        default="auto",
+        description="the heading the deviation's harmonics are of: magnetic (the flux valve's own: the "
+        "reported true heading less the IGRF declination; wind paper section 4: eq. 2 assumes magnetic "
+        "heading), true (the method's approximation, the curve shifted by the declination), or auto: "
+        "the one the base model fits better (the smaller transverse residual; indistinguishable where "
+        "the declination hardly changes across the network)",
     )
     field_scaling: float = Field(default=0.0, ge=-3, le=3, description="gamma of B, C ~ (H0/H)^gamma (hard iron: 1)")
     tas_bias: bool = Field(
@@ -264,9 +273,33 @@ def _coverage_ok(z: np.ndarray, harmonic: int) -> bool:
     return len(z) >= 3 and heading_spread(np.degrees(z), np.ones(len(z)), harmonic) >= MIN_COVERAGE
 
 
+def deviation_z(d: WindData, spec: WindModelSpec) -> np.ndarray:
+    """The heading (rad) the deviation's harmonics are of (WindModelSpec.deviation_heading;
+    "auto" is decided by choose_deviation_heading before any fit, magnetic until then)."""
+    return d.z if spec.deviation_heading == "true" else d.z_mag
+
+
+def choose_deviation_heading(d: WindData, spec: WindModelSpec, y: np.ndarray, clusters: np.ndarray) -> dict:
+    """For deviation_heading "auto": the base model fitted with its harmonics of the magnetic
+    and of the true heading (the same number of parameters), the one with the smaller
+    transverse residual sum of squares chosen. Returns {"chosen", "transverse_rms_kt":
+    {magnetic, true}}; the spec's own choice where it is not "auto"."""
+    rms = {}
+    for h in ("magnetic", "true"):
+        st = State(spec.model_copy(update={"deviation_heading": h}), [], spec.field_scaling, {}, set(), [])
+        st.steps = {d.names.index(a): list(ts) for a, ts in spec.recalibrations.items() if a in d.names}
+        st.drifts = {d.names.index(a) for a in spec.offset_drifts if a in d.names}
+        fit = solve(current_blocks(d, st), y, clusters, with_cov=False)
+        rms[h] = float(np.sqrt(np.mean(fit.resid[: d.n] ** 2)) / KT)
+    chosen = spec.deviation_heading if spec.deviation_heading != "auto" else min(rms, key=lambda h: rms[h])
+    return {"chosen": chosen, "transverse_rms_kt": rms, "asked": spec.deviation_heading}
+
+
 def base_blocks(d: WindData, st: State) -> list[Block]:
-    """The deviation model per aircraft (A; B, C where identified; D, E when in the model)."""
+    """The deviation model per aircraft (A; B, C where identified; D, E when in the model),
+    its harmonics of the deviation heading (deviation_z)."""
     n, out = d.n, []
+    z = deviation_z(d, st.spec)
     s = d.h_ratio**st.gamma
     for i in range(len(d.names)):
         sel = d.aircraft == i
@@ -282,14 +315,14 @@ def base_blocks(d: WindData, st: State) -> list[Block]:
             out.append(Block("base", "drift", drift_column(d, i)[:, None], i))
         if st.spec.tas_bias:
             out.append(Block("base", "T", stack_channels(None, sel.astype(float), n)[:, None], i))
-        zi = d.z[sel]
+        zi = z[sel]
         if _coverage_ok(zi, 1):
             out.append(
                 Block(
                     "base",
                     "BC",
                     np.column_stack(
-                        [stack_channels(one * s * np.sin(d.z), None, n), stack_channels(one * s * np.cos(d.z), None, n)]
+                        [stack_channels(one * s * np.sin(z), None, n), stack_channels(one * s * np.cos(z), None, n)]
                     ),
                     i,
                 )
@@ -300,7 +333,7 @@ def base_blocks(d: WindData, st: State) -> list[Block]:
                     "soft_iron" if "soft_iron" in st.entered else "base",
                     "DE",
                     np.column_stack(
-                        [stack_channels(one * np.sin(2 * d.z), None, n), stack_channels(one * np.cos(2 * d.z), None, n)]
+                        [stack_channels(one * np.sin(2 * z), None, n), stack_channels(one * np.cos(2 * z), None, n)]
                     ),
                     i,
                 )
@@ -332,7 +365,7 @@ def covariate(d: WindData, name: str) -> np.ndarray:
         return np.sin(arg) if name.endswith("sin") else np.cos(arg)
     if name.startswith("sin") or name.startswith("cos"):
         k = int(name[3])
-        return np.sin(k * d.z) if name.startswith("sin") else np.cos(k * d.z)
+        return np.sin(k * d.z_mag) if name.startswith("sin") else np.cos(k * d.z_mag)  # a compass term: magnetic
     if name.startswith("phase_"):
         return (d.phase == name[6:]).astype(float)
     if name.startswith("period_"):
@@ -393,8 +426,8 @@ class Basis:
     e0 the current model's residual; the coefficient, the residual (e0 - C~ gamma on every
     row) and the cluster-robust covariance of gamma (scores C~_g' e_g) are exactly those of
     the full fit [X0 C] (tests/test_diagnose_wind.py checks it), at the cost of the added
-    columns only. Parts: None (all rows) and k = 0, 1 (trained on fold 1 - k, predicting
-    fold k)."""
+    columns only. Parts: None (all rows) and k = 0 .. N_FOLDS - 1 (trained on every fold but
+    k, predicting fold k)."""
 
     def __init__(self, d: WindData, st: State, y: np.ndarray, clusters: np.ndarray):
         self.d, self.y, self.clusters = d, y, clusters
@@ -404,7 +437,7 @@ class Basis:
         for b in self.blocks:
             self.slices.append(slice(k, k + b.cols.shape[1]))
             k += b.cols.shape[1]
-        self.parts = {p: self._part(None if p is None else rows_of_fold(d, 1 - p)) for p in (None, 0, 1)}
+        self.parts = {p: self._part(None if p is None else train_rows(d, p)) for p in (None, *FOLDS)}
 
     def _part(self, rows: np.ndarray | None) -> dict:
         Xr = self.X0 if rows is None else self.X0[rows]
@@ -554,7 +587,14 @@ def block_p(fit: Fit, effect: str, d: WindData) -> float:
 
 
 def rows_of_fold(d: WindData, fold: int) -> np.ndarray:
+    """The 2n rows (both channels) of held-out fold `fold`."""
     f = d.fold == fold
+    return np.r_[f, f]
+
+
+def train_rows(d: WindData, fold: int) -> np.ndarray:
+    """The rows a fit that predicts fold `fold` learns on: every other fold."""
+    f = d.fold != fold
     return np.r_[f, f]
 
 
@@ -578,16 +618,17 @@ def cand_soft_iron(d: WindData, st: State, fit: Fit | None) -> list[Block]:
     if st.spec.deviation_terms == 5:
         return []
     n, out = d.n, []
+    z = deviation_z(d, st.spec)
     for i in range(len(d.names)):
         sel = d.aircraft == i
-        if _enough(d, i) and _coverage_ok(d.z[sel], 2):
+        if _enough(d, i) and _coverage_ok(z[sel], 2):
             one = sel * d.tas
             out.append(
                 Block(
                     "soft_iron",
                     "DE",
                     np.column_stack(
-                        [stack_channels(one * np.sin(2 * d.z), None, n), stack_channels(one * np.cos(2 * d.z), None, n)]
+                        [stack_channels(one * np.sin(2 * z), None, n), stack_channels(one * np.cos(2 * z), None, n)]
                     ),
                     i,
                 )
@@ -646,47 +687,58 @@ def _cusum(x: np.ndarray) -> tuple[np.ndarray, int, float]:
     return e, k, float(abs(s[k]))
 
 
-def kolmogorov_cusum(x: np.ndarray) -> tuple[float, int]:
-    """p-value of the sup |CUSUM| of a series (Brownian-bridge limit, long-run variance with
-    Bartlett weights to lag 2) and the index after which the mean changes."""
-    n = len(x)
-    if n < 6:
-        return 1.0, 0
-    _, k, sup = _cusum(x)
-    # the long-run variance from the residuals about the two segments' means (about the
-    # overall mean, a real step would inflate it and hide itself)
-    r = np.r_[x[: k + 1] - x[: k + 1].mean(), x[k + 1 :] - x[k + 1 :].mean()]
-    lrv = np.mean(r**2) + 2 * sum((1 - j / 3) * np.mean(r[j:] * r[:-j]) for j in (1, 2))
-    if lrv <= 0:
-        return 1.0, 0
-    stat = sup / math.sqrt(n * lrv)
-    return float(stats.kstwobign.sf(stat)), k
-
-
-def cusum_permutation(x: np.ndarray, stages: tuple[int, ...] = (1999, 39999)) -> tuple[float, int]:
-    """p-value of the sup |CUSUM| of a series of exchangeable units (weather blocks' sums or
-    means) by permuting the units, and the index after which the mean changes. Exact under
-    no change for any number of units; the asymptotic Kolmogorov p of kolmogorov_cusum,
-    with its long-run variance from 30 block means, rejects 34 times too often at 4e-4
-    (measured: 1.4 % of 20,000 pure-noise series). Deterministic (a fixed stream); the
-    permutations grow from the first stage to the next where p is small, so p resolves
-    down to 1 / 40,000."""
+def permutation_p(x: np.ndarray, stat, stages: tuple[int, ...] = (1999, 39999), seed: int = 20261128) -> float:
+    """p-value of stat(x) (larger = more extreme) by permuting the units of x: exact when
+    the units are exchangeable under the null, whatever their number and distribution.
+    `stat` maps an (m, n) array of permuted series to m statistics. Deterministic (a fixed
+    stream); the permutations grow from one stage to the next while p is small (< 0.02),
+    so p resolves down to 1 / (stages[-1] + 1)."""
     x = np.asarray(x, dtype=float)
     n = len(x)
-    if n < 6:
-        return 1.0, 0
-    e, k, stat = _cusum(x)
-    rng = np.random.default_rng(20261128)
+    observed = float(stat(x[None, :])[0])
+    rng = np.random.default_rng(seed)
     hits = total = 0
+    p = 1.0
     for m in stages:
         perm = np.argsort(rng.random((m - total, n)), axis=1)
-        sp = np.abs(np.cumsum(e[perm], axis=1)[:, :-1]).max(axis=1)
-        hits += int(np.sum(sp >= stat - 1e-12 * max(stat, 1.0)))
+        hits += int(np.sum(stat(x[perm]) >= observed - 1e-12 * max(abs(observed), 1.0)))
         total = m
         p = (1 + hits) / (1 + total)
         if p > 0.02:
             break
-    return float(p), k
+    return float(p)
+
+
+def _sup_cusum(xs: np.ndarray) -> np.ndarray:
+    e = xs - xs.mean(axis=1, keepdims=True)
+    return np.abs(np.cumsum(e, axis=1)[:, :-1]).max(axis=1)
+
+
+def cusum_permutation(x: np.ndarray, stages: tuple[int, ...] = (1999, 39999)) -> tuple[float, int]:
+    """p-value of the sup |CUSUM| of a series of exchangeable units (weather blocks' sums or
+    means) by permuting the units (permutation_p), and the index after which the mean
+    changes. Exact under no change for any number of units; the asymptotic Kolmogorov p
+    (Brownian bridge), with a long-run variance from a few dozen means, rejects far too
+    often in the tail (1.4 % of 20,000 pure-noise series at 4e-4; 38 times the level at
+    1e-4 for 40 independent normal means, tests/test_diagnose_competing.py)."""
+    x = np.asarray(x, dtype=float)
+    if len(x) < 6:
+        return 1.0, 0
+    _, k, _ = _cusum(x)
+    return permutation_p(x, _sup_cusum, stages), k
+
+
+def slope_permutation(t: np.ndarray, x: np.ndarray, stages: tuple[int, ...] = (1999, 39999)) -> float:
+    """Two-sided p-value of the least-squares slope of x on t by permuting x's units
+    (permutation_p; the statistic |sum (t - mean t) x|). Exact for exchangeable units; the
+    slope's t test with a Bartlett long-run variance from a few dozen points rejected 27
+    times the level at 1e-4 (the variance estimate is itself noisy, and t(n - 2) does not
+    carry that)."""
+    t = np.asarray(t, dtype=float)
+    if len(t) < 6 or np.ptp(t) <= 0:
+        return 1.0
+    tc = t - t.mean()
+    return permutation_p(x, lambda xs: np.abs(xs @ tc), stages)
 
 
 def group_means(
@@ -718,15 +770,15 @@ def _means_by_aircraft(d: WindData, fit: Fit, rows: np.ndarray | None, groups: n
 
 
 def recalibration_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, tuple[float, float]]:
-    """Per aircraft: (p-value, time of the change) of a change in its flight-mean offset
-    (sup-CUSUM of the flight means, Kolmogorov). A permutation of the aircraft's weather
-    blocks (cusum_permutation, exact) was tried and named a recalibration of 0.75 deg first
-    in 4 of 10 independent datasets against 6 of 10 with this scan (the block sums of one
-    aircraft are few and coarse); the Bonferroni over aircraft and the library's level keep
-    this scan's nulls at 0 of 10 (validation/diagnose_confusion_plan.md)."""
+    """Per aircraft: (p-value, time of the change) of a change in its mean offset: the sup
+    |CUSUM| of its weather blocks' mean offsets, by permuting the blocks (cusum_permutation:
+    blocks are the independent units here as in every other test). The asymptotic
+    Kolmogorov p of the flight means' CUSUM that this replaces rejected 38 times its level
+    at 1e-4 (40 independent means) and named a recalibration in noise once a held-out floor
+    no longer hid it."""
     out = {}
-    for i, m, t0, t1 in _means_by_aircraft(d, fit, rows, d.flight):
-        p, k = kolmogorov_cusum(m)
+    for i, m, t0, t1 in _means_by_aircraft(d, fit, rows, d.cluster):
+        p, k = cusum_permutation(m)
         out[i] = (p, 0.5 * (t1[k] + t0[k + 1]))
     return out
 
@@ -750,31 +802,15 @@ def cand_recalibration(d: WindData, st: State, fit: Fit | None, rows: np.ndarray
     return out
 
 
-def _slope_p(x: np.ndarray, y: np.ndarray) -> float:
-    """Two-sided p-value of the OLS slope of y on x, its variance with Bartlett weights to
-    lag 2 (the series in time order: neighbours may share weather), against Student's t
-    with n - 2 degrees of freedom (a series of a few dozen weather blocks: the normal
-    limit would reject too often)."""
-    if len(x) < 6:
-        return 1.0
-    xc = x - x.mean()
-    sxx = float(np.sum(xc**2))
-    if sxx <= 0:
-        return 1.0
-    b = float(np.sum(xc * (y - y.mean())) / sxx)
-    u = xc * (y - y.mean() - b * xc)
-    lrv = np.sum(u**2) + 2 * sum((1 - j / 3) * np.sum(u[j:] * u[:-j]) for j in (1, 2))
-    if lrv <= 0:
-        return 1.0
-    return float(2 * stats.t.sf(abs(b) / math.sqrt(lrv / sxx**2), len(x) - 2))
-
-
 def drift_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, float]:
     """Per aircraft: p-value of a linear trend of its mean offset over the 6-h weather
     blocks it flew in (each block's middle as its time): a block's flights share the
     reference models' error, so flights are not independent, blocks are (as in every
     other test here)."""
-    return {i: _slope_p(0.5 * (t0 + t1) / 86400.0, m) for i, m, t0, t1 in _means_by_aircraft(d, fit, rows, d.cluster)}
+    return {
+        i: slope_permutation(0.5 * (t0 + t1) / 86400.0, m)
+        for i, m, t0, t1 in _means_by_aircraft(d, fit, rows, d.cluster)
+    }
 
 
 def cand_offset_drift(d: WindData, st: State, fit: Fit | None, rows: np.ndarray | None = None) -> list[Block]:
@@ -916,7 +952,7 @@ def fit_with(
     if basis is not None and eff != "field_scaling":
         return basis.fit(blocks, part, with_cov), 0.0
     if basis is not None:
-        rows = None if part is None else rows_of_fold(d, 1 - part)
+        rows = None if part is None else train_rows(d, part)
     cur = current_blocks(d, st)
     fit = solve(cur + blocks, y, clusters, rows, with_cov)
     if eff != "field_scaling":
@@ -945,7 +981,7 @@ def fit_with(
 
 def fold_fits(d: WindData, st: State, y, clusters) -> list[Fit]:
     """The current model fitted on each fold's training flights (fold k is held out from fit k)."""
-    return [solve(current_blocks(d, st), y, clusters, rows_of_fold(d, 1 - k), False) for k in (0, 1)]
+    return [solve(current_blocks(d, st), y, clusters, train_rows(d, k), False) for k in FOLDS]
 
 
 def held_out_resid(
@@ -958,16 +994,16 @@ def held_out_resid(
     base: list[Fit] | None = None,
     basis: Basis | None = None,
 ) -> np.ndarray | None:
-    """Residual of every row (2n, both channels) as predicted from the other fold: fold k's
-    rows from the current model plus the effect learned on fold 1 - k (`build`: (blocks,
+    """Residual of every row (2n, both channels) as predicted from the other folds: fold k's
+    rows from the current model plus the effect learned on every fold but k (`build`: (blocks,
     channel) of a term given as columns; None: the effect's own candidate built on the
     training fold). None when the effect has no term to fit."""
     if basis is not None:
-        base = [basis.base_fit(0), basis.base_fit(1)]
+        base = [basis.base_fit(k) for k in FOLDS]
     base = base or fold_fits(d, st, y, clusters)
     out = np.empty(2 * d.n)
-    for k in (0, 1):
-        train, test = rows_of_fold(d, 1 - k), rows_of_fold(d, k)
+    for k in FOLDS:
+        train, test = train_rows(d, k), rows_of_fold(d, k)
         blocks = build_blocks(eff, d, st, base[k], train) if build is None else build[0]
         if not blocks:
             return None
@@ -979,7 +1015,7 @@ def held_out_resid(
 def base_held_out(d: WindData, base: list[Fit]) -> np.ndarray:
     """The current model's held-out residual per row (fold k's rows from fit k)."""
     out = np.empty(2 * d.n)
-    for k in (0, 1):
+    for k in FOLDS:
         test = rows_of_fold(d, k)
         out[test] = base[k].resid[test]
     return out
@@ -989,7 +1025,7 @@ def held_out(
     d: WindData, st: State, y, clusters, eff: str, build=None, base: list[Fit] | None = None
 ) -> tuple[float, float]:
     """RMS (kt) of the effect's channel on held-out flights, without and with the effect
-    (parameters learned on the other fold; both ways). `base`: fold_fits of the current
+    (parameters learned on the other folds). `base`: fold_fits of the current
     model, when the caller has them."""
     base = base or fold_fits(d, st, y, clusters)
     r1 = held_out_resid(d, st, y, clusters, eff, build, base)
