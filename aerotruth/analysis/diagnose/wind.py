@@ -123,6 +123,7 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
     held_out,
     held_out_contest,
     held_out_resid,
+    initial_state,
     known_offsets,
     quantization_candidate,
     reference_bias_column,
@@ -444,9 +445,14 @@ class _Cand(TypedDict):
     q: NotRequired[dict[str, Any]]
 
 
+def _library_level(look: int) -> float:
+    """A library candidate's level in the round's look (module docstring: family-wise):
+    ALPHA_LIBRARY over the candidates and the reports' grid, over the look."""
+    return ALPHA_LIBRARY / (len(CANDIDATES) + 1) / look
+
+
 def _library_candidates(d, st, y, clusters, fit0, basis, r0, look: int = 1) -> list[_Cand]:
-    n_lib = len(CANDIDATES) + 1
-    level = ALPHA_LIBRARY / n_lib / look
+    level = _library_level(look)
     ss0 = float(np.sum(r0**2))
     out: list[_Cand] = []
     for eff in CANDIDATES:
@@ -520,7 +526,7 @@ def _quantization(d, st, look: int = 1) -> _Cand | None:
         "effect": "quantization",
         "kind": "quantization",
         "p": 10 ** max(q["log10_p"], -300),
-        "level": ALPHA_LIBRARY / (len(CANDIDATES) + 1) / look,
+        "level": _library_level(look),
         "held_out": (q["gain"]["held_out_before"], q["gain"]["held_out_after"]),
         "rel": q["relative_gain"],
         "gain_all": q["relative_gain"],
@@ -829,9 +835,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     clusters = np.r_[d.cluster, d.cluster]
     heading = choose_deviation_heading(d, spec, y, clusters)
     spec = spec.model_copy(update={"deviation_heading": heading["chosen"]})
-    steps = {d.names.index(a): list(ts) for a, ts in spec.recalibrations.items() if a in d.names}
-    drifts = {d.names.index(a) for a in spec.offset_drifts if a in d.names}
-    st = State(spec, [], spec.field_scaling, steps, drifts, [])
+    st = initial_state(d, spec)
     fit_start = None  # the model before any effect: the first round's fit
     findings: list = []
     plots: dict = {}

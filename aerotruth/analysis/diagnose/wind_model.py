@@ -279,6 +279,14 @@ def deviation_z(d: WindData, spec: WindModelSpec) -> np.ndarray:
     return d.z if spec.deviation_heading == "true" else d.z_mag
 
 
+def initial_state(d: WindData, spec: WindModelSpec) -> State:
+    """The model as the spec states it, before any effect enters: its recalibration times
+    and drifting offsets mapped to the data's aircraft."""
+    steps = {d.names.index(a): list(ts) for a, ts in spec.recalibrations.items() if a in d.names}
+    drifts = {d.names.index(a) for a in spec.offset_drifts if a in d.names}
+    return State(spec, [], spec.field_scaling, steps, drifts, [])
+
+
 def choose_deviation_heading(d: WindData, spec: WindModelSpec, y: np.ndarray, clusters: np.ndarray) -> dict:
     """For deviation_heading "auto": the base model fitted with its harmonics of the magnetic
     and of the true heading (the same number of parameters), the one with the smaller
@@ -286,9 +294,7 @@ def choose_deviation_heading(d: WindData, spec: WindModelSpec, y: np.ndarray, cl
     {magnetic, true}}; the spec's own choice where it is not "auto"."""
     rms = {}
     for h in ("magnetic", "true"):
-        st = State(spec.model_copy(update={"deviation_heading": h}), [], spec.field_scaling, {}, set(), [])
-        st.steps = {d.names.index(a): list(ts) for a, ts in spec.recalibrations.items() if a in d.names}
-        st.drifts = {d.names.index(a) for a in spec.offset_drifts if a in d.names}
+        st = initial_state(d, spec.model_copy(update={"deviation_heading": h}))
         fit = solve(current_blocks(d, st), y, clusters, with_cov=False)
         rms[h] = float(np.sqrt(np.mean(fit.resid[: d.n] ** 2)) / KT)
     chosen = spec.deviation_heading if spec.deviation_heading != "auto" else min(rms, key=lambda h: rms[h])
