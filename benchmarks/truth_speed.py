@@ -2,16 +2,20 @@
 atmosphere updates, 10 Hz recording, divergence guard) against a bare `fdm.run()` loop
 on the same aircraft in the same process.
 
-Prints `label: value` lines. `ratio` = bare µs/step / truth µs/step (target >= 0.8);
-`ratio_vs_unwrapped` compares with the aircraft XML without our autopilot system;
-`realtime_factor` = simulated seconds per wall second of the truth loop;
+Prints `label: value` lines. `ratio` = bare µs/step / truth µs/step at the route legs'
+50 Hz step (target >= 0.8); `ratio_vs_unwrapped` compares with the aircraft XML without our
+autopilot system; `realtime_factor` = simulated seconds per wall second of the truth loop;
 `vs_737_step_ratio` = this aircraft's bare step cost over the shipped 737's (both without
-the autopilot); `approach_ratio` = bare µs/step / µs/step of an ILS approach (KDLH 27,
-AFIS profile) with its 50 Hz inertial recording (target >= 0.7), and
-`approach_turbulence_ratio` the same with its MIL-F-8785C gusts (50 Hz, in Python). Rounds
-alternate bare and truth runs; the fastest of each is kept (noise only slows), and times
-are this process's CPU time (time.process_time), so other work on the machine does not
-count; `realtime_factor` uses the same CPU time.
+the autopilot); `bare_120hz_realtime_factor`: the bare aircraft (no autopilot) stepped at
+120 Hz, JSBSim's own default rate, over the leg's simulated time, and
+`realtime_factor_vs_bare_120hz` the truth loop's realtime factor over it (target >= 1.5).
+`approach_ratio` = bare µs/step / µs/step of an ILS approach (KDLH 27, AFIS profile, at its
+100 Hz step, against the autopilot's bare loop at that step) with its 50 Hz inertial
+recording, and `approach_turbulence_ratio` the same with its MIL-F-8785C gusts (50 Hz, in
+Python); `approach_realtime_factor_vs_bare_120hz` is the approach's realtime factor over the
+bare 120 Hz aircraft's. Rounds alternate bare and truth runs; the fastest of each is kept
+(noise only slows), and times are this process's CPU time (time.process_time), so other work
+on the machine does not count; `realtime_factor` uses the same CPU time.
 
     python benchmarks/truth_speed.py [--rounds 3] [--aircraft NAME] [--from KMSP --to KDLH]
 """
@@ -25,6 +29,7 @@ from datetime import UTC, datetime
 from aerotruth.truth.airframes import airframe, new_fdm
 from aerotruth.truth.approach import approach_spec, fly_approach
 from aerotruth.truth.days import plan_in_weather
+from aerotruth.truth.fdm import ILS_DT
 from aerotruth.truth.flight import DT, fly_leg
 
 
@@ -39,7 +44,18 @@ def _cruise_ic(fdm) -> None:
         fdm[f"fcs/throttle-cmd-norm[{i}]"] = 0.8
 
 
-CHUNK = 20000  # steps (200 s) between re-initialisations: the bare aircraft stays in cruise
+def _wrapped(af, dt: float):
+    """The aircraft with the autopilot at step dt, holding 15,000 ft and 200 KIAS."""
+    fdm = new_fdm(af, dt)
+    _cruise_ic(fdm)
+    fdm["ap/target/altitude-ft"] = 15000.0
+    fdm["ap/target/ias-kt"] = 200.0
+    fdm["ap/active"] = 1
+    return fdm
+
+
+BARE_REFERENCE_DT = 1.0 / 120.0  # s: JSBSim's default step, the reference for the truth's realtime factor
+CHUNK = 20000  # steps (400 s at 50 Hz) between re-initialisations: the bare aircraft stays in cruise
 
 
 def bare_us_per_step(fdm, steps: int) -> float:
@@ -71,15 +87,13 @@ def main() -> None:
     af = airframe(args.aircraft)
     plan = plan_in_weather(args.origin, args.destination, datetime(2009, 8, 15, 13, 0, tzinfo=UTC), weather_seed=1)
 
-    wrapped = new_fdm(af, DT)
-    _cruise_ic(wrapped)
-    wrapped["ap/target/altitude-ft"] = 15000.0
-    wrapped["ap/target/ias-kt"] = 200.0
-    wrapped["ap/active"] = 1
+    wrapped = _wrapped(af, DT)
+    wrapped_ils = _wrapped(af, ILS_DT) if af.name == "saab340" else None
     plain = new_fdm(af, DT, autopilot=False)
     ref737 = new_fdm(airframe("737"), DT, autopilot=False)  # a shipped twin for scale
+    plain120 = new_fdm(af, BARE_REFERENCE_DT, autopilot=False)
 
-    bare, unwrapped, truth, rt, b737 = [], [], [], [], []
+    bare, unwrapped, truth, rt, b737, rt120 = [], [], [], [], [], []
     # (approach spec, its us/step list, the bare loop's us/step over as many steps)
     approaches = [
         (approach_spec("KDLH", "27", datetime(2009, 8, 15, 15, 0, tzinfo=UTC), turbulence=turb), [], [])
@@ -91,9 +105,9 @@ def main() -> None:
                 t = time.process_time()
                 a = fly_approach(spec, seed=1, aircraft=af)
                 wall = time.process_time() - t
-                a_steps = round((float(a.df["time_s"].iloc[-1]) + 0.02) / DT)
+                a_steps = round((float(a.df["time_s"].iloc[-1]) + 0.02) / ILS_DT)
                 cost.append(wall / a_steps * 1e6)
-                cost_bare.append(bare_us_per_step(wrapped, a_steps))
+                cost_bare.append(bare_us_per_step(wrapped_ils, a_steps))
         t = time.process_time()
         track = fly_leg(plan, seed=1, aircraft=af)
         wall = time.process_time() - t
@@ -104,6 +118,7 @@ def main() -> None:
         bare.append(bare_us_per_step(wrapped, steps))
         unwrapped.append(bare_us_per_step(plain, steps))
         b737.append(bare_us_per_step(ref737, steps))
+        rt120.append(1e6 / (bare_us_per_step(plain120, round(sim / BARE_REFERENCE_DT)) / BARE_REFERENCE_DT))
 
     b, u, tr = min(bare), min(unwrapped), min(truth)
     print(f"aircraft: {af.name}")
@@ -117,10 +132,13 @@ def main() -> None:
     print(f"realtime_factor: {max(rt):.1f}")
     print(f"shipped_737_us_per_step: {min(b737):.3f}")
     print(f"vs_737_step_ratio: {u / min(b737):.3f}")
+    print(f"bare_120hz_realtime_factor: {max(rt120):.1f}")
+    print(f"realtime_factor_vs_bare_120hz: {max(rt) / max(rt120):.3f}")
     if af.name == "saab340":
         for (_spec, cost, cost_bare), label in zip(approaches, ("approach", "approach_turbulence"), strict=False):
             print(f"{label}_us_per_step: {min(cost):.3f}")
             print(f"{label}_ratio: {min(cost_bare) / min(cost):.3f}")
+            print(f"{label}_realtime_factor_vs_bare_120hz: {1e6 / (min(cost) / ILS_DT) / max(rt120):.3f}")
 
 
 if __name__ == "__main__":

@@ -120,7 +120,7 @@ def test_calm_approach_is_stabilised_and_passes_level_over_the_runway(calm_afis)
 
 @pytest.mark.parametrize("turbulence", [False, True])
 def test_the_steering_wander_is_stepped_every_tenth_of_a_second_of_flight(monkeypatch, turbulence):
-    """fly_loop's two loops (calm; gusts updated every second step) step the wander every
+    """fly_loop (calm; gusts updated at 50 Hz) steps the wander every
     STEER_DT_S = 0.1 s of flight: as many steps as tenths of a second flown (the last
     second's ten included), on the flight's own 'steering' stream."""
     import aerotruth.truth.approach as approach_mod

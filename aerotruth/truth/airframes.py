@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import contextlib
 import hashlib
+import json
 import os
 import re
 import sys
@@ -144,15 +145,50 @@ def _cache_dir() -> Path:
     return root
 
 
-_SYSTEM_LINES = (
-    '    <system file="{gains}"/>\n    <system file="aerotruth_autopilot"/>\n    <system file="aerotruth_imu"/>\n'
-)
+_SYSTEM_LINES = '    <system file="{gains}"/>\n    <system file="aerotruth_autopilot"/>\n'
+_IMU_LINE = '    <system file="aerotruth_imu"/>\n'
+# the JSBSim step the autopilot's channel rates (execrate, in steps) are written for
+# (systems/aerotruth_autopilot.xml); at a step of 1/k of it the rates are multiplied by k
+# (systems_root), so the channels run at the same rates in Hz
+AUTOPILOT_STEP_S = 0.02
+_EXECRATE = re.compile(r'(<channel\b[^>]*\bexecrate=")(\d+)(")')
 
 
-def with_autopilot(xml: str, gains_file: str) -> str:
-    """Aircraft XML text with our gain and autopilot systems inserted before its flight
-    control (systems declared first are evaluated first each step)."""
-    lines = _SYSTEM_LINES.format(gains=gains_file)
+def _steps_per_autopilot_step(dt: float) -> int:
+    k = round(AUTOPILOT_STEP_S / dt)
+    if k < 1 or abs(k * dt - AUTOPILOT_STEP_S) > 1e-12:
+        raise ValueError(f"dt: the autopilot runs at {AUTOPILOT_STEP_S} s or a whole fraction of it, got {dt}")
+    return k
+
+
+def systems_root(dt: float) -> Path:
+    """Folder of the systems files (autopilot, gains, IMU) for a JSBSim step of `dt` s: the
+    package's own at AUTOPILOT_STEP_S, else a cache copy with every channel's execrate
+    multiplied by AUTOPILOT_STEP_S / dt (written once per content digest)."""
+    k = _steps_per_autopilot_step(dt)
+    if k == 1:
+        return SYSTEMS_DIR
+    files = {
+        f.name: _EXECRATE.sub(lambda m: f"{m[1]}{int(m[2]) * k}{m[3]}", f.read_text())
+        for f in sorted(SYSTEMS_DIR.glob("*.xml"))
+    }
+    digest = hashlib.sha256(json.dumps(files, sort_keys=True).encode()).hexdigest()[:12]
+    root = _cache_dir() / f"systems-{digest}"
+    for name, text in files.items():
+        target = root / name
+        if not target.exists():
+            root.mkdir(parents=True, exist_ok=True)
+            tmp = target.with_suffix(f".{os.getpid()}.tmp")
+            tmp.write_text(text)
+            os.replace(tmp, target)
+    return root
+
+
+def with_autopilot(xml: str, gains_file: str, imu: bool = False) -> str:
+    """Aircraft XML text with our gain and autopilot systems (and, with `imu`, the inertial
+    truth of systems/aerotruth_imu.xml) inserted before its flight control (systems
+    declared first are evaluated first each step)."""
+    lines = _SYSTEM_LINES.format(gains=gains_file) + (_IMU_LINE if imu else "")
     m = re.search(r"^\s*<(flight_control|autopilot|system)\b", xml, flags=re.M)
     if m is None:
         m = re.search(r"^\s*</fdm_config>", xml, flags=re.M)
@@ -178,14 +214,15 @@ def strip_io(xml: str) -> str:
     return xml
 
 
-def aircraft_root(af: Airframe, autopilot: bool = True) -> Path:
+def aircraft_root(af: Airframe, autopilot: bool = True, imu: bool = False) -> Path:
     """Folder to use as JSBSim's aircraft path for `af`: a cache folder holding the aircraft
-    XML wrapped with the autopilot (written once per content digest). The aircraft files
-    themselves stay free of the autopilot, so they can be tested open-loop."""
+    XML wrapped with the autopilot (and the inertial truth with `imu`; written once per
+    content digest). The aircraft files themselves stay free of the autopilot, so they can
+    be tested open-loop."""
     src_dir = (JSBSIM_DATA_DIR if af.in_jsbsim_wheel else PACKAGE_AIRCRAFT_DIR.parent) / "aircraft" / af.model
     xml = strip_io((src_dir / f"{af.model}.xml").read_text())
     if autopilot:
-        xml = with_autopilot(xml, af.gains_file)
+        xml = with_autopilot(xml, af.gains_file, imu)
     digest = hashlib.sha256(xml.encode()).hexdigest()[:12]
     root = _cache_dir() / f"aircraft-{digest}"
     target = root / af.model / f"{af.model}.xml"
@@ -216,8 +253,13 @@ def quiet_jsbsim():
         os.close(saved)
 
 
-def new_fdm(af: Airframe, dt: float, autopilot: bool = True) -> jsbsim.FGFDMExec:
-    """A quiet FGFDMExec with `af` loaded (autopilot included unless told) at time step dt (s)."""
+def new_fdm(af: Airframe, dt: float, autopilot: bool = True, imu: bool = False) -> jsbsim.FGFDMExec:
+    """A quiet FGFDMExec with `af` loaded at time step dt (s): the autopilot included unless
+    told (at AUTOPILOT_STEP_S or a whole fraction of it: its channel rates are counted in
+    steps, systems_root), the inertial truth (imu/*) with `imu`."""
+    systems = systems_root(dt) if autopilot else SYSTEMS_DIR
+    if imu and not autopilot:
+        raise ValueError("imu: the inertial truth is inserted with the autopilot")
     with quiet_jsbsim():
         fdm = jsbsim.FGFDMExec(str(JSBSIM_DATA_DIR))
         fdm.set_debug_level(0)
@@ -226,7 +268,7 @@ def new_fdm(af: Airframe, dt: float, autopilot: bool = True) -> jsbsim.FGFDMExec
         # step when they are built, and would otherwise keep the default 1/120 s
         fdm.set_dt(dt)
         ok = fdm.load_model_with_paths(
-            af.model, str(aircraft_root(af, autopilot)), str(engine_dir(af)), str(SYSTEMS_DIR)
+            af.model, str(aircraft_root(af, autopilot, imu)), str(engine_dir(af)), str(systems)
         )
     if not ok:
         raise RuntimeError(f"JSBSim could not load aircraft {af.name!r}")

@@ -39,9 +39,8 @@ from aerotruth import seeds
 from aerotruth.truth.airframes import Airframe, airframe, new_fdm
 from aerotruth.truth.airports import Runway, airport
 from aerotruth.truth.fdm import (
-    DT,
     FPS,
-    GUIDE_EVERY,
+    ILS_DT,
     FlightDiverged,
     Recorder,
     WindAhead,
@@ -64,7 +63,9 @@ if TYPE_CHECKING:
     import pandas as pd
 
 RATE_HZ = 50
-STEPS_PER_SAMPLE = int(round(1.0 / (RATE_HZ * DT)))  # 2 at 100 Hz
+GUST_UPDATE_S = 0.02  # s: the approach's gusts are updated at 50 Hz
+STEPS_PER_SAMPLE = int(round(1.0 / (RATE_HZ * ILS_DT)))  # 2 at the 100 Hz step
+GUIDE_EVERY = round(1.0 / ILS_DT)  # steps: 1 Hz targets and wind
 IN = 0.0254  # m per inch
 ALT_TO_VS_FPM_PER_FT = 4.0  # ap/gain/alt-to-vs of gains_saab340.xml
 PROFILES = ("afis", "go-around")
@@ -436,10 +437,10 @@ def fly_loop(
             ("theta", "attitude/theta-rad"),
         )
     }
-    wind_ahead = WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * DT)
-    steps_per_sample = int(round(1.0 / (rate_hz * DT)))
-    if steps_per_sample % 2 or GUIDE_EVERY % steps_per_sample:
-        raise ValueError(f"rate_hz: expected 50 Hz or a divisor of it that divides 1 Hz, got {rate_hz}")
+    wind_ahead = WindAhead(fdm, atmosphere, t0_s, GUIDE_EVERY * ILS_DT)
+    steps_per_sample = int(round(1.0 / (rate_hz * ILS_DT)))
+    if steps_per_sample < 1 or abs(steps_per_sample * rate_hz * ILS_DT - 1.0) > 1e-9 or GUIDE_EVERY % steps_per_sample:
+        raise ValueError(f"rate_hz: expected a divisor of {round(1 / ILS_DT)} Hz that divides 1 Hz, got {rate_hz}")
     rows: list[list[float]] = []
     tags: list[tuple[int, int]] = []
     run = fdm.run
@@ -448,10 +449,10 @@ def fly_loop(
     if turbulence is not None:
         gusts = Mil8785Gusts(fdm, turbulence.rng.spawn(1)[0], fdm["metrics/bw-ft"] * FT, turbulence)
         g_vt, g_psi = (pm.get_node(p).get_double_value for p in ("velocities/vtrue-fps", "attitude/psi-rad"))
-    pairs_per_sample = steps_per_sample // 2  # the gusts are updated every second step (50 Hz)
-    pairs_per_steer = int(round(STEER_DT_S / (2 * DT)))  # the wander's update, in pairs of steps
+    steps_per_gust = int(round(GUST_UPDATE_S / ILS_DT))  # the gusts' 50 Hz update, in steps
+    steps_per_steer = int(round(STEER_DT_S / ILS_DT))  # the wander's update, in steps
     steer = steering.step if steering is not None else None
-    pairs = 0
+    steps = 0
     rows_append, tags_append = rows.append, tags.append
     while True:
         t = g["t"]()
@@ -471,30 +472,19 @@ def fly_loop(
         if turbulence is not None:
             if turbulence.due(path_m):
                 turbulence.update_from(path_m, atmosphere, frame.lat0_deg, frame.lon0_deg, ground_elevation_m, t0_s + t)
-            path_m += math.hypot(vn, ve) * GUIDE_EVERY * DT
+            path_m += math.hypot(vn, ve) * GUIDE_EVERY * ILS_DT
         if int(round(t)) % 10 == 0:
             set_atmosphere(fdm, _Und(und), atmosphere, lat, lon, t0_s + t)
         tag = (0, 3)
-        if gusts is None:
-            for _ in range(GUIDE_EVERY // steps_per_sample):
+        for k in range(GUIDE_EVERY):
+            if k % steps_per_sample == 0:
                 rows_append([gg() for gg in getters])
                 tags_append(tag)
-                for _ in range(pairs_per_sample):
-                    if steer is not None and pairs % pairs_per_steer == 0:
-                        steer()
-                    pairs += 1
-                    run()
-                    run()
-            continue
-        for k in range(GUIDE_EVERY // 2):
-            if k % pairs_per_sample == 0:
-                rows_append([gg() for gg in getters])
-                tags_append(tag)
-            if steer is not None and pairs % pairs_per_steer == 0:
+            if steer is not None and steps % steps_per_steer == 0:
                 steer()
-            pairs += 1
-            gusts.step(2 * DT, g["h"]() * FT - frame.h0_m, g_vt() * FPS, g_psi())
-            run()
+            if gusts is not None and k % steps_per_gust == 0:
+                gusts.step(steps_per_gust * ILS_DT, g["h"]() * FT - frame.h0_m, g_vt() * FPS, g_psi())
+            steps += 1
             run()
     return rec, rows, tags
 
@@ -527,7 +517,7 @@ def ils_setup(
     if af.name != "saab340":
         raise ValueError(f"aircraft: {what} are flown by the saab340 only{why}, got {af.name!r}")
     runway = find_runway(spec.airport, spec.runway)
-    fdm = new_fdm(af, DT)
+    fdm = new_fdm(af, ILS_DT, imu=True)
     day0 = spec.start_utc.replace(hour=0, minute=0, second=0, microsecond=0)
     return IlsSetup(
         af,

@@ -20,18 +20,28 @@ import numpy as np
 import pandas as pd
 
 from aerotruth.contracts import TRUTH_TRACK
-from aerotruth.truth.airframes import Airframe, quiet_jsbsim
+from aerotruth.truth.airframes import AUTOPILOT_STEP_S, Airframe, quiet_jsbsim
 from aerotruth.truth.track import PHASES
 from aerotruth.truth.weather import ISA_LAPSE, Atmosphere
 from aerotruth.units import DEG, EARTH_RADIUS_M, FT
 
-DT = 0.01  # s: JSBSim step (100 Hz, a multiple of 50 Hz: IMU and 10 Hz samples fall on steps)
+# s: the JSBSim step of route legs, the autopilot's own (airframes.AUTOPILOT_STEP_S): 50 Hz,
+# so the 10 Hz truth samples fall on steps (measured against a 100 Hz step in docs/truth.md,
+# "The step")
+DT = AUTOPILOT_STEP_S
 
 
-RECORD_EVERY = 10  # steps: 10 Hz truth samples
+# s: the step of ILS approaches and inspection missions, 100 Hz: their 50 Hz inertial
+# samples are JSBSim's trapezoidal integrals of the specific force and body rate, which a
+# strapdown closes to 0.63 m over 120 s at two steps a sample and 1.39 m at one (tests/
+# test_approach.py, the calm AFIS approach)
+ILS_DT = AUTOPILOT_STEP_S / 2
 
 
-GUIDE_EVERY = 100  # steps: 1 Hz target and wind updates
+RECORD_EVERY = round(0.1 / DT)  # steps: 10 Hz truth samples
+
+
+GUIDE_EVERY = round(1.0 / DT)  # steps: 1 Hz target and wind updates
 
 
 ATMOSPHERE_EVERY = 10  # guidance ticks: temperature and pressure fields every 10 s (they vary over 100s of km)
@@ -158,12 +168,11 @@ class WindAhead:
         dt = self._dt
         lat1 = lat + vn * dt / EARTH_RADIUS_M / DEG
         lon1 = lon + ve * dt / (EARTH_RADIUS_M * math.cos(lat * DEG)) / DEG
-        u, v, w = (
-            float(np.asarray(c).ravel()[0])
-            for c in self._atmosphere.wind(
-                lat1, lon1, h_m - vd * dt - undulation_m, self._t0_s + t + dt, ground_elevation_m=ground_elevation_m
-            )
+        wind = self._atmosphere.wind(
+            lat1, lon1, h_m - vd * dt - undulation_m, self._t0_s + t + dt, ground_elevation_m=ground_elevation_m
         )
+        # floats from a point-path atmosphere (TruthAtmosphere), 0-d or 1-element arrays from others
+        u, v, w = (c if type(c) is float else float(np.asarray(c).ravel()[0]) for c in wind)
         nodes, prev = self._nodes, self._prev
         nxt = (v / FPS, u / FPS, -w / FPS)
         nodes[0].set_double_value(t)

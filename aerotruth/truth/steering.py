@@ -84,6 +84,7 @@ STEER_PROPERTY = "ap/roll/wander-rad"
 NAV_SIGMA_M = 15.0  # rms of the navigation (position + path-steering) cross-track error
 NAV_TAU_S = 600.0  # its correlation time
 NAV_PROPERTY = "ap/nav/position-error-ft"
+NORMALS_BLOCK = 256  # normals drawn at a time by a GaussMarkovProperty
 
 
 class GaussMarkovProperty:
@@ -99,10 +100,18 @@ class GaussMarkovProperty:
         self.a = math.exp(-dt_s / tau_s)
         self.b = sigma * math.sqrt(1.0 - self.a * self.a)
         self.e = sigma * float(rng.standard_normal())
+        # the stream's normals drawn NORMALS_BLOCK at a time: numpy's Generator gives the
+        # same sequence in blocks as one by one, at a fraction of the per-call cost
+        self._normals: list[float] = []
+        self._next = 0
 
     def step(self) -> None:
         """Advances the process by its dt_s and sets it."""
-        self.e = self.a * self.e + self.b * float(self.rng.standard_normal())
+        i = self._next
+        if i == len(self._normals):
+            self._normals, i = self.rng.standard_normal(NORMALS_BLOCK).tolist(), 0
+        self._next = i + 1
+        self.e = self.a * self.e + self.b * self._normals[i]
         self.node.set_double_value(self.e / self.per_unit)
 
 
