@@ -8,10 +8,11 @@ import obs_generator as gen
 import pandas as pd
 import pytest
 
+from aerotruth.analysis.wind.paper_draw import derived_cells
 from aerotruth.sensors.tamdar import LookupTableCorrection, OffsetCorrection
 from aerotruth.sim.campaign_file import ConfigError
 from aerotruth.sim.campaign_loader import parse_campaign
-from aerotruth.sim.studies.heading_correction import STUDY, HeadingCorrectionConfig, adjusted_table, uploaded_correction
+from aerotruth.sim.studies.heading_correction import STUDY, HeadingCorrectionConfig, uploaded_correction
 
 
 def test_control_adjustment_reproduces_the_papers_table_ii_rows():
@@ -52,7 +53,7 @@ def test_control_adjustment_reproduces_the_papers_table_ii_rows():
             },
         ]
     )
-    t = adjusted_table(cells).set_index(["group", "period"])
+    t = derived_cells(cells).set_index(["group", "period"])
     cols = ["rms_kt", "longitudinal_rms_kt", "transverse_rms_kt"]
     assert t.loc[("poor", "after_adjusted"), cols].tolist() == pytest.approx([8.4, 5.1, 6.3])
     assert t.loc[("poor", "improvement"), cols].tolist() == pytest.approx([2.4, 0.3, 3.5])
@@ -66,7 +67,7 @@ def test_control_adjustment_reproduces_the_papers_table_ii_rows():
         "longitudinal_rms_kt": 5.6,
         "transverse_rms_kt": 9.9,
     }
-    t = adjusted_table(pd.concat([cells, pd.DataFrame([twin])], ignore_index=True)).set_index(["group", "period"])
+    t = derived_cells(pd.concat([cells, pd.DataFrame([twin])], ignore_index=True)).set_index(["group", "period"])
     assert t.loc[("poor", "table_effect"), cols].tolist() == pytest.approx([2.0, 0.1, 3.1])
     assert t.loc[("poor", "improvement"), cols].tolist() == pytest.approx([2.4, 0.3, 3.5])
 

@@ -27,12 +27,20 @@ def test_quick_campaign_matches_its_baseline(tmp_path, capsys):
     assert code == 0, capsys.readouterr().out
     # the poor aircraft's after period is also reported without its table (paired twin):
     # the same reports, and the table's own effect is the difference
+    import numpy as np
     import pandas as pd
 
     g = pd.read_parquet(out / "tables" / "heading_correction.groups.parquet").set_index(["group", "period"])
     assert g.loc[("poor", "after_untreated"), "n"] == g.loc[("poor", "after"), "n"] > 0
     effect = g.loc[("poor", "after_untreated"), "rms_kt"] - g.loc[("poor", "after"), "rms_kt"]
     assert g.loc[("poor", "table_effect"), "rms_kt"] == effect
+    # every cell is a ratio of the aircraft-day sums (the paper-scale redraw's input)
+    from aerotruth.analysis.wind.paper_draw import cells_from_sums
+
+    days = pd.read_parquet(out / "tables" / "heading_correction.aircraft_days.parquet")
+    again = cells_from_sums(days).set_index(["group", "period"])
+    for col in ("rms_kt", "longitudinal_rms_kt", "transverse_rms_kt"):
+        assert np.allclose(again[col], g.loc[again.index, col], rtol=1e-9, atol=1e-9), col
     _unit_checks_on_simulated_reports(pd.read_parquet(out / "data" / "heading_correction.observations.parquet"))
 
 

@@ -46,7 +46,7 @@ import yaml
 
 from aerotruth.analysis.wind.heading_errors import towards_from_report
 from aerotruth.analysis.wind.metrics import corrected_wind_error, wind_error_components
-from aerotruth.sim.studies.heading_correction import COMPONENTS, adjusted_table
+from aerotruth.analysis.wind.paper_draw import COMPONENTS, derived_cells
 from aerotruth.sim.studies.wind_reports import unbanked
 from aerotruth.units import KT
 
@@ -121,9 +121,9 @@ def budget(obs: pd.DataFrame, w: dict[str, np.ndarray]) -> dict[str, float]:
 
 def _judged_cells(e2: pd.Series, obs: pd.DataFrame) -> dict[str, float]:
     """Poor after, adjusted after and improvement (kn) from the squared wind errors (m/s)^2
-    of the scored reports, adjusted as the study adjusts (adjusted_table)."""
+    of the scored reports, adjusted as the study adjusts (derived_cells)."""
     r = np.sqrt(e2.groupby([obs["group"], obs["stage"]]).mean()) / KT
-    cells = adjusted_table(
+    cells = derived_cells(
         pd.DataFrame(
             [
                 {"group": g, "period": p, **{c: (v if c == "rms_kt" else np.nan) for c, _ in COMPONENTS}}

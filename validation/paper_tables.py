@@ -10,10 +10,21 @@ kn, 2 standard errors) of the paper.
 
     python validation/paper_tables.py RUN_DIR [RUN_DIR ...] [--markdown]
     python validation/paper_tables.py RUN_DIR ... --baseline BASE_DIR ...
+    python validation/paper_tables.py RUN_DIR ... --plan validation/plans/wind-tables-penair-1.yaml
 
 Prints `label: value` lines (`cell.<group>.<period>.<component>: mean sd se paper role`),
 `judged.<group>.<period>: pass|fail (|mean - paper| = x <= tol y)` and
 `calibration.chi2` (the campaigns' calibration rule: see `calibration_chi2`).
+
+`--plan PLAN` (validation/plans/*.yaml, committed before its runs: see plans.py): each
+cell also judged as **one draw** of the paper's table at the paper's own fleet size and
+period length (aerotruth.analysis.wind.paper_draw; the runs' aircraft-day sums redrawn by
+their variance components): `predictive.<cell>: mean sd_draw se paper z pit role`,
+`verdict.<cell>: pass|fail (|z| ... <= z_crit at the family-wise level)` for the plan's
+judged cells, `joint: mahalanobis_d2 dof p` over them, and `plan: name commit`. The runs
+must carry the plan's record (seed_runs.py --plan writes it); a plan changed since they ran
+is refused. `--paper-scale POOR,CONTROL,DAYS_BEFORE,DAYS_AFTER` does the same without a plan
+(exploration: nothing judged is written as a verdict of record).
 
 `--baseline`: these runs are a variant (one sensor or method option changed) of baseline
 runs on the same campaign seeds, given in the same order. Runs of one seed share their
@@ -30,21 +41,31 @@ import math
 import sys
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+from plans import Plan, check_runs  # noqa: E402
 
 JUDGED = (("poor", "after_adjusted"), ("poor", "improvement"))
 TOLERANCE_KT = 1.0
 
 
-def collect(run_dirs: list[str]) -> pd.DataFrame:
-    """The versus_paper rows of every run, with the run's directory."""
+def _read_tables(run_dirs: list[str], name: str, why: str) -> pd.DataFrame:
+    """Table `name` (tables/<name>.parquet) of every run, with the run's directory; a run
+    without it is one line saying `why`."""
     parts = []
     for d in run_dirs:
-        path = Path(d) / "tables" / "heading_correction.versus_paper.parquet"
+        path = Path(d) / "tables" / f"{name}.parquet"
         if not path.exists():
-            sys.exit(f"{d}: no {path.relative_to(d)} (was the run finished with a `paper:` section?)")
+            sys.exit(f"{d}: no {path.relative_to(d)} ({why})")
         parts.append(pd.read_parquet(path).assign(run=str(d)))
     return pd.concat(parts, ignore_index=True)
+
+
+def collect(run_dirs: list[str]) -> pd.DataFrame:
+    """The versus_paper rows of every run, with the run's directory."""
+    return _read_tables(run_dirs, "heading_correction.versus_paper", "was the run finished with a `paper:` section?")
 
 
 def summarize(rows: pd.DataFrame) -> pd.DataFrame:
@@ -80,6 +101,40 @@ def paired(rows: pd.DataFrame, base: pd.DataFrame) -> pd.DataFrame:
     out = m.groupby(key, sort=False)["difference_kt"].agg(mean_kt="mean", sd_kt="std", n="count").reset_index()
     out["se_kt"] = out["sd_kt"] / out["n"].clip(lower=1) ** 0.5
     return out
+
+
+def collect_sums(run_dirs: list[str]) -> pd.DataFrame:
+    """The aircraft-day sums of every run, each run named by its directory."""
+    return _read_tables(
+        run_dirs, "heading_correction.aircraft_days", "a run of a version before the aircraft-day sums: run it again"
+    )
+
+
+def predictive_report(
+    run_dirs: list[str], rows: pd.DataFrame, scale, judged: list[str], level: float, n_draws: int, seed: int
+) -> tuple[pd.DataFrame, dict]:
+    """Every published cell judged as one draw at `scale` (module docstring)."""
+    from aerotruth.analysis.wind.paper_draw import judge, predictive
+
+    cells = list(rows.drop_duplicates(["group", "period", "component"]).itertuples())
+    paper = {f"{r.group}.{r.period}.{r.component}": float(r.paper_kt) for r in cells}
+    role = {f"{r.group}.{r.period}.{r.component}": r.role for r in cells}
+    draws, loo = predictive(collect_sums(run_dirs), scale, n_draws, np.random.default_rng(seed))
+    table, joint = judge(draws, loo, paper, judged, level)
+    table["role"] = table["cell"].map(role)
+    return table, joint
+
+
+def print_predictive(table: pd.DataFrame, joint: dict, level: float) -> None:
+    for r in table.itertuples():
+        print(
+            f"predictive.{r.cell}: mean {r.mean:.2f} sd_draw {r.sd_draw:.2f} se {r.se:.2f} paper {r.paper:.1f} "
+            f"z {r.z:+.2f} pit {r.pit:.3f} {r.role}"
+        )
+    for r in table[table["judged"]].itertuples():
+        limit = joint["z_critical"]
+        print(f"verdict.{r.cell}: {r.verdict} (|z| {abs(r.z):.2f}, limit {limit:.2f} at family-wise {level:g})")
+    print(f"joint: mahalanobis_d2 {joint['mahalanobis_d2']:.2f} dof {int(joint['dof'])} p {joint['p']:.3f}")
 
 
 def calibration_chi2(t: pd.DataFrame) -> tuple[float, int]:
@@ -135,6 +190,14 @@ def main() -> None:
         help="baseline runs on the same seeds, in the same order: also print "
         "the paired differences (these runs minus the baseline)",
     )
+    ap.add_argument(
+        "--plan", help="a committed plan (validation/plans/*.yaml): judge each cell as one draw at its scale"
+    )
+    ap.add_argument(
+        "--paper-scale",
+        metavar="POOR,CONTROL,DAYS_BEFORE,DAYS_AFTER",
+        help="without a plan: each cell as one draw at this scale (exploration)",
+    )
     a = ap.parse_args()
     if a.baseline and len(a.baseline) != len(a.runs):
         sys.exit(
@@ -156,6 +219,29 @@ def main() -> None:
         )
     chi2, n_cells = calibration_chi2(t)
     print(f"calibration.chi2: {chi2:.2f} over {n_cells} calibrated cells")
+    if a.plan or a.paper_scale:
+        from aerotruth.analysis.wind.paper_draw import PaperScale
+
+        if a.plan:
+            plan = Plan.load(a.plan)
+            check_runs(plan, a.runs)
+            print(f"plan: {plan.name} {plan.commit}")
+            scale, judged, level, n_draws = plan.scale, list(plan.judged), plan.level, plan.draws
+        else:
+            try:
+                scale = PaperScale(*(int(x) for x in a.paper_scale.split(",")))
+            except (TypeError, ValueError) as exc:
+                sys.exit(f"--paper-scale: expected four whole numbers POOR,CONTROL,DAYS_BEFORE,DAYS_AFTER ({exc})")
+            judged, level, n_draws = [], 0.05, 4000
+            print("plan: none (exploration)")
+        print(f"paper_scale: poor {scale.poor} control {scale.control} days {scale.days_before} / {scale.days_after}")
+        table, joint = predictive_report(a.runs, rows, scale, judged, level, n_draws, seed=2026)
+        print_predictive(table, joint, level)
+        if a.markdown:
+            from aerotruth.markdown import to_markdown
+
+            cols = ["cell", "role", "paper", "mean", "sd_draw", "se", "z", "pit", "verdict"]
+            print(to_markdown(table[cols].round(3)))
     if a.baseline:
         for r in paired(rows, collect(a.baseline)).itertuples():
             print(f"paired.{r.group}.{r.period}.{r.component}: {r.mean_kt:+.2f} se {r.se_kt:.2f}")

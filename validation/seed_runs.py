@@ -21,6 +21,9 @@ path that the chosen size's block sets itself is an error too (the size, merged 
 campaign when it runs, would undo the change).
 `--baseline-tag T`: also print the paired differences against the runs OUT/T-<seed>
 (the same seeds; see paper_tables.py --baseline).
+`--plan PLAN`: the campaign, size, seeds and `--set` changes from a committed plan
+(validation/plans.py; refused when not committed or changed since), its record written into
+every run folder before the run, and the summary judged by it (paper_tables.py --plan).
 `--truth-max-gb N`: the truth store's size cap for these runs (`truth_store.max_gb`,
 default 20). Each run evicts the least recently used flights beyond the cap when it ends;
 a grid of many seeds outgrows 20 GB (a reduced PenAir seed is ~1.2 GB of truth), and a
@@ -117,8 +120,9 @@ def with_truth_cap(doc: dict, max_gb: float | None) -> None:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("campaign", help="campaign YAML")
-    ap.add_argument("--seeds", required=True, help="e.g. 2010-2014 or 2010,2015-2019")
+    ap.add_argument("campaign", nargs="?", help="campaign YAML (from the plan with --plan)")
+    ap.add_argument("--seeds", help="e.g. 2010-2014 or 2010,2015-2019 (from the plan with --plan)")
+    ap.add_argument("--plan", help="a committed plan (validation/plans/*.yaml): campaign, size, seeds and changes")
     ap.add_argument("--out", required=True, help="directory of the runs (OUT/<tag>-<seed>)")
     ap.add_argument("--tag", default="base", help="name of this variant (default base)")
     ap.add_argument("--set", action="append", default=[], metavar="PATH=VALUE", help="change a campaign parameter")
@@ -128,6 +132,17 @@ def main() -> None:
         "--truth-max-gb", type=float, help="the truth store's size cap for these runs (default: the campaign's)"
     )
     a = ap.parse_args()
+    plan = None
+    if a.plan:
+        sys.path.insert(0, str(HERE))
+        from plans import Plan
+
+        plan = Plan.load(a.plan)
+        if a.campaign or a.seeds or a.set or a.size != "reduced":
+            sys.exit("--plan: the campaign, --seeds, --set and --size come from the plan; give none of them")
+        a.campaign, a.seeds, a.set, a.size = plan.campaign, plan.seeds, list(plan.set), plan.size
+    elif not a.campaign or not a.seeds:
+        sys.exit("expected a campaign YAML and --seeds (or --plan)")
 
     src = Path(a.campaign)
     try:
@@ -147,6 +162,10 @@ def main() -> None:
     for seed in seeds:
         run = out / f"{a.tag}-{seed}"
         runs.append(run)
+        if plan is not None:
+            from plans import write_record
+
+            write_record(plan, run)
         if (run / "metrics.json").exists():
             print(f"{run}: done before, kept", flush=True)
             continue
@@ -165,6 +184,8 @@ def main() -> None:
             sys.exit(f"{run}: `{' '.join(cmd)}` failed (exit {rc}); see {out / f'{a.tag}-{seed}.log'}")
         print(f"run_seconds.{a.tag}.{seed}: {time.perf_counter() - t0:.0f}", flush=True)
     tables = [sys.executable, str(HERE / "paper_tables.py"), *map(str, runs)]
+    if plan is not None:
+        tables += ["--plan", a.plan]
     if a.baseline_tag:
         tables += ["--baseline", *(str(out / f"{a.baseline_tag}-{seed}") for seed in seeds)]
     sys.exit(subprocess.call(tables))

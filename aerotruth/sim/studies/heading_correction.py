@@ -48,6 +48,7 @@ import numpy as np
 import pandas as pd
 from pydantic import Field, StrictBool, StrictInt, model_validator
 
+from aerotruth.analysis.wind.paper_draw import COMPONENTS, aircraft_day_sums, derived_cells
 from aerotruth.schema import Section
 from aerotruth.sim.campaign_file import Campaign, References
 from aerotruth.sim.fleet_days import (
@@ -72,7 +73,6 @@ from aerotruth.sim.tasks import Task
 from aerotruth.sim.wind_observations import WindSensors
 
 STAGES = ("fit", "before", "after")
-COMPONENTS = (("rms_kt", "total"), ("longitudinal_rms_kt", "longitudinal"), ("transverse_rms_kt", "transverse"))
 
 
 class PeriodRoles(Section):
@@ -305,7 +305,7 @@ class HeadingCorrection(Study):
                 }
             )
         table = pd.DataFrame(cells)
-        table = adjusted_table(table)
+        table = derived_cells(table)
         by_altitude = rms_by_altitude(scored, table)
         for r in table.itertuples():
             for col, label in COMPONENTS:
@@ -353,7 +353,7 @@ class HeadingCorrection(Study):
         m["aircraft_fitted"] = int((corr["status"] == "fitted").sum())
         m["aircraft_offset_only"] = int((corr["status"] == "offset_only").sum())
         m["aircraft_refused"] = int((corr["status"] == "refused").sum())
-        tables = {"groups": table}
+        tables = {"groups": table, "aircraft_days": _aircraft_days(scored, twin, group_of)}
         if section.paper is not None:
             tables["versus_paper"] = versus_paper(table, section.paper)
         tables.update(
@@ -650,26 +650,19 @@ def uploaded_correction(corrections: pd.DataFrame, aircraft: str):
     return LookupTableCorrection(lut_deg=lut)
 
 
-def adjusted_table(cells: pd.DataFrame) -> pd.DataFrame:
-    """Add the poor group's adjusted after cells and improvements (module docstring)."""
-    if cells.empty:
-        return cells
-    idx = cells.set_index(["group", "period"])
-    cols = [c for c, _ in COMPONENTS]
-    extra = []
-    if ("control", "before") in idx.index and ("control", "after") in idx.index:
-        change = idx.loc[("control", "after"), cols] - idx.loc[("control", "before"), cols]
-        extra.append({"group": "control", "period": "change", **change.to_dict()})
-        if ("poor", "after") in idx.index:
-            adj = idx.loc[("poor", "after"), cols] - change
-            extra.append({"group": "poor", "period": "after_adjusted", **adj.to_dict()})
-            extra.append(
-                {"group": "poor", "period": "improvement", **(idx.loc[("poor", "before"), cols] - adj).to_dict()}
-            )
-    if ("poor", "after_untreated") in idx.index and ("poor", "after") in idx.index:
-        effect = idx.loc[("poor", "after_untreated"), cols] - idx.loc[("poor", "after"), cols]
-        extra.append({"group": "poor", "period": "table_effect", **effect.to_dict()})
-    return pd.concat([cells, pd.DataFrame(extra)], ignore_index=True)
+def _aircraft_days(scored: dict[str, pd.DataFrame], twin: pd.DataFrame | None, group_of: pd.Series) -> pd.DataFrame:
+    """The scored reports' sums per aircraft, UTC day and period (before, after and the
+    after period's untreated twin), every aircraft with its group (poor, control, other):
+    every cell is a ratio of these sums (aerotruth.analysis.wind.paper_draw), and they let a
+    cell be redrawn at the paper's fleet size and period length (validation/paper_tables.py)."""
+    from aerotruth.analysis.wind.metrics import wind_errors
+
+    parts = [aircraft_day_sums(wind_errors(obs), stage) for stage, obs in scored.items()]
+    if twin is not None and len(twin):
+        parts.append(aircraft_day_sums(wind_errors(twin), "after_untreated"))
+    days = pd.concat(parts, ignore_index=True)
+    days.insert(1, "group", days["aircraft"].map(group_of).fillna("other").astype(str))
+    return days
 
 
 def versus_paper(table: pd.DataFrame, paper: PaperTable) -> pd.DataFrame:
