@@ -147,3 +147,50 @@ def test_flight_diverged_survives_pickling_between_processes():
     e = pickle.loads(pickle.dumps(FlightDiverged("NaN in the JSBSim state", {"entropy": "1", "spawn_key": [2]}, 61.5)))
     assert (e.reason, e.seed, e.time_s) == ("NaN in the JSBSim state", {"entropy": "1", "spawn_key": [2]}, 61.5)
     assert "t=61.5 s" in str(e)
+
+
+def test_a_filesystem_that_refuses_locks_stops_the_store_in_one_line(tmp_path, monkeypatch):
+    """Lustre mounted with noflock answers flock with ENOSYS, an NFS client without lockd
+    with ENOLCK: the store stops naming the lock file and the way out, and flies nothing
+    unlocked."""
+    import errno
+
+    from aerotruth.truth.store import StoreLockError
+
+    def refuse(fd, op):
+        raise OSError(errno.ENOLCK, "No locks available")
+
+    def no_flying(*a, **k):
+        raise AssertionError("flew without the key's lock")
+
+    monkeypatch.setattr("aerotruth.truth.store.fcntl.flock", refuse)
+    monkeypatch.setattr("aerotruth.truth.store.fly_leg", no_flying)
+    with pytest.raises(StoreLockError) as e:
+        TruthStore(tmp_path).leg(_leg())
+    msg = str(e.value)
+    assert "\n" not in msg and ".lock: No locks available (ENOLCK)" in msg and "-o flock" in msg
+
+
+def _append_lines(root: str, worker: int, n: int) -> None:
+    store = TruthStore(root)
+    for i in range(n):
+        store._log_line(f"k{worker}-{i}", "x" * 3000, 1.0, "flown")  # lines longer than a pipe's atomic write
+
+
+def test_flown_log_lines_from_concurrent_workers_stay_whole(tmp_path):
+    """Four processes appending 200 long lines each to one store's flown.log (under its
+    lock): 800 lines, each whole JSON, each key once."""
+    import json
+    import multiprocessing as mp
+
+    ctx = mp.get_context("spawn")
+    procs = [ctx.Process(target=_append_lines, args=(str(tmp_path), w, 200)) for w in range(4)]
+    for p in procs:
+        p.start()
+    for p in procs:
+        p.join(60)
+        assert p.exitcode == 0
+    lines = (tmp_path / "flown.log").read_text().splitlines()
+    keys = [json.loads(line)["key"] for line in lines]
+    assert len(keys) == 800 and len(set(keys)) == 800
+    assert TruthStore(tmp_path).flown_count() == 800

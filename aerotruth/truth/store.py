@@ -23,7 +23,19 @@ Locking: readers, writers and `evict` all take a key's lock (`locked`) before to
 files. `evict` never waits for one and never removes a flight or a lock file another process
 holds (that flight is in use); it removes a lock file only while holding it, and whoever
 then obtains the lock of the removed file sees that it is no longer the key's lock file and
-locks the new one, so two processes never hold one key's lock at once.
+locks the new one, so two processes never hold one key's lock at once. flown.log is
+appended under its own lock (flown.log.lock): an append is atomic between the processes of
+one machine, not between NFS clients, which compute the end of the file themselves.
+
+On a shared filesystem (workers on several machines, one store): the locks are flock(2)
+locks on the lock files. Linux NFS clients (since 2.6.12) carry flock as a whole-file POSIX
+lock through the server (NFSv4 state, NFSv3 lockd), so it holds between machines; a lock of
+a machine that dies is freed when its lease or lockd state expires (NFSv4: ~90 s). Lustre
+holds flock between clients only when mounted with `-o flock`; with `localflock` a lock
+holds on one client only (two machines can fly one leg at once: the files stay whole, since
+every write is a rename of a finished file, but the leg is flown twice and flown.log says
+so), and with `noflock` flock fails: the store then stops with one line naming the lock file
+(`StoreLockError`), never proceeding unlocked. Renames within one folder are atomic on both.
 """
 
 from __future__ import annotations
@@ -33,6 +45,7 @@ import fcntl
 import hashlib
 import json
 import os
+import socket
 import time
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -41,6 +54,7 @@ from datetime import UTC
 from pathlib import Path
 
 from aerotruth.digests import code_digest
+from aerotruth.errors import UserError, os_reason
 from aerotruth.files import atomic_write_text
 from aerotruth.truth.airframes import airframe
 from aerotruth.truth.approach import PlannedApproach, fly_approach
@@ -89,6 +103,10 @@ def truth_key(leg: PlannedLeg, aircraft_type: str | None, turbulence: bool) -> s
     return hashlib.sha256(json.dumps(ident, sort_keys=True, default=str).encode()).hexdigest()[:32]
 
 
+class StoreLockError(UserError):
+    """The filesystem of the truth store refuses file locks (module docstring)."""
+
+
 @contextmanager
 def locked(path: str | Path, *, wait: bool = True) -> Iterator[bool]:
     """Hold the lock file `path` (created if missing) while the `with` body runs: yields
@@ -112,6 +130,13 @@ def _acquire(path: Path, wait: bool) -> int | None:
         except BlockingIOError:
             os.close(fd)
             return None
+        except OSError as e:
+            os.close(fd)
+            raise StoreLockError(
+                f"truth store: cannot lock {path}: {os_reason(e)}; the store's filesystem must support flock "
+                "between its users (Lustre: mount with -o flock; NFS: NFSv4 or NFSv3 with lockd), or give each "
+                "machine its own store (truth_store.path)"
+            ) from None
         except BaseException:
             os.close(fd)
             raise
@@ -265,11 +290,17 @@ class TruthStore:
     def _log_line(self, key: str, flight_id: str, seconds: float, what: str) -> None:
         self.root.mkdir(parents=True, exist_ok=True)
         line = json.dumps(
-            {"key": key, "flight_id": flight_id, "what": what, "seconds": round(seconds, 3), "pid": os.getpid()}
+            {
+                "key": key,
+                "flight_id": flight_id,
+                "what": what,
+                "seconds": round(seconds, 3),
+                "host": socket.gethostname(),
+                "pid": os.getpid(),
+            }
         )
-        with open(
-            self.root / "flown.log", "a", encoding="utf-8"
-        ) as f:  # O_APPEND: lines from several workers do not interleave
+        # one writer at a time: O_APPEND keeps one machine's lines apart, not NFS clients'
+        with locked(self.root / "flown.log.lock"), open(self.root / "flown.log", "a", encoding="utf-8") as f:
             f.write(line + "\n")
 
     def flown_count(self) -> int:
