@@ -195,7 +195,7 @@ class ChopGusts:
             for p in ("atmosphere/gust-north-fps", "atmosphere/gust-east-fps", "atmosphere/gust-down-fps")
         ]
         self.p_node = pm.get_node("atmosphere/chop/p-rad_sec", True)
-        self.x = np.zeros(4)  # u, v, w (m/s), p (rad/s)
+        self.x = [0.0, 0.0, 0.0, 0.0]  # u, v, w (m/s), p (rad/s)
         self.sigma_w = 0.0
         self.next_m = 0.0
         self.patches: list[tuple[float, float]] = []  # (start along the path, m; sigma_w, m/s)
@@ -208,7 +208,7 @@ class ChopGusts:
     @sigma_w.setter
     def sigma_w(self, value: float) -> None:
         self._sigma_w = value
-        self.sig = value * np.array([1.0, 1.0, 1.0, 1.9 / self.lb])  # rms of u, v, w (m/s), p (rad/s)
+        self._sig = (value, value, value, value * 1.9 / self.lb)  # rms of u, v, w (m/s), p (rad/s)
 
     def due(self, path_m: float) -> bool:
         return path_m >= self.next_m
@@ -221,12 +221,17 @@ class ChopGusts:
 
     def step(self, tas_mps: float, psi_rad: float) -> None:
         """Advances the gusts by GUST_DT_S at true airspeed `tas_mps` and heading `psi_rad`
-        and sets them: u along the heading, v to its right, w down (NED in ft/s)."""
+        and sets them: u along the heading, v to its right, w down (NED in ft/s). Scalar
+        arithmetic (~5x cheaper than small arrays at 10 Hz); four normals a call, so the
+        stream's draws for the patches (`update`) come where they always came."""
         v = max(tas_mps, 30.0)
-        tau = np.array([CHOP_SCALE_M / v, CHOP_SCALE_M / (2 * v), CHOP_SCALE_M / (2 * v), self.lb / 2.6 / v])
-        a = np.exp(-GUST_DT_S / tau)
-        self.x = a * self.x + self.sig * np.sqrt(1.0 - a * a) * self.rng.standard_normal(4)
-        u, vv, w, p = self.x
+        n, x, sig = self.rng.standard_normal(4).tolist(), self.x, self._sig
+        for k, tau in enumerate(
+            (CHOP_SCALE_M / v, CHOP_SCALE_M / (2 * v), CHOP_SCALE_M / (2 * v), self.lb / 2.6 / v)
+        ):
+            a = math.exp(-GUST_DT_S / tau)
+            x[k] = a * x[k] + sig[k] * math.sqrt(1.0 - a * a) * n[k]
+        u, vv, w, p = x
         c, s = math.cos(psi_rad), math.sin(psi_rad)
         for node, val in zip(self.nodes, (u * c - vv * s, u * s + vv * c, w), strict=False):
             node.set_double_value(val / FT)
