@@ -17,7 +17,17 @@ and `mesaba_warm` (a sensor parameter changed: the poor hard-iron sigma; every l
 the truth store, every report, fit and metric recomputed), plus `mesaba_legs_flown_warm`
 (0 when truth is reused).
 
+`--paper-pair N[,N...]` times Mesaba's `paper_pair` size (the paper's own before/after pair)
+cold on 2 workers for fractions of its fleet: the first N of its 36 aircraft (the poor and
+control counts scaled, 19/36 and 17/36 of N), each into an empty truth store, one after
+the other; per fraction `paper_pair_<N>_wall` (s), `_legs_flown` and `_block_hours` (the
+legs' planned block times), and over the fractions the seconds per block-hour, a straight
+line wall = a + b x block-hours through them and `paper_pair_36_wall_extrapolated` (s).
+Two fractions of at least 6 aircraft (1/6) show whether the cost is linear; a fraction of 6
+is ~1.5 h on 2 cores at ~850x real time a core.
+
     python benchmarks/campaign_scaling.py [--points 12000] [--no-dask] [--truth] [--mesaba]
+    python benchmarks/campaign_scaling.py --paper-pair 6,9
 """
 
 from __future__ import annotations
@@ -93,13 +103,81 @@ def mesaba(root: Path) -> None:
         print(f"mesaba_legs_flown_{label}: {s.legs_flown}")
 
 
+def _block_hours(campaign) -> float:
+    """The planned block time of every leg the heading_correction study flies (hours)."""
+    from aerotruth.sim.fleet_days import aircraft_days
+
+    section = campaign.studies["heading_correction"]
+    return (
+        sum(
+            p.plan.block_time_s
+            for role in ("fit", "before", "after")
+            for _, day in aircraft_days(campaign, section.flights(role))
+            for p in day.plans()
+        )
+        / 3600.0
+    )
+
+
+def paper_pair(root: Path, sizes: list[int]) -> None:
+    """Cold wall times of fractions of Mesaba's paper_pair size (module docstring)."""
+    import numpy as np
+
+    from aerotruth.sim.campaign_loader import load_campaign
+
+    path = Path(__file__).resolve().parents[1] / "campaigns" / "mesaba_2009.yaml"
+    full = load_campaign(path, size="paper_pair")
+    fleet = full.fleets[0]
+    hours, walls = [], []
+    for n in sizes:
+        if not 2 <= n <= len(fleet.aircraft):
+            raise SystemExit(f"--paper-pair: expected aircraft counts in 2..{len(fleet.aircraft)}, got {n}")
+        section = full.studies["heading_correction"]
+        poor = max(1, round(19 * n / 36))
+        sel = section.selection.model_copy(update={"poor": poor, "control": max(1, min(n - poor, round(17 * n / 36)))})
+        part = full.model_copy(
+            update={
+                "fleets": [fleet.model_copy(update={"aircraft": fleet.aircraft[:n]})],
+                "studies": {"heading_correction": section.model_copy(update={"selection": sel})},
+            }
+        )
+        block = _block_hours(part)
+        os.environ["AEROTRUTH_CACHE"] = str(root / f"cache-{n}")  # an empty truth store
+        t0 = time.perf_counter()
+        s = run_campaign(
+            part, ExecutorChoice("local", workers=2), out=root / f"pp-{n}", progress=False, log=lambda m: None
+        )
+        wall = time.perf_counter() - t0
+        print(f"paper_pair_{n}_wall: {wall:.0f}")
+        print(f"paper_pair_{n}_legs_flown: {s.legs_flown}")
+        print(f"paper_pair_{n}_block_hours: {block:.0f}")
+        print(f"paper_pair_{n}_seconds_per_block_hour: {wall / block:.2f}", flush=True)
+        hours.append(block)
+        walls.append(wall)
+    if len(sizes) >= 2:
+        b, a = np.polyfit(hours, walls, 1)
+        full_hours = _block_hours(full)
+        print(f"paper_pair_line: wall = {a:.0f} s + {b:.2f} s x block-hours")
+        print(f"paper_pair_36_block_hours: {full_hours:.0f}")
+        print(f"paper_pair_36_wall_extrapolated: {a + b * full_hours:.0f}")
+
+
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--points", type=int, default=12000, help="wind samples per level and hour (task weight)")
     ap.add_argument("--no-dask", action="store_true", help="skip the Dask LocalCluster run")
     ap.add_argument("--truth", action="store_true", help="time truth flights instead of the wind climatology")
     ap.add_argument("--mesaba", action="store_true", help="time the reduced Mesaba campaign cold and warm instead")
+    ap.add_argument("--paper-pair", metavar="N[,N...]", help="time fractions of Mesaba's paper_pair size (aircraft)")
     args = ap.parse_args()
+    if args.paper_pair:
+        try:
+            sizes = [int(x) for x in args.paper_pair.split(",")]
+        except ValueError:
+            raise SystemExit(f"--paper-pair: expected aircraft counts like 6,9, got {args.paper_pair!r}") from None
+        with tempfile.TemporaryDirectory() as tmp:
+            paper_pair(Path(tmp), sizes)
+        return
     if args.mesaba:
         with tempfile.TemporaryDirectory() as tmp:
             mesaba(Path(tmp))
