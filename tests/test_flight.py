@@ -351,3 +351,25 @@ def test_a_calm_leg_at_the_50_hz_step_is_the_leg_at_100_hz(msp_dlh, monkeypatch)
     assert np.sqrt(np.mean((a["h_ellipsoid_m"] - b["h_ellipsoid_m"]) ** 2)) < 0.5
     for c in ("roll_rad", "pitch_rad"):
         assert np.degrees(np.sqrt(np.mean((a[c] - b[c]) ** 2))) < 0.05
+
+
+def test_the_truth_aircraft_flies_without_ground_contacts_to_the_bit():
+    """airborne_only drops every <contact> of the ground reactions and nothing else; an
+    approach (the truth's lowest flying: over the threshold, JSBSim's ground 50 m below the
+    runway) flown with the SAAB 340's seven contacts is the same to the bit."""
+    import re
+
+    import aerotruth.truth.airframes as airframes_mod
+    from aerotruth.truth.airframes import PACKAGE_AIRCRAFT_DIR, airborne_only
+    from aerotruth.truth.approach import approach_spec, fly_approach
+
+    xml = (PACKAGE_AIRCRAFT_DIR / "saab340" / "saab340.xml").read_text()
+    stripped = airborne_only(xml)
+    assert xml.count("<contact") == 7 and stripped.count("<contact") == 0
+    assert re.sub(r"<contact\b.*?</contact>", "", xml, flags=re.S) == stripped
+    spec = approach_spec("KDLH", "27", DEPARTURE, turbulence=False)
+    without = fly_approach(spec, seed=3).df
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(airframes_mod, "airborne_only", lambda text: text)
+        with_contacts = fly_approach(spec, seed=3).df
+    pd.testing.assert_frame_equal(without, with_contacts, check_exact=True)

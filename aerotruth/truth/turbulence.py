@@ -226,9 +226,7 @@ class ChopGusts:
         stream's draws for the patches (`update`) come where they always came."""
         v = max(tas_mps, 30.0)
         n, x, sig = self.rng.standard_normal(4).tolist(), self.x, self._sig
-        for k, tau in enumerate(
-            (CHOP_SCALE_M / v, CHOP_SCALE_M / (2 * v), CHOP_SCALE_M / (2 * v), self.lb / 2.6 / v)
-        ):
+        for k, tau in enumerate((CHOP_SCALE_M / v, CHOP_SCALE_M / (2 * v), CHOP_SCALE_M / (2 * v), self.lb / 2.6 / v)):
             a = math.exp(-GUST_DT_S / tau)
             x[k] = a * x[k] + sig[k] * math.sqrt(1.0 - a * a) * n[k]
         u, vv, w, p = x
