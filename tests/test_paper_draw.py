@@ -195,15 +195,22 @@ def test_judge_a_cell_at_the_edge_of_a_normal_draw():
 
 
 def test_the_jackknife_over_runs_widens_z_by_the_mean_s_own_error():
-    """predictive(): the runs left out in turn give the mean's standard error; it is small
-    beside sd_draw at the paper's size with 20 runs and of the order sd_draw / sqrt(runs)."""
+    """predictive(): the runs left out in turn give the mean's standard error, of the size
+    of the runs' own cells' spread over sqrt(runs) (each run's adjusted after, from its sums
+    alone: within a factor 2), and z is divided by sqrt(sd_draw^2 + se^2)."""
     rng = np.random.default_rng(11)
-    sums = make_runs(20, rng)
-    draws, loo = predictive(sums, PaperScale(19, 17, 32, 32), 4000, np.random.default_rng(1))
-    assert len(loo) == 20
-    table, _ = judge(draws, loo, {"poor.after_adjusted.total": 8.0}, judged=["poor.after_adjusted.total"])
+    sums = make_runs(10, rng)
+    draws, loo = predictive(sums, PaperScale(19, 17, 32, 32), 2000, np.random.default_rng(1))
+    assert len(loo) == 10
+    cell = "poor.after_adjusted.total"
+    table, _ = judge(draws, loo, {cell: 8.0}, judged=[cell])
     row = table.iloc[0]
-    assert 0 < row["se"] < row["sd_draw"]
+    own = [
+        cells_from_sums(part).set_index(["group", "period"]).loc[("poor", "after_adjusted"), "rms_kt"]
+        for _, part in sums.groupby("run")
+    ]
+    assert 0.5 < row["se"] / (np.std(own, ddof=1) / math.sqrt(len(own))) < 2.0
+    assert row["z"] == pytest.approx((8.0 - row["mean"]) / math.hypot(row["sd_draw"], row["se"]))
 
 
 def test_missing_columns_are_named():

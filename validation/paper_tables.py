@@ -222,6 +222,11 @@ def main() -> None:
     if a.plan or a.paper_scale:
         from aerotruth.analysis.wind.paper_draw import PaperScale
 
+        if len(a.runs) < 2:
+            sys.exit(
+                "--plan / --paper-scale: expected two runs or more (the mean's standard error is a jackknife over runs)"
+            )
+
         if a.plan:
             plan = Plan.load(a.plan)
             check_runs(plan, a.runs)
