@@ -22,6 +22,8 @@ from pathlib import Path
 
 import jsbsim
 
+from aerotruth.files import atomic_write_text
+
 PACKAGE_AIRCRAFT_DIR = Path(__file__).parent / "aircraft"
 SYSTEMS_DIR = PACKAGE_AIRCRAFT_DIR / "systems"
 JSBSIM_DATA_DIR = Path(jsbsim.__file__).parent
@@ -175,13 +177,17 @@ def systems_root(dt: float) -> Path:
     digest = hashlib.sha256(json.dumps(files, sort_keys=True).encode()).hexdigest()[:12]
     root = _cache_dir() / f"systems-{digest}"
     for name, text in files.items():
-        target = root / name
-        if not target.exists():
-            root.mkdir(parents=True, exist_ok=True)
-            tmp = target.with_suffix(f".{os.getpid()}.tmp")
-            tmp.write_text(text)
-            os.replace(tmp, target)
+        _write_once(root / name, text)
     return root
+
+
+def _write_once(target: Path, text: str) -> None:
+    """`text` at `target` unless it is there already (cache files named by their content's
+    digest), written under a temporary name and renamed, so concurrent writers never see
+    half a file."""
+    if not target.exists():
+        target.parent.mkdir(parents=True, exist_ok=True)
+        atomic_write_text(target, text)
 
 
 def with_autopilot(xml: str, gains_file: str, imu: bool = False) -> str:
@@ -244,12 +250,7 @@ def aircraft_root(af: Airframe, autopilot: bool = True, imu: bool = False) -> Pa
         xml = airborne_only(with_autopilot(xml, af.gains_file, imu))
     digest = hashlib.sha256(xml.encode()).hexdigest()[:12]
     root = _cache_dir() / f"aircraft-{digest}"
-    target = root / af.model / f"{af.model}.xml"
-    if not target.exists():
-        target.parent.mkdir(parents=True, exist_ok=True)
-        tmp = target.with_suffix(f".{os.getpid()}.tmp")
-        tmp.write_text(xml)
-        os.replace(tmp, target)
+    _write_once(root / af.model / f"{af.model}.xml", xml)
     return root
 
 

@@ -450,9 +450,10 @@ def fly_loop(
         gusts = Mil8785Gusts(fdm, turbulence.rng.spawn(1)[0], fdm["metrics/bw-ft"] * FT, turbulence)
         g_vt, g_psi = (pm.get_node(p).get_double_value for p in ("velocities/vtrue-fps", "attitude/psi-rad"))
     steps_per_gust = int(round(GUST_UPDATE_S / ILS_DT))  # the gusts' 50 Hz update, in steps
-    steps_per_steer = int(round(STEER_DT_S / ILS_DT))  # the wander's update, in steps
+    # the wander's update, in steps (a second holds a whole number of them, so the count
+    # within the second tells)
+    steps_per_steer = int(round(STEER_DT_S / ILS_DT))
     steer = steering.step if steering is not None else None
-    steps = 0
     rows_append, tags_append = rows.append, tags.append
     while True:
         t = g["t"]()
@@ -480,11 +481,10 @@ def fly_loop(
             if k % steps_per_sample == 0:
                 rows_append([gg() for gg in getters])
                 tags_append(tag)
-            if steer is not None and steps % steps_per_steer == 0:
+            if steer is not None and k % steps_per_steer == 0:
                 steer()
             if gusts is not None and k % steps_per_gust == 0:
                 gusts.step(steps_per_gust * ILS_DT, g["h"]() * FT - frame.h0_m, g_vt() * FPS, g_psi())
-            steps += 1
             run()
     return rec, rows, tags
 

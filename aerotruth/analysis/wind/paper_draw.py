@@ -103,29 +103,36 @@ def aircraft_day_sums(errors: pd.DataFrame, period: str) -> pd.DataFrame:
     return out
 
 
+def _derive(cells: Mapping) -> dict:
+    """The derived cells of `cells` ((group, period) -> a value, a component vector or an
+    array of draws): the control's change, the poor group's after adjusted for it, the
+    improvement (before - adjusted after) and, where the untreated twin is there, the
+    table's own effect (after untreated - after)."""
+    out = {}
+    if ("control", "before") in cells and ("control", "after") in cells:
+        change = cells[("control", "after")] - cells[("control", "before")]
+        out[("control", "change")] = change
+        if ("poor", "after") in cells:
+            adj = cells[("poor", "after")] - change
+            out[("poor", "after_adjusted")] = adj
+            out[("poor", "improvement")] = cells[("poor", "before")] - adj
+    if ("poor", "after_untreated") in cells and ("poor", "after") in cells:
+        out[("poor", "table_effect")] = cells[("poor", "after_untreated")] - cells[("poor", "after")]
+    return out
+
+
 def derived_cells(cells: pd.DataFrame) -> pd.DataFrame:
-    """`cells` (group, period and the COMPONENTS columns) with the derived rows added: the
-    control's change, the poor group's after adjusted for it, the improvement (before -
-    adjusted after) and, where the untreated twin is there, the table's own effect (after
-    untreated - after). Every component is derived from the same component (the paper's
+    """`cells` (group, period and the COMPONENTS columns) with the derived rows added
+    (`_derive`). Every component is derived from the same component (the paper's
     subtraction: its components need not add up)."""
     if cells.empty:
         return cells
     idx = cells.set_index(["group", "period"])
     cols = [c for c, _ in COMPONENTS]
-    extra = []
-    if ("control", "before") in idx.index and ("control", "after") in idx.index:
-        change = idx.loc[("control", "after"), cols] - idx.loc[("control", "before"), cols]
-        extra.append({"group": "control", "period": "change", **change.to_dict()})
-        if ("poor", "after") in idx.index:
-            adj = idx.loc[("poor", "after"), cols] - change
-            extra.append({"group": "poor", "period": "after_adjusted", **adj.to_dict()})
-            extra.append(
-                {"group": "poor", "period": "improvement", **(idx.loc[("poor", "before"), cols] - adj).to_dict()}
-            )
-    if ("poor", "after_untreated") in idx.index and ("poor", "after") in idx.index:
-        effect = idx.loc[("poor", "after_untreated"), cols] - idx.loc[("poor", "after"), cols]
-        extra.append({"group": "poor", "period": "table_effect", **effect.to_dict()})
+    extra = [
+        {"group": g, "period": p, **v.to_dict()}
+        for (g, p), v in _derive({key: idx.loc[key, cols] for key in idx.index}).items()
+    ]
     return pd.concat([cells, pd.DataFrame(extra)], ignore_index=True)
 
 
@@ -144,10 +151,6 @@ def cells_from_sums(sums: pd.DataFrame) -> pd.DataFrame:
             }
         )
     return derived_cells(pd.DataFrame(rows))
-
-
-def cell_names(table: pd.DataFrame) -> list[str]:
-    return [f"{r.group}.{r.period}.{lab}" for r in table.itertuples() for _, lab in COMPONENTS]
 
 
 @dataclass(frozen=True)
@@ -388,14 +391,8 @@ class PaperDraws:
                     cells[(g, period, lab)] = np.sqrt(ms[:, j])
         out = {f"{g}.{p}.{lab}": v for (g, p, lab), v in cells.items()}
         for _, lab in COMPONENTS:
-            change = cells[("control", "after", lab)] - cells[("control", "before", lab)]
-            adj = cells[("poor", "after", lab)] - change
-            out[f"control.change.{lab}"] = change
-            out[f"poor.after_adjusted.{lab}"] = adj
-            out[f"poor.improvement.{lab}"] = cells[("poor", "before", lab)] - adj
-            untreated = cells.get(("poor", "after_untreated", lab))
-            if untreated is not None:
-                out[f"poor.table_effect.{lab}"] = untreated - cells[("poor", "after", lab)]
+            mine = {(g, p): v for (g, p, c), v in cells.items() if c == lab}
+            out.update({f"{g}.{p}.{lab}": v for (g, p), v in _derive(mine).items()})
         return pd.DataFrame(out)
 
 

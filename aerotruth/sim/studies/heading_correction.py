@@ -182,13 +182,15 @@ def group_rms(obs: pd.DataFrame) -> dict[str, float]:
     return {"n": int(obs.drop_duplicates(["aircraft", "time"]).shape[0]), **{c: float(s[c]) for c, _ in COMPONENTS}}
 
 
-def per_aircraft_rms(obs: pd.DataFrame) -> pd.DataFrame:
-    """RMS vector difference (combined references) per aircraft."""
+def per_aircraft_rms(obs: pd.DataFrame, errors: pd.DataFrame | None = None) -> pd.DataFrame:
+    """RMS vector difference (combined references) per aircraft; `errors`: the table's
+    `wind_errors` when they are at hand."""
     from aerotruth.analysis.wind.metrics import wind_error_summary, wind_errors
 
     if obs.empty:
         return pd.DataFrame(columns=["aircraft", "n", "rms_kt", "transverse_rms_kt"])
-    return wind_error_summary(wind_errors(obs), by=["aircraft"])[["aircraft", "n", "rms_kt", "transverse_rms_kt"]]
+    errors = wind_errors(obs) if errors is None else errors
+    return wind_error_summary(errors, by=["aircraft"])[["aircraft", "n", "rms_kt", "transverse_rms_kt"]]
 
 
 class HeadingCorrection(Study):
@@ -284,8 +286,10 @@ class HeadingCorrection(Study):
         }
         if corr is None or rows.empty:
             return Summary(m, {})
+        from aerotruth.analysis.wind.metrics import wind_errors
+
         group_of = corr.set_index("aircraft")["group"]
-        cells, per_ac, scored = [], [], {}
+        cells, per_ac, scored, day_sums = [], [], {}, []
         for stage in ("before", "after"):
             obs = unbanked(reported(rows[rows["stage"] == stage]), section.max_roll_deg)
             if obs.empty:
@@ -294,9 +298,12 @@ class HeadingCorrection(Study):
             scored[stage] = obs
             for g in ("poor", "control"):
                 cells.append({"group": g, "period": stage, **group_rms(obs[obs["group"] == g])})
-            per_ac.append(per_aircraft_rms(obs).assign(period=stage))
+            errors = wind_errors(obs)
+            per_ac.append(per_aircraft_rms(obs, errors).assign(period=stage))
+            day_sums.append(aircraft_day_sums(errors, stage))
         twin = unbanked(untreated(rows[rows["stage"] == "after"]), section.max_roll_deg) if "stage" in rows else None
         if twin is not None and len(twin):
+            day_sums.append(aircraft_day_sums(wind_errors(twin), "after_untreated"))
             cells.append(
                 {
                     "group": "poor",
@@ -353,7 +360,7 @@ class HeadingCorrection(Study):
         m["aircraft_fitted"] = int((corr["status"] == "fitted").sum())
         m["aircraft_offset_only"] = int((corr["status"] == "offset_only").sum())
         m["aircraft_refused"] = int((corr["status"] == "refused").sum())
-        tables = {"groups": table, "aircraft_days": _aircraft_days(scored, twin, group_of)}
+        tables = {"groups": table, "aircraft_days": _aircraft_days(day_sums, group_of)}
         if section.paper is not None:
             tables["versus_paper"] = versus_paper(table, section.paper)
         tables.update(
@@ -650,16 +657,14 @@ def uploaded_correction(corrections: pd.DataFrame, aircraft: str):
     return LookupTableCorrection(lut_deg=lut)
 
 
-def _aircraft_days(scored: dict[str, pd.DataFrame], twin: pd.DataFrame | None, group_of: pd.Series) -> pd.DataFrame:
+def _aircraft_days(parts: list[pd.DataFrame], group_of: pd.Series) -> pd.DataFrame:
     """The scored reports' sums per aircraft, UTC day and period (before, after and the
-    after period's untreated twin), every aircraft with its group (poor, control, other):
-    every cell is a ratio of these sums (aerotruth.analysis.wind.paper_draw), and they let a
-    cell be redrawn at the paper's fleet size and period length (validation/paper_tables.py)."""
-    from aerotruth.analysis.wind.metrics import wind_errors
-
-    parts = [aircraft_day_sums(wind_errors(obs), stage) for stage, obs in scored.items()]
-    if twin is not None and len(twin):
-        parts.append(aircraft_day_sums(wind_errors(twin), "after_untreated"))
+    after period's untreated twin: `parts`), every aircraft with its group (poor, control,
+    other): every cell is a ratio of these sums (aerotruth.analysis.wind.paper_draw), and
+    they let a cell be redrawn at the paper's fleet size and period length
+    (validation/paper_tables.py)."""
+    if not parts:
+        return pd.DataFrame(columns=["aircraft", "group", "period", "day"])
     days = pd.concat(parts, ignore_index=True)
     days.insert(1, "group", days["aircraft"].map(group_of).fillna("other").astype(str))
     return days
