@@ -485,3 +485,34 @@ def test_the_one_point_isa_form_equals_the_array_form_to_the_last_places():
         # which numpy's vectorised routines may round a unit in the last place otherwise
         assert t == float(isa_temperature_k(h, dtk))
         assert abs(p - float(isa_pressure_pa(h, dtk, psl))) <= 2 * np.spacing(p)
+
+
+def test_the_wind_field_file_holds_every_parameter_and_refuses_bad_ones_by_name(tmp_path):
+    import dataclasses
+
+    from aerotruth.truth import atmosphere as atm
+
+    spec = atm.WindFieldSpec()
+    # the file gives every field, the values the spec flies (a field the file lacks fails here)
+    names = {f.name for f in dataclasses.fields(atm.WindFieldSpec)}
+    assert set(atm._WIND_FIELD_FIELDS) == names
+    text = atm._wind_field_file().read_text(encoding="utf-8")
+    loaded = atm._load_wind_field(atm._WIND_FIELD_FIELDS, tuple(MesoscaleSpec.__dataclass_fields__))
+    assert loaded["wave_amplitude_ms"] == spec.wave_amplitude_ms == (13.6, 30.6)
+    assert MesoscaleSpec(**loaded["mesoscale"]) == spec.mesoscale
+    # Lindborg's fit of NG85 (k in rad/m), as aerotruth.truth.mesoscale states it
+    assert (spec.mesoscale.c3, spec.mesoscale.c53) == (3.0e-10, 9.0e-4)
+
+    def refused(body: str) -> str:
+        path = tmp_path / "wind_field.yaml"
+        path.write_text(body, encoding="utf-8")
+        with pytest.raises(ValueError) as e:
+            atm._load_wind_field(atm._WIND_FIELD_FIELDS, tuple(MesoscaleSpec.__dataclass_fields__), src=path)
+        assert str(path) in str(e.value) and "\n" not in str(e.value)
+        return str(e.value)
+
+    assert "missing jet_speed_winter_ms" in refused(text.replace("jet_speed_winter_ms: 36.0\n", ""))
+    assert "unknown jet_speed_autumn_ms" in refused(text + "jet_speed_autumn_ms: 30.0\n")
+    # YAML 1.1 reads 3.5e6 (no sign in the exponent) as a string: said, not flown
+    assert "wave_wavelength_m: expected a number" in refused(text.replace("[3.5e+6, 7.0e+6]", "[3.5e6, 7.0e6]"))
+    assert "mesoscale missing c3" in refused(text.replace("  c3: 3.0e-10\n", ""))

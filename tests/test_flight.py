@@ -373,3 +373,28 @@ def test_the_truth_aircraft_flies_without_ground_contacts_to_the_bit():
         mp.setattr(airframes_mod, "airborne_only", lambda text: text)
         with_contacts = fly_approach(spec, seed=3).df
     pd.testing.assert_frame_equal(without, with_contacts, check_exact=True)
+
+
+@pytest.mark.slow
+def test_a_fly_by_turn_in_wind_is_an_arc_over_the_ground_planned_at_its_largest_ground_speed():
+    # PANS-OPS's turn over the ground: r = GS_max^2 / (g tan(planned bank)), flown with
+    # tan(bank) = GS^2 / (g r). KMSP-KRST's first turn (44 -> 156 deg, planned at the 23-deg
+    # cap) crosses the wind's direction (20 m/s east, 10 m/s south: to 116.6 deg), where
+    # the ground speed is largest and the bank the planned one
+    plan = plan_leg("KMSP", "KRST", DEPARTURE)
+    df = fly_leg(plan, seed=0, atmosphere=UniformAtmosphere(u_mps=20.0, v_mps=-10.0)).df
+    t = df["time_s"].to_numpy()
+    vn, ve = df["vn_mps"].to_numpy(), df["ve_mps"].to_numpy()
+    gs = np.hypot(vn, ve)
+    roll = np.degrees(np.abs(df["roll_rad"].to_numpy()))
+    first = t < 300.0
+    steady = first & (roll > 15.0) & (np.abs(np.gradient(roll, t)) < 0.5)
+    assert steady.sum() > 200  # 20 s and more of the arc
+    k = np.tan(np.radians(roll[steady])) / gs[steady] ** 2  # 1 / (g r)
+    assert k.max() / k.min() < 1.06  # one radius (the airspeed grows ~3 % in the climbing turn)
+    # the planned bank where the ground speed is largest (downwind, 116.6 deg)
+    fastest = int(np.argmax(gs[steady]))
+    track = np.degrees(np.arctan2(ve[steady][fastest], vn[steady][fastest])) % 360.0
+    assert track == pytest.approx(116.6, abs=8.0)
+    assert roll[steady][fastest] == pytest.approx(23.0, abs=0.7)
+    assert roll[steady].max() - roll[steady].min() > 3.0  # the bank follows the ground speed

@@ -2,6 +2,7 @@
 
 import math
 
+import numpy as np
 import pytest
 
 from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, geocentric_lat_rad, turn_anticipation_m
@@ -47,3 +48,23 @@ def test_turn_anticipation_is_radius_times_tan_half_angle():
 def test_coincident_leg_ends_are_rejected():
     with pytest.raises(ValueError, match="coincide"):
         _ = GreatCircleLeg("x", 45.0, -93.0, 45.0, -93.0).normal
+
+
+def test_the_arc_ground_speeds_follow_the_wind_triangle():
+    from aerotruth.truth.guidance import arc_ground_speeds_mps
+
+    # 100 m/s of airspeed, 20 m/s of wind blowing to the east: north -> east ends downwind
+    # (120), starts across the wind (sqrt(100^2 - 20^2))
+    assert arc_ground_speeds_mps(100.0, 0.0, 20.0, 0.0, 90.0) == pytest.approx((96**0.5 * 10.0, 120.0))
+    # north -> west by the left ends upwind (80)
+    assert arc_ground_speeds_mps(100.0, 0.0, 20.0, 0.0, -90.0) == pytest.approx((80.0, 96**0.5 * 10.0))
+    # a turn through both the downwind and the upwind track
+    assert arc_ground_speeds_mps(100.0, 0.0, 20.0, 80.0, 200.0) == pytest.approx((80.0, 120.0))
+
+    # 350 -> 330 on the upwind side: both ends; GS = 20 cos d + sqrt(100^2 - (20 sin d)^2)
+    def gs(track):
+        d = np.radians(track - 90.0)
+        return 20.0 * np.cos(d) + np.sqrt(100.0**2 - (20.0 * np.sin(d)) ** 2)
+
+    assert arc_ground_speeds_mps(100.0, 0.0, 20.0, 350.0, -20.0) == pytest.approx((gs(330.0), gs(350.0)))
+    assert arc_ground_speeds_mps(100.0, 0.0, 0.0, 0.0, 90.0) == (100.0, 100.0)

@@ -73,7 +73,7 @@ def _counts(stderr: str) -> tuple[int, int, int]:
 
 
 @pytest.mark.slow
-def test_edits_of_a_source_constant_or_an_xml_file_rerun_what_depends_on_them(tmp_path):
+def test_edits_of_a_parameters_file_or_an_xml_file_rerun_what_depends_on_them(tmp_path):
     shutil.copytree(
         Path(aerotruth.__file__).parent, tmp_path / "pkg" / "aerotruth", ignore=shutil.ignore_patterns("__pycache__")
     )
@@ -83,8 +83,11 @@ def test_edits_of_a_source_constant_or_an_xml_file_rerun_what_depends_on_them(tm
     again, err = _run(tmp_path)
     assert _counts(err) == (2, 0, 0) and again == first
 
-    atm = tmp_path / "pkg" / "aerotruth" / "truth" / "atmosphere.py"
-    atm.write_text(atm.read_text().replace("jet_speed_summer_ms: float = 23.0", "jet_speed_summer_ms: float = 45.0"))
+    # the truth atmosphere's parameters file (a data file the atmosphere module reads)
+    atm = tmp_path / "pkg" / "aerotruth" / "truth" / "data" / "wind_field.yaml"
+    text = atm.read_text()
+    assert "jet_speed_summer_ms: 23.0\n" in text
+    atm.write_text(text.replace("jet_speed_summer_ms: 23.0\n", "jet_speed_summer_ms: 45.0\n"))
     edited, err = _run(tmp_path)
     assert _counts(err) == (0, 2, 1)  # both studies stand on the atmosphere: both rerun, the leg re-flies
     assert edited["wind_climatology.FL250.speed_mean_mps"] > first["wind_climatology.FL250.speed_mean_mps"] + 2.0

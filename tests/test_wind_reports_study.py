@@ -88,7 +88,7 @@ def test_ideal_sensors_report_the_truth_wind_and_a_sensor_change_reflies_nothing
     s1, obs, m = _run(campaign(PERFECT_VALVE, NO_NOISE), tmp_path / "a")
     assert s1.legs_flown == 2 and m["wind_reports.legs_diverged"] == 0
     level = _steady_level(obs, perfect_valve=True)
-    assert len(level) >= 8
+    assert len(level) >= 6  # 7 of the two short legs' 10 level reports (a dropping valve fails it)
     # report vs truth at the trigger sample: 1-kt/1-deg quantization and a 10-s mean of a slowly varying wind
     du = level["wind_speed_kt"] * np.sin(np.radians(level["wind_dir_deg"])) - level["truth_wind_speed_kt"] * np.sin(
         np.radians(level["truth_wind_dir_deg"])

@@ -91,71 +91,146 @@ def _as_float_array(name: str, x) -> np.ndarray:
 
 
 # --- specification -------------------------------------------------------------------
+WIND_FIELD_YAML = "wind_field.yaml"  # in the package's truth/data folder
+
+
+def _wind_field_file():
+    from importlib import resources
+
+    return resources.files("aerotruth.truth").joinpath("data").joinpath(WIND_FIELD_YAML)
+
+
+def _load_wind_field(fields: tuple[str, ...], mesoscale_fields: tuple[str, ...], src=None) -> dict:
+    """The truth atmosphere's parameters from truth/data/wind_field.yaml (each value there
+    with its source; `src` another file of that form): every WindFieldSpec field, lists as
+    tuples; ValueError naming the file and the field for a field missing, unknown or not a
+    number."""
+    import yaml
+
+    src = _wind_field_file() if src is None else src
+    raw = yaml.safe_load(src.read_text(encoding="utf-8"))
+    if not isinstance(raw, dict):
+        raise ValueError(f"{src}: expected a mapping of WindFieldSpec fields")
+
+    def check(d: dict, names: tuple[str, ...], where: str) -> dict:
+        missing = [n for n in names if n not in d]
+        unknown = [n for n in d if n not in names]
+        if missing or unknown:
+            raise ValueError(
+                f"{src}: {where} "
+                + "; ".join(
+                    x
+                    for x in (missing and f"missing {', '.join(missing)}", unknown and f"unknown {', '.join(unknown)}")
+                    if x
+                )
+            )
+        out = {}
+        for k, v in d.items():
+            items = v if isinstance(v, list) else [v]
+            if k != "mesoscale" and not all(
+                isinstance(x, (int, float)) or (x is None and k == "rms_ms") for x in items
+            ):
+                raise ValueError(f"{src}: {k}: expected a number or a list of numbers, got {v!r}")
+            out[k] = tuple(v) if isinstance(v, list) else v
+        return out
+
+    out = check(raw, fields, "WindFieldSpec")
+    if not isinstance(raw["mesoscale"], dict):
+        raise ValueError(f"{src}: mesoscale: expected a mapping of MesoscaleSpec fields")
+    out["mesoscale"] = check(raw["mesoscale"], mesoscale_fields, "mesoscale")
+    return out
+
+
+_WIND_FIELD_FIELDS = (
+    "jet_speed_winter_ms",
+    "jet_speed_summer_ms",
+    "jet_speed_spread",
+    "jet_latitude_winter_deg",
+    "jet_latitude_summer_deg",
+    "jet_latitude_southmost_doy",
+    "jet_latitude_sd_deg",
+    "jet_altitude_m",
+    "jet_altitude_seasonal_m",
+    "surface_geostrophic_ms",
+    "jet_lower_width_m",
+    "jet_lower_width_summer_m",
+    "stratosphere_decay_m",
+    "stratosphere_fraction",
+    "jet_meridional_width_deg",
+    "jet_meridional_contrast",
+    "n_waves",
+    "wave_wavelength_m",
+    "wave_meridional_wavelength_m",
+    "wave_amplitude_ms",
+    "wave_surface_fraction",
+    "wave_phase_speed_ms",
+    "wave_growth_per_day",
+    "wave_tilt_rad",
+    "boundary_layer_depth_m",
+    "boundary_layer_exponent",
+    "mesoscale",
+    "mesoscale_surface_fraction",
+    "delta_t_at_40n_k",
+    "delta_t_per_deg_lat_k",
+    "delta_t_seasonal_k",
+    "delta_t_thermal_wind",
+    "delta_t_synoptic_k",
+    "delta_t_offset_sd_k",
+    "sea_level_pressure_sd_pa",
+)
+_D = _load_wind_field(_WIND_FIELD_FIELDS, tuple(MesoscaleSpec.__dataclass_fields__))
+
+
 @dataclass(frozen=True)
 class WindFieldSpec:
-    """Defaults of the truth atmosphere (SI). Campaign YAML may override any field.
+    """The truth atmosphere's parameters (SI), defaults from truth/data/wind_field.yaml,
+    where each value stands with what it represents and its source; a field given here
+    replaces the file's (tests and studies of the field itself; the truth store's flights
+    fly the file's).
 
     Jet speed, latitude and the depth of its shear interpolate between summer and winter
     values with day of year (coldest/strongest on 20 January); the speed is drawn times
     1 + jet_speed_spread * U(-1, 1) and the latitude meanders day to day by
-    N(0, jet_latitude_sd_deg) about its season's. Calibrated against the HWM14 climatology
-    (campaigns/wind_climatology.yaml: the mean wind vector at 850, 500 and 300 hPa over
-    the three networks in four seasons): its 250-hPa mean jet over North America lies near
-    37 N in January (31 m/s at 90 W, 39 m/s at 155 W) and 55 N in August (20 m/s at 90 W).
-
-    The waves' amplitude (the day-to-day synoptic variability; random phases, so the mean
-    vector above is unchanged) is calibrated on the distribution of the wind *speed*: the
-    Range Reference Atmosphere's radiosonde statistics at Kodiak, Alaska (RRA 2013: mean,
-    sd and skewness of the speed by month and height, ~1,100-1,300 soundings a month;
-    campaigns/wind_climatology.yaml, `references`), median and 90th percentile at 850, 500
-    and 300 hPa in the four seasons the wind campaigns fly. With (8, 18) m/s and a surface
-    fraction of 0.45 the truth's speeds were 10-35 % low aloft (RMS of log(truth / RRA) over
-    the 24 statistics 0.247, component sd at 300 hPa 9-12 m/s against the soundings'
-    15-17); the rule (docs/calibration-log.md) picked 1.7 x the amplitudes and 0.30 (RMS
-    0.058, every statistic within 20 %), the HWM14 mean-vector cells unchanged (1 of 36
-    off, as before). That compared the station with the truth pooled over PenAir's network
-    box; at the station's own column 3 of Kodiak's 36 statistics stay off (the summer jet
-    too close to Kodiak at 300 hPa, the point's spread 15-35 % narrow aloft:
-    docs/calibration-log.md).
+    N(0, jet_latitude_sd_deg) about its season's. The mean flow is calibrated on the HWM14
+    climatology's mean vectors, the waves' amplitude on the Range Reference Atmosphere's
+    wind-speed statistics at Kodiak (campaigns/wind_climatology.yaml, docs/calibration-log.md).
     """
 
-    jet_speed_winter_ms: float = 36.0  # at the jet core (its day-to-day meander lowers the time mean)
-    jet_speed_summer_ms: float = 23.0
-    jet_speed_spread: float = 0.15
-    jet_latitude_winter_deg: float = 36.0  # the climatological core over North America (HWM14)
-    jet_latitude_summer_deg: float = 51.0
-    jet_latitude_southmost_doy: float = 45.0  # the core's seasonal cycle lags the speed's: furthest south mid-February
-    jet_latitude_sd_deg: float = 5.0  # day-to-day meander of the core
-    jet_altitude_m: float = 11000.0
-    jet_altitude_seasonal_m: float = 600.0  # jet/tropopause lower in winter by this much
-    surface_geostrophic_ms: float = 3.0  # mean westerly at z = 0 at the jet core, before boundary-layer scaling
-    jet_lower_width_m: float = 9000.0  # Gaussian width of the rise of U(z) towards the jet, winter
-    jet_lower_width_summer_m: float = 6000.0  # the same in summer: the summer westerlies are shallower
-    stratosphere_decay_m: float = 5000.0  # Gaussian half-width of the decay above the jet
-    stratosphere_fraction: float = 0.35  # speed far above the jet / jet speed
-    jet_meridional_width_deg: float = 11.0
-    jet_meridional_contrast: float = 0.85  # mean flow at lat far from the jet core: 1 - this
-    n_waves: int = 3
-    wave_wavelength_m: tuple[float, float] = (3.5e6, 7.0e6)
-    wave_meridional_wavelength_m: tuple[float, float] = (4.0e6, 8.0e6)
-    # v at the jet, scaled by jet speed / 45 m/s; with the surface fraction, calibrated on
-    # radiosonde wind-speed statistics (class docstring)
-    wave_amplitude_ms: tuple[float, float] = (13.6, 30.6)
-    wave_surface_fraction: float = 0.30  # wave amplitude at z = 0 / at the jet
-    wave_phase_speed_ms: tuple[float, float] = (6.0, 14.0)
-    wave_growth_per_day: float = 0.5  # growth rates drawn in +-this, e-folds per day
-    wave_tilt_rad: tuple[float, float] = (0.3, 0.9)  # westward phase tilt surface -> jet
-    boundary_layer_depth_m: float = 1000.0
-    boundary_layer_exponent: float = 1.0 / 7.0
-    mesoscale: MesoscaleSpec = field(default_factory=MesoscaleSpec)
-    mesoscale_surface_fraction: float = 0.6
-    delta_t_at_40n_k: float = -1.0  # annual-mean column offset at 40 N
-    delta_t_per_deg_lat_k: float = -0.4  # its change per degree of latitude
-    delta_t_seasonal_k: float = 7.0  # half the winter-summer difference of the column offset
-    delta_t_thermal_wind: bool = True  # meridional gradient from the mean shear (thermal wind)
-    delta_t_synoptic_k: float = 2.0  # RMS of the moving large-scale anomalies
-    delta_t_offset_sd_k: float = 1.5
-    sea_level_pressure_sd_pa: float = 600.0
+    jet_speed_winter_ms: float = _D["jet_speed_winter_ms"]
+    jet_speed_summer_ms: float = _D["jet_speed_summer_ms"]
+    jet_speed_spread: float = _D["jet_speed_spread"]
+    jet_latitude_winter_deg: float = _D["jet_latitude_winter_deg"]
+    jet_latitude_summer_deg: float = _D["jet_latitude_summer_deg"]
+    jet_latitude_southmost_doy: float = _D["jet_latitude_southmost_doy"]
+    jet_latitude_sd_deg: float = _D["jet_latitude_sd_deg"]
+    jet_altitude_m: float = _D["jet_altitude_m"]
+    jet_altitude_seasonal_m: float = _D["jet_altitude_seasonal_m"]
+    surface_geostrophic_ms: float = _D["surface_geostrophic_ms"]
+    jet_lower_width_m: float = _D["jet_lower_width_m"]
+    jet_lower_width_summer_m: float = _D["jet_lower_width_summer_m"]
+    stratosphere_decay_m: float = _D["stratosphere_decay_m"]
+    stratosphere_fraction: float = _D["stratosphere_fraction"]
+    jet_meridional_width_deg: float = _D["jet_meridional_width_deg"]
+    jet_meridional_contrast: float = _D["jet_meridional_contrast"]
+    n_waves: int = _D["n_waves"]
+    wave_wavelength_m: tuple[float, float] = _D["wave_wavelength_m"]
+    wave_meridional_wavelength_m: tuple[float, float] = _D["wave_meridional_wavelength_m"]
+    wave_amplitude_ms: tuple[float, float] = _D["wave_amplitude_ms"]
+    wave_surface_fraction: float = _D["wave_surface_fraction"]
+    wave_phase_speed_ms: tuple[float, float] = _D["wave_phase_speed_ms"]
+    wave_growth_per_day: float = _D["wave_growth_per_day"]
+    wave_tilt_rad: tuple[float, float] = _D["wave_tilt_rad"]
+    boundary_layer_depth_m: float = _D["boundary_layer_depth_m"]
+    boundary_layer_exponent: float = _D["boundary_layer_exponent"]
+    mesoscale: MesoscaleSpec = field(default_factory=lambda: MesoscaleSpec(**_D["mesoscale"]))
+    mesoscale_surface_fraction: float = _D["mesoscale_surface_fraction"]
+    delta_t_at_40n_k: float = _D["delta_t_at_40n_k"]
+    delta_t_per_deg_lat_k: float = _D["delta_t_per_deg_lat_k"]
+    delta_t_seasonal_k: float = _D["delta_t_seasonal_k"]
+    delta_t_thermal_wind: bool = _D["delta_t_thermal_wind"]
+    delta_t_synoptic_k: float = _D["delta_t_synoptic_k"]
+    delta_t_offset_sd_k: float = _D["delta_t_offset_sd_k"]
+    sea_level_pressure_sd_pa: float = _D["sea_level_pressure_sd_pa"]
 
     def __post_init__(self) -> None:
         for name in (

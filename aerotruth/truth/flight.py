@@ -35,7 +35,7 @@ from aerotruth.truth.fdm import (
     set_mass,
     trim_or_settle,
 )
-from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, turn_anticipation_m
+from aerotruth.truth.guidance import GreatCircleLeg, LegGeometry, arc_ground_speeds_mps, turn_anticipation_m
 from aerotruth.truth.profile import VerticalProfile, draw_profile
 from aerotruth.truth.steering import NavigationError, SteeringWander
 from aerotruth.truth.track import PHASES, TruthTrack
@@ -52,7 +52,15 @@ US_SPEED_LIMIT_KT = 250.0  # 14 CFR 91.117(a): 250 KIAS below 10,000 ft MSL
 # transition of RTCA DO-236B, section 3.2.5.4.1: bank = min(course change / 2, 23 deg)
 # below FL195), so a 30-deg turn is flown at 15 deg and only turns of 46 deg or more reach
 # the cap.
+# A fly-by turn is a path fixed over the ground: an arc of the radius the planned bank gives at
+# the turn's largest ground speed, as a procedure's RF turn is built (ICAO Doc 8168 PANS-OPS
+# vol. II, part III, section 3, ch. 1, 1.4.5: r = (V + Vw)^2 / (127094 tan phi), V the largest
+# true airspeed, Vw the largest wind). Flown at a lower ground speed the arc needs less bank,
+# tan(bank) = GS^2 / (g r): the achieved bank varies along the turn with the wind (PANS-OPS
+# takes the average achieved bank 5 deg below the maximum), and only a calm-air turn is flown
+# at its planned bank throughout.
 PLANNED_BANK_DEG = 23.0
+FMS_MAX_BANK_DEG = 25.0  # the FMZ's maximum, which an arc flown faster than planned may reach
 # turn anticipation assumes this share of the planned bank: the roll-in takes ~7 s
 ANTICIPATION_BANK_SHARE = 20.0 / 23.0
 TURN_SETTLE_S = 15.0  # the turn's bank limit is held this long past the planned turn's duration
@@ -125,6 +133,9 @@ class _Guide:
         self._set("ap/nav/mode", 1)
         self._set("ap/gain/bank-max-rad", math.radians(PLANNED_BANK_DEG))
         self.turn_until = -math.inf  # the planned turn's bank limit holds until then
+        self.turn_tan_per_gs2 = 0.0  # the arc being flown: tan(bank) per (m/s)^2 of ground speed
+        self._wind_n = property_node(pm, "ap/wind/north-fps").get_double_value
+        self._wind_e = property_node(pm, "ap/wind/east-fps").get_double_value
         self._set_leg(0)
 
     def _set(self, prop: str, value: float) -> None:
@@ -175,7 +186,8 @@ class _Guide:
         t: float,
         lat: float,
         lon: float,
-        gs_mps: float,
+        vn_mps: float,
+        ve_mps: float,
         h_ell_m: float,
         p_alt_m: float,
         tas_kt: float,
@@ -188,20 +200,32 @@ class _Guide:
         s = self.af.schedule
         g = self.geom[self.leg]
         to_leg_end = g.to_go_m(lat, lon)
+        gs_mps = math.hypot(vn_mps, ve_mps)
         if self.leg + 1 < len(self.geom):
             bank = planned_bank_deg(g.turn_deg)
-            if bank > 0.0 and to_leg_end <= turn_anticipation_m(gs_mps, g.turn_deg, ANTICIPATION_BANK_SHARE * bank):
-                self._set_leg(self.leg + 1)
-                # the turn flown at its planned bank, then the LNAV's full limit again
-                rate = G0 * math.tan(math.radians(bank)) / max(gs_mps, 1.0)
-                self.turn_until = t + math.radians(abs(g.turn_deg)) / rate + TURN_SETTLE_S
-                self._set("ap/gain/bank-max-rad", math.radians(bank))
-            elif bank == 0.0 and to_leg_end <= 0.0:
+            if bank > 0.0:
+                # the arc planned at the turn's largest ground speed in the FMS's wind (the
+                # autopilot's mean wind, without the gusts)
+                wn, we = self._wind_n() * FPS, self._wind_e() * FPS
+                air = math.hypot(vn_mps - wn, ve_mps - we)
+                gs_lo, gs_hi = arc_ground_speeds_mps(air, wn, we, g.course_end_deg, g.turn_deg)
+                gs_hi = max(gs_hi, 1.0)
+                if to_leg_end <= turn_anticipation_m(gs_hi, g.turn_deg, ANTICIPATION_BANK_SHARE * bank):
+                    self._set_leg(self.leg + 1)
+                    tan_bank = math.tan(math.radians(bank))
+                    radius_m = gs_hi * gs_hi / (G0 * tan_bank)
+                    self.turn_tan_per_gs2 = 1.0 / (G0 * radius_m)
+                    # the arc flown at the bank its ground speed needs, then the LNAV's full limit
+                    self.turn_until = t + radius_m * math.radians(abs(g.turn_deg)) / max(gs_lo, 1.0) + TURN_SETTLE_S
+            elif to_leg_end <= 0.0:
                 self._set_leg(self.leg + 1)
         elif to_leg_end <= 0.0:
             return False
         if t > self.turn_until:
             self._set("ap/gain/bank-max-rad", math.radians(PLANNED_BANK_DEG))
+        else:
+            arc_bank = math.atan(self.turn_tan_per_gs2 * gs_mps * gs_mps)
+            self._set("ap/gain/bank-max-rad", min(arc_bank, math.radians(FMS_MAX_BANK_DEG)))
         to_go = self.distance_to_go_m(lat, lon)
         r = self.route
         final = self.leg == len(self.geom) - 1
@@ -431,7 +455,7 @@ def fly_route(
             raise FlightDiverged(f"fuel exhausted ({g_fuel():.0f} lb left)", seed_id, t)
         vn, ve, vd = g_vn() * FPS, g_ve() * FPS, g_vd() * FPS
         gs = math.hypot(vn, ve)
-        if not guide.update(t, lat, lon, gs, h_ft * FT, g_palt() * FT, g_vt() / KT * FPS, g_vc() / KT * FPS):
+        if not guide.update(t, lat, lon, vn, ve, h_ft * FT, g_palt() * FT, g_vt() / KT * FPS, g_vc() / KT * FPS):
             break
         dt_g = GUIDE_EVERY * DT
         ground = route.departure_elevation_msl_m if guide.phase < 2 else route.arrival_elevation_msl_m

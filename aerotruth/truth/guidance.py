@@ -98,6 +98,35 @@ def turn_anticipation_m(ground_speed_mps: float, course_change_deg: float, bank_
     return float(radius * math.tan(half))
 
 
+def arc_ground_speeds_mps(
+    airspeed_mps: float, wind_n_mps: float, wind_e_mps: float, course_deg: float, course_change_deg: float
+) -> tuple[float, float]:
+    """The smallest and largest ground speed (m/s) over a turn's tracks, from `course_deg`
+    through `course_change_deg` (signed, right positive), at a horizontal airspeed in a
+    uniform wind (north, east; the direction it blows to). On track chi the wind triangle
+    gives GS = W cos d + sqrt(V^2 - W^2 sin^2 d), d = chi - the wind's direction: largest
+    downwind (d = 0), smallest upwind, monotone in |d| between, so the extremes lie at the
+    arc's ends or where the arc crosses those two tracks. A wind at or above the airspeed
+    has no ground track across it; the speeds are then those of the tracks that can be flown."""
+    w = math.hypot(wind_n_mps, wind_e_mps)
+    to_deg = math.degrees(math.atan2(wind_e_mps, wind_n_mps))
+
+    def gs(d_deg: float) -> float:
+        d = math.radians(d_deg)
+        cross = w * math.sin(d)
+        return w * math.cos(d) + math.sqrt(max(airspeed_mps * airspeed_mps - cross * cross, 0.0))
+
+    def crosses(target_deg: float) -> bool:
+        off = (target_deg - course_deg) % 360.0  # from the start, clockwise
+        return off <= course_change_deg if course_change_deg >= 0.0 else off >= 360.0 + course_change_deg or off == 0.0
+
+    d0 = course_deg - to_deg
+    ends = (gs(d0), gs(d0 + course_change_deg))
+    hi = airspeed_mps + w if crosses(to_deg) else max(ends)
+    lo = max(airspeed_mps - w, 0.0) if crosses(to_deg + 180.0) else min(ends)
+    return lo, hi
+
+
 def _unit_scalar(lat_deg: float, lon_deg: float) -> tuple[float, float, float]:
     pc = math.atan((1.0 - WGS84_E2) * math.tan(math.radians(lat_deg)))
     lo = math.radians(lon_deg)
@@ -109,18 +138,18 @@ class LegGeometry:
     """Scalar (math-module) twin of GreatCircleLeg for the 1 Hz guidance update, where
     numpy's per-call overhead would dominate. Same formulas, precomputed vectors."""
 
-    __slots__ = ("n", "b", "length_m", "turn_deg")
+    __slots__ = ("n", "b", "length_m", "turn_deg", "course_end_deg")
 
     def __init__(self, leg: GreatCircleLeg, next_leg: GreatCircleLeg | None):
         self.n = tuple(float(c) for c in leg.normal)
         self.b = tuple(float(c) for c in leg.b)
         self.length_m = leg.length_m
+        self.course_end_deg = float(leg.course_deg(leg.lat_b, leg.lon_b))
         if next_leg is None:
             self.turn_deg = 0.0
         else:
-            here = float(leg.course_deg(leg.lat_b, leg.lon_b))
             nxt = float(next_leg.course_deg(leg.lat_b, leg.lon_b))
-            self.turn_deg = (nxt - here + 180.0) % 360.0 - 180.0
+            self.turn_deg = (nxt - self.course_end_deg + 180.0) % 360.0 - 180.0
 
     def to_go_m(self, lat_deg: float, lon_deg: float) -> float:
         """Along-track distance from the foot of P to the leg end (m), negative once past it."""
