@@ -121,6 +121,40 @@ def test_sigkill_midway_then_resume_gives_identical_metrics(reference, tmp_path)
     assert not stray.exists() and not list((out / "tasks").glob("*.tmp"))
 
 
+def test_a_run_in_parts_at_its_time_limit_stores_each_part_and_ends_identical(reference, tmp_path):
+    # a limit already past: each call starts exactly one task (progress is guaranteed), stores
+    # it and pauses; the call that starts the last task finishes the run
+    from aerotruth.sim.campaign import RunPaused
+
+    out, parts = tmp_path / "parts", []
+    while True:
+        try:
+            s = run_campaign(parse_campaign(TINY), LOCAL1, out=out, stop_after_s=0.0, **QUIET)
+            break
+        except RunPaused as e:
+            parts.append(e.stored)
+            assert not (out / "metrics.json").exists()
+    assert parts == list(range(1, N_TASKS))
+    assert (s.reused, s.ran) == (N_TASKS - 1, 1)
+    assert metrics_bytes(out) == metrics_bytes(reference)
+    # a limit not reached is no limit
+    s = run_campaign(parse_campaign(TINY), LOCAL1, out=tmp_path / "whole", stop_after_s=3600.0, **QUIET)
+    assert s.ran == N_TASKS and metrics_bytes(tmp_path / "whole") == metrics_bytes(reference)
+
+
+def test_stop_after_on_the_command_line_exits_3_in_one_line_and_refuses_a_bad_value(tmp_path, capsys):
+    (tmp_path / "tiny.yaml").write_text(TINY)
+    args = ["run", str(tmp_path / "tiny.yaml"), "--out", str(tmp_path / "run"), "--workers", "1", "--quiet"]
+    assert main([*args, "--stop-after", "0", "--no-report"]) == 3
+    err = capsys.readouterr().err.strip().splitlines()
+    assert "paused after" in err[-1] and "1 of 8 tasks stored" in err[-1] and "--stop-after 0" in err[-1]
+    with pytest.raises(SystemExit) as e:
+        main([*args, "--stop-after", "-1"])
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and "--stop-after" in err[0] and "expected a number of hours" in err[0]
+
+
 def test_unreadable_result_file_is_recomputed_not_read(reference, tmp_path):
     out = tmp_path / "corrupt"
     run_campaign(parse_campaign(TINY), LOCAL1, out=out, **QUIET)

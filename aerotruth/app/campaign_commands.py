@@ -11,6 +11,8 @@ import sys
 from aerotruth.sim.campaign_file import ConfigError
 from aerotruth.sim.campaign_loader import load_campaign
 
+PAUSED_EXIT = 3  # `aerotruth run --stop-after`: stopped at its time limit, the same command goes on
+
 
 def _terminate(signum: int, frame: object) -> None:
     raise SystemExit(128 + signum)
@@ -27,7 +29,7 @@ def run_cli(args: argparse.Namespace) -> int:
     Everything the user gave is checked before anything is written: the campaign, the
     executor, and the run folder (sim.store.check_out_folder: a non-empty folder that is not
     a run folder is refused; --force writes beside its files when none has a run's name)."""
-    from aerotruth.sim.campaign import default_run_dir, run_campaign
+    from aerotruth.sim.campaign import RunPaused, default_run_dir, run_campaign
     from aerotruth.sim.executors import resolve
     from aerotruth.sim.store import check_out_folder
 
@@ -45,10 +47,21 @@ def run_cli(args: argparse.Namespace) -> int:
         option=where,
     )
     previous = signal.signal(signal.SIGTERM, _terminate)
+    stop_after = getattr(args, "stop_after", None)
     try:
-        summary = run_campaign(campaign, choice, out=out, progress=not args.quiet, log=_err)
+        summary = run_campaign(
+            campaign,
+            choice,
+            out=out,
+            progress=not args.quiet,
+            log=_err,
+            stop_after_s=None if stop_after is None else stop_after * 3600.0,
+        )
     except ConfigError as e:
         raise ConfigError(f"{args.campaign}: {e}") from None
+    except RunPaused as e:
+        _err(f"{campaign.name}: {e} (--stop-after {stop_after:g})")
+        return PAUSED_EXIT
     finally:
         signal.signal(signal.SIGTERM, previous)
     _err(

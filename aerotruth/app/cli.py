@@ -367,6 +367,19 @@ def _cmd_heading_apply(args: argparse.Namespace) -> int:
     return heading_apply_main(args.obs, args.tables, args.out)
 
 
+def _hours(text: str) -> float:
+    """--stop-after: a number of hours, 0 or more and finite."""
+    t = text.strip()
+    shown = repr(t) if len(t) <= 40 else f"{len(t)} characters"
+    try:
+        value = float(t) if len(t) <= 40 else math.nan
+    except ValueError:
+        value = math.nan
+    if not (math.isfinite(value) and value >= 0.0):
+        raise argparse.ArgumentTypeError(f"expected a number of hours, 0 or more, got {shown}")
+    return value
+
+
 def _workers(text: str) -> int:
     """--workers: 1 to the most processes a campaign may ask for (campaign_file.MAX_WORKERS)."""
     from aerotruth.sim.campaign_file import MAX_WORKERS
@@ -433,6 +446,15 @@ def _add_campaign_commands(sub) -> None:
     run.add_argument("--scheduler", default=None, help="Dask scheduler address (implies --executor dask)")
     run.add_argument("--quiet", action="store_true", help="no progress bar")
     run.add_argument("--no-report", action="store_true", help="skip figures and report")
+    run.add_argument(
+        "--stop-after",
+        type=_hours,
+        default=None,
+        metavar="HOURS",
+        help="start no task after this many hours (at least one), store those in flight and exit with "
+        "status 3: a run in parts, each at most HOURS plus its last tasks; the same command goes on "
+        "from the stored tasks and flown legs",
+    )
     run.set_defaults(func=lazy("run_cli"))
 
     val = sub.add_parser(

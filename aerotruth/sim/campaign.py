@@ -42,6 +42,24 @@ class TaskFailed(UserError):
     """A task raised; its traceback is kept in RUN_DIR/failed/<task_id>.log."""
 
 
+class RunPaused(Exception):
+    """The run stopped submitting tasks at its time limit (`stop_after_s`), stored every task
+    it had started, and left the rest for the next call with the same campaign and folder."""
+
+    def __init__(self, run_dir: Path, stored: int, n_tasks: int, seconds: float, legs_flown: int):
+        self.run_dir, self.stored, self.n_tasks, self.seconds, self.legs_flown = (
+            run_dir,
+            stored,
+            n_tasks,
+            seconds,
+            legs_flown,
+        )
+        super().__init__(
+            f"paused after {seconds / 3600:.2f} h: {stored} of {n_tasks} tasks stored in {run_dir} "
+            f"({legs_flown} legs flown in this part); the same command goes on from there"
+        )
+
+
 @dataclass(frozen=True)
 class RunSummary:
     """What `run_campaign` did."""
@@ -187,8 +205,11 @@ class _Runner:
         choice: ExecutorChoice,
         truth_root: str | None,
         progress: _Progress,
+        deadline: float | None = None,
     ):
         self.campaign, self.reg, self.store, self.choice = campaign, reg, store, choice
+        self.deadline = deadline  # time.monotonic() after which no task is started (one is, each call)
+        self.paused = False
         self.truth_root = truth_root
         self.progress = progress
         self.learned: dict[tuple[str, str], tuple[str, pd.DataFrame]] = {}
@@ -258,14 +279,15 @@ class _Runner:
             self._executor, self._slots = self._stack.enter_context(open_executor(self.choice))
         executor, window = self._executor, max(2 * self._slots, 4)
         failure: tuple[Task, BaseException] | None = None
-        queue = iter(sorted(todo, key=lambda t: (-self.reg.get(t.study).cost(t), t.id)))  # longest first
+        queue = sorted(todo, key=lambda t: (-self.reg.get(t.study).cost(t), t.id))[::-1]  # longest first (popped)
         pending: dict[Future, Task] = {}
 
         def fill() -> None:
-            while failure is None and len(pending) < window:
-                task = next(queue, None)
-                if task is None:
+            while failure is None and len(pending) < window and queue:
+                if self.deadline is not None and (self.ran or pending) and time.monotonic() > self.deadline:
+                    self.paused = True  # past the time limit: what is in flight finishes, nothing new starts
                     return
+                task = queue.pop()
                 learned = {n: parquet_bytes(_arrow(self.learned[(task.study, n)][1])) for n in task.needs}
                 pending[
                     executor.submit(
@@ -293,6 +315,12 @@ class _Runner:
             task, e = failure
             log = self.store.write_failure(task.id, "".join(traceback.format_exception(e)))
             raise TaskFailed(f"task {task.id} failed: {type(e).__name__}: {e} (traceback in {log})")
+        if queue:
+            raise _Paused
+
+
+class _Paused(Exception):
+    """Raised inside the runner at its time limit, with tasks left (run_campaign's RunPaused)."""
 
 
 def _arrow(df: pd.DataFrame):
@@ -332,9 +360,17 @@ def summarize(store: RunStore, campaign: Campaign, reg: Registry, tasks: list[Ta
 
 
 def run_campaign(
-    campaign: Campaign, choice: ExecutorChoice, *, out: str | Path | None = None, progress: bool = True, log=None
+    campaign: Campaign,
+    choice: ExecutorChoice,
+    *,
+    out: str | Path | None = None,
+    progress: bool = True,
+    log=None,
+    stop_after_s: float | None = None,
 ) -> RunSummary:
-    """Run (or resume) `campaign` into its run directory and write metrics.json and tables."""
+    """Run (or resume) `campaign` into its run directory and write metrics.json and tables.
+    `stop_after_s`: start no task after this many seconds (at least one each call), store the
+    ones in flight and raise RunPaused; the same call again goes on from the stored tasks."""
     from aerotruth.truth.store import TruthStore
 
     log = log or (lambda msg: print(msg, file=sys.stderr))
@@ -348,8 +384,13 @@ def run_campaign(
         store.prepare(campaign, tasks)
         log(f"{campaign.name}: {len(tasks)} tasks on {choice.describe()} -> {store.root}")
         with _Progress(len(tasks), 0, progress) as bar:
-            runner = _Runner(campaign, reg, store, choice, str(truth.root), bar)
-            runner.run(tasks)
+            deadline = None if stop_after_s is None else t0 + stop_after_s
+            runner = _Runner(campaign, reg, store, choice, str(truth.root), bar, deadline)
+            try:
+                runner.run(tasks)
+            except _Paused:
+                stored = sum(store.is_done(t, runner.keys[t.id]) for t in tasks if t.id in runner.keys)
+                raise RunPaused(store.root, stored, len(tasks), time.monotonic() - t0, runner.legs_flown) from None
         store.write_metrics(summarize(store, campaign, reg, tasks))
     flown = runner.legs_flown
     if flown:
