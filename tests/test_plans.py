@@ -98,3 +98,29 @@ def test_a_bad_plan_is_one_line_naming_the_field(repo, edit, message):
     _git(repo, "commit", "-qm", "plan")
     with pytest.raises(SystemExit, match=message):
         plans.Plan.load(str(plan))
+
+
+def test_seed_runs_under_a_plan_run_beside_its_record(repo):
+    # the run folder holds the plan's record before its run: the run must go beside it
+    from tiny_campaign import TINY_CAMPAIGN
+
+    (repo / "tiny.yaml").write_text(TINY_CAMPAIGN)
+    plan = repo / "plans" / "tiny.yaml"
+    plan.write_text(
+        PLAN.replace("campaigns/penair_2010.yaml", str(repo / "tiny.yaml"))
+        .replace("size: reduced", "size: full")
+        .replace("seeds: 2010-2012", "seeds: 3-4")
+    )
+    _git(repo, "add", ".")
+    _git(repo, "commit", "-qm", "plan")
+    out = repo / "runs"
+    subprocess.run(
+        [sys.executable, str(ROOT / "validation" / "seed_runs.py"), "--plan", str(plan), "--out", str(out)],
+        capture_output=True,
+        text=True,
+        cwd=repo,
+    )  # the tables step has no wind-paper tables to read in this campaign; the runs are the point
+    for seed in (3, 4):
+        run = out / f"base-{seed}"
+        assert (run / "metrics.json").exists(), (run / f"../base-{seed}.log").read_text()
+        assert json.loads((run / plans.RECORD).read_text())["name"] == "wind-tables-test-1"

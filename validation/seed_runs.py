@@ -175,6 +175,8 @@ def main() -> None:
             f"# {src} with seed {seed}" + "".join(f"; {s}" for s in a.set) + "\n" + yaml.safe_dump(doc, sort_keys=False)
         )
         cmd = ["aerotruth", "run", str(copy), "--out", str(run), "--quiet", "--no-report"]
+        if plan is not None:
+            cmd.append("--force")  # the folder holds the plan's record, which the run writes beside
         if a.size != "full":
             cmd[3:3] = ["--size", a.size]
         t0 = time.perf_counter()
