@@ -47,13 +47,8 @@ class RunPaused(Exception):
     it had started, and left the rest for the next call with the same campaign and folder."""
 
     def __init__(self, run_dir: Path, stored: int, n_tasks: int, seconds: float, legs_flown: int):
-        self.run_dir, self.stored, self.n_tasks, self.seconds, self.legs_flown = (
-            run_dir,
-            stored,
-            n_tasks,
-            seconds,
-            legs_flown,
-        )
+        self.run_dir, self.stored, self.n_tasks = run_dir, stored, n_tasks
+        self.seconds, self.legs_flown = seconds, legs_flown
         super().__init__(
             f"paused after {seconds / 3600:.2f} h: {stored} of {n_tasks} tasks stored in {run_dir} "
             f"({legs_flown} legs flown in this part); the same command goes on from there"
@@ -209,7 +204,6 @@ class _Runner:
     ):
         self.campaign, self.reg, self.store, self.choice = campaign, reg, store, choice
         self.deadline = deadline  # time.monotonic() after which no task is started (one is, each call)
-        self.paused = False
         self.truth_root = truth_root
         self.progress = progress
         self.learned: dict[tuple[str, str], tuple[str, pd.DataFrame]] = {}
@@ -285,8 +279,7 @@ class _Runner:
         def fill() -> None:
             while failure is None and len(pending) < window and queue:
                 if self.deadline is not None and (self.ran or pending) and time.monotonic() > self.deadline:
-                    self.paused = True  # past the time limit: what is in flight finishes, nothing new starts
-                    return
+                    return  # past the time limit: what is in flight finishes, nothing new starts
                 task = queue.pop()
                 learned = {n: parquet_bytes(_arrow(self.learned[(task.study, n)][1])) for n in task.needs}
                 pending[
