@@ -212,3 +212,46 @@ def test_the_straight_flight_cases(seed):
         assert any(c in PITCH_LIKE for c in _signature_covariates(f)) or any(
             c in PITCH_LIKE for r in f.parameters.get("confusable_with", []) for c in r.get("covariates", [])
         ), _group(f)
+
+
+def _fleet_blocks(step_deg: dict[int, float], rng, n_ac=8, n_blocks=30, shared_deg=2.0, own_deg=0.1):
+    """Each of n_ac aircraft flies one report in each of n_blocks weather blocks (block b at
+    b x 6 h): a shared error per block (the reference models' field, shared_deg), the
+    aircraft's own noise (own_deg), and a step of step_deg[i] from block 15 on. A stand-in
+    for WindData and Fit with what the fleet contrasts read."""
+    from types import SimpleNamespace
+
+    ac = np.repeat(np.arange(n_ac), n_blocks)
+    blk = np.tile(np.arange(n_blocks), n_ac)
+    t = blk * 6 * 3600.0 + 1800.0 + ac * 60.0
+    shared = rng.normal(0, shared_deg, n_blocks)[blk]
+    step = np.array([step_deg.get(i, 0.0) for i in range(n_ac)])[ac] * (blk >= 15)
+    off_deg = shared + rng.normal(0, own_deg, len(ac)) + step
+    tas = np.full(len(ac), 120.0)
+    d = SimpleNamespace(
+        n=len(ac), aircraft=ac, cluster=blk, time_s=t, tas=tas, names=[f"N{401 + i}XJ" for i in range(n_ac)]
+    )
+    fit = SimpleNamespace(resid=np.r_[np.deg2rad(off_deg) * tas, np.zeros(len(ac))])
+    return d, fit, 15 * 6 * 3600.0
+
+
+def test_the_fleet_contrasts_find_the_aircraft_that_carry_a_fleet_step():
+    """A fleet step of 1 deg on every aircraft, plus 0.6 deg more on aircraft 3 alone, under a
+    shared block error 20 times the aircraft's own noise. Hand-worked contrast of aircraft 3:
+    0.6 deg from block 15 on (its own mean minus the median of the seven others, which do not
+    step); the others' medians include aircraft 3 at most as one of seven, above the middle.
+    The shared error and the fleet's 1 deg cancel in every contrast, so only
+    aircraft 3 is selected (Bonferroni over the 8 at 0.05), its step within 3 standard errors
+    of 0.6 deg; with the same step on every aircraft, none is."""
+    from aerotruth.analysis.diagnose.wind_model import carried_by, fleet_contrasts, selected_aircraft
+
+    rng = np.random.default_rng(7)
+    d, fit, t_step = _fleet_blocks({i: 1.0 for i in range(8)} | {3: 1.6}, rng)
+    t, u = fleet_contrasts(d, fit)[3]
+    after = t > t_step
+    se = 0.1 * np.sqrt(1 + np.pi / 2 / 7) * np.sqrt(1 / 15 + 1 / 15)  # a median's variance: pi/2 a mean's
+    assert abs(np.rad2deg(u[after].mean() - u[~after].mean()) - 0.6) < 3 * se
+    ps = carried_by(d, fit, t_step)
+    assert set(selected_aircraft(ps["recalibration"])) == {3}
+    d, fit, t_step = _fleet_blocks({i: 1.0 for i in range(8)}, np.random.default_rng(8))
+    assert selected_aircraft(carried_by(d, fit, t_step)["recalibration"]) == {}

@@ -487,16 +487,46 @@ def is_hidden(f, effect: str) -> bool:
     return any(_names_effect(e, c, effect) for e, c in members(f))
 
 
+def aircraft_named(f, effect: str) -> list[str]:
+    """The aircraft a finding names for a per-aircraft effect (recalibration, offset drift):
+    the library finding's, or those a confusable member names (a fleet-wide signature's
+    carriers); none where the member does not say."""
+    out: list[str] = []
+    if f.effect == effect:
+        p = f.parameters
+        out += list(p.get("steps", {})) if effect == "recalibration" else list(p.get("aircraft", []))
+    for c in f.parameters.get("confusable_with", []):
+        if c["effect"] == effect:
+            out += list(c.get("aircraft", []))
+    return out
+
+
+def hidden_aircraft(effect: str) -> set[str]:
+    """The aircraft a per-aircraft effect is hidden in (both generators name aircraft
+    N401XJ, N402XJ, ... in their order)."""
+    idx = RECALIBRATED if effect == "recalibration" else DRIFTING if effect == "offset_drift" else ()
+    return {f"N{401 + i}XJ" for i in idx}
+
+
 def classify(findings: list, effect: str) -> dict:
     hit = [is_hidden(f, effect) for f in findings]
-    return {
+    row = {
         "findings": ";".join(label(f) for f in findings),
         "first": label(findings[0]) if findings else "",
         "named_first": int(bool(hit) and hit[0]),
         "named_any": int(any(hit)),
         "wrong_cause": int(not all(hit)),
         "any_finding": int(bool(findings)),
+        "aircraft_named": "",
+        "aircraft_right": "",
     }
+    truth = hidden_aircraft(effect)
+    first = next((f for f, h in zip(findings, hit, strict=True) if h), None)
+    if truth and first is not None and (names := aircraft_named(first, effect)):
+        # the first finding that names the effect names a hidden aircraft, and no other
+        row["aircraft_named"] = "+".join(sorted(set(names)))
+        row["aircraft_right"] = int(set(names) <= truth)
+    return row
 
 
 # ----------------------------------------------------------------------------- one dataset
@@ -518,6 +548,8 @@ FIELDS = (
     "findings",
     "p_first_round",
     "p_named",
+    "aircraft_named",
+    "aircraft_right",
     "generate_s",
     "diagnose_s",
     "wall_s",
@@ -593,7 +625,16 @@ def read_rows(path: Path) -> list[dict]:
             fh.truncate(raw.rfind(b"\n") + 1)
         raw = path.read_bytes()
     lines = raw.decode().splitlines()
-    return [r for r in csv.DictReader(lines) if len(r) == len(FIELDS) and None not in r.values()]
+    rows = csv.DictReader(lines)  # the file's own header: a file begun before a column was added reads too
+    return [{k: "" for k in FIELDS} | r for r in rows if None not in r and None not in r.values()]
+
+
+def _header(path: Path) -> list[str]:
+    """The columns of an existing rows.csv (its first line), else FIELDS."""
+    if path.exists() and path.stat().st_size:
+        with open(path) as fh:
+            return next(csv.reader([fh.readline()]))
+    return list(FIELDS)
 
 
 def append_row(path: Path, row: dict) -> None:
@@ -601,10 +642,11 @@ def append_row(path: Path, row: dict) -> None:
     import io
 
     buf = io.StringIO()
-    w = csv.DictWriter(buf, fieldnames=FIELDS, lineterminator="\n")
+    cols = _header(path)
+    w = csv.DictWriter(buf, fieldnames=cols, lineterminator="\n")
     if new:
         w.writeheader()
-    w.writerow({k: row.get(k, "") for k in FIELDS})
+    w.writerow({k: row.get(k, "") for k in cols})
     with open(path, "a") as fh:
         fh.write(buf.getvalue())  # one write of whole lines
         fh.flush()
@@ -675,6 +717,10 @@ def summarize(rows: list[dict], generator: str, effects: list[str], sizes: dict,
         wrong = Counter(x for r in ok for x in r["findings"].split(";") if x and not _names(x, eff))
         if wrong:
             print(f"{p}.wrong_findings: " + ", ".join(f"{a} {b}" for a, b in wrong.most_common()))
+        said = [r for r in ok if r.get("aircraft_right", "") != ""]
+        if said:  # a per-aircraft effect: the aircraft it was named on
+            right = sum(int(r["aircraft_right"]) for r in said)
+            print(f"{p}.aircraft_right: {_share(right, len(said))} (of the datasets where it was named with aircraft)")
         out[eff] = (n, k)
     return out
 

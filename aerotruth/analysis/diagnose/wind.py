@@ -30,7 +30,8 @@ rest; `field_scaling` by Gauss-Newton on gamma):
     field_scaling      gamma: hard-iron B, C grow as 1/H (magnetic latitude)
     tas_scale          per aircraft k: along residual = k TAS
     stale_declination  age a (years): transverse = a (-dD/dt)(lat, lon), D the IGRF declination
-    reference_bias     per reference model b (kt along its wind): t = b w.n, a = b w.u
+    reference_bias     per reference model b (kt along its wind): t = b w.n, a = b w.u; each
+                       reference's b tested alone, Bonferroni over the references
                        (also as a scale s of its wind, error = s W, and which form fits better;
                        where a scale does, the error in the chosen forms is tested and held
                        out too: evidence["forms_chosen"])
@@ -85,6 +86,15 @@ an own-heading rate made white heading noise look like a turning error, errors i
 variables), the climb rates from altitudes (which do not enter the residual). A
 signature that enters is reported by its text ("transverse residual ~
 pressure_altitude_ft, 0.05 deg per 1000 ft") and becomes a linear term of the model.
+
+A fleet-wide change in time (the fleet's step, its trend) named as a signature is often a
+few aircraft's: three aircraft recalibrated on one day step the fleet's mean by a quarter
+of their step. Each aircraft's weather-block offsets minus the median of the other
+aircraft's in the same block (wind_model.fleet_contrasts: a change the whole fleet shares
+cancels, and so does the reference error the block's flights share) are tested for a step
+at the fleet's change time and for a slope (blocks permuted, Bonferroni over aircraft at
+0.05); the aircraft that carry it are named with the signature as confusable
+(recalibration or offset drift of those aircraft).
 """
 
 from __future__ import annotations
@@ -111,11 +121,13 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
     base_held_out,
     block_p,
     build_blocks,
+    carried_by,
     channel_rows,
     choose_deviation_heading,
     covariate,
     current_blocks,
     cusum_permutation,
+    cusum_split,
     declination_identifiable,
     fit_with,
     fold_fits,
@@ -129,6 +141,7 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
     reference_bias_column,
     reference_scale_column,
     rms_of_kt,
+    selected_aircraft,
     signature_column,
     slope_permutation,
     solve,
@@ -809,11 +822,53 @@ def _varies(effect: str, covs: list[str] | None = None) -> str:
     return "its covariates (" + ", ".join(covs or [effect.split(":", 1)[-1]]) + ")"
 
 
-def _name_confusable(f, best: _Cand, rivals: list[dict]) -> None:
-    """The finding names every rival the data cannot tell from it, and what would."""
-    if not rivals:
+def _carriers(d: WindData, fit0: Fit, c: _Cand) -> list[dict]:
+    """A fleet-wide change in time found as a signature (a step at one time, a trend) and
+    the per-aircraft causes it may be made of: the aircraft whose contrasts with the rest
+    of the fleet carry it (wind_model.carried_by: a step at the fleet's change time, a
+    slope; Bonferroni over aircraft, below 0.05). Three aircraft recalibrated on one day
+    step the fleet's mean by a quarter of their step, and two drifting compasses tilt the
+    fleet's trend: the fleet's signature is then their coarse copy, and the finding says
+    both, as confusable. A change every aircraft shares leaves no carrier."""
+    key = c.get("key", "")
+    if key == "fleet_step":
+        step_at = float(c["sigs"][0]["covariate"].rsplit("_", 1)[1])
+    elif key == "transverse:time_days":  # a trend may be a step: at the fleet's change time
+        bm, t0, t1 = group_means(d, fit0.resid[: d.n], d.cluster)
+        if len(bm) < 2:
+            return []
+        k = cusum_split(bm)
+        step_at = 0.5 * (t1[k] + t0[k + 1])
+    else:
+        return []
+    out = []
+    for eff, ps in carried_by(d, fit0, step_at).items():
+        sel = selected_aircraft(ps)
+        if not sel:
+            continue
+        names = [d.names[i] for i in sorted(sel)]
+        when = f" at {_iso(step_at)}" if eff == "recalibration" and step_at is not None else ""
+        out.append(
+            {
+                "effect": eff,
+                "aircraft": names,
+                "p_value": min(sel.values()),
+                "test": "the aircraft's weather-block offsets minus the rest of the fleet's, blocks permuted "
+                + ("(one split at the fleet's change time)" if eff == "recalibration" else "(slope in time)")
+                + ", Bonferroni over aircraft",
+                "cause": f"{CAUSES[eff]} ({', '.join(names)}{when}: the fleet's change is carried by "
+                f"{'this aircraft' if len(names) == 1 else 'these aircraft'})",
+            }
+        )
+    return out
+
+
+def _name_confusable(f, best: _Cand, rivals: list[dict], extra: list[dict] | None = None) -> None:
+    """The finding names every rival the data cannot tell from it (and the per-aircraft
+    causes a fleet-wide signature may be made of, `extra`), and what would tell them."""
+    confusable = [_rival_words(r) for r in rivals] + list(extra or [])
+    if not confusable:
         return
-    confusable = [_rival_words(r) for r in rivals]
     f.parameters["confusable_with"] = confusable
     lead_covs = [sg["covariate"] for sg in best.get("sigs", [])]
     alts = "; or ".join(x["cause"] for x in confusable)
@@ -841,7 +896,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     plots: dict = {}
     rounds: list[dict] = []
     done: set[str] = set()  # screening keys entered
-    pending: list[tuple[Any, _Cand, list[dict]]] = []  # (finding, its candidate, its rivals)
+    pending: list[tuple[Any, _Cand, list[dict], list[dict]]] = []  # (finding, its candidate, rivals, carriers)
     n_blocks = len(np.unique(d.cluster))
     testable = n_blocks >= MIN_BLOCKS
     for _ in range(MAX_ROUNDS):
@@ -898,7 +953,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
             f"{ALPHA_BEATS:g}, Diebold-Mariano on block sums), else confusable; a separate rival that this finding "
             "did not beat and that never enters on its own is confusable after all"
         )
-        pending.append((f, best, rivals))
+        pending.append((f, best, rivals, _carriers(d, fit0, best) if best["kind"] == "screen" else []))
         findings.append(f)
         if best["kind"] == "screen":
             st.signatures.extend(best["sigs"])
@@ -915,12 +970,13 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         if eff == "offset_drift":
             st.drifts.update(d.names.index(a) for a in params["aircraft"])
     named = {f.effect for f in findings}
-    for f, best, rivals in pending:
+    for f, best, rivals, carriers in pending:
         for r in rivals:  # "separate" promised a round of its own; without one it could not be told apart
             if r["verdict"] == "separate" and r["effect"] not in named and r["p_not_beaten"] >= ALPHA_BEATS:
                 r["verdict"] = "confusable"
                 f.evidence["rivals"][r["effect"]]["verdict"] = "confusable (separate, but never entered on its own)"
-        _name_confusable(f, best, [r for r in rivals if r["verdict"] == "confusable"])
+        carriers = [x for x in carriers if x["effect"] not in named]  # a cause named on its own is not a copy
+        _name_confusable(f, best, [r for r in rivals if r["verdict"] == "confusable"], carriers)
     fit_end = solve(current_blocks(d, st), y, clusters)
     assert fit_start is not None  # set in the first round (MAX_ROUNDS >= 1)
     free = {

@@ -565,9 +565,17 @@ def _wald_p(beta: np.ndarray, cov: np.ndarray, df_den: int) -> float:
     return float(stats.f.sf(w / q, q, df_den))
 
 
+# effects whose fleet-wide blocks are separate causes, one each: a reference model's bias is
+# that model's (the other reference's term beside it is a second, independent question), so
+# each block is tested alone and the smallest p taken times their number (Bonferroni), as
+# per-aircraft scans are; a joint Wald test spends a degree of freedom on each unbiased one
+SEPARATE_BLOCKS = {"reference_bias"}
+
+
 def block_p(fit: Fit, effect: str, d: WindData) -> float:
-    """p-value of `effect`'s blocks = 0: fleet-wide blocks by one Wald test on all flights,
-    per-aircraft blocks aircraft by aircraft (their flights) combined by chi-square sums."""
+    """p-value of `effect`'s blocks = 0: fleet-wide blocks by one Wald test on all flights
+    (each block alone for SEPARATE_BLOCKS, Bonferroni over them), per-aircraft blocks
+    aircraft by aircraft (their flights) combined by chi-square sums."""
     parts = fit.coef(effect)
     if not parts:
         return 1.0
@@ -575,7 +583,9 @@ def block_p(fit: Fit, effect: str, d: WindData) -> float:
     fleet = [(b, be, v) for b, be, v in parts if b.aircraft < 0]
     per = [(b, be, v) for b, be, v in parts if b.aircraft >= 0]
     ps = []
-    if fleet:
+    if fleet and effect in SEPARATE_BLOCKS:
+        ps.append(min(1.0, min(_wald_p(be, v, G - 1) for _, be, v in fleet) * len(fleet)))
+    elif fleet:
         be = np.concatenate([x[1] for x in fleet])
         sl = [s for b, s in zip(fit.blocks, fit.slices, strict=False) if b.effect == effect and b.aircraft < 0]
         idx = np.concatenate([np.arange(s.start, s.stop) for s in sl])
@@ -734,6 +744,11 @@ def cusum_permutation(x: np.ndarray, stages: tuple[int, ...] = (1999, 39999)) ->
     return permutation_p(x, _sup_cusum, stages), k
 
 
+def cusum_split(x: np.ndarray) -> int:
+    """The index after which the mean of a series changes most (sup |CUSUM|)."""
+    return _cusum(np.asarray(x, dtype=float))[1]
+
+
 def slope_permutation(t: np.ndarray, x: np.ndarray, stages: tuple[int, ...] = (1999, 39999)) -> float:
     """Two-sided p-value of the least-squares slope of x on t by permuting x's units
     (permutation_p; the statistic |sum (t - mean t) x|). Exact for exchangeable units; the
@@ -789,7 +804,7 @@ def recalibration_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) ->
     return out
 
 
-def _selected(p_values: dict[int, float]) -> dict[int, float]:
+def selected_aircraft(p_values: dict[int, float]) -> dict[int, float]:
     """The scanned aircraft whose p-value, Bonferroni over the aircraft scanned, is below
     0.05: their adjusted p-values."""
     n_ac = max(len(p_values), 1)
@@ -801,7 +816,7 @@ def cand_recalibration(d: WindData, st: State, fit: Fit | None, rows: np.ndarray
         return []
     scan = recalibration_scan(d, fit, rows)
     out = []
-    for i, q in _selected({i: p for i, (p, _) in scan.items()}).items():
+    for i, q in selected_aircraft({i: p for i, (p, _) in scan.items()}).items():
         t = scan[i][1]
         col = (d.aircraft == i) * d.tas * (d.time_s >= t)
         out.append(Block("recalibration", f"step@{t:.0f}", stack_channels(col, None, d.n)[:, None], i, p=q))
@@ -819,6 +834,47 @@ def drift_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[in
     }
 
 
+def fleet_contrasts(d: WindData, fit: Fit) -> dict[int, tuple[np.ndarray, np.ndarray]]:
+    """Per aircraft: (mid-times (s), its mean offset (rad) in each weather block it flew
+    minus the median of the other aircraft's mean offsets in the same block), over the blocks
+    another aircraft also flew, in time order. A change the whole fleet shares (a reference
+    model's upgrade, a fleet-wide step or trend) and the reference error every aircraft in a
+    block shares cancel; what one aircraft does on its own is left."""
+    g = pd.DataFrame({"ac": d.aircraft, "blk": d.cluster, "off": fit.resid[: d.n] / d.tas, "t": d.time_s}).groupby(
+        ["blk", "ac"]
+    )
+    m = g["off"].mean().unstack()  # block x aircraft
+    mid = (0.5 * (g["t"].min() + g["t"].max())).unstack()
+    out = {}
+    for i in m.columns:
+        rest = m.drop(columns=i).median(axis=1)  # the median: the few aircraft that carry a change move it least
+        ok = m[i].notna() & rest.notna()
+        if ok.sum() >= 6:
+            u = m.loc[ok, i] - rest[ok]
+            t = mid.loc[ok, i].to_numpy()
+            o = np.argsort(t, kind="stable")
+            out[int(i)] = (t[o], u.to_numpy()[o])
+    return out
+
+
+def carried_by(d: WindData, fit: Fit, step_at_s: float | None) -> dict[str, dict[int, float]]:
+    """Which aircraft carry a fleet-wide change in time, from their contrasts with the rest
+    of the fleet (fleet_contrasts), per aircraft p-values by permuting its blocks (exact
+    for exchangeable blocks): 'recalibration', a step at `step_at_s` (the fleet's change
+    time, so a test of one split, not a scan); 'offset_drift', a slope in time. A change
+    shared evenly leaves no aircraft's contrast changed; a fleet step or trend made by a
+    few aircraft (their recalibration at one time, two drifting compasses) shows in theirs.
+    Unadjusted p-values (the caller adjusts over aircraft)."""
+    out: dict[str, dict[int, float]] = {"recalibration": {}, "offset_drift": {}}
+    for i, (t, u) in fleet_contrasts(d, fit).items():
+        out["offset_drift"][i] = slope_permutation(t / 86400.0, u)
+        if step_at_s is not None:
+            after = (t > step_at_s).astype(float)
+            if 2 <= after.sum() <= len(t) - 2:
+                out["recalibration"][i] = slope_permutation(after, u)  # |sum (after - mean) u|: one split
+    return out
+
+
 def cand_offset_drift(d: WindData, st: State, fit: Fit | None, rows: np.ndarray | None = None) -> list[Block]:
     """Per aircraft whose mean offset trends over its weather blocks (Bonferroni over
     aircraft): a free rate of its offset A (the recalibration's ramp counterpart)."""
@@ -826,7 +882,7 @@ def cand_offset_drift(d: WindData, st: State, fit: Fit | None, rows: np.ndarray 
         return []
     return [
         Block("offset_drift", "rate", drift_column(d, i)[:, None], i, p=q)
-        for i, q in _selected(drift_scan(d, fit, rows)).items()
+        for i, q in selected_aircraft(drift_scan(d, fit, rows)).items()
         if i not in st.drifts
     ]
 
