@@ -1,0 +1,49 @@
+"""The confusion-matrix benchmark of `aerotruth diagnose` (validation/diagnose_confusion.py,
+plan: validation/diagnose_confusion_plan.md) in the size CI affords: one dataset of the
+independent generator (tests/obs_generator.py, no aerotruth code) per hidden effect, for a
+library effect, a per-aircraft one, a reference model's and two outside the library, and a
+null. The expectation is the generator's: what it hid is what must be named first, and
+nothing else may be named (on the null: nothing at all)."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+EFFECTS = ("null", "soft_iron", "recalibration", "reference_bias", "pitch", "time_of_day")
+
+
+@pytest.mark.slow
+def test_one_dataset_per_effect_names_what_was_hidden_and_nothing_else(tmp_path):
+    out = subprocess.run(
+        [
+            sys.executable,
+            str(ROOT / "validation" / "diagnose_confusion.py"),
+            str(tmp_path / "results"),
+            "--effects",
+            ",".join(EFFECTS),
+            "--datasets",
+            "1",
+            "--seed0",
+            "70001",
+            "--workers",
+            "1",
+            "--no-cli-timing",
+        ],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=900,
+    )
+    lines = dict(x.split(": ", 1) for x in out.stdout.splitlines() if ": " in x and not x.startswith("#"))
+    assert lines["independent.null.null_any"].startswith("0.00 (0 of 1"), out.stdout
+    for eff in EFFECTS[1:]:
+        assert lines[f"independent.{eff}.named_first"].startswith("1.00 (1 of 1"), (eff, out.stdout)
+        assert lines[f"independent.{eff}.wrong_cause"].startswith("0.00 (0 of 1"), (eff, out.stdout)
+    assert lines["independent.recalibration.aircraft_right"].startswith("1.00 (1 of 1"), out.stdout
+    rows = (tmp_path / "results" / "rows.csv").read_text().splitlines()
+    assert len(rows) == 1 + len(EFFECTS)  # a header and a row per dataset, resumable from there
