@@ -819,6 +819,10 @@ VARIES_WITH = {
 def _varies(effect: str, covs: list[str] | None = None) -> str:
     if effect in VARIES_WITH:
         return VARIES_WITH[effect]
+    if covs and covs[0].startswith("fleet_step_"):
+        return "time, as one step of the whole fleet"
+    if covs == ["time_days"]:
+        return "time, as a trend of the whole fleet"
     return "its covariates (" + ", ".join(covs or [effect.split(":", 1)[-1]]) + ")"
 
 
@@ -853,7 +857,8 @@ def _carriers(d: WindData, fit0: Fit, c: _Cand) -> list[dict]:
                 "effect": eff,
                 "aircraft": names,
                 "p_value": min(sel.values()),
-                "test": "the aircraft's weather-block offsets minus the rest of the fleet's, blocks permuted "
+                "test": "the aircraft's weather-block offsets minus the median of the rest of the fleet's, "
+                + "blocks permuted "
                 + ("(one split at the fleet's change time)" if eff == "recalibration" else "(slope in time)")
                 + ", Bonferroni over aircraft",
                 "cause": f"{CAUSES[eff]} ({', '.join(names)}{when}: the fleet's change is carried by "
@@ -866,7 +871,9 @@ def _carriers(d: WindData, fit0: Fit, c: _Cand) -> list[dict]:
 def _name_confusable(f, best: _Cand, rivals: list[dict], extra: list[dict] | None = None) -> None:
     """The finding names every rival the data cannot tell from it (and the per-aircraft
     causes a fleet-wide signature may be made of, `extra`), and what would tell them."""
-    confusable = [_rival_words(r) for r in rivals] + list(extra or [])
+    words = [_rival_words(r) for r in rivals]
+    carriers = list(extra or [])
+    confusable = words + carriers
     if not confusable:
         return
     f.parameters["confusable_with"] = confusable
@@ -875,9 +882,17 @@ def _name_confusable(f, best: _Cand, rivals: list[dict], extra: list[dict] | Non
     tell = "; ".join(
         [_varies(best["effect"], lead_covs)] + [_varies(x["effect"], x.get("covariates")) for x in confusable]
     )
+    why = []
+    if words:
+        why.append("each explains what the other does, and neither predicts held-out weather blocks better")
+    if carriers:
+        why.append(
+            "the fleet's change is not shared evenly: the aircraft named carry it against the rest of the fleet, "
+            "and whether it is theirs alone or the fleet's and theirs these data do not say"
+        )
     f.cause = (
-        f"{f.cause}; or {alts}. These data cannot tell them apart (each explains what the other does, and "
-        f"neither predicts held-out weather blocks better); data where these vary independently would: {tell}"
+        f"{f.cause}; or {alts}. These data cannot tell them apart ({'; '.join(why)}); data where these vary "
+        f"independently would: {tell}"
     )
 
 
