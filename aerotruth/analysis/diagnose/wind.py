@@ -145,6 +145,7 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
     signature_column,
     slope_permutation,
     solve,
+    split_time,
     stack_channels,
     standard_errors,
     wind_model_from_campaign,
@@ -578,9 +579,7 @@ def _screen_candidates(d, st, y, clusters, fit0, basis, r0, done: set[str], look
     bm, t0, t1 = group_means(d, fit0.resid[: d.n], d.cluster)
     p_cp, k = cusum_permutation(bm)
     if p_cp < level and len(bm) > 1 and "fleet_step" not in done:
-        tests.append(
-            ("transverse", [f"fleet_step_{0.5 * (t1[k] + t0[k + 1]):.0f}"], "fleet_step", lambda f1, p=p_cp: p)
-        )
+        tests.append(("transverse", [f"fleet_step_{split_time(t0, t1, k):.0f}"], "fleet_step", lambda f1, p=p_cp: p))
     out: list[_Cand] = []
     for ch, covs, key, p_of in tests:
         blocks, sigs = _screen_blocks(d, ch, covs)
@@ -841,8 +840,7 @@ def _carriers(d: WindData, fit0: Fit, c: _Cand) -> list[dict]:
         bm, t0, t1 = group_means(d, fit0.resid[: d.n], d.cluster)
         if len(bm) < 2:
             return []
-        k = cusum_split(bm)
-        step_at = 0.5 * (t1[k] + t0[k + 1])
+        step_at = split_time(t0, t1, cusum_split(bm))
     else:
         return []
     out = []
@@ -851,7 +849,7 @@ def _carriers(d: WindData, fit0: Fit, c: _Cand) -> list[dict]:
         if not sel:
             continue
         names = [d.names[i] for i in sorted(sel)]
-        when = f" at {_iso(step_at)}" if eff == "recalibration" and step_at is not None else ""
+        when = f" at {_iso(step_at)}" if eff == "recalibration" else ""
         out.append(
             {
                 "effect": eff,

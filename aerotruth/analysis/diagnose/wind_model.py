@@ -749,6 +749,12 @@ def cusum_split(x: np.ndarray) -> int:
     return _cusum(np.asarray(x, dtype=float))[1]
 
 
+def split_time(t0: np.ndarray, t1: np.ndarray, k: int) -> float:
+    """The time of a change after group k of groups spanning [t0, t1] in time order: midway
+    between the end of group k and the start of group k + 1."""
+    return float(0.5 * (t1[k] + t0[k + 1]))
+
+
 def slope_permutation(t: np.ndarray, x: np.ndarray, stages: tuple[int, ...] = (1999, 39999)) -> float:
     """Two-sided p-value of the least-squares slope of x on t by permuting x's units
     (permutation_p; the statistic |sum (t - mean t) x|). Exact for exchangeable units; the
@@ -800,7 +806,7 @@ def recalibration_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) ->
     out = {}
     for i, m, t0, t1 in _means_by_aircraft(d, fit, rows, d.cluster):
         p, k = cusum_permutation(m)
-        out[i] = (p, 0.5 * (t1[k] + t0[k + 1]))
+        out[i] = (p, split_time(t0, t1, k))
     return out
 
 
@@ -857,7 +863,7 @@ def fleet_contrasts(d: WindData, fit: Fit) -> dict[int, tuple[np.ndarray, np.nda
     return out
 
 
-def carried_by(d: WindData, fit: Fit, step_at_s: float | None) -> dict[str, dict[int, float]]:
+def carried_by(d: WindData, fit: Fit, step_at_s: float) -> dict[str, dict[int, float]]:
     """Which aircraft carry a fleet-wide change in time, from their contrasts with the rest
     of the fleet (fleet_contrasts), per aircraft p-values by permuting its blocks (exact
     for exchangeable blocks): 'recalibration', a step at `step_at_s` (the fleet's change
@@ -868,10 +874,9 @@ def carried_by(d: WindData, fit: Fit, step_at_s: float | None) -> dict[str, dict
     out: dict[str, dict[int, float]] = {"recalibration": {}, "offset_drift": {}}
     for i, (t, u) in fleet_contrasts(d, fit).items():
         out["offset_drift"][i] = slope_permutation(t / 86400.0, u)
-        if step_at_s is not None:
-            after = (t > step_at_s).astype(float)
-            if 2 <= after.sum() <= len(t) - 2:
-                out["recalibration"][i] = slope_permutation(after, u)  # |sum (after - mean) u|: one split
+        after = (t > step_at_s).astype(float)
+        if 2 <= after.sum() <= len(t) - 2:
+            out["recalibration"][i] = slope_permutation(after, u)  # |sum (after - mean) u|: one split
     return out
 
 
