@@ -33,7 +33,9 @@ What it simulates:
   (from its own random stream: the flights and noise are the same for every value);
   `pitch_deg_per_deg`: heading error k x pitch, pitch = flight-path angle through the
   air (atan(climb rate / TAS)) + angle of attack alpha = 2 deg x q_cruise / q,
-  q = sigma(h) TAS^2 (sigma the ISA density ratio, q_cruise the leg's cruise value).
+  q = sigma(h) TAS^2 (sigma the ISA density ratio, q_cruise the leg's cruise value: each
+  leg cruises at one lift coefficient); with `alpha_shape="weight"`, every leg at one
+  weight instead: alpha = 2 deg x q_1 / q, q_1 that of 265 kt at 19,000 ft.
 * Each report (every U(3, 7) min from the top of the 2000-ft point): the onboard
   (TAMDAR) wind V_W = V_G(GPS, + 0.1 m/s white noise per component) - TAS_m (sin psi_m,
   cos psi_m) (wind paper eq. 1) with TAS_m = TAS + 0.5 kt white noise; reported as
@@ -79,6 +81,9 @@ DT = 10.0  # s, integration grid
 def _sigma(alt_ft):
     """ISA density ratio (troposphere)."""
     return (1.0 - 6.87559e-6 * np.asarray(alt_ft)) ** 4.25588
+
+
+Q_ONE_WEIGHT = float(_sigma(19000.0)) * (265.0 * KT) ** 2  # sigma TAS^2 where one weight's alpha is 2 deg
 
 
 class _Wind:
@@ -195,7 +200,9 @@ def _leg(start, end, t0, cruise_ft, tas_c, wind: _Wind, rng: np.random.Generator
         vge=vge,
         vgn=vgn,
         psi_t=psi_t,
-        pitch=gamma + alpha,
+        gamma=gamma,
+        alpha_cruise=alpha,
+        alpha_weight=ALPHA_CRUISE_DEG * Q_ONE_WEIGHT / q,
         phase=np.where(rate > 0, "ascent", np.where(rate < 0, "descent", "level")),
         end_t=t0 + t_prev[-1],
         end=(float(lat[-1]), float(lon[-1])),
@@ -214,6 +221,7 @@ def generate(
     days: float = 8.0,
     soft_iron_deg: float = 0.0,
     pitch_deg_per_deg: float = 0.0,
+    alpha_shape: str = "cruise",
     heading_noise_deg: float = 0.3,
     ref_noise_ms: float = 2.2,
 ) -> pd.DataFrame:
@@ -256,7 +264,8 @@ def generate(
     rep = {k: v[keep] for k, v in rep.items()}
     n = len(rep["time"])
     ac = rep["aircraft"]
-    extra = pitch_deg_per_deg * rep["pitch"]
+    alpha = {"cruise": rep["alpha_cruise"], "weight": rep["alpha_weight"]}[alpha_shape]
+    extra = pitch_deg_per_deg * (rep["gamma"] + alpha)
     psi = rep["psi_t"] + extra
     for _ in range(6):  # psi_m = psi_true + d(psi_m) + extra
         z = np.radians(psi)

@@ -77,8 +77,8 @@ candidate is left.
 
 Screening (effects outside the library): each channel against heading harmonics (3z in
 the transverse channel, z..3z along), roll, flight phase, turn rate, pressure altitude,
-TAS, latitude, time, the pitch attitude (flight-path angle and q_cruise/q, the angle of
-attack's shape at constant weight) and the local solar hour (a diurnal term); a
+TAS, latitude, time, the pitch attitude (flight-path angle, q_250/q and q_cruise/q: the
+angle of attack's shape at one weight and at one cruise lift coefficient) and the local solar hour (a diurnal term); a
 least-squares periodogram of the flight-mean residuals; a fleet-wide change-point. Each
 covariate's noise is independent of the residual's: the turn rate comes from the
 report's neighbours' headings, never its own (whose error is in the transverse residual:
@@ -1083,7 +1083,8 @@ UNITS = {
     "roll_deg": "deg roll",
     "turn_deg_s": "deg/s of turn",
     "flight_path_angle_deg": "deg of flight-path angle",
-    "inverse_dynamic_pressure": "unit of q_cruise/q",
+    "inverse_dynamic_pressure": "unit of q_250/q (q_250: 250 kt at sea level)",
+    "inverse_dynamic_pressure_cruise": "unit of q_cruise/q",
     "const": "(constant)",
 }
 
@@ -1097,8 +1098,9 @@ def _screen_tests(d: WindData, spec: WindModelSpec | None = None) -> list[tuple[
         ("transverse", ["phase_ascent", "phase_descent"]),
         ("transverse", ["tas_kt"]),
         # a pitch-coupled heading error: pitch = flight-path angle + angle of attack, the latter
-        # ~ 1/q at constant weight (lift = weight), so the pitch attitude is spanned by the two
-        ("transverse", ["flight_path_angle_deg", "inverse_dynamic_pressure"]),
+        # alpha0 + (W/S) / (CL_alpha q) (lift = weight) with the flight's weight unknown: 1/q at
+        # one weight, q_cruise/q at one cruise lift coefficient (wind_data.prepare)
+        ("transverse", ["flight_path_angle_deg", "inverse_dynamic_pressure", "inverse_dynamic_pressure_cruise"]),
         # a diurnal error (temperature-driven: heating of the valve or the air-data probes)
         ("transverse", ["local_hour_sin", "local_hour_cos"]),
     ]
@@ -1168,10 +1170,8 @@ def _signature_text(sig: list[dict], beta: np.ndarray) -> str:
             f"amplitude {math.hypot(*beta[:2]):.2f} {unit}"
         )
     if covs[0] == "flight_path_angle_deg":
-        return (
-            f"{ch} residual follows the pitch attitude: {beta[0]:+.3g} {unit} per deg of flight-path angle, "
-            f"{beta[1]:+.3g} {unit} per unit of q_cruise/q (the angle of attack's shape at constant weight)"
-        )
+        parts = ", ".join(f"{b:+.3g} {unit} per {UNITS.get(c, c)}" for c, b in zip(covs, beta, strict=False))
+        return f"{ch} residual follows the pitch attitude: {parts} (the angle of attack's shape in q)"
     if covs[0] == "local_hour_sin":
         peak = (math.degrees(math.atan2(beta[0], beta[1])) / 15.0) % 24.0
         return (

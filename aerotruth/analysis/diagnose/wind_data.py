@@ -23,8 +23,9 @@ from aerotruth.analysis.wind.heading_errors import (
 )
 from aerotruth.analysis.wind.observations import validate_observations
 from aerotruth.errors import DataError
-from aerotruth.units import DEG, FT
+from aerotruth.units import DEG, FT, KT
 
+Q_REF = (250.0 * KT) ** 2  # sigma TAS^2 of 250 kt at sea level (m2/s2): the unit of inv_q
 DECL_SPAN_YR = 5.0  # secular variation of the declination averaged over the 5 years before the data
 
 # ----------------------------------------------------------------------------- data
@@ -58,7 +59,8 @@ class WindData:
     turn_deg_s: np.ndarray  # heading change between the report's neighbours (its own heading left out)
     climb_fpm: np.ndarray  # pressure-altitude rate from the previous report of the flight (0 at the first)
     fpa_deg: np.ndarray  # flight-path angle through the air, asin(climb rate / TAS), climb rate centred on the report
-    inv_q: np.ndarray  # q_cruise / q, q = sigma(h) TAS^2: the angle of attack's shape at constant weight (1 at cruise)
+    inv_q: np.ndarray  # Q_REF / q, q = sigma(h) TAS^2: the angle of attack's shape at one weight
+    inv_q_cruise: np.ndarray  # q_cruise / q: the angle of attack's shape at one cruise lift coefficient (1 at cruise)
     local_hour: np.ndarray  # local solar hour, UTC + lon / 15
     cluster: np.ndarray  # weather block of the row's flight (the unit of every test)
     fold: np.ndarray  # 0 .. N_FOLDS - 1: weather block k in fold k mod N_FOLDS
@@ -288,14 +290,18 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     tas = r["tas_ms"].to_numpy()
     fpa = np.degrees(np.arcsin(np.clip(rate_c[back] * FT / 60.0 / np.maximum(tas, 1.0), -1.0, 1.0)))
     q = isa_density_ratio(alt) * tas**2
-    # the angle of attack at constant weight scales as 1/q; a flight's weight is unknown, but
-    # airliners cruise near one lift coefficient (the level chosen for the weight), so the
-    # angle at the flight's cruise is about the same from flight to flight: q_cruise / q with
-    # q_cruise the flight's median q in level flight (its median q where it has none)
+    # the angle of attack is alpha0 + (W/S) / (CL_alpha q): at one weight it scales as 1/q
+    # (q_ref / q, q_ref the dynamic pressure of 250 kt at sea level). A flight's weight is
+    # unknown: a jet cruising at the level chosen for its weight flies near one lift
+    # coefficient, so its cruise angle is about the same from flight to flight (q_cruise / q,
+    # q_cruise the flight's median q in level flight, its median q where it has none); a
+    # turboprop on short sectors at the level the route allows flies at about one weight
+    # (q_ref / q). The two span W/S = a + b q_cruise, both cases and those between.
     qs = pd.Series(q)
     q_level = qs.where(phase == "level").groupby(flight).transform("median")
     q_cruise = q_level.fillna(qs.groupby(flight).transform("median")).to_numpy()
-    inv_q = q_cruise / np.maximum(q, 1e-6)
+    inv_q = Q_REF / np.maximum(q, 1e-6)
+    inv_q_cruise = q_cruise / np.maximum(q, 1e-6)
     local_hour = (t % 86400.0 / 3600.0 + lon / 15.0) % 24.0
     roll = df["roll_deg"].to_numpy()[used] if "roll_deg" in df.columns else None
     first = _report_rows(df)
@@ -325,6 +331,7 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         climb_fpm=climb,
         fpa_deg=fpa,
         inv_q=inv_q,
+        inv_q_cruise=inv_q_cruise,
         local_hour=local_hour,
         cluster=cluster,
         fold=fold,

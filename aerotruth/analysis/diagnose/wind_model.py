@@ -366,6 +366,8 @@ def covariate(d: WindData, name: str) -> np.ndarray:
         return d.fpa_deg
     if name == "inverse_dynamic_pressure":
         return d.inv_q
+    if name == "inverse_dynamic_pressure_cruise":
+        return d.inv_q_cruise
     if name in ("local_hour_sin", "local_hour_cos"):
         arg = 2 * np.pi * d.local_hour / 24.0
         return np.sin(arg) if name.endswith("sin") else np.cos(arg)
