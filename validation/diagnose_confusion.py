@@ -139,8 +139,9 @@ ACCEPT = {"named_first_min": 0.90, "wrong_cause_max": 0.05, "null_any_max": 0.05
 
 
 def alpha_deg(alt_ft: np.ndarray, tas_ms: np.ndarray, cruise: int) -> np.ndarray:
-    """Angle of attack from lift = weight at constant weight and CL linear in alpha:
-    alpha = ALPHA_CRUISE_DEG x q_cruise / q, q = sigma(h) TAS^2 (ISA density ratio)."""
+    """Angle of attack from lift = weight and CL linear in alpha, each flight at one cruise
+    lift coefficient (ALPHA_CRUISE_DEG at its cruise): alpha = ALPHA_CRUISE_DEG x q_cruise / q,
+    q = sigma(h) TAS^2 (ISA density ratio)."""
     sigma = (1.0 - 6.87559e-6 * np.asarray(alt_ft)) ** 4.25588
     q = sigma * np.asarray(tas_ms) ** 2
     return ALPHA_CRUISE_DEG * q[cruise] / q

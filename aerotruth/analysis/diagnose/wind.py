@@ -78,12 +78,13 @@ candidate is left.
 Screening (effects outside the library): each channel against heading harmonics (3z in
 the transverse channel, z..3z along), roll, flight phase, turn rate, pressure altitude,
 TAS, latitude, time, the pitch attitude (flight-path angle, q_250/q and q_cruise/q: the
-angle of attack's shape at one weight and at one cruise lift coefficient) and the local solar hour (a diurnal term); a
-least-squares periodogram of the flight-mean residuals; a fleet-wide change-point. Each
-covariate's noise is independent of the residual's: the turn rate comes from the
-report's neighbours' headings, never its own (whose error is in the transverse residual:
-an own-heading rate made white heading noise look like a turning error, errors in
-variables), the climb rates from altitudes (which do not enter the residual). A
+angle of attack's shape at one weight and at one cruise lift coefficient) and the local
+solar hour (a diurnal term); a least-squares periodogram of the flight-mean residuals; a
+fleet-wide change-point. Each covariate's noise is independent of the residual's: the
+turn rate comes from the report's neighbours' headings, never its own (whose error is in
+the transverse residual: an own-heading rate made white heading noise look like a turning
+error, errors in variables), the climb rates from altitudes (which do not enter the
+residual). A
 signature that enters is reported by its text ("transverse residual ~
 pressure_altitude_ft, 0.05 deg per 1000 ft") and becomes a linear term of the model.
 
@@ -702,7 +703,8 @@ def _screen_finding(d, st, fit0, c: _Cand, plots: dict) -> Any:
         "signature": text,
         "terms": [dict(sg, se=float(e)) for sg, e in zip(sigs, standard_errors(cov), strict=False)],
     }
-    params["size"] = float(beta[0]) if len(beta) == 1 else float(math.hypot(*beta[:2]))
+    pitch = sigs[0]["covariate"] == "flight_path_angle_deg"  # its size: deg per deg of flight-path angle
+    params["size"] = float(beta[0]) if len(beta) == 1 or pitch else float(math.hypot(*beta[:2]))
     evidence = {
         "test": "cluster-robust Wald on 6-h weather blocks (screening)"
         if not key.startswith(("periodic", "fleet_step"))
@@ -1169,9 +1171,12 @@ def _signature_text(sig: list[dict], beta: np.ndarray) -> str:
             f"{ch} residual is periodic, period {float(covs[0].split('_')[1]) / 3600:.1f} h, "
             f"amplitude {math.hypot(*beta[:2]):.2f} {unit}"
         )
-    if covs[0] == "flight_path_angle_deg":
+    if covs[0] == "flight_path_angle_deg" or covs[0].startswith("inverse_dynamic_pressure"):
         parts = ", ".join(f"{b:+.3g} {unit} per {UNITS.get(c, c)}" for c, b in zip(covs, beta, strict=False))
-        return f"{ch} residual follows the pitch attitude: {parts} (the angle of attack's shape in q)"
+        return (
+            f"{ch} residual follows the pitch attitude: {parts} (the angle of attack's shape in q; its two "
+            "columns are not told apart where the flights' cruise q hardly varies)"
+        )
     if covs[0] == "local_hour_sin":
         peak = (math.degrees(math.atan2(beta[0], beta[1])) / 15.0) % 24.0
         return (

@@ -563,7 +563,9 @@ def _wald_p(beta: np.ndarray, cov: np.ndarray, df_den: int) -> float:
         return 1.0
     b, v = beta[ok], cov[np.ix_(ok, ok)]
     w = float(b @ np.linalg.pinv(v) @ b)
-    q = int(ok.sum())
+    # degrees of freedom: the covariance's rank (two nearly collinear columns, e.g. the pitch
+    # signature's q_250/q and q_cruise/q where the flights' cruise q hardly varies, test one)
+    q = max(int(np.linalg.matrix_rank(v, hermitian=True)), 1)
     return float(stats.f.sf(w / q, q, df_den))
 
 
