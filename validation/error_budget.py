@@ -28,6 +28,15 @@ of reports there.
 
     python validation/error_budget.py RUN_DIR [RUN_DIR ...]
 
+The reference error's seasonal law (aerotruth.sensors.weather_model, s(doy) = 1 + A cos(2 pi
+(doy - peak) / P) on the analysis error): `season_held.<group>.<period>.<total|longitudinal>_kt`
+are the cells with every after report's reference error (reference minus truth) scaled by
+s(before) / s(doy), s(before) the mean factor of that reference's before reports - the
+after period at the before period's season; `season.control.change_<scored|held>_kt`, the
+control's before-to-after change as scored and so held. The whole reference error is
+scaled, its unresolved-truth part too (which has no season), so the held change is a lower
+bound of what the run would give with A = 0.
+
 Prints `label: mean sd` lines over the runs (one per campaign seed):
 `budget.<group>.<period>.<part>_kt`, `heading.<group>.<period>.<phase>_deg` (rms) and
 `climb.<group>.<period>.<minutes>_deg` (rms) with `..._share` (the share of the climb's
@@ -179,11 +188,70 @@ def table_bounds(obs: pd.DataFrame, w: dict[str, np.ndarray]) -> dict[str, float
     return out
 
 
+def seasonal_laws(run: Path) -> dict[str, tuple[float, float, float]]:
+    """Reference name -> (amplitude, period days, peak day of year) from the run's resolved
+    configuration (every `references` list in it; one law per name)."""
+    cfg = yaml.safe_load((run / "config.resolved.yaml").read_text())
+    laws: dict[str, tuple[float, float, float]] = {}
+
+    def walk(node) -> None:
+        if isinstance(node, dict):
+            for key, value in node.items():
+                if key == "references" and isinstance(value, list):
+                    for ref in value:
+                        if isinstance(ref, dict) and "seasonal_amplitude" in ref:
+                            law = (
+                                float(ref["seasonal_amplitude"]),
+                                float(ref["seasonal_period_days"]),
+                                float(ref["seasonal_peak_doy"]),
+                            )
+                            if laws.setdefault(str(ref["name"]), law) != law:
+                                sys.exit(f"{run}/config.resolved.yaml: reference {ref['name']!r} has two seasonal laws")
+                walk(value)
+        elif isinstance(node, list):
+            for value in node:
+                walk(value)
+
+    walk(cfg)
+    return laws
+
+
+def season_held(obs: pd.DataFrame, w: dict[str, np.ndarray], laws: dict) -> dict[str, float]:
+    """The cells with the after period's reference error at the before period's seasonal
+    factor (module docstring); `w` = winds(obs)."""
+    doy = pd.to_datetime(obs["time"], unit="s", utc=True).dt.day_of_year.to_numpy(float)
+    src = obs["ref_source"].astype(str).to_numpy()
+    before = (obs["stage"] == "before").to_numpy()
+    k = np.ones(len(obs))
+    for name in np.unique(src):
+        if name not in laws:
+            sys.exit(f"config.resolved.yaml: no seasonal law for reference {name!r} of the observations")
+        a, period, peak = laws[name]
+        factor = 1.0 + a * np.cos(2 * np.pi * (doy - peak) / period)
+        rows = src == name
+        k[rows & ~before] = factor[rows & before].mean() / factor[rows & ~before]
+    head = obs["truth_heading_deg"].to_numpy(float)
+    out: dict[str, float] = {}
+    total = {}
+    for (g, st), idx in obs.groupby(["group", "stage"]).groups.items():
+        i = obs.index.get_indexer(idx)
+        me, mn = (w["re"][i] - w["te"][i]) * k[i], (w["rn"][i] - w["tn"][i]) * k[i]
+        held = wind_error_components(w["oe"][i] - w["te"][i] - me, w["on"][i] - w["tn"][i] - mn, head[i])
+        scored = wind_error_components(w["oe"][i] - w["re"][i], w["on"][i] - w["rn"][i], head[i])
+        out[f"season_held.{g}.{st}.total_kt"] = float(held["rms_kt"])
+        out[f"season_held.{g}.{st}.longitudinal_kt"] = float(held["longitudinal_kt"])
+        total[g, st] = (float(scored["rms_kt"]), float(held["rms_kt"]))
+    if ("control", "before") in total and ("control", "after") in total:
+        out["season.control.change_scored_kt"] = total["control", "after"][0] - total["control", "before"][0]
+        out["season.control.change_held_kt"] = total["control", "after"][1] - total["control", "before"][1]
+    return out
+
+
 def run_lines(run: Path) -> dict[str, float]:
-    """All of one run's lines: the budget and the table bounds."""
+    """All of one run's lines: the budget, the table bounds and the season held."""
     obs = scored_reports(run)
     w = winds(obs)
-    return {**budget(obs, w), **table_bounds(obs, w)}
+    return {**budget(obs, w), **table_bounds(obs, w), **season_held(obs, w, seasonal_laws(run))}
 
 
 def main() -> None:
