@@ -304,38 +304,43 @@ def _channel_rates_hz(path, dt: float) -> dict[str, float]:
     return {c.get("name"): 1.0 / (dt * int(c.get("execrate", "1"))) for c in root.iter("channel")}
 
 
-def test_the_autopilot_runs_at_the_same_rates_in_hz_at_the_route_and_the_ils_step():
-    """The autopilot XML counts its channel rates in steps (execrate): at the route legs'
-    50 Hz and, through systems_root, at the ILS flights' 100 Hz, the truth wind is updated at
-    every step's 50 Hz or more and the channels run at the rates its header states."""
-    from aerotruth.truth.airframes import AUTOPILOT_STEP_S, SYSTEMS_DIR, systems_root
+def test_the_autopilot_runs_at_its_rates_in_hz_at_the_route_and_the_ils_step():
+    """The autopilot XML counts its channel rates in steps (execrate), written for 50 Hz:
+    at the ILS flights' 100 Hz every channel runs at the rate its header states; at the
+    route legs' 20 Hz the outer loops (10 Hz) and LNAV (5 Hz) too, and the inner loops,
+    25 Hz at 50 Hz, at every step (20 Hz); the truth wind at every step."""
+    from aerotruth.truth.airframes import AUTOPILOT_STEP_S, SYSTEMS_DIR, channel_execrate, systems_root
     from aerotruth.truth.fdm import DT, ILS_DT
 
-    assert (DT, ILS_DT) == (0.02, 0.01)
+    assert (DT, ILS_DT) == (0.05, 0.01)
     stated = {"lnav": 5.0, "roll outer": 10.0, "vertical": 10.0, "speed": 10.0}
     stated |= {"roll inner": 25.0, "yaw": 25.0, "pitch inner": 25.0}
-    for dt in (AUTOPILOT_STEP_S, ILS_DT):
+    for dt in (AUTOPILOT_STEP_S, ILS_DT, DT):
         rates = _channel_rates_hz(systems_root(dt) / "aerotruth_autopilot.xml", dt)
         assert rates.pop("truth wind") == pytest.approx(1.0 / dt)
-        assert rates == pytest.approx(stated)
+        assert rates == pytest.approx({k: min(v, 1.0 / dt) for k, v in stated.items()})
     assert systems_root(AUTOPILOT_STEP_S) == SYSTEMS_DIR
+    assert [channel_execrate(e, 0.05) for e in (1, 2, 5, 10)] == [1, 1, 2, 4]
+    assert [channel_execrate(e, 0.01) for e in (1, 2, 5, 10)] == [2, 4, 10, 20]
 
 
 def test_new_fdm_refuses_the_autopilot_at_a_step_it_cannot_keep_its_rates_at():
     from aerotruth.truth.airframes import new_fdm
 
-    with pytest.raises(ValueError, match="dt: the autopilot runs at 0.02 s or a whole fraction of it, got 0.0083"):
+    # the 25-Hz inner loops would be 4.8 steps of 1/120 s
+    with pytest.raises(ValueError, match="dt: a 0.04-s autopilot channel is not a whole number of 0.00833333-s steps"):
         new_fdm(airframe("saab340"), 1.0 / 120.0)
     new_fdm(airframe("saab340"), 1.0 / 120.0, autopilot=False)  # the bare aircraft at any step
 
 
 @pytest.mark.slow
-def test_a_calm_leg_at_the_50_hz_step_is_the_leg_at_100_hz(msp_dlh, monkeypatch):
-    """The route step is converged: the calm KMSP-KDLH leg flown again at 100 Hz (the same
-    autopilot rates in Hz, the same guidance, wind and recording in time) stays within
-    a metre of the 50 Hz leg in position and height and within hundredths of a degree in
-    attitude (measured on three legs: largest position difference 0.4-0.9 m, height
-    0.02-0.03 m rms, roll 0.002-0.005 deg rms)."""
+def test_a_calm_leg_at_the_20_hz_step_is_the_leg_at_100_hz(msp_dlh, monkeypatch):
+    """The route step is converged: the calm KMSP-KDLH leg flown again at 100 Hz (the
+    autopilot's rates in Hz, its inner loops at 25 Hz instead of the 20 Hz step's every step;
+    the same guidance, wind and recording in time) stays within a few metres of the 20 Hz
+    leg in position, a decimetre in height and hundredths of a degree in attitude (measured
+    against 50 Hz on three legs: largest position difference 0.8-1.7 m, height 0.07-0.08 m
+    rms, roll 0.007-0.015 deg rms)."""
     import aerotruth.truth.flight as flight_mod
 
     plan, leg50 = msp_dlh

@@ -150,28 +150,35 @@ def _cache_dir() -> Path:
 _SYSTEM_LINES = '    <system file="{gains}"/>\n    <system file="aerotruth_autopilot"/>\n'
 _IMU_LINE = '    <system file="aerotruth_imu"/>\n'
 # the JSBSim step the autopilot's channel rates (execrate, in steps) are written for
-# (systems/aerotruth_autopilot.xml); at a step of 1/k of it the rates are multiplied by k
-# (systems_root), so the channels run at the same rates in Hz
+# (systems/aerotruth_autopilot.xml: inner loops every 2 steps, 25 Hz; outer loops every 5,
+# 10 Hz; LNAV every 10, 5 Hz); at another step each channel keeps its rate in Hz
+# (channel_execrate), and one faster than the step runs at every step
 AUTOPILOT_STEP_S = 0.02
 _EXECRATE = re.compile(r'(<channel\b[^>]*\bexecrate=")(\d+)(")')
 
 
-def _steps_per_autopilot_step(dt: float) -> int:
-    k = round(AUTOPILOT_STEP_S / dt)
-    if k < 1 or abs(k * dt - AUTOPILOT_STEP_S) > 1e-12:
-        raise ValueError(f"dt: the autopilot runs at {AUTOPILOT_STEP_S} s or a whole fraction of it, got {dt}")
+def channel_execrate(execrate: int, dt: float) -> int:
+    """The execrate (steps) at a JSBSim step of `dt` s of a channel written to run every
+    `execrate` steps of AUTOPILOT_STEP_S: its period in steps of dt, or 1 (every step) when
+    the step is longer than its period. A period that is not a whole number of steps is
+    refused (the channel would run at another rate)."""
+    period_s = execrate * AUTOPILOT_STEP_S
+    if dt >= period_s - 1e-12:
+        return 1
+    k = round(period_s / dt)
+    if abs(k * dt - period_s) > 1e-9:
+        raise ValueError(f"dt: a {period_s:g}-s autopilot channel is not a whole number of {dt:g}-s steps")
     return k
 
 
 def systems_root(dt: float) -> Path:
     """Folder of the systems files (autopilot, gains, IMU) for a JSBSim step of `dt` s: the
-    package's own at AUTOPILOT_STEP_S, else a cache copy with every channel's execrate
-    multiplied by AUTOPILOT_STEP_S / dt (written once per content digest)."""
-    k = _steps_per_autopilot_step(dt)
-    if k == 1:
+    package's own at AUTOPILOT_STEP_S, else a cache copy with every channel's execrate set by
+    channel_execrate (written once per content digest)."""
+    if abs(dt - AUTOPILOT_STEP_S) < 1e-12:
         return SYSTEMS_DIR
     files = {
-        f.name: _EXECRATE.sub(lambda m: f"{m[1]}{int(m[2]) * k}{m[3]}", f.read_text())
+        f.name: _EXECRATE.sub(lambda m: f"{m[1]}{channel_execrate(int(m[2]), dt)}{m[3]}", f.read_text())
         for f in sorted(SYSTEMS_DIR.glob("*.xml"))
     }
     digest = hashlib.sha256(json.dumps(files, sort_keys=True).encode()).hexdigest()[:12]
@@ -275,8 +282,8 @@ def quiet_jsbsim():
 
 def new_fdm(af: Airframe, dt: float, autopilot: bool = True, imu: bool = False) -> jsbsim.FGFDMExec:
     """A quiet FGFDMExec with `af` loaded at time step dt (s): the autopilot included unless
-    told (at AUTOPILOT_STEP_S or a whole fraction of it: its channel rates are counted in
-    steps, systems_root), the inertial truth (imu/*) with `imu`."""
+    told (its channels' rates kept in Hz where the step allows, systems_root), the inertial
+    truth (imu/*) with `imu`."""
     systems = systems_root(dt) if autopilot else SYSTEMS_DIR
     if imu and not autopilot:
         raise ValueError("imu: the inertial truth is inserted with the autopilot")

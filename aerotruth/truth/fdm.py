@@ -20,22 +20,23 @@ import numpy as np
 import pandas as pd
 
 from aerotruth.contracts import TRUTH_TRACK
-from aerotruth.truth.airframes import AUTOPILOT_STEP_S, Airframe, quiet_jsbsim
+from aerotruth.truth.airframes import Airframe, quiet_jsbsim
 from aerotruth.truth.track import PHASES
 from aerotruth.truth.weather import ISA_LAPSE, Atmosphere
 from aerotruth.units import DEG, EARTH_RADIUS_M, FT
 
-# s: the JSBSim step of route legs, the autopilot's own (airframes.AUTOPILOT_STEP_S): 50 Hz,
-# so the 10 Hz truth samples fall on steps (measured against a 100 Hz step in docs/truth.md,
-# "The step")
-DT = AUTOPILOT_STEP_S
+# s: the JSBSim step of route legs, 20 Hz: the 10 Hz truth samples fall on steps, the
+# autopilot's outer loops (10 Hz) and LNAV (5 Hz) keep their rates, its inner loops (25 Hz
+# at AUTOPILOT_STEP_S) run at every step (airframes.channel_execrate). Measured against the
+# same legs at 50 and 100 Hz in docs/truth.md, "The step"
+DT = 0.05
 
 
 # s: the step of ILS approaches and inspection missions, 100 Hz: their 50 Hz inertial
 # samples are JSBSim's trapezoidal integrals of the specific force and body rate, which a
 # strapdown closes to 0.63 m over 120 s at two steps a sample and 1.39 m at one (tests/
 # test_approach.py, the calm AFIS approach)
-ILS_DT = AUTOPILOT_STEP_S / 2
+ILS_DT = 0.01
 
 
 RECORD_EVERY = round(0.1 / DT)  # steps: 10 Hz truth samples

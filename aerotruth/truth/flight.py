@@ -2,7 +2,7 @@
 
 Python sets targets once per simulated second (leg sequencing, phase, speed, the truth
 wind sample at the aircraft's position one second ahead, the atmosphere's temperature
-and pressure); JSBSim flies at 50 Hz (fdm.DT) with the aircraft-agnostic autopilot XML, which
+and pressure); JSBSim flies at 20 Hz (fdm.DT) with the aircraft-agnostic autopilot XML, which
 also interpolates the wind to every step. Samples are recorded at 10 Hz into a
 TruthTrack. A flight that produces NaN, leaves attitude limits, sinks below its
 runways or fails to arrive ends with FlightDiverged (reason and seed), never as truth.
