@@ -24,7 +24,7 @@ the other; per fraction `paper_pair_<N>_wall` (s), `_legs_flown` and `_block_hou
 legs' planned block times), and over the fractions the seconds per block-hour, a straight
 line wall = a + b x block-hours through them and `paper_pair_36_wall_extrapolated` (s).
 Two fractions of at least 6 aircraft (1/6) show whether the cost is linear; a fraction of 6
-is ~1.5 h on 2 cores at ~850x real time a core.
+took 2,199 s on 2 cores at the 20 Hz route step (docs/architecture.md).
 
     python benchmarks/campaign_scaling.py [--points 12000] [--no-dask] [--truth] [--mesaba]
     python benchmarks/campaign_scaling.py --paper-pair 6,9
