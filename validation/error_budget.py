@@ -56,6 +56,7 @@ import yaml
 from aerotruth.analysis.wind.heading_errors import towards_from_report
 from aerotruth.analysis.wind.metrics import corrected_wind_error, wind_error_components
 from aerotruth.analysis.wind.paper_draw import COMPONENTS, derived_cells
+from aerotruth.sensors.weather_model import preset
 from aerotruth.sim.studies.wind_reports import unbanked
 from aerotruth.units import KT
 
@@ -219,7 +220,7 @@ def seasonal_laws(run: Path) -> dict[str, tuple[float, float, float]]:
 def season_held(obs: pd.DataFrame, w: dict[str, np.ndarray], laws: dict) -> dict[str, float]:
     """The cells with the after period's reference error at the before period's seasonal
     factor (module docstring); `w` = winds(obs)."""
-    doy = pd.to_datetime(obs["time"], unit="s", utc=True).dt.day_of_year.to_numpy(float)
+    dates = pd.to_datetime(obs["time"], unit="s", utc=True).dt.date.to_numpy()
     src = obs["ref_source"].astype(str).to_numpy()
     before = (obs["stage"] == "before").to_numpy()
     k = np.ones(len(obs))
@@ -227,7 +228,9 @@ def season_held(obs: pd.DataFrame, w: dict[str, np.ndarray], laws: dict) -> dict
         if name not in laws:
             sys.exit(f"config.resolved.yaml: no seasonal law for reference {name!r} of the observations")
         a, period, peak = laws[name]
-        factor = 1.0 + a * np.cos(2 * np.pi * (doy - peak) / period)
+        spec = preset(name, seasonal_amplitude=a, seasonal_period_days=period, seasonal_peak_doy=peak)
+        by_date = {day: spec.seasonal_factor(day) for day in set(dates)}  # the law as the sensors apply it
+        factor = np.array([by_date[day] for day in dates])
         rows = src == name
         k[rows & ~before] = factor[rows & before].mean() / factor[rows & ~before]
     head = obs["truth_heading_deg"].to_numpy(float)
