@@ -33,6 +33,13 @@ Generators (`--generator`):
   the model spec or (reference bias) the analysis winds. Missing truth is flown only with
   `--fly` (~2.3 s a leg with 2 workers).
 
+`--diagnose-code CHECKOUT` diagnoses each dataset with another checkout's code (a fresh
+process with that checkout first on PYTHONPATH: validation/diagnose_other_code.py), on the
+datasets this checkout's generators make: the plan's sizes are where the code *before* a
+change names each effect 50-80 % of the time, and aerotruth's sensors change under it
+(`git worktree add ../before COMMIT`, then `--diagnose-code ../before`). The checkout's
+commit is part of the results folder's config.
+
 Results: one CSV row per (generator, effect, size, seed) appended to RESULTS/rows.csv as it
 finishes (flushed, fsynced); rows already there are skipped, so a run can be split across
 sessions and killed at any moment. RESULTS/config_<generator>.json records the generator's
@@ -575,6 +582,42 @@ def _worker_init() -> None:
         pass
 
 
+@dataclass
+class _Found:
+    """A finding as another checkout's diagnosis returned it (diagnose_other_code.py)."""
+
+    effect: str
+    cause: str
+    parameters: dict
+    evidence: dict
+    gain: dict
+
+
+HERE_DRIVER = ROOT / "validation" / "diagnose_other_code.py"
+
+
+def diagnose_with_code(code: str, obs, spec) -> tuple[list, dict, int]:
+    """(findings, baseline, rows) of `obs` diagnosed by the checkout at `code` (its
+    aerotruth first on PYTHONPATH) in a fresh process: validation/diagnose_other_code.py."""
+    with tempfile.TemporaryDirectory() as tmp:
+        obs.to_parquet(Path(tmp) / "obs.parquet")
+        (Path(tmp) / "spec.json").write_text(json.dumps(spec.model_dump(mode="json")))
+        env = {**os.environ, "PYTHONPATH": code}
+        p = subprocess.run(
+            [sys.executable, str(HERE_DRIVER), f"{tmp}/obs.parquet", f"{tmp}/spec.json"],
+            capture_output=True,
+            text=True,
+            env=env,
+            cwd=tmp,
+        )
+    if p.returncode != 0:
+        raise RuntimeError(f"the diagnosis of {code} failed: {p.stderr.strip()[-300:]}")
+    out = json.loads(p.stdout)
+    if not Path(out["aerotruth"]).resolve().is_relative_to(Path(code).resolve()):
+        raise RuntimeError(f"the diagnosis ran {out['aerotruth']}, not the code of {code}")
+    return [_Found(**f) for f in out["findings"]], out["baseline"], out["rows"]
+
+
 def run_one(generator: str, effect: str, size: float, seed: int, cfg: dict) -> dict:
     from aerotruth.analysis.diagnose.wind import diagnose_wind, prepare
 
@@ -586,15 +629,19 @@ def run_one(generator: str, effect: str, size: float, seed: int, cfg: dict) -> d
         else:
             obs, spec = simulated_dataset(effect, size, seed, cfg)
         t1 = time.perf_counter()
-        d = prepare(obs)
-        findings, baseline, _, _ = diagnose_wind(d, spec)
+        if cfg.get("diagnose_code"):
+            findings, baseline, n_rows = diagnose_with_code(cfg["diagnose_code"]["path"], obs, spec)
+        else:
+            d = prepare(obs)
+            findings, baseline, _, _ = diagnose_wind(d, spec)
+            n_rows = d.n
         t2 = time.perf_counter()
     except Exception as e:  # noqa: BLE001 - a dataset that cannot be diagnosed is a row too
         return {**row, "status": "error", "error": f"{type(e).__name__}: {e}"[:300], "wall_s": time.perf_counter() - t0}
     return {
         **row,
         "status": "ok",
-        "rows": d.n,
+        "rows": n_rows,
         "weather_blocks": baseline["weather_blocks"],
         "tested": int("not_tested" not in baseline),
         **classify(findings, effect),
@@ -652,6 +699,25 @@ def append_row(path: Path, row: dict) -> None:
         fh.write(buf.getvalue())  # one write of whole lines
         fh.flush()
         os.fsync(fh.fileno())
+
+
+def checkout_of(path: str) -> dict:
+    """{path, commit} of the checkout at `path`, refused (one line) unless it is a clean git
+    checkout with an aerotruth package: rows made by one code are not mixed with another's."""
+    root = Path(path).resolve()
+    if not (root / "aerotruth" / "analysis" / "diagnose" / "wind.py").exists():
+        sys.exit(f"--diagnose-code {path}: expected a checkout of aerotruth (no aerotruth/analysis/diagnose/wind.py)")
+    try:
+        commit = subprocess.run(
+            ["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True, text=True, check=True
+        ).stdout.strip()
+        status = ["git", "-C", str(root), "status", "--porcelain", "--", "aerotruth"]
+        dirty = subprocess.run(status, capture_output=True, text=True, check=True).stdout.strip()
+    except (OSError, subprocess.CalledProcessError) as exc:
+        sys.exit(f"--diagnose-code {path}: not a git checkout ({exc})")
+    if dirty:
+        sys.exit(f"--diagnose-code {path}: its aerotruth/ has changes not committed; use a clean checkout")
+    return {"path": str(root), "commit": commit}
 
 
 def check_config(results: Path, generator: str, cfg: dict) -> None:
@@ -820,6 +886,13 @@ def main() -> None:
     ap.add_argument("--days", type=int, default=10, help="simulated: weekly days from 17 Aug 2009")
     ap.add_argument("--fly", action="store_true", help="simulated: fly the truth legs missing from the store")
     ap.add_argument("--fly-workers", type=int, default=2)
+    ap.add_argument(
+        "--diagnose-code",
+        default=None,
+        metavar="CHECKOUT",
+        help="diagnose with another checkout's code (e.g. a `git worktree` at the commit before a change: "
+        "sizing runs), on the datasets this checkout's generators make",
+    )
     a = ap.parse_args()
 
     effects = [e.strip() for e in a.effects.split(",") if e.strip()]
@@ -836,6 +909,8 @@ def main() -> None:
     results.mkdir(parents=True, exist_ok=True)
     rows_path = results / "rows.csv"
     cfg = INDEPENDENT if a.generator == "independent" else sim_config(a.campaign, a.aircraft, a.days)
+    if a.diagnose_code:
+        cfg = {**cfg, "diagnose_code": checkout_of(a.diagnose_code)}
     check_config(results, a.generator, cfg)
     print(f"generator: {a.generator} {json.dumps(cfg, sort_keys=True)}")
 
