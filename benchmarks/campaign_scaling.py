@@ -23,8 +23,9 @@ control counts scaled, 19/36 and 17/36 of N), each into an empty truth store, on
 the other; per fraction `paper_pair_<N>_wall` (s), `_legs_flown` and `_block_hours` (the
 legs' planned block times), and over the fractions the seconds per block-hour, a straight
 line wall = a + b x block-hours through them and `paper_pair_36_wall_extrapolated` (s).
-Two fractions of at least 6 aircraft (1/6) show whether the cost is linear; a fraction of 6
-took 2,199 s on 2 cores at the 20 Hz route step (docs/architecture.md).
+Two fractions of at least 6 aircraft (1/6) show whether the cost is linear; at the 20 Hz
+route step on 2 cores, 6 aircraft took 2,199 s and 9 aircraft 3,401 s (0.91 and 0.94 s a
+block-hour; 3.9 h extrapolated to the 36: docs/architecture.md).
 
     python benchmarks/campaign_scaling.py [--points 12000] [--no-dask] [--truth] [--mesaba]
     python benchmarks/campaign_scaling.py --paper-pair 6,9
