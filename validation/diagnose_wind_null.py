@@ -3,8 +3,8 @@
 Datasets come from the independent report generator (tests/obs_generator.py: 12 aircraft
 x 40 flights, offset + once-round deviation, two reference models with 4-kt
 Ornstein-Uhlenbeck errors), each with its own seed. With nothing hidden, every finding
-is false: the family-wise level is nominally 4 % (3 % library, 1 % screening), so 100
-datasets should give at most about 4 and must give <= 5. Power: the share of datasets where a
+is false: the family-wise level is nominally 2 % (1 % library, 1 % screening), so 100
+datasets should give about 2 and must give <= 5. Power: the share of datasets where a
 hidden effect of a given size is ranked first.
 
     python validation/diagnose_wind_null.py [--datasets 100] [--power 20] [--figure FILE]
@@ -89,7 +89,7 @@ def main() -> None:
             ax.set_title(f"{eff}: power, {a.power} datasets per size")
             ax.grid(alpha=0.3)
         if a.datasets:
-            fig.suptitle(f"null: {sum(found.values())} findings in {a.datasets} datasets (nominal family-wise 4 %)")
+            fig.suptitle(f"null: {sum(found.values())} findings in {a.datasets} datasets (nominal family-wise 2 %)")
         fig.savefig(a.figure, dpi=120, bbox_inches="tight")
 
 

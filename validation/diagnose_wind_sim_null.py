@@ -8,7 +8,7 @@ section).
 The truth (Mesaba schedule days of `--aircraft` aircraft on `--days` dates, six legs at
 most) is flown once into the truth store; each dataset is another sensor seed on it: new
 airframes (hard and soft iron, mounting, TAS bias), new weather-model errors, new noise.
-Nothing is hidden, so every finding is false: nominally 4 % family-wise, <= 5 per 100
+Nothing is hidden, so every finding is false: nominally 2 % family-wise, <= 5 per 100
 required. Power: the share of datasets in which a hidden wind-speed bias of the RR-like
 analyses (analysis wind = (1 - k) x smoothed truth, k = 2, 5, 10 %) is ranked first as a
 reference bias (a bias along the wind).

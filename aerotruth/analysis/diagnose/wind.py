@@ -49,10 +49,8 @@ chi-square equivalents (Fisher-type). Changes in time are tested by permuting we
 blocks (exact for any number of them): an aircraft's change-point (sup |CUSUM| of its
 blocks' mean offsets) and drift (their slope), Bonferroni over aircraft, and the fleet's
 change-point and trend. Family-wise: ALPHA_LIBRARY over the library's candidates of a round
-and ALPHA_SCREEN over the screening tests, each Bonferroni-split (nominal 4 % in all: 3 %
-over the library's eight, 1 % over the screening's ~30: weighted Bonferroni, the weight on
-the departures the model names as expected sensor physics, the screening's signatures
-exploratory), and divided by the round's number: every round looks at the data again, so the r-th finding is
+and ALPHA_SCREEN over the screening tests, each Bonferroni-split (nominal 2 % in all), and
+divided by the round's number: every round looks at the data again, so the r-th finding is
 named at 1/r of the first one's level (on null data nearly every diagnosis ends in the
 first round, whose level is unchanged; without it each later round's look would add up
 to the full 2 % of wrong causes).
@@ -157,11 +155,7 @@ from aerotruth.analysis.least_squares import clustered_se
 from aerotruth.analysis.wind.heading_correction import heading_spread
 from aerotruth.units import DEG, KT
 
-# family-wise levels (module docstring): 3 % over the library's candidates, 1 % over the screening.
-# The library's share was 1 % (2 % in all); at the confusion plan's sizes its misses were effects
-# at p 1.3e-3 to 1e-2 against a level of 1.25e-3 (validation/diagnose_confusion_plan.md, "A level
-# weighted toward the library"), and a user's bound on false findings is 5 %.
-ALPHA_LIBRARY = 0.03
+ALPHA_LIBRARY = 0.01
 ALPHA_SCREEN = 0.01
 MAX_ROUNDS = 10
 MAX_SCREENED = 3  # screening signatures entered at most (each a term outside the library)
