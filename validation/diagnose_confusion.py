@@ -582,18 +582,7 @@ def _worker_init() -> None:
         pass
 
 
-@dataclass
-class _Found:
-    """A finding as another checkout's diagnosis returned it (diagnose_other_code.py)."""
-
-    effect: str
-    cause: str
-    parameters: dict
-    evidence: dict
-    gain: dict
-
-
-HERE_DRIVER = ROOT / "validation" / "diagnose_other_code.py"
+DRIVER = ROOT / "validation" / "diagnose_other_code.py"
 
 
 def diagnose_with_code(code: str, obs, spec) -> tuple[list, dict, int]:
@@ -604,7 +593,7 @@ def diagnose_with_code(code: str, obs, spec) -> tuple[list, dict, int]:
         (Path(tmp) / "spec.json").write_text(json.dumps(spec.model_dump(mode="json")))
         env = {**os.environ, "PYTHONPATH": code}
         p = subprocess.run(
-            [sys.executable, str(HERE_DRIVER), f"{tmp}/obs.parquet", f"{tmp}/spec.json"],
+            [sys.executable, str(DRIVER), f"{tmp}/obs.parquet", f"{tmp}/spec.json"],
             capture_output=True,
             text=True,
             env=env,
@@ -615,7 +604,9 @@ def diagnose_with_code(code: str, obs, spec) -> tuple[list, dict, int]:
     out = json.loads(p.stdout)
     if not Path(out["aerotruth"]).resolve().is_relative_to(Path(code).resolve()):
         raise RuntimeError(f"the diagnosis ran {out['aerotruth']}, not the code of {code}")
-    return [_Found(**f) for f in out["findings"]], out["baseline"], out["rows"]
+    from aerotruth.analysis.diagnose.modes import Finding
+
+    return [Finding(**f) for f in out["findings"]], out["baseline"], out["rows"]
 
 
 def run_one(generator: str, effect: str, size: float, seed: int, cfg: dict) -> dict:

@@ -5,10 +5,10 @@ checkout first on PYTHONPATH, on datasets the current generators make).
 
     PYTHONPATH=OTHER_CHECKOUT python validation/diagnose_other_code.py OBS.parquet SPEC.json
 
-SPEC.json: the WindModelSpec fields (those the other code's spec does not know are dropped
-and listed). Prints one JSON document: {"findings": [{effect, cause, parameters, evidence,
-gain}], "baseline": {"weather_blocks", "not_tested", "rounds"}, "rows", "dropped_fields",
-"aerotruth": the aerotruth package's folder}. Imports only what the diagnosis itself needs
+SPEC.json: the WindModelSpec fields (those the other code's spec does not know are dropped).
+Prints one JSON document: {"findings": [{effect, cause, parameters, evidence, gain}],
+"baseline": {"weather_blocks", "not_tested", "rounds"}, "rows", "aerotruth": the aerotruth
+package's folder}. Imports only what the diagnosis itself needs
 (prepare, diagnose_wind, WindModelSpec), which every checkout since the library/application
 split has under aerotruth.analysis.diagnose.wind.
 """
@@ -58,7 +58,6 @@ def main() -> None:
         "findings": [_plain(dataclasses.asdict(f)) for f in findings],
         "baseline": _plain({k: baseline.get(k) for k in ("weather_blocks", "not_tested", "rounds") if k in baseline}),
         "rows": int(d.n),
-        "dropped_fields": sorted(set(fields) - known),
         "aerotruth": str(aerotruth.__file__),
     }
     json.dump(out, sys.stdout)
