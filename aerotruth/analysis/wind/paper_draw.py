@@ -103,7 +103,7 @@ def aircraft_day_sums(errors: pd.DataFrame, period: str) -> pd.DataFrame:
     return out
 
 
-def _derive(cells: Mapping) -> dict:
+def derive(cells: Mapping) -> dict:
     """The derived cells of `cells` ((group, period) -> a value, a component vector or an
     array of draws): the control's change, the poor group's after adjusted for it, the
     improvement (before - adjusted after) and, where the untreated twin is there, the
@@ -123,7 +123,7 @@ def _derive(cells: Mapping) -> dict:
 
 def derived_cells(cells: pd.DataFrame) -> pd.DataFrame:
     """`cells` (group, period and the COMPONENTS columns) with the derived rows added
-    (`_derive`). Every component is derived from the same component (the paper's
+    (`derive`). Every component is derived from the same component (the paper's
     subtraction: its components need not add up)."""
     if cells.empty:
         return cells
@@ -131,7 +131,7 @@ def derived_cells(cells: pd.DataFrame) -> pd.DataFrame:
     cols = [c for c, _ in COMPONENTS]
     extra = [
         {"group": g, "period": p, **v.to_dict()}
-        for (g, p), v in _derive({key: idx.loc[key, cols] for key in idx.index}).items()
+        for (g, p), v in derive({key: idx.loc[key, cols] for key in idx.index}).items()
     ]
     return pd.concat([cells, pd.DataFrame(extra)], ignore_index=True)
 
@@ -392,7 +392,7 @@ class PaperDraws:
         out = {f"{g}.{p}.{lab}": v for (g, p, lab), v in cells.items()}
         for _, lab in COMPONENTS:
             mine = {(g, p): v for (g, p, c), v in cells.items() if c == lab}
-            out.update({f"{g}.{p}.{lab}": v for (g, p), v in _derive(mine).items()})
+            out.update({f"{g}.{p}.{lab}": v for (g, p), v in derive(mine).items()})
         return pd.DataFrame(out)
 
 
