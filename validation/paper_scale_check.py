@@ -149,7 +149,7 @@ def main() -> None:
     )
     print(f"check.sd_draw_over_sd_own: median {np.median(ratio):.2f} range {ratio.min():.2f}-{ratio.max():.2f}")
 
-    per_run = pd.DataFrame([cell_series(cells_from_sums(collect_sums([d]))) for d in a.reduced])
+    per_run = pd.DataFrame([cell_series(cells_from_sums(part)) for _, part in reduced_sums.groupby("run", sort=False)])
     for lab in ("total", "longitudinal", "transverse"):
         eff, imp = f"poor.table_effect.{lab}", f"poor.improvement.{lab}"
         if eff not in full or eff not in per_run:
