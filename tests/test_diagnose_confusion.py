@@ -47,3 +47,34 @@ def test_one_dataset_per_effect_names_what_was_hidden_and_nothing_else(tmp_path)
     assert lines["independent.recalibration.aircraft_right"].startswith("1.00 (1 of 1"), out.stdout
     rows = (tmp_path / "results" / "rows.csv").read_text().splitlines()
     assert len(rows) == 1 + len(EFFECTS)  # a header and a row per dataset, resumable from there
+
+
+def test_a_folder_made_by_other_code_is_refused(tmp_path):
+    """Rows are resumed only with the code that made them: the folder's config carries the
+    digest of the sources, and a changed digest is one line naming the file, nothing run."""
+    import json
+
+    cmd = [
+        sys.executable,
+        str(ROOT / "validation" / "diagnose_confusion.py"),
+        str(tmp_path / "results"),
+        "--effects",
+        "null",
+        "--datasets",
+        "1",
+        "--summary-only",
+        "--no-cli-timing",
+    ]
+    first = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert first.returncode == 0, first.stderr
+    cfg_path = tmp_path / "results" / "config_independent.json"
+    cfg = json.loads(cfg_path.read_text())
+    assert len(cfg["code"]) == 16 and int(cfg["code"], 16) >= 0
+    again = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert again.returncode == 0, again.stderr
+    cfg_path.write_text(json.dumps({**cfg, "code": "0" * 16}))
+    other = subprocess.run(cmd, capture_output=True, text=True, cwd=ROOT, timeout=300)
+    assert other.returncode != 0
+    err = other.stderr.strip().splitlines()
+    assert len(err) == 1 and "config_independent.json" in err[0] and "another folder" in err[0], other.stderr
+    assert not (tmp_path / "results" / "rows.csv").exists()

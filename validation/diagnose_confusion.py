@@ -43,7 +43,9 @@ commit is part of the results folder's config.
 Results: one CSV row per (generator, effect, size, seed) appended to RESULTS/rows.csv as it
 finishes (flushed, fsynced); rows already there are skipped, so a run can be split across
 sessions and killed at any moment. RESULTS/config_<generator>.json records the generator's
-settings; a run with other settings is refused.
+settings and the digest of the code that makes the rows (aerotruth/, the independent
+generator, the simulated generator's campaign); a run with other settings or other code is
+refused, so a folder kept in git resumes on another machine only with the same code.
 
     python validation/diagnose_confusion.py RESULTS [--generator independent|simulated]
         [--datasets 100] [--effects null,soft_iron,...] [--size EFFECT=VALUE ...]
@@ -711,6 +713,23 @@ def checkout_of(path: str) -> dict:
     return {"path": str(root), "commit": commit}
 
 
+def code_digest(generator: str, campaign: str | None = None) -> str:
+    """SHA-256 (first 16 hex) of the sources a row is made from: aerotruth/ (truth, sensors,
+    diagnosis), the independent generator and, for the simulated one, its campaign. Part of
+    the folder's config, so rows made by other code are never resumed into it (a run split
+    across sessions, its rows.csv kept in git, goes on only with the same code)."""
+    import hashlib
+
+    files = sorted(p for p in (ROOT / "aerotruth").rglob("*") if p.is_file() and "__pycache__" not in p.parts)
+    files.append(ROOT / "tests" / "obs_generator.py")
+    if generator == "simulated" and campaign:
+        files.append(ROOT / campaign)
+    h = hashlib.sha256()
+    for f in files:
+        h.update(str(f.relative_to(ROOT)).encode() + b"\0" + f.read_bytes() + b"\0")
+    return h.hexdigest()[:16]
+
+
 def check_config(results: Path, generator: str, cfg: dict) -> None:
     path = results / f"config_{generator}.json"
     if path.exists():
@@ -902,6 +921,7 @@ def main() -> None:
     cfg = INDEPENDENT if a.generator == "independent" else sim_config(a.campaign, a.aircraft, a.days)
     if a.diagnose_code:
         cfg = {**cfg, "diagnose_code": checkout_of(a.diagnose_code)}
+    cfg = {**cfg, "code": code_digest(a.generator, cfg.get("campaign"))}
     check_config(results, a.generator, cfg)
     print(f"generator: {a.generator} {json.dumps(cfg, sort_keys=True)}")
 
