@@ -726,7 +726,7 @@ def checkout_of(path: str) -> dict:
     return {"path": str(root), "commit": commit}
 
 
-def code_digest(generator: str, campaign: str | None = None) -> str:
+def source_digest(generator: str, campaign: str | None = None) -> str:
     """SHA-256 (first 16 hex) of the sources a row is made from: aerotruth/ (truth, sensors,
     diagnosis), the independent generator and, for the simulated one, its campaign. Part of
     the folder's config, so rows made by other code are never resumed into it (a run split
@@ -941,7 +941,7 @@ def main() -> None:
     cfg = INDEPENDENT if a.generator == "independent" else sim_config(a.campaign, a.aircraft, a.days)
     if a.diagnose_code:
         cfg = {**cfg, "diagnose_code": checkout_of(a.diagnose_code)}
-    cfg = {**cfg, "code": code_digest(a.generator, cfg.get("campaign"))}
+    cfg = {**cfg, "code": source_digest(a.generator, cfg.get("campaign"))}
     check_config(results, a.generator, cfg)
     print(f"generator: {a.generator} {json.dumps(cfg, sort_keys=True)}")
 

@@ -19,7 +19,6 @@ like the confusion matrix's (its rows.csv), until every effect is decided; then 
 from __future__ import annotations
 
 import argparse
-import csv
 import math
 import subprocess
 import sys
@@ -27,7 +26,7 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "validation"))
-from diagnose_confusion import SIZES  # noqa: E402
+from diagnose_confusion import SIZES, read_rows  # noqa: E402
 
 N_DATASETS = 10
 FIXED = ("null", "soft_iron", "pitch")  # not sized: null has no size, the other two are the issue's
@@ -70,14 +69,9 @@ def counts_of(rows_path: Path, generator: str) -> dict[str, dict[str, int]]:
     """Named first by effect and size over the first N_DATASETS seeds that have a row
     (only effects/sizes with all N_DATASETS rows are counted)."""
     got: dict[tuple[str, str], list[int]] = {}
-    if rows_path.exists():
-        with open(rows_path, newline="") as fh:
-            for r in csv.DictReader(fh):
-                if r["generator"] != generator or r["status"] != "ok":
-                    continue
-                if not 70_000 <= int(r["seed"]) < 70_000 + N_DATASETS:
-                    continue
-                got.setdefault((r["effect"], r["size"]), []).append(int(r["named_first"]))
+    for r in read_rows(rows_path):
+        if r["generator"] == generator and r["status"] == "ok" and 70_000 <= int(r["seed"]) < 70_000 + N_DATASETS:
+            got.setdefault((r["effect"], r["size"]), []).append(int(r["named_first"]))
     out: dict[str, dict[str, int]] = {}
     for (eff, size), v in got.items():
         if len(v) == N_DATASETS:
