@@ -36,6 +36,11 @@ What it simulates:
   q = sigma(h) TAS^2 (sigma the ISA density ratio, q_cruise the leg's cruise value: each
   leg cruises at one lift coefficient); with `alpha_shape="weight"`, every leg at one
   weight instead: alpha = 2 deg x q_1 / q, q_1 that of 265 kt at 19,000 ft.
+* `accel_error_deg`: a pendulous flux valve's acceleration error, heading error
+  k x tan(I) x (dTAS/dt) / g x sin(psi_true - D) deg, with the generator's own centred
+  dipole field (geomagnetic north pole 80.1N 72.2W, the IGRF 2010 dipole: tan I = 2 tan of
+  the magnetic latitude, D the bearing to the pole; ~6 deg east and tan I 2.8 at the
+  network's centre) and the leg's TAS rate (0 in cruise, +-0.4 cruise TAS over the climb).
 * Each report (every U(3, 7) min from the top of the 2000-ft point): the onboard
   (TAMDAR) wind V_W = V_G(GPS, + 0.1 m/s white noise per component) - TAS_m (sin psi_m,
   cos psi_m) (wind paper eq. 1) with TAS_m = TAS + 0.5 kt white noise; reported as
@@ -76,6 +81,17 @@ CLIMB_FPS = 1500.0 / 60.0  # ft/s
 LOW_FT = 2000.0
 ALPHA_CRUISE_DEG = 2.0
 DT = 10.0  # s, integration grid
+G = 9.80665  # m/s^2
+POLE = (80.1, -72.2)  # geomagnetic north pole of the IGRF 2010 dipole, deg
+
+
+def _dipole(lat, lon) -> tuple[np.ndarray, np.ndarray]:
+    """(declination rad, tan of the dip) of a centred dipole at (lat, lon) deg."""
+    f, lam = np.radians(lat), np.radians(lon)
+    fp, lp = np.radians(POLE[0]), np.radians(POLE[1])
+    sin_m = np.sin(f) * np.sin(fp) + np.cos(f) * np.cos(fp) * np.cos(lam - lp)
+    decl = np.arctan2(np.cos(fp) * np.sin(lp - lam), np.cos(f) * np.sin(fp) - np.sin(f) * np.cos(fp) * np.cos(lp - lam))
+    return decl, 2.0 * np.tan(np.arcsin(sin_m))
 
 
 def _sigma(alt_ft):
@@ -189,6 +205,7 @@ def _leg(start, end, t0, cruise_ft, tas_c, wind: _Wind, rng: np.random.Generator
     q = _sigma(alt) * tas**2
     alpha = ALPHA_CRUISE_DEG * _sigma(cruise_ft) * tas_c**2 / q
     gamma = np.degrees(np.arctan2(rate * FT, tas))
+    tas_rate = np.sign(rate) * tas_c * 0.4 * CLIMB_FPS / (cruise_ft - LOW_FT)  # d/dt of _profile's TAS
     return dict(
         time=t0 + tr,
         lat=rlat,
@@ -201,6 +218,7 @@ def _leg(start, end, t0, cruise_ft, tas_c, wind: _Wind, rng: np.random.Generator
         vgn=vgn,
         psi_t=psi_t,
         gamma=gamma,
+        tas_rate=tas_rate,
         alpha_cruise=alpha,
         alpha_weight=ALPHA_CRUISE_DEG * Q_ONE_WEIGHT / q,
         phase=np.where(rate > 0, "ascent", np.where(rate < 0, "descent", "level")),
@@ -222,6 +240,7 @@ def generate(
     soft_iron_deg: float = 0.0,
     pitch_deg_per_deg: float = 0.0,
     alpha_shape: str = "cruise",
+    accel_error_deg: float = 0.0,
     heading_noise_deg: float = 0.3,
     ref_noise_ms: float = 2.2,
 ) -> pd.DataFrame:
@@ -266,6 +285,9 @@ def generate(
     ac = rep["aircraft"]
     alpha = {"cruise": rep["alpha_cruise"], "weight": rep["alpha_weight"]}[alpha_shape]
     extra = pitch_deg_per_deg * (rep["gamma"] + alpha)
+    if accel_error_deg:
+        decl, tan_i = _dipole(rep["lat"], rep["lon"])
+        extra = extra + accel_error_deg * tan_i * rep["tas_rate"] / G * np.sin(np.radians(rep["psi_t"]) - decl)
     psi = rep["psi_t"] + extra
     for _ in range(6):  # psi_m = psi_true + d(psi_m) + extra
         z = np.radians(psi)

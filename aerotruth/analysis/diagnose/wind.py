@@ -78,13 +78,15 @@ candidate is left.
 Screening (effects outside the library): each channel against heading harmonics (3z in
 the transverse channel, z..3z along), roll, flight phase, turn rate, pressure altitude,
 TAS, latitude, time, the pitch attitude (flight-path angle, q_250/q and q_cruise/q: the
-angle of attack's shape at one weight and at one cruise lift coefficient) and the local
-solar hour (a diurnal term); a least-squares periodogram of the flight-mean residuals; a
+angle of attack's shape at one weight and at one cruise lift coefficient), the local
+solar hour (a diurnal term) and a pendulous flux valve's acceleration error (tan I
+(dTAS/dt)/g sin z_mag: a speed change tilts the valve, which then reads part of the
+vertical field); a least-squares periodogram of the flight-mean residuals; a
 fleet-wide change-point. Each covariate's noise is independent of the residual's: the
 turn rate comes from the report's neighbours' headings, never its own (whose error is in
 the transverse residual: an own-heading rate made white heading noise look like a turning
 error, errors in variables), the climb rates from altitudes (which do not enter the
-residual). A
+residual), the TAS rate from the neighbours' TAS. A
 signature that enters is reported by its text ("transverse residual ~
 pressure_altitude_ft, 0.05 deg per 1000 ft") and becomes a linear term of the model.
 
@@ -1084,6 +1086,7 @@ UNITS = {
     "time_days": "day",
     "roll_deg": "deg roll",
     "turn_deg_s": "deg/s of turn",
+    "accel_error": "unit of tan(dip) x (dTAS/dt)/g x sin(magnetic heading) (a flux valve's acceleration error)",
     "flight_path_angle_deg": "deg of flight-path angle",
     "inverse_dynamic_pressure": "unit of q_250/q (q_250: 250 kt at sea level)",
     "inverse_dynamic_pressure_cruise": "unit of q_cruise/q",
@@ -1105,6 +1108,8 @@ def _screen_tests(d: WindData, spec: WindModelSpec | None = None) -> list[tuple[
         ("transverse", ["flight_path_angle_deg", "inverse_dynamic_pressure", "inverse_dynamic_pressure_cruise"]),
         # a diurnal error (temperature-driven: heating of the valve or the air-data probes)
         ("transverse", ["local_hour_sin", "local_hour_cos"]),
+        # a pendulous valve tilted by speed changes (wind_model.covariate: accel_error)
+        ("transverse", ["accel_error"]),
     ]
     tests += [("transverse", [c]) for c in common]
     tests += [

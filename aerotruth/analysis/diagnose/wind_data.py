@@ -53,10 +53,12 @@ class WindData:
     lon: np.ndarray
     alt_ft: np.ndarray
     h_ratio: np.ndarray  # H0 / H
+    tan_dip: np.ndarray  # Z / H = tan of the field's dip (IGRF): a tilted valve reads this much of Z per radian
     sv_deg_yr: np.ndarray  # declination change per year (IGRF, 5 years before the data)
     roll: np.ndarray | None
     phase: np.ndarray  # "ascent", "descent" or "level" per row
     turn_deg_s: np.ndarray  # heading change between the report's neighbours (its own heading left out)
+    tas_rate: np.ndarray  # dTAS/dt (m/s^2) between the report's neighbours (its own TAS left out)
     climb_fpm: np.ndarray  # pressure-altitude rate from the previous report of the flight (0 at the first)
     fpa_deg: np.ndarray  # flight-path angle through the air, asin(climb rate / TAS), climb rate centred on the report
     inv_q: np.ndarray  # Q_REF / q, q = sigma(h) TAS^2: the angle of attack's shape at one weight
@@ -98,9 +100,9 @@ def weather_blocks(flight: np.ndarray, time_s: np.ndarray) -> tuple[np.ndarray, 
     return cluster, (cluster % N_FOLDS).astype(np.int8)
 
 
-def _field_covariates(lat, lon, alt_ft, when: dt.datetime) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """(H0 / H, the declination's change in deg per year, the declination in deg) per row:
-    IGRF at the data's median date."""
+def _field_covariates(lat, lon, alt_ft, when: dt.datetime) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """(H0 / H, the declination's change in deg per year, the declination in deg, Z / H) per
+    row: IGRF at the data's median date."""
     from aerotruth.sensors.magnetics import GeomagneticField
 
     f = GeomagneticField.covering(lat, lon, when, margin_deg=1.0, step_deg=0.5, h_m=(-1000.0, 16000.0))
@@ -109,7 +111,7 @@ def _field_covariates(lat, lon, alt_ft, when: dt.datetime) -> tuple[np.ndarray, 
     before = f.for_date(when - dt.timedelta(days=365.25 * DECL_SPAN_YR)).at(lat, lon, h_m)
     H = now.horizontal_nT
     sv = np.degrees(((now.declination_rad - before.declination_rad + np.pi) % (2 * np.pi)) - np.pi) / DECL_SPAN_YR
-    return np.median(H) / H, sv, np.degrees(now.declination_rad)
+    return np.median(H) / H, sv, np.degrees(now.declination_rad), now.down_nT / H
 
 
 def _report_rows(df: pd.DataFrame) -> np.ndarray:
@@ -198,6 +200,24 @@ def report_rates(flight: np.ndarray, t: np.ndarray, z: np.ndarray, alt_ft: np.nd
     return turn, rate, rate_c
 
 
+def neighbour_rate(flight: np.ndarray, t: np.ndarray, x: np.ndarray) -> np.ndarray:
+    """Per report (in time order within flights): (x[k+1] - x[k-1]) / (t[k+1] - t[k-1]), the
+    rate of x between the report's neighbours; at a flight's first or last report the
+    one-sided rate with the report itself, 0 for a flight of one report. For the TAS rate
+    of the acceleration error: the report's own TAS error is in the along residual, and it
+    enters the transverse residual only as TAS sin d (d the heading error, a few
+    hundredths of a radian), so the transverse test may use it where a neighbour is
+    missing."""
+    prev_ok = np.r_[False, (flight[1:] == flight[:-1]) & (np.diff(t) > 0)]
+    next_ok = np.r_[prev_ok[1:], False]
+    xp, xn = np.r_[x[:1], x[:-1]], np.r_[x[1:], x[-1:]]
+    tp, tn = np.r_[t[:1], t[:-1]], np.r_[t[1:], t[-1:]]
+    lo, hi = np.where(prev_ok, tp, t), np.where(next_ok, tn, t)
+    x_lo, x_hi = np.where(prev_ok, xp, x), np.where(next_ok, xn, x)
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.where(hi > lo, (x_hi - x_lo) / (hi - lo), 0.0)
+
+
 def track_gates(df: pd.DataFrame) -> GateSpec:
     """TRACK_GATES with the shortest span scaled to the reports' position resolution (read off
     the values, heading_errors.position_step_deg): 10 km for TAMDAR's 0.01 deg, in proportion
@@ -269,7 +289,7 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     alt = df["pressure_altitude_ft"].to_numpy()[used]
     t = r["time_s"].to_numpy()
     when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(np.median(t)))
-    h_ratio, sv, decl = _field_covariates(lat, lon, alt, when)
+    h_ratio, sv, decl, tan_dip = _field_covariates(lat, lon, alt, when)
     ac_cat = r["aircraft"].astype("category")
     names = [str(c) for c in ac_cat.cat.categories]
     ac = ac_cat.cat.codes.to_numpy()
@@ -284,9 +304,10 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     turn_rep, rate, rate_c = report_rates(
         per["f"].to_numpy(), per["t"].to_numpy(), per["z"].to_numpy(), per["alt"].to_numpy()
     )
+    tas_rate_rep = neighbour_rate(per["f"].to_numpy(), per["t"].to_numpy(), per["tas"].to_numpy())
     ph_rep = np.where(rate > 300.0, "ascent", np.where(rate < -300.0, "descent", "level"))
     back = per.index.get_indexer(pd.Index(rep))  # (what get_indexer makes of an array itself)
-    turn, phase, climb = turn_rep[back], ph_rep[back], rate[back]
+    turn, phase, climb, tas_rate = turn_rep[back], ph_rep[back], rate[back], tas_rate_rep[back]
     tas = r["tas_ms"].to_numpy()
     fpa = np.degrees(np.arcsin(np.clip(rate_c[back] * FT / 60.0 / np.maximum(tas, 1.0), -1.0, 1.0)))
     q = isa_density_ratio(alt) * tas**2
@@ -324,10 +345,12 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         lon=lon,
         alt_ft=alt,
         h_ratio=h_ratio,
+        tan_dip=tan_dip,
         sv_deg_yr=sv,
         roll=roll,
         phase=phase,
         turn_deg_s=turn,
+        tas_rate=tas_rate,
         climb_fpm=climb,
         fpa_deg=fpa,
         inv_q=inv_q,
