@@ -345,7 +345,7 @@ def test_the_model_of_a_campaigns_sensors_states_what_they_put_in_reports():
     spec = wind_model_from_campaign(load_campaign(root / "mesaba_2009.yaml"))
     # mesaba_2009.yaml: hard iron (1/H), soft_iron_sigma 0.005, tas_bias_sigma_kt 1.5 (non-zero)
     assert (spec.deviation_terms, spec.field_scaling, spec.tas_bias) == (5, 1.0, True)
-    assert [t["covariate"] for t in spec.free_terms] == list(SENSOR_DYNAMICS)
+    assert [(t["channel"], t["covariate"]) for t in spec.free_terms] == list(SENSOR_DYNAMICS)
     assert spec.lat_lon_step_deg == 0.01
     # the same campaign without soft iron and without a TAS bias spread
     c = load_campaign(root / "mesaba_2009.yaml")

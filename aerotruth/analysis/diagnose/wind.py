@@ -1000,7 +1000,9 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         b.label[5:]: {
             "slope": float(be[0]),
             "se": float(standard_errors(v)[0]) if n_blocks >= 2 else float("nan"),  # one cluster: no se
-            "unit": "deg per unit" if b.label.startswith("free:transverse") else "kt per unit",
+            "unit": "deg per unit"
+            if b.label.startswith("free:transverse")
+            else ("s (both channels)" if b.label.startswith("free:both") else "kt per unit"),
         }
         for b, be, v in fit_end.coef("base", -1)
         if b.label.startswith("free:")
@@ -1110,6 +1112,8 @@ def _screen_tests(d: WindData, spec: WindModelSpec | None = None) -> list[tuple[
         ("transverse", ["local_hour_sin", "local_hour_cos"]),
         # a pendulous valve tilted by speed changes (wind_model.covariate: accel_error)
         ("transverse", ["accel_error"]),
+        # a wind older or younger than its time stamp (a trailing mean stamped at its end)
+        ("both", ["wind_rate"]),
     ]
     tests += [("transverse", [c]) for c in common]
     tests += [
@@ -1127,7 +1131,11 @@ def _screen_tests(d: WindData, spec: WindModelSpec | None = None) -> list[tuple[
 
 def _screen_blocks(d: WindData, channel: str, covs: list[str]) -> tuple[list[Block], list[dict]]:
     sigs = [
-        {"channel": channel, "covariate": c, "center": 0.0 if c == "const" else float(np.mean(covariate(d, c)))}
+        {
+            "channel": channel,
+            "covariate": c,
+            "center": 0.0 if c == "const" or channel == "both" else float(np.mean(covariate(d, c))),
+        }
         for c in covs
     ]
     return [
@@ -1163,6 +1171,11 @@ def _signature_text(sig: list[dict], beta: np.ndarray) -> str:
     ch = sig[0]["channel"]
     unit = "deg" if ch == "transverse" else "kt"
     covs = [s["covariate"] for s in sig]
+    if covs[0] == "wind_rate":
+        return (
+            f"the reported wind lags its time stamp by {beta[0]:+.1f} s (both channels follow the wind's change "
+            "between neighbouring reports: a mean over a trailing window stamped at its end lags by half the window)"
+        )
     if covs[0] in ("sin1", "sin2", "sin3"):
         k = covs[0][3]
         return f"{ch} residual varies as {k}z with the heading, amplitude {math.hypot(*beta[:2]):.2f} {unit}"

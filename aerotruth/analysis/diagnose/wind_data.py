@@ -59,6 +59,10 @@ class WindData:
     phase: np.ndarray  # "ascent", "descent" or "level" per row
     turn_deg_s: np.ndarray  # heading change between the report's neighbours (its own heading left out)
     tas_rate: np.ndarray  # dTAS/dt (m/s^2) between the report's neighbours (its own TAS left out)
+    # d/dt of the wind (m/s^2, east and north) between the report's neighbours, from the other
+    # references' winds (the row's own reference error left out; one reference: the report's)
+    wind_rate_e: np.ndarray
+    wind_rate_n: np.ndarray
     climb_fpm: np.ndarray  # pressure-altitude rate from the previous report of the flight (0 at the first)
     fpa_deg: np.ndarray  # flight-path angle through the air, asin(climb rate / TAS), climb rate centred on the report
     inv_q: np.ndarray  # Q_REF / q, q = sigma(h) TAS^2: the angle of attack's shape at one weight
@@ -207,7 +211,9 @@ def neighbour_rate(flight: np.ndarray, t: np.ndarray, x: np.ndarray) -> np.ndarr
     of the acceleration error: the report's own TAS error is in the along residual, and it
     enters the transverse residual only as TAS sin d (d the heading error, a few
     hundredths of a radian), so the transverse test may use it where a neighbour is
-    missing."""
+    missing. For the wind's rate: the other references' winds, whose errors are not the
+    row's (at a flight's ends the one-sided rate carries them at the report itself, still
+    not the row's own reference error)."""
     prev_ok = np.r_[False, (flight[1:] == flight[:-1]) & (np.diff(t) > 0)]
     next_ok = np.r_[prev_ok[1:], False]
     xp, xn = np.r_[x[:1], x[:-1]], np.r_[x[1:], x[-1:]]
@@ -285,6 +291,16 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     sp = np.hypot(we, wn)
     with np.errstate(invalid="ignore", divide="ignore"):
         ue, un = np.where(sp > 0, we / sp, 0.0), np.where(sp > 0, wn / sp, 0.0)
+    # the wind's rate of change along each flight, per reference series: between the report's
+    # neighbours, of the same wind the reference-bias direction uses (wind_model: wind_rate)
+    fl_used, t_used = r["flight"].to_numpy(), r["time_s"].to_numpy()
+    src_codes = r["ref_source"].astype("category").cat.codes.to_numpy()
+    wind_rate_e, wind_rate_n = np.zeros(len(we)), np.zeros(len(we))
+    for code in np.unique(src_codes):
+        rows_m = np.flatnonzero(src_codes == code)
+        rows_m = rows_m[np.lexsort((t_used[rows_m], fl_used[rows_m]))]
+        wind_rate_e[rows_m] = neighbour_rate(fl_used[rows_m], t_used[rows_m], we[rows_m])
+        wind_rate_n[rows_m] = neighbour_rate(fl_used[rows_m], t_used[rows_m], wn[rows_m])
     lat, lon = df["lat"].to_numpy()[used], df["lon"].to_numpy()[used]
     alt = df["pressure_altitude_ft"].to_numpy()[used]
     t = r["time_s"].to_numpy()
@@ -351,6 +367,8 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         phase=phase,
         turn_deg_s=turn,
         tas_rate=tas_rate,
+        wind_rate_e=wind_rate_e,
+        wind_rate_n=wind_rate_n,
         climb_fpm=climb,
         fpa_deg=fpa,
         inv_q=inv_q,

@@ -26,7 +26,18 @@ MIN_COVERAGE = 0.1  # smaller eigenvalue of the (sin, cos) covariance: the headi
 MIN_FLIGHTS = 4
 QUANT_STEPS = (1e-4, 2e-4, 2.5e-4, 5e-4, 1e-3, 2e-3, 2.5e-3, 5e-3, 0.01, 0.02, 0.025, 0.05, 0.1, 0.2, 0.25, 0.5, 1.0)
 FOLDS = tuple(range(N_FOLDS))  # the held-out folds (wind_data.N_FOLDS)
-SENSOR_DYNAMICS = ("roll_deg", "turn_deg_s", "phase_ascent", "phase_descent", "accel_error")  # model_of_sensors
+# model_of_sensors' free terms: (channel, covariate)
+SENSOR_DYNAMICS = (
+    ("transverse", "roll_deg"),
+    ("transverse", "turn_deg_s"),
+    ("transverse", "phase_ascent"),
+    ("transverse", "phase_descent"),
+    ("transverse", "accel_error"),
+    ("both", "wind_rate"),
+    ("along", "phase_ascent"),
+    ("along", "phase_descent"),
+)
+TWO_CHANNEL = ("wind_rate",)  # covariates that are vectors: one term in both channels (channel "both")
 QUANT_SHARE = 0.99  # share of coordinates that must lie on a grid for the data to be quantized on it
 
 
@@ -89,8 +100,10 @@ class WindModelSpec(Section):
     @classmethod
     def _free_terms(cls, v: list[dict[str, str]]) -> list[dict[str, str]]:
         for i, t in enumerate(v):
-            if set(t) != {"channel", "covariate"} or t["channel"] not in ("transverse", "along"):
-                raise ValueError(f"item {i}: expected {{channel: transverse|along, covariate: NAME}}, got {t}")
+            if set(t) != {"channel", "covariate"} or t["channel"] not in ("transverse", "along", "both"):
+                raise ValueError(f"item {i}: expected {{channel: transverse|along|both, covariate: NAME}}, got {t}")
+            if (t["channel"] == "both") != (t["covariate"] in TWO_CHANNEL):
+                raise ValueError(f"item {i}: channel 'both' is for the vector covariates {list(TWO_CHANNEL)}, got {t}")
         return v
 
 
@@ -147,6 +160,17 @@ def model_of_sensors(sensors, fleets: list[str], days: list | None = None) -> Wi
       without the term, what it leaves looked like a declination table 1.2-1.6 years
       younger than the stated one (a stale declination at z -3 to -5 with perfect
       reference winds, -1.9 on average with the analyses').
+    * a report's wind is the mean over its trailing window, stamped at the window's end
+      (aerotruth.sensors.tamdar): against a reference at the stamp it lags by half the
+      window, W_REF - W_TAM = (W / 2) dW/dt in both channels (wind_rate, seconds, free):
+      6.1 +- 0.6 s fitted where the window is 10 s (perfect reference winds, one null);
+    * along-channel climb and descent offsets (free): with perfect reference winds the
+      along residual is -0.29 kt climbing and -0.04 kt descending against level, what
+      TAS (1 - cos gamma) from the reports' pressure-altitude rate leaves of the 3-D
+      airspeed. Not in the model: a fleet TAS scale of -0.31 +- 0.01 % that the
+      simulated reports carry against the truth wind (found with perfect references at
+      p 1e-65; its cause is not yet known; a free fleet scale would hide the library's
+      TAS scale).
     Per-airframe draws (hard iron, mounting, soft iron) are free parameters, not known
     values: the model states which terms exist, the fit finds their size."""
     specs = [sensors.of(f) for f in fleets] or [sensors.of("")]
@@ -172,7 +196,7 @@ def model_of_sensors(sensors, fleets: list[str], days: list | None = None) -> Wi
         tas_along_path=True,
         declination_age_yr=age,
         lat_lon_step_deg=float(sensors.reports.lat_lon_step_deg),
-        free_terms=[{"channel": "transverse", "covariate": c} for c in SENSOR_DYNAMICS],
+        free_terms=[{"channel": ch, "covariate": c} for ch, c in SENSOR_DYNAMICS],
     )
 
 
@@ -251,8 +275,24 @@ def reference_scale_column(d: WindData, m: int) -> np.ndarray:
     return reference_bias_column(d, m) / KT * np.r_[d.wref_speed, d.wref_speed]
 
 
+def wind_rate_column(d: WindData) -> np.ndarray:
+    """Both channels: the wind's rate between the report's neighbours on n and u (m/s per s;
+    coefficient: seconds). A report whose wind is the mean over a trailing window of W
+    seconds but stamped at the window's end carries W(t) - (W / 2) dW/dt: against a
+    reference at its stamp, V_A - V_A' = W_REF - W_TAM gains +(W / 2) dW/dt (TAMDAR's
+    10-s window: 5 s; a wind older or younger than its time stamp in general)."""
+    tr = d.wind_rate_e * np.cos(d.z) - d.wind_rate_n * np.sin(d.z)
+    al = d.wind_rate_e * np.sin(d.z) + d.wind_rate_n * np.cos(d.z)
+    return stack_channels(tr, al, d.n)
+
+
 def signature_column(d: WindData, sig: dict) -> np.ndarray:
-    """A screening term: deg per unit of the covariate (transverse), kt per unit (along)."""
+    """A screening term: deg per unit of the covariate (transverse), kt per unit (along);
+    a vector covariate in both channels (TWO_CHANNEL): its own unit (wind_rate: s)."""
+    if sig["channel"] == "both":
+        if sig["covariate"] != "wind_rate":
+            raise ConfigError(f"diagnose.wind.signatures: {sig['covariate']!r} is not a two-channel covariate")
+        return wind_rate_column(d)
     x = covariate(d, sig["covariate"]) - float(sig.get("center", 0.0))
     return (
         stack_channels(d.tas * x * DEG, None, d.n)
@@ -371,6 +411,8 @@ def covariate(d: WindData, name: str) -> np.ndarray:
         return d.roll if d.roll is not None else np.zeros(d.n)
     if name == "turn_deg_s":
         return d.turn_deg_s
+    if name in TWO_CHANNEL:
+        raise ConfigError(f"diagnose.wind.signatures: {name!r} is a vector in both channels (channel: both)")
     if name == "accel_error":
         # a pendulous flux valve's acceleration error: a forward acceleration a tilts it aft by
         # atan(a / g) and it reads that much of the vertical field, an apparent turn towards
@@ -420,7 +462,8 @@ def fixed_effect_blocks(d: WindData, st: State, fit: Fit | None) -> list[Block]:
 
 def free_term_block(d: WindData, term: dict) -> Block:
     """A free fleet-wide term of the spec (centred: the per-aircraft offsets keep the mean)."""
-    sig = {**term, "center": float(np.mean(covariate(d, term["covariate"])))}
+    center = 0.0 if term["channel"] == "both" else float(np.mean(covariate(d, term["covariate"])))
+    sig = {**term, "center": center}
     return Block("base", f"free:{term['channel']}:{term['covariate']}", signature_column(d, sig)[:, None])
 
 
