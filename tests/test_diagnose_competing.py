@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import numpy as np
 import obs_generator as gen
+import pandas as pd
 import pytest
 import straight_obs_generator as sog
 
@@ -97,6 +98,53 @@ def test_the_tas_rate_is_taken_between_the_neighbours():
     tas = np.array([100.0, 103.0, 109.0, 109.0, 90.0, 80.0, 70.0])
     r = neighbour_rate(f, t, tas)
     assert np.allclose(r, [3 / 60, 9 / 120, 6 / 180, 0.0, -0.1, -0.1, 0.0])
+
+
+def test_a_wind_older_than_its_stamp_is_measured_in_seconds():
+    """Hand-made table: one aircraft flies north at 120 m/s, climbing at 1,500 ft/min through
+    a wind blowing towards the east at 10 m/s + 4 m/s per km of height (and 5 m/s towards
+    the north), a report every 12 s. Its wind is the wind of 5 s before the stamp (a
+    trailing mean stamped at its end), the two reference models give the wind at the stamp.
+    The wind's rate between the neighbouring reports is 0.004 x 7.62 = 0.0305 m/s^2, and
+    W_REF - W_TAM regressed on the two-channel column gives the lag, 5 s."""
+    from aerotruth.analysis.diagnose.wind_model import wind_rate_column
+
+    kt, lag = 1852.0 / 3600.0, 5.0
+    t = np.arange(0.0, 1200.0, 12.0)
+    h = 600.0 + 7.62 * t
+
+    def wind(h_m):
+        return 10.0 + 0.004 * h_m, np.full_like(h_m, 5.0)
+
+    def speed_from(e, n):
+        return np.hypot(e, n) / kt, np.degrees(np.arctan2(-e, -n)) % 360.0
+
+    we, wn = wind(h)
+    we_l, wn_l = wind(h - 7.62 * lag)
+    va_e, va_n = -we_l, 120.0 - wn_l  # V_A = V_G - W_TAM
+    ws, wd = speed_from(we_l, wn_l)
+    rs, rd = speed_from(we, wn)
+    base = pd.DataFrame(
+        {
+            "aircraft": "N1",
+            "time": 1.25e9 + t,
+            "lat": 44.0 + np.degrees(120.0 * t / 6367e3),
+            "lon": -93.0,
+            "pressure_altitude_ft": h / 0.3048,
+            "wind_speed_kt": ws,
+            "wind_dir_deg": wd,
+            "heading_deg": np.degrees(np.arctan2(va_e, va_n)) % 360.0,
+            "tas_kt": np.hypot(va_e, va_n) / kt,
+        }
+    )
+    df = pd.concat(
+        [base.assign(ref_source=m, ref_wind_speed_kt=rs, ref_wind_dir_deg=rd) for m in ("rr", "rtfdda")]
+    ).sort_values(["time", "ref_source"], ignore_index=True)
+    d = prepare(df)
+    assert d.n >= 190
+    assert np.allclose(d.wind_rate_e, 0.004 * 7.62) and np.allclose(d.wind_rate_n, 0.0, atol=1e-12)
+    col, y = wind_rate_column(d), np.r_[d.trans, d.along]
+    assert col @ y / (col @ col) == pytest.approx(lag, rel=0.01)
 
 
 @pytest.mark.slow
