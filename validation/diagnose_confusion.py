@@ -428,6 +428,13 @@ def _along_truth_wind(obs, model: str, bias_kt: float):
     return obs
 
 
+def truth_reference(obs):
+    """The table with every reference model's wind replaced by the truth wind at the report:
+    the diagnosis then sees the sensors' errors alone (a check of the model of the sensors,
+    which should leave nothing to find but noise)."""
+    return obs.assign(ref_wind_speed_kt=obs["truth_wind_speed_kt"], ref_wind_dir_deg=obs["truth_wind_dir_deg"])
+
+
 def simulated_dataset(effect: str, size: float, seed: int, cfg: dict):
     """(observation table, model spec) of one dataset of aerotruth's own sensors."""
     from aerotruth.sim.wind_observations import simulated_observations
@@ -634,6 +641,8 @@ def run_one(generator: str, effect: str, size: float, seed: int, cfg: dict) -> d
             obs, spec = independent_dataset(effect, size, seed)
         else:
             obs, spec = simulated_dataset(effect, size, seed, cfg)
+            if cfg.get("reference") == "truth":
+                obs = truth_reference(obs)
         t1 = time.perf_counter()
         if cfg.get("diagnose_code"):
             findings, baseline, n_rows = diagnose_with_code(cfg["diagnose_code"]["path"], obs, spec)
@@ -917,6 +926,13 @@ def main() -> None:
     ap.add_argument("--fly", action="store_true", help="simulated: fly the truth legs missing from the store")
     ap.add_argument("--fly-workers", type=int, default=2)
     ap.add_argument(
+        "--reference",
+        choices=("analyses", "truth"),
+        default="analyses",
+        help="simulated: the reference winds the diagnosis compares with, the sensors' weather-model analyses or "
+        "the truth wind at each report (no reference error: what the sensors carry that their model lacks)",
+    )
+    ap.add_argument(
         "--diagnose-code",
         default=None,
         metavar="CHECKOUT",
@@ -941,6 +957,10 @@ def main() -> None:
     cfg = INDEPENDENT if a.generator == "independent" else sim_config(a.campaign, a.aircraft, a.days)
     if a.diagnose_code:
         cfg = {**cfg, "diagnose_code": checkout_of(a.diagnose_code)}
+    if a.reference == "truth":
+        if a.generator != "simulated":
+            ap.error("--reference truth: only the simulated generator's reports carry the truth wind")
+        cfg = {**cfg, "reference": "truth"}
     cfg = {**cfg, "code": source_digest(a.generator, cfg.get("campaign"))}
     check_config(results, a.generator, cfg)
     print(f"generator: {a.generator} {json.dumps(cfg, sort_keys=True)}")
