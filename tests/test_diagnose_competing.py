@@ -279,6 +279,9 @@ def _group(f) -> list[str]:
 
 
 PITCH_LIKE = ("flight_path_angle_deg", "phase_ascent", "phase_descent")
+# what the pitch signature's proxy is computed from: the climb rate (its sign the phase),
+# the pressure altitude and the TAS (the dynamic pressure)
+PROXY_MADE_OF = {"tas_kt", "pressure_altitude_ft", "phase_ascent", "phase_descent"}
 
 
 @pytest.mark.slow
@@ -292,10 +295,10 @@ def test_the_straight_flight_cases(seed):
     of 0.4 deg per deg of pitch (not in the library), its angle of attack at one cruise lift
     coefficient (each leg's cruise angle 2 deg) and at one weight (2 deg at 265 kt and
     19,000 ft, every leg): its signature first (flight-path angle, slope within 0.15 of 0.4),
-    and no library cause named alone before it or after it. (What the signature leaves of the
-    pitch, e.g. in climbs whose flight-path angle three reports cannot resolve, may follow as
-    a term outside the library; how often that happens is the confusion matrix's wrong-cause
-    rate, validation/diagnose_confusion.py.)"""
+    and no library cause named alone before it or after it. What the signature leaves of the
+    pitch (in climbs whose flight-path angle three reports cannot resolve: a flight-phase
+    term, seed 0) is said as confusable with the pitch term's shape, never alone (before:
+    "transverse residual depends on the flight phase" as a second cause)."""
     spec = WindModelSpec(deviation_terms=3)
     null, _, _, _ = diagnose_wind(prepare(sog.generate(seed)), spec)
     assert null == [], [f.effect for f in null]
@@ -314,6 +317,12 @@ def test_the_straight_flight_cases(seed):
             assert f.effect.startswith("unexplained:") or any(
                 c in PITCH_LIKE for r in f.parameters.get("confusable_with", []) for c in r.get("covariates", [])
             ), (shape, _group(f))
+        for f in pitch[1:]:  # what the proxy leaves is said as the pitch term's shape, never alone
+            if set(_signature_covariates(f)) <= PROXY_MADE_OF:
+                assert any(
+                    r.get("covariates", [""])[0] == "flight_path_angle_deg"
+                    for r in f.parameters.get("confusable_with", [])
+                ), (shape, _group(f))
 
 
 def _fleet_blocks(step_deg: dict[int, float], rng, n_ac=8, n_blocks=30, shared_deg=2.0, own_deg=0.1):

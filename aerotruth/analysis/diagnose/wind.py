@@ -73,7 +73,10 @@ weather blocks better (held_out_contest: the difference of the two explanations'
 squared residuals summed per block, one-sided t at ALPHA_BEATS), else *confusable*: the
 finding then names both ("stale declination or a pitch-coupled term: these data cannot
 tell"), never one of them alone, with what would tell them apart. Rounds repeat until no
-candidate is left.
+candidate is left. A signature whose proxy models an attitude the table does not carry
+(the pitch term: flight-path angle and angle of attack from the climb rate, altitude and
+TAS) leaves what the proxy misses along those inputs; a later term in them is said as
+confusable with the entered term's shape (PROXY_INPUTS), never as a second cause alone.
 
 Screening (effects outside the library): each channel against heading harmonics (3z in
 the transverse channel, z..3z along), roll, flight phase, turn rate, pressure altitude,
@@ -151,6 +154,7 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
     split_time,
     stack_channels,
     standard_errors,
+    term_center,
     wind_model_from_campaign,
 )
 from aerotruth.analysis.least_squares import clustered_se
@@ -870,19 +874,68 @@ def _carriers(d: WindData, fit0: Fit, c: _Cand) -> list[dict]:
     return out
 
 
+# What a signature's proxy is made of, where the proxy is a model of an attitude the table
+# does not carry: the pitch attitude's flight-path angle comes from the climb rate (whose
+# sign is the flight phase) and its angle of attack from the dynamic pressure, a function of
+# the pressure altitude and the TAS, known only in shape (alpha0 + (W/S) / (CL_alpha q); flaps,
+# thrust, the weight's change along the flight and the air's temperature left out). What the
+# proxy misses of the true pitch then lies along those inputs: a TAS or altitude term found
+# after the pitch term is the pitch attitude's shape or a second effect, and no table without
+# the pitch (or the angle of attack) can tell which. On aerotruth's simulated SAAB 340 (true
+# JSBSim pitch, 0.4 deg/deg) 17 of 41 datasets named such a term after the pitch term; a
+# shape per flight phase added to the pitch term made it stronger, not weaker.
+PROXY_INPUTS = {
+    ("transverse", "flight_path_angle_deg", "inverse_dynamic_pressure", "inverse_dynamic_pressure_cruise"): (
+        {"tas_kt", "pressure_altitude_ft", "phase_ascent", "phase_descent"},
+        "the pitch attitude's shape: the pitch term's proxy (flight-path angle between reports plus an angle of "
+        "attack in 1/q) is built from the climb rate, the altitude and the TAS, and what it misses of the true pitch "
+        "lies along them",
+        "a measured pitch attitude or angle of attack",
+    ),
+}
+
+
+def _shape_of_entered(st: State, best: _Cand) -> list[dict]:
+    """The entered signatures whose proxy's misfit a screening finding may be
+    (PROXY_INPUTS): its channel theirs, its covariates among their proxy's inputs. Said
+    with the finding as confusable: the data cannot tell the two apart by construction."""
+    if best["kind"] != "screen":
+        return []
+    covs = {sg["covariate"] for sg in best["sigs"]}
+    out = []
+    for (ch, *group), (inputs, words, tell) in PROXY_INPUTS.items():
+        entered = [sg["covariate"] for sg in st.signatures if sg["channel"] == ch and sg["covariate"] in group]
+        if best["channel"] != ch or group[0] not in entered or not covs <= inputs:
+            continue
+        out.append(
+            {
+                "effect": f"unexplained:{ch}:" + "+".join(entered),
+                "covariates": entered,
+                "cause": words,
+                "test": "none: the finding's covariates are the entered term's proxy's inputs",
+                "tell_apart": tell,
+            }
+        )
+    return out
+
+
 def _name_confusable(f, best: _Cand, rivals: list[dict], extra: list[dict] | None = None) -> None:
     """The finding names every rival the data cannot tell from it (and the per-aircraft
     causes a fleet-wide signature may be made of, `extra`), and what would tell them."""
     words = [_rival_words(r) for r in rivals]
-    carriers = list(extra or [])
-    confusable = words + carriers
+    carriers = [x for x in extra or [] if "tell_apart" not in x]
+    shapes = [x for x in extra or [] if "tell_apart" in x]  # _shape_of_entered
+    confusable = words + carriers + shapes
     if not confusable:
         return
     f.parameters["confusable_with"] = confusable
     lead_covs = [sg["covariate"] for sg in best.get("sigs", [])]
     alts = "; or ".join(x["cause"] for x in confusable)
+    told = words + carriers
     tell = "; ".join(
-        [_varies(best["effect"], lead_covs)] + [_varies(x["effect"], x.get("covariates")) for x in confusable]
+        ([_varies(best["effect"], lead_covs)] if told else [])
+        + [_varies(x["effect"], x.get("covariates")) for x in told]
+        + [x["tell_apart"] for x in shapes]
     )
     why = []
     if words:
@@ -892,9 +945,10 @@ def _name_confusable(f, best: _Cand, rivals: list[dict], extra: list[dict] | Non
             "the fleet's change is not shared evenly: the aircraft named carry it against the rest of the fleet, "
             "and whether it is theirs alone or the fleet's and theirs these data do not say"
         )
-    f.cause = (
-        f"{f.cause}; or {alts}. These data cannot tell them apart ({'; '.join(why)}); data where these vary "
-        f"independently would: {tell}"
+    if shapes:
+        why.append("its covariates are what an entered term's proxy is made of")
+    f.cause = f"{f.cause}; or {alts}. These data cannot tell them apart ({'; '.join(why)}); " + (
+        f"data where these vary independently would: {tell}" if told else f"{tell} would"
     )
 
 
@@ -913,7 +967,8 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     plots: dict = {}
     rounds: list[dict] = []
     done: set[str] = set()  # screening keys entered
-    pending: list[tuple[Any, _Cand, list[dict], list[dict]]] = []  # (finding, its candidate, rivals, carriers)
+    # (finding, its candidate, rivals, carriers, the entered terms whose shape it may be)
+    pending: list[tuple[Any, _Cand, list[dict], list[dict], list[dict]]] = []
     n_blocks = len(np.unique(d.cluster))
     testable = n_blocks >= MIN_BLOCKS
     for _ in range(MAX_ROUNDS):
@@ -970,7 +1025,10 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
             f"{ALPHA_BEATS:g}, Diebold-Mariano on block sums), else confusable; a separate rival that this finding "
             "did not beat and that never enters on its own is confusable after all"
         )
-        pending.append((f, best, rivals, _carriers(d, fit0, best) if best["kind"] == "screen" else []))
+        shapes = _shape_of_entered(st, best)
+        if shapes:
+            f.evidence["shape_of_an_entered_term"] = [x["effect"] for x in shapes]
+        pending.append((f, best, rivals, _carriers(d, fit0, best) if best["kind"] == "screen" else [], shapes))
         findings.append(f)
         if best["kind"] == "screen":
             st.signatures.extend(best["sigs"])
@@ -987,13 +1045,13 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         if eff == "offset_drift":
             st.drifts.update(d.names.index(a) for a in params["aircraft"])
     named = {f.effect for f in findings}
-    for f, best, rivals, carriers in pending:
+    for f, best, rivals, carriers, shapes in pending:
         for r in rivals:  # "separate" promised a round of its own; without one it could not be told apart
             if r["verdict"] == "separate" and r["effect"] not in named and r["p_not_beaten"] >= ALPHA_BEATS:
                 r["verdict"] = "confusable"
                 f.evidence["rivals"][r["effect"]]["verdict"] = "confusable (separate, but never entered on its own)"
         carriers = [x for x in carriers if x["effect"] not in named]  # a cause named on its own is not a copy
-        _name_confusable(f, best, [r for r in rivals if r["verdict"] == "confusable"], carriers)
+        _name_confusable(f, best, [r for r in rivals if r["verdict"] == "confusable"], carriers + shapes)
     fit_end = solve(current_blocks(d, st), y, clusters)
     assert fit_start is not None  # set in the first round (MAX_ROUNDS >= 1)
     free = {
@@ -1130,14 +1188,7 @@ def _screen_tests(d: WindData, spec: WindModelSpec | None = None) -> list[tuple[
 
 
 def _screen_blocks(d: WindData, channel: str, covs: list[str]) -> tuple[list[Block], list[dict]]:
-    sigs = [
-        {
-            "channel": channel,
-            "covariate": c,
-            "center": 0.0 if c == "const" or channel == "both" else float(np.mean(covariate(d, c))),
-        }
-        for c in covs
-    ]
+    sigs = [{"channel": channel, "covariate": c, "center": term_center(d, channel, c)} for c in covs]
     return [
         Block("screen", f"{channel}:{'+'.join(covs)}", np.column_stack([signature_column(d, s) for s in sigs]))
     ], sigs

@@ -189,17 +189,13 @@ def report_rates(flight: np.ndarray, t: np.ndarray, z: np.ndarray, alt_ft: np.nd
     next_ok = np.r_[prev_ok[1:], False]
     zp, zn = np.r_[z[:1], z[:-1]], np.r_[z[1:], z[-1:]]
     tp, tn = np.r_[t[:1], t[:-1]], np.r_[t[1:], t[-1:]]
-    ap, an = np.r_[alt_ft[:1], alt_ft[:-1]], np.r_[alt_ft[1:], alt_ft[-1:]]
+    ap = np.r_[alt_ft[:1], alt_ft[:-1]]
     both = prev_ok & next_ok
     with np.errstate(invalid="ignore", divide="ignore"):
         dz = np.degrees((zn - zp + np.pi) % (2 * np.pi) - np.pi)
         turn = np.where(both, dz / (tn - tp), 0.0)
         rate = np.where(prev_ok, (alt_ft - ap) / (t - tp) * 60.0, 0.0)
-        lo = np.where(prev_ok, tp, t)
-        hi = np.where(next_ok, tn, t)
-        a_lo = np.where(prev_ok, ap, alt_ft)
-        a_hi = np.where(next_ok, an, alt_ft)
-        rate_c = np.where(hi > lo, (a_hi - a_lo) / (hi - lo) * 60.0, 0.0)
+    rate_c = neighbour_rate(flight, t, alt_ft) * 60.0
     assert len(turn) == n
     return turn, rate, rate_c
 
@@ -293,26 +289,24 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         ue, un = np.where(sp > 0, we / sp, 0.0), np.where(sp > 0, wn / sp, 0.0)
     # the wind's rate of change along each flight, per reference series: between the report's
     # neighbours, of the same wind the reference-bias direction uses (wind_model: wind_rate)
-    fl_used, t_used = r["flight"].to_numpy(), r["time_s"].to_numpy()
-    src_codes = r["ref_source"].astype("category").cat.codes.to_numpy()
+    flight, t = r["flight"].to_numpy(), r["time_s"].to_numpy()
+    src_cat = (
+        r["ref_source"].astype("category").cat.remove_unused_categories()
+    )  # not the empty cells' fill "ref" when none is
+    src_codes = src_cat.cat.codes.to_numpy()
     wind_rate_e, wind_rate_n = np.zeros(len(we)), np.zeros(len(we))
     for code in np.unique(src_codes):
         rows_m = np.flatnonzero(src_codes == code)
-        rows_m = rows_m[np.lexsort((t_used[rows_m], fl_used[rows_m]))]
-        wind_rate_e[rows_m] = neighbour_rate(fl_used[rows_m], t_used[rows_m], we[rows_m])
-        wind_rate_n[rows_m] = neighbour_rate(fl_used[rows_m], t_used[rows_m], wn[rows_m])
+        rows_m = rows_m[np.lexsort((t[rows_m], flight[rows_m]))]
+        wind_rate_e[rows_m] = neighbour_rate(flight[rows_m], t[rows_m], we[rows_m])
+        wind_rate_n[rows_m] = neighbour_rate(flight[rows_m], t[rows_m], wn[rows_m])
     lat, lon = df["lat"].to_numpy()[used], df["lon"].to_numpy()[used]
     alt = df["pressure_altitude_ft"].to_numpy()[used]
-    t = r["time_s"].to_numpy()
     when = dt.datetime(1970, 1, 1) + dt.timedelta(seconds=float(np.median(t)))
     h_ratio, sv, decl, tan_dip = _field_covariates(lat, lon, alt, when)
     ac_cat = r["aircraft"].astype("category")
     names = [str(c) for c in ac_cat.cat.categories]
     ac = ac_cat.cat.codes.to_numpy()
-    src_cat = (
-        r["ref_source"].astype("category").cat.remove_unused_categories()
-    )  # not the empty cells' fill "ref" when none is
-    flight = r["flight"].to_numpy()
     cluster, fold = weather_blocks(flight, t)
     # turn rate, flight phase and flight-path angle from a flight's adjacent (used) reports,
     # per report, then back on its rows
@@ -345,7 +339,7 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     return WindData(
         aircraft=ac,
         names=names,
-        source=src_cat.cat.codes.to_numpy(),
+        source=src_codes,
         sources=[str(c) for c in src_cat.cat.categories],
         flight=flight,
         time_s=t,

@@ -460,10 +460,15 @@ def fixed_effect_blocks(d: WindData, st: State, fit: Fit | None) -> list[Block]:
     return out
 
 
+def term_center(d: WindData, channel: str, name: str) -> float:
+    """What a linear term is centred on: its covariate's mean (the per-aircraft offsets keep
+    the mean); none for a constant and for a two-channel vector (its mean is not an offset)."""
+    return 0.0 if name == "const" or channel == "both" else float(np.mean(covariate(d, name)))
+
+
 def free_term_block(d: WindData, term: dict) -> Block:
-    """A free fleet-wide term of the spec (centred: the per-aircraft offsets keep the mean)."""
-    center = 0.0 if term["channel"] == "both" else float(np.mean(covariate(d, term["covariate"])))
-    sig = {**term, "center": center}
+    """A free fleet-wide term of the spec (centred: term_center)."""
+    sig = {**term, "center": term_center(d, term["channel"], term["covariate"])}
     return Block("base", f"free:{term['channel']}:{term['covariate']}", signature_column(d, sig)[:, None])
 
 
