@@ -67,7 +67,9 @@ of its columns (wind_model.Basis: Frisch-Waugh-Lovell, exactly the full fit). Of
 significant candidates with a held-out gain, the one with the largest held-out gain of
 both channels leads (a library effect keeps the lead over a signature unless the
 signature beats it and explains it away: `_lead`). Every other significant candidate is
-then judged against the lead: *separate* when still significant with the lead in the
+then judged against the lead, and so is every candidate the data support at a nominal 5 %
+(ALPHA_RIVAL: whether two explanations can be told apart does not hang on the second
+reaching the level that names a cause): *separate* when still significant with the lead in the
 model (it competes again in the next round), *beaten* when the lead predicts the held-out
 weather blocks better (held_out_contest: the difference of the two explanations' held-out
 squared residuals summed per block, one-sided t at ALPHA_BEATS), else *confusable*: the
@@ -443,6 +445,13 @@ def _plot_data(d: WindData, fit0: Fit, fit1: Fit, eff: str, channel: str) -> dic
 
 # a finding is named alone only where it predicts held-out blocks better than each rival at this level
 ALPHA_BEATS = 0.05
+# a rival is any candidate the data support at this nominal level (with a held-out gain), not
+# only those significant at the family-wise level that lets a cause be named: whether two
+# explanations can be told apart does not depend on the second reaching that level. With
+# the family-wise level only, a TAS-linear heading error (the independent generator's
+# airspeed effect, TAS and altitude correlated 0.8 over the flights) was named as an
+# altitude term alone where TAS fell short of the level (p 1.3e-3, seed 70010)
+ALPHA_RIVAL = 0.05
 
 
 class _Cand(TypedDict):
@@ -592,7 +601,7 @@ def _screen_candidates(d, st, y, clusters, fit0, basis, r0, done: set[str], look
         blocks, sigs = _screen_blocks(d, ch, covs)
         fit1 = basis.fit(blocks)
         p = p_of(fit1)
-        if not p < level:  # held out only where it could enter or rival (the cost of a round)
+        if not p < max(level, ALPHA_RIVAL):  # held out only where it could enter or rival (the cost of a round)
             out.append(
                 {
                     "effect": f"unexplained:{key}",
@@ -646,12 +655,13 @@ def _trend_p(d: WindData, fit0: Fit, channel: str) -> float:
 def _rivals(d, basis, best: _Cand, others: list[_Cand]) -> list[dict]:
     """What the round's best explanation is against each other explanation the data support.
 
-    For each rival y (significant, with a held-out gain): first whether y is a *separate*
-    effect, still significant at its own level with the best one in the model (then it
-    competes in a later round); else y explains what the best one explains, and the best
-    one is named alone only if it *beats* y: predicts the held-out weather blocks better
-    (held_out_contest, one-sided at ALPHA_BEATS). A rival it does not beat is *confusable*
-    with it: the finding names both."""
+    For each rival y (significant, or supported at ALPHA_RIVAL: *weak*; with a held-out
+    gain): first whether y is a *separate* effect, still significant at its own level with
+    the best one in the model (then it competes in a later round; a weak rival still
+    supported at ALPHA_RIVAL is *apart*: another thing, too weak to name, and left out);
+    else y explains what the best one explains, and the best one is named alone only if it
+    *beats* y: predicts the held-out weather blocks better (held_out_contest, one-sided at
+    ALPHA_BEATS). A rival it does not beat is *confusable* with it: the finding names both."""
     out = []
     clusters2 = np.r_[d.cluster, d.cluster]
     for c in others:
@@ -659,7 +669,11 @@ def _rivals(d, basis, best: _Cand, others: list[_Cand]) -> list[dict]:
         joint = basis.fit(best["blocks"] + rb)
         p_sep = block_p(joint, "rival", d)
         t, p_beat = held_out_contest(best["resid_ho"], c["resid_ho"], clusters2)
-        verdict = "separate" if p_sep < c["level"] else ("beaten" if p_beat < ALPHA_BEATS else "confusable")
+        weak = not c["p"] < c["level"]
+        if p_sep < (ALPHA_RIVAL if weak else c["level"]):
+            verdict = "apart" if weak else "separate"
+        else:
+            verdict = "beaten" if p_beat < ALPHA_BEATS else "confusable"
         out.append(
             {
                 "effect": c["effect"],
@@ -1004,7 +1018,15 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         best = _lead(d, basis, ok)
         rivals: list[dict] = []
         if best["kind"] != "quantization":
-            others = [c for c in ok if c is not best and c["kind"] != "quantization"]
+            others = [
+                c
+                for c in cands
+                if c is not best
+                and c["kind"] != "quantization"
+                and c["p"] < max(c["level"], ALPHA_RIVAL)
+                and c["rel"] > MIN_REL_GAIN
+                and "resid_ho" in c
+            ]
             rivals = _rivals(d, basis, best, others)
         if best["kind"] == "screen":
             f = _screen_finding(d, st, fit0, best, plots)
