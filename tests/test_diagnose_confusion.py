@@ -17,22 +17,14 @@ ROOT = Path(__file__).resolve().parents[1]
 EFFECTS = ("null", "soft_iron", "recalibration", "reference_bias", "pitch", "time_of_day")
 
 
-@pytest.mark.slow
-def test_one_dataset_per_effect_names_what_was_hidden_and_nothing_else(tmp_path):
+def _one_dataset_each(tmp_path, effects: str, seed0: int) -> tuple[dict, str]:
+    """The script on one independent dataset per effect: its `label: value` lines, its stdout."""
     out = subprocess.run(
         [
             sys.executable,
             str(ROOT / "validation" / "diagnose_confusion.py"),
             str(tmp_path / "results"),
-            "--effects",
-            ",".join(EFFECTS),
-            "--datasets",
-            "1",
-            "--seed0",
-            "70001",
-            "--workers",
-            "1",
-            "--no-cli-timing",
+            *("--effects", effects, "--datasets", "1", "--seed0", str(seed0), "--workers", "1", "--no-cli-timing"),
         ],
         capture_output=True,
         text=True,
@@ -40,11 +32,17 @@ def test_one_dataset_per_effect_names_what_was_hidden_and_nothing_else(tmp_path)
         timeout=900,
     )
     lines = dict(x.split(": ", 1) for x in out.stdout.splitlines() if ": " in x and not x.startswith("#"))
-    assert lines["independent.null.null_any"].startswith("0.00 (0 of 1"), out.stdout
+    return lines, out.stdout
+
+
+@pytest.mark.slow
+def test_one_dataset_per_effect_names_what_was_hidden_and_nothing_else(tmp_path):
+    lines, stdout = _one_dataset_each(tmp_path, ",".join(EFFECTS), 70001)
+    assert lines["independent.null.null_any"].startswith("0.00 (0 of 1"), stdout
     for eff in EFFECTS[1:]:
-        assert lines[f"independent.{eff}.named_first"].startswith("1.00 (1 of 1"), (eff, out.stdout)
-        assert lines[f"independent.{eff}.wrong_cause"].startswith("0.00 (0 of 1"), (eff, out.stdout)
-    assert lines["independent.recalibration.aircraft_right"].startswith("1.00 (1 of 1"), out.stdout
+        assert lines[f"independent.{eff}.named_first"].startswith("1.00 (1 of 1"), (eff, stdout)
+        assert lines[f"independent.{eff}.wrong_cause"].startswith("0.00 (0 of 1"), (eff, stdout)
+    assert lines["independent.recalibration.aircraft_right"].startswith("1.00 (1 of 1"), stdout
     rows = (tmp_path / "results" / "rows.csv").read_text().splitlines()
     assert len(rows) == 1 + len(EFFECTS)  # a header and a row per dataset, resumable from there
 
@@ -57,27 +55,9 @@ def test_an_airspeed_error_is_not_named_as_an_altitude_term_alone(tmp_path):
     the altitude term may lead, but TAS, which it explains away and does not beat on
     held-out blocks, is named beside it as confusable (before: the altitude term alone, a
     wrong cause)."""
-    out = subprocess.run(
-        [
-            sys.executable,
-            str(ROOT / "validation" / "diagnose_confusion.py"),
-            str(tmp_path / "results"),
-            "--effects",
-            "airspeed",
-            "--datasets",
-            "1",
-            "--seed0",
-            "70010",
-            "--no-cli-timing",
-        ],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=600,
-    )
-    lines = dict(x.split(": ", 1) for x in out.stdout.splitlines() if ": " in x and not x.startswith("#"))
-    assert lines["independent.airspeed.named_first"].startswith("1.00 (1 of 1"), out.stdout
-    assert lines["independent.airspeed.wrong_cause"].startswith("0.00 (0 of 1"), out.stdout
+    lines, stdout = _one_dataset_each(tmp_path, "airspeed", 70010)
+    assert lines["independent.airspeed.named_first"].startswith("1.00 (1 of 1"), stdout
+    assert lines["independent.airspeed.wrong_cause"].startswith("0.00 (0 of 1"), stdout
 
 
 def test_a_folder_made_by_other_code_is_refused(tmp_path):
