@@ -340,7 +340,7 @@ def _fleet_blocks(step_deg: dict[int, float], rng, n_ac=8, n_blocks=30, shared_d
     off_deg = shared + rng.normal(0, own_deg, len(ac)) + step
     tas = np.full(len(ac), 120.0)
     d = SimpleNamespace(
-        n=len(ac), aircraft=ac, cluster=blk, time_s=t, tas=tas, names=[f"N{401 + i}XJ" for i in range(n_ac)]
+        n=len(ac), aircraft=ac, cluster=blk, block=blk, time_s=t, tas=tas, names=[f"N{401 + i}XJ" for i in range(n_ac)]
     )
     fit = SimpleNamespace(resid=np.r_[np.deg2rad(off_deg) * tas, np.zeros(len(ac))])
     return d, fit, 15 * 6 * 3600.0

@@ -333,6 +333,8 @@ def test_an_analysis_error_shared_by_the_fleet_is_not_a_reference_bias(seed):
     findings, baseline, d = _diagnose(obs)
     assert [f.effect for f in findings] == [], [(f.effect, f.parameters, f.evidence) for f in findings]
     assert baseline["weather_blocks"] < baseline["flights"] / 4
+    # the references' differences show the shared error: the tests stay on weather blocks
+    assert baseline["units"]["unit"] == "weather block" and baseline["units"]["count"] == baseline["weather_blocks"]
 
 
 def test_the_model_of_a_campaigns_sensors_states_what_they_put_in_reports():

@@ -437,6 +437,15 @@ def _group_name(f) -> str:
     return f.effect if not alts else f"{f.effect} or {' or '.join(alts)} (confusable)"
 
 
+def _units_text(baseline: dict) -> str:
+    """The tests' units and why (baseline["units"]; reports written before it: weather blocks)."""
+    u = baseline.get("units")
+    if u is None:
+        return f"{baseline['weather_blocks']} six-hour weather blocks"
+    what = "flights" if u["unit"] == "flight" else "six-hour weather blocks"
+    return f"{u['count']} {what}: {u['why']}"
+
+
 def write_wind_diagnosis(
     measured: str, findings: list, baseline: dict, spec: WindModelSpec, extended: WindModelSpec, plots: dict, out_dir
 ) -> None:
@@ -472,7 +481,7 @@ def write_wind_diagnosis(
         f"lat/lon grid {spec.lat_lon_step_deg:g} deg"
         + ("; a TAS bias per aircraft" if spec.tas_bias else "")
         + ("; TAS along the air path" if spec.tas_along_path else "")
-        + f". Tests on {baseline['weather_blocks']} six-hour weather blocks.",
+        + f". Tests on {_units_text(baseline)}.",
         "",
         f"Residual RMS (kt), transverse {rr['transverse_before']:.2f} → {rr['transverse_after']:.2f}, along "
         f"{rr['along_before']:.2f} → {rr['along_after']:.2f} (model → extended model).",

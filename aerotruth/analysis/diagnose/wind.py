@@ -41,14 +41,18 @@ rest; `field_scaling` by Gauss-Newton on gamma):
 
 Evidence. Reference-model errors are one field over the region, correlated for hours, so
 the flights of all aircraft in the same hours share them (on aerotruth's own simulated
-reports, clustering on flights gave false reference biases): every test is on 6-h weather
-blocks (diagnose_wind_data.weather_blocks; each flight whole in the block of its mid-time),
-a Wald test with the leave-one-block-out (jackknife) covariance, F(q, G - 1); per-aircraft
+reports, clustering on flights gave false reference biases): the tests' independent units
+are 6-h weather blocks (wind_data.weather_blocks; each flight whole in the block of its
+mid-time), unless the differences between two reference models at the same reports show
+no error shared between flights (wind_data.reference_sharing, a sign-flip test; they carry
+no aircraft error): then flights, which have the degrees of freedom the blocks pool
+(wind_data.dependence_units; said in the report with the test's p). On those units: a Wald
+test with the leave-one-unit-out (jackknife) covariance, F(q, G - 1); per-aircraft
 parameters are tested aircraft by aircraft and the p-values combined by summing their
-chi-square equivalents (Fisher-type). Changes in time are tested by permuting weather
-blocks (exact for any number of them): an aircraft's change-point (sup |CUSUM| of its
-blocks' mean offsets) and drift (their slope), Bonferroni over aircraft, and the fleet's
-change-point and trend. Family-wise: ALPHA_LIBRARY over the library's candidates of a round
+chi-square equivalents (Fisher-type). Changes in time are tested by permuting the units
+(exact for any number of them): an aircraft's change-point (sup |CUSUM| of its units' mean
+offsets) and drift (their slope), Bonferroni over aircraft, and the fleet's change-point
+and trend. Family-wise: ALPHA_LIBRARY over the library's candidates of a round
 and ALPHA_SCREEN over the screening tests, each Bonferroni-split (nominal 2 % in all), and
 divided by the round's number: every round looks at the data again, so the r-th finding is
 named at 1/r of the first one's level (on null data nearly every diagnosis ends in the
@@ -71,8 +75,9 @@ then judged against the lead, and so is every candidate the data support at a no
 (ALPHA_RIVAL: whether two explanations can be told apart does not hang on the second
 reaching the level that names a cause): *separate* when still significant with the lead in the
 model (it competes again in the next round), *beaten* when the lead predicts the held-out
-weather blocks better (held_out_contest: the difference of the two explanations' held-out
-squared residuals summed per block, one-sided t at ALPHA_BEATS), else *confusable*: the
+units better (held_out_contest: the difference of the two explanations' held-out squared
+residuals summed per unit, t two-sided at ALPHA_BEATS: the lead was chosen as the better
+one on the same units), else *confusable*: the
 finding then names both ("stale declination or a pitch-coupled term: these data cannot
 tell"), never one of them alone, with what would tell them apart. Rounds repeat until no
 candidate is left. A signature whose proxy models an attitude the table does not carry
@@ -114,7 +119,13 @@ from typing import Any, NotRequired, TypedDict
 
 import numpy as np
 
-from aerotruth.analysis.diagnose.wind_data import N_FOLDS, WindData, prepare  # noqa: F401  (re-exported)
+from aerotruth.analysis.diagnose.wind_data import (  # noqa: F401  (prepare re-exported)
+    N_FOLDS,
+    WindData,
+    prepare,
+    unit_words,
+    units_reason,
+)
 from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSpec, wind_model_from_campaign re-exported)
     CANDIDATES,
     CHANNEL,
@@ -174,16 +185,20 @@ MIN_BLOCKS = 20  # fewest weather blocks (independent clusters) for any test: CR
 # plan's sizes it rejected effects significant at p 2e-5 to 6e-4 whose held-out gains were
 # 0.05-0.2 % (4-kt reference errors). What an effect is worth is its size, reported with it.
 MIN_REL_GAIN = 0.0
-HELD_OUT_WORDS = (
-    f"6-h weather blocks in {N_FOLDS} folds (block k in fold k mod {N_FOLDS}); each fold predicted by what the "
-    "others learned"
-)
+
+
+def held_out_words(d: WindData) -> str:
+    return (
+        f"{unit_words(d)} in {N_FOLDS} folds (the k-th in time in fold k mod {N_FOLDS}); each fold predicted by "
+        "what the others learned"
+    )
+
+
 # candidates tested by a scan of each aircraft's series of mean offsets (p-values Bonferroni over aircraft),
 # not by the Wald test of their fitted columns (chosen by the scan, those would over-reject)
 SCANNED = {
-    "recalibration": "sup |CUSUM| of the aircraft's 6-h weather-block means, blocks permuted, Bonferroni over aircraft",
-    "offset_drift": "slope in time of the aircraft's 6-h weather-block means, blocks permuted, Bonferroni over "
-    "aircraft",
+    "recalibration": "sup |CUSUM| of the aircraft's means over its {units}, permuted, Bonferroni over aircraft",
+    "offset_drift": "slope in time of the aircraft's means over its {units}, permuted, Bonferroni over aircraft",
 }
 
 CAUSES = {
@@ -400,7 +415,7 @@ def _forms_chosen(d: WindData, st: State, y: np.ndarray, clusters: np.ndarray, b
         "p_value": block_p(fit, "reference_bias", d),
         "held_out_before": b_ho,
         "held_out_after": a_ho,
-        "test": "cluster-robust Wald on 6-h weather blocks; held out as the finding's gain",
+        "test": f"cluster-robust Wald on {unit_words(d)}; held out as the finding's gain",
     }
 
 
@@ -443,8 +458,19 @@ def _plot_data(d: WindData, fit0: Fit, fit1: Fit, eff: str, channel: str) -> dic
     }
 
 
-# a finding is named alone only where it predicts held-out blocks better than each rival at this level
+# a finding is named alone only where it predicts held-out units better than each rival at this
+# level, two-sided: the lead is the candidate with the larger held-out gain on the same units,
+# so a one-sided test in the direction the data chose has twice its size for rivals that are
+# equally good (an offset drift led a recalibration by a held-out gain and "beat" it at
+# one-sided p 0.046 where the step was the truth, seed 70001 with flights as units)
 ALPHA_BEATS = 0.05
+
+
+def _beats(p_not_beaten: float) -> bool:
+    """Whether the lead beats a rival: the contest's one-sided p below half of ALPHA_BEATS."""
+    return p_not_beaten < ALPHA_BEATS / 2
+
+
 # a rival is any candidate the data support at this nominal level (with a held-out gain), not
 # only those significant at the family-wise level that lets a cause be named: whether two
 # explanations can be told apart does not depend on the second reaching that level. With
@@ -660,8 +686,8 @@ def _rivals(d, basis, best: _Cand, others: list[_Cand]) -> list[dict]:
     the best one in the model (then it competes in a later round; a weak rival still
     supported at ALPHA_RIVAL is *apart*: another thing, too weak to name, and left out);
     else y explains what the best one explains, and the best one is named alone only if it
-    *beats* y: predicts the held-out weather blocks better (held_out_contest, one-sided at
-    ALPHA_BEATS). A rival it does not beat is *confusable* with it: the finding names both."""
+    *beats* y: predicts the held-out units better (held_out_contest, two-sided at
+    ALPHA_BEATS: _beats). A rival it does not beat is *confusable* with it: the finding names both."""
     out = []
     clusters2 = np.r_[d.cluster, d.cluster]
     for c in others:
@@ -673,7 +699,7 @@ def _rivals(d, basis, best: _Cand, others: list[_Cand]) -> list[dict]:
         if p_sep < (ALPHA_RIVAL if weak else c["level"]):
             verdict = "apart" if weak else "separate"
         else:
-            verdict = "beaten" if p_beat < ALPHA_BEATS else "confusable"
+            verdict = "beaten" if _beats(p_beat) else "confusable"
         out.append(
             {
                 "effect": c["effect"],
@@ -726,12 +752,12 @@ def _screen_finding(d, st, fit0, c: _Cand, plots: dict) -> Any:
     pitch = sigs[0]["covariate"] == "flight_path_angle_deg"  # its size: deg per deg of flight-path angle
     params["size"] = float(beta[0]) if len(beta) == 1 or pitch else float(math.hypot(*beta[:2]))
     evidence = {
-        "test": "cluster-robust Wald on 6-h weather blocks (screening)"
+        "test": f"cluster-robust Wald on {unit_words(d)} (screening)"
         if not key.startswith(("periodic", "fleet_step"))
         else (
-            "strongest period of the flight means' periodogram; cluster-robust Wald on weather blocks x M frequencies"
+            f"strongest period of the flight means' periodogram; cluster-robust Wald on {unit_words(d)} x M frequencies"
             if key == "periodic"
-            else "sup-CUSUM of the fleet's weather-block means"
+            else f"sup-CUSUM of the fleet's means over {unit_words(d)}"
         ),
         "p_value": c["p"],
         "alpha": c["level"],
@@ -742,7 +768,7 @@ def _screen_finding(d, st, fit0, c: _Cand, plots: dict) -> Any:
         "after": rms_of_kt(fit1.resid, d.n, ch),
         "held_out_before": c["held_out"][0],
         "held_out_after": c["held_out"][1],
-        "held_out": HELD_OUT_WORDS,
+        "held_out": held_out_words(d),
     }
     plots[c["effect"]] = _plot_data(d, fit0, fit1, "screen", ch)
     return Finding(
@@ -776,7 +802,7 @@ def _library_finding(d, st, fit0, c: _Cand, base, y, clusters, plots: dict) -> A
         params = _parameters(eff, d, fit1, c["dgamma"], st)
         ch = CHANNEL[eff]
         evidence = {
-            "test": SCANNED.get(eff, "cluster-robust Wald on 6-h weather blocks"),
+            "test": SCANNED.get(eff, "cluster-robust Wald on {units}").format(units=unit_words(d)),
             "p_value": c["p"],
             "alpha": c["level"],
             "flights": int(len(np.unique(d.flight))),
@@ -796,15 +822,16 @@ def _library_finding(d, st, fit0, c: _Cand, base, y, clusters, plots: dict) -> A
             "after": rms_of_kt(fit1.resid, d.n, ch),
             "held_out_before": c["held_out"][0],
             "held_out_after": c["held_out"][1],
-            "held_out": HELD_OUT_WORDS,
+            "held_out": held_out_words(d),
         }
         plots[eff] = _plot_data(d, fit0, fit1, eff, ch)
     params["size"] = _size(eff, params)
     return Finding(eff, cause(eff, params), params, evidence, gain)
 
 
-def _rival_words(r: dict) -> dict:
-    """A confusable rival as the finding states it: its name, what it would mean, its numbers."""
+def _rival_words(d: WindData, r: dict) -> dict:
+    """A confusable rival as the finding states it: its name, what it would mean, its numbers
+    (and, for a per-aircraft effect, its aircraft and their step times)."""
     c = r["candidate"]
     out = {
         "effect": c["effect"],
@@ -821,6 +848,14 @@ def _rival_words(r: dict) -> dict:
         out["cause"] = "not in the effects library; described by its signature: " + out["signature"]
     else:
         out["cause"] = CAUSES.get(c["effect"], c["effect"])
+        per = sorted({b.aircraft for b in c.get("blocks", []) if b.aircraft >= 0})
+        if per and c["effect"] in SCANNED:
+            out["aircraft"] = [d.names[i] for i in per]
+            out["cause"] += f" ({', '.join(out['aircraft'])})"
+        if c["effect"] == "recalibration":
+            out["steps_utc"] = {
+                d.names[b.aircraft]: _iso(float(b.label.split("@")[1])) for b in c["blocks"] if b.aircraft >= 0
+            }
     return out
 
 
@@ -933,12 +968,11 @@ def _shape_of_entered(st: State, best: _Cand) -> list[dict]:
     return out
 
 
-def _name_confusable(f, best: _Cand, rivals: list[dict], extra: list[dict] | None = None) -> None:
-    """The finding names every rival the data cannot tell from it (and the per-aircraft
-    causes a fleet-wide signature may be made of, `extra`), and what would tell them."""
-    words = [_rival_words(r) for r in rivals]
-    carriers = [x for x in extra or [] if "tell_apart" not in x]
-    shapes = [x for x in extra or [] if "tell_apart" in x]  # _shape_of_entered
+def _name_confusable(d: WindData, f, best: _Cand, rivals: list[dict], carriers: list[dict], shapes: list[dict]) -> None:
+    """The finding names every rival the data cannot tell from it, the per-aircraft causes a
+    fleet-wide signature may be made of (`carriers`, _carriers) and the entered terms whose
+    proxy's leftovers it may be (`shapes`, _shape_of_entered), and what would tell them."""
+    words = [_rival_words(d, r) for r in rivals]
     confusable = words + carriers + shapes
     if not confusable:
         return
@@ -953,7 +987,7 @@ def _name_confusable(f, best: _Cand, rivals: list[dict], extra: list[dict] | Non
     )
     why = []
     if words:
-        why.append("each explains what the other does, and neither predicts held-out weather blocks better")
+        why.append(f"each explains what the other does, and neither predicts held-out {unit_words(d)} better")
     if carriers:
         why.append(
             "the fleet's change is not shared evenly: the aircraft named carry it against the rest of the fleet, "
@@ -983,8 +1017,8 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     done: set[str] = set()  # screening keys entered
     # (finding, its candidate, rivals, carriers, the entered terms whose shape it may be)
     pending: list[tuple[Any, _Cand, list[dict], list[dict], list[dict]]] = []
-    n_blocks = len(np.unique(d.cluster))
-    testable = n_blocks >= MIN_BLOCKS
+    n_units = len(np.unique(d.cluster))
+    testable = n_units >= MIN_BLOCKS
     for _ in range(MAX_ROUNDS):
         fit_start = fit_start or solve(current_blocks(d, st), y, clusters, with_cov=False)
         if not testable:  # only the reports' grid, which needs no weather blocks (and no fit)
@@ -1043,9 +1077,9 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         }
         f.evidence["rivals_rule"] = (
             "a rival (significant, with a held-out gain) is separate when still significant with this finding in the "
-            f"model; otherwise beaten when this finding predicts held-out weather blocks better (one-sided p < "
-            f"{ALPHA_BEATS:g}, Diebold-Mariano on block sums), else confusable; a separate rival that this finding "
-            "did not beat and that never enters on its own is confusable after all"
+            f"model; otherwise beaten when this finding predicts held-out {unit_words(d)} better (two-sided p < "
+            f"{ALPHA_BEATS:g}, Diebold-Mariano on the units' sums), else confusable; a separate rival that this "
+            "finding did not beat and that never enters on its own is confusable after all"
         )
         shapes = _shape_of_entered(st, best)
         if shapes:
@@ -1069,17 +1103,17 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     named = {f.effect for f in findings}
     for f, best, rivals, carriers, shapes in pending:
         for r in rivals:  # "separate" promised a round of its own; without one it could not be told apart
-            if r["verdict"] == "separate" and r["effect"] not in named and r["p_not_beaten"] >= ALPHA_BEATS:
+            if r["verdict"] == "separate" and r["effect"] not in named and not _beats(r["p_not_beaten"]):
                 r["verdict"] = "confusable"
                 f.evidence["rivals"][r["effect"]]["verdict"] = "confusable (separate, but never entered on its own)"
         carriers = [x for x in carriers if x["effect"] not in named]  # a cause named on its own is not a copy
-        _name_confusable(f, best, [r for r in rivals if r["verdict"] == "confusable"], carriers + shapes)
+        _name_confusable(d, f, best, [r for r in rivals if r["verdict"] == "confusable"], carriers, shapes)
     fit_end = solve(current_blocks(d, st), y, clusters)
     assert fit_start is not None  # set in the first round (MAX_ROUNDS >= 1)
     free = {
         b.label[5:]: {
             "slope": float(be[0]),
-            "se": float(standard_errors(v)[0]) if n_blocks >= 2 else float("nan"),  # one cluster: no se
+            "se": float(standard_errors(v)[0]) if n_units >= 2 else float("nan"),  # one cluster: no se
             "unit": "deg per unit"
             if b.label.startswith("free:transverse")
             else ("s (both channels)" if b.label.startswith("free:both") else "kt per unit"),
@@ -1111,12 +1145,13 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         "rows": int(d.n),
         "aircraft": len(d.names),
         "flights": int(len(np.unique(d.flight))),
-        "weather_blocks": n_blocks,
+        "weather_blocks": int(len(np.unique(d.block))),
+        "units": {"unit": d.unit, "count": n_units, "why": units_reason(d), "sharing_test": d.sharing},
         "data": d.table,
     }
     if not testable:
         baseline["not_tested"] = (
-            f"the data span {n_blocks} independent 6-h weather blocks, fewer than {MIN_BLOCKS}: "
+            f"the data span {n_units} independent 6-h weather blocks, fewer than {MIN_BLOCKS}: "
             "cluster-robust tests on so few clusters reject too often (aerotruth's own null "
             "reports on 15 blocks: 10 false findings in 100 datasets), so no effect is tested; the "
             "quantization check (no test statistic on clusters) still runs. More days of data "

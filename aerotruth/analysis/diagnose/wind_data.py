@@ -11,6 +11,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pandas as pd
+from scipy import sparse
 
 from aerotruth.analysis.wind.heading_errors import (
     TRACK_GATES,
@@ -68,8 +69,11 @@ class WindData:
     inv_q: np.ndarray  # Q_REF / q, q = sigma(h) TAS^2: the angle of attack's shape at one weight
     inv_q_cruise: np.ndarray  # q_cruise / q: the angle of attack's shape at one cruise lift coefficient (1 at cruise)
     local_hour: np.ndarray  # local solar hour, UTC + lon / 15
-    cluster: np.ndarray  # weather block of the row's flight (the unit of every test)
-    fold: np.ndarray  # 0 .. N_FOLDS - 1: weather block k in fold k mod N_FOLDS
+    cluster: np.ndarray  # the unit of every test the row belongs to: its flight or its flight's weather block (`unit`)
+    fold: np.ndarray  # 0 .. N_FOLDS - 1: unit k (in time order) in fold k mod N_FOLDS
+    block: np.ndarray  # weather block of the row's flight (the fleet's contrasts compare aircraft within one)
+    unit: str  # "flight" or "weather block": what `cluster` counts (dependence_units)
+    sharing: dict  # the test of reference error shared between flights that chose it (reference_sharing)
     report_lat: np.ndarray  # every report (not only gated), for the quantization
     report_lon: np.ndarray
     jitter: dict  # ground-track jitter of the reports (segment velocity differences)
@@ -102,6 +106,175 @@ def weather_blocks(flight: np.ndarray, time_s: np.ndarray) -> tuple[np.ndarray, 
     order = np.unique(blocks)
     cluster = np.searchsorted(order, blocks)
     return cluster, (cluster % N_FOLDS).astype(np.int8)
+
+
+# the reference models' differences must show no error shared between flights at this level
+# before flights are the tests' units: a test that keeps weather blocks on doubt (at 0.1 it
+# chooses flights in nine of ten datasets without sharing) and needs evidence of absence
+# only where it has the data to see sharing (at least MIN_SHARING_BLOCKS weather blocks)
+SHARING_LEVEL = 0.1
+MIN_SHARING_BLOCKS = 20  # the tests' own floor of independent clusters (wind.MIN_BLOCKS)
+SHARING_WINDOW_S = WEATHER_BLOCK_S / 2  # flights whose mid-times are closer are compared
+SHARING_DRAWS = 1999
+SHARING_SEED = 20261130
+SHARING_COMPONENTS = ("east", "north", "along the wind", "across the wind")
+
+
+def reference_sharing(
+    rep: np.ndarray,
+    src: np.ndarray,
+    flight: np.ndarray,
+    time_s: np.ndarray,
+    ref_e: np.ndarray,
+    ref_n: np.ndarray,
+) -> dict:
+    """Whether the reference models' errors are shared between flights, from the differences
+    of two reference models' winds at the same report (per row: report id, reference code,
+    flight, time, the reference's wind east and north in m/s).
+
+    A difference W_a - W_b carries no aircraft error and no heading effect: only the two
+    analyses' errors e_a - e_b. Each pair's systematic part is fitted out first (a constant
+    vector, an offset along the mean wind, a scale of it: a reference bias hidden in the data
+    would otherwise look like sharing). Each flight's mean remaining difference in each
+    component c (east, north, along the pair's mean wind, across it: a field error shows in
+    the first two, an error of the wind's speed along every flight's own wind in the third),
+    v_f,c (every pair of references side by side), enters
+
+        S_c = sum over flights f != g with |mid_f - mid_g| < T of (1 - |mid_f - mid_g| / T) v_f,c . v_g,c,
+        T = SHARING_WINDOW_S (3 h, the weather models' error correlation time),
+
+    and the test's statistic is the largest of the S_c over their standard deviations under
+    the null. The null (no error shared between flights: the v_f independent and symmetric)
+    is that statistic with every flight's sign flipped at random, the same flips for every
+    component (exact for any distribution of the v_f; the p-value from SHARING_DRAWS flips of
+    a fixed stream; one-sided: sharing makes S_c positive). Also given: the component, z
+    (its S_c over the sign-flip standard deviation) and rho (the weighted mean correlation of
+    the compared flights' v_c: S_c over the same weighted sum of |v_f,c| |v_g,c|).
+
+    What it cannot see: an error both references make alike (their common part cancels in
+    the difference; two analyses that assimilate the same observations share some), and an
+    error of the aircraft's own that persists from one flight to the next (a change in time
+    of its heading offset is an effect the diagnosis tests, not noise)."""
+    srcs = np.unique(src)
+    if len(srcs) < 2:
+        return {"tested": False, "why": "one reference model: nothing to compare its errors with"}
+    reps, ri = np.unique(rep, return_inverse=True)
+    n_src = int(src.max()) + 1
+    W = np.full((len(reps), n_src, 2), np.nan)
+    W[ri, src, 0], W[ri, src, 1] = ref_e, ref_n
+    fl = np.empty(len(reps), dtype=flight.dtype)
+    fl[ri] = flight
+    flights, fi = np.unique(fl, return_inverse=True)
+    F = len(flights)
+    t = pd.Series(time_s).groupby(flight).agg(["min", "max"]).reindex(flights)
+    mid = 0.5 * (t["min"].to_numpy() + t["max"].to_numpy())
+    parts = []
+    for a in range(n_src):
+        for b in range(a + 1, n_src):
+            ok = np.isfinite(W[:, a, 0]) & np.isfinite(W[:, b, 0])
+            m = int(ok.sum())
+            if m < 20:
+                continue
+            diff, mean = W[ok, a] - W[ok, b], 0.5 * (W[ok, a] + W[ok, b])
+            sp = np.hypot(mean[:, 0], mean[:, 1])
+            unit = np.divide(mean, sp[:, None], out=np.zeros_like(mean), where=sp[:, None] > 0)
+            X = np.zeros((2 * m, 4))
+            X[:m, 0], X[m:, 1] = 1.0, 1.0
+            X[:, 2], X[:, 3] = np.r_[unit[:, 0], unit[:, 1]], np.r_[mean[:, 0], mean[:, 1]]
+            y = np.r_[diff[:, 0], diff[:, 1]]
+            res = y - X @ np.linalg.lstsq(X, y, rcond=None)[0]
+            re_, rn_ = res[:m], res[m:]
+            cnt = np.bincount(fi[ok], minlength=F)
+            # east, north, along the wind, across it: a field error shows in the first two, an
+            # error of the wind's speed (the same along every flight's own wind) in the third
+            for c in (re_, rn_, re_ * unit[:, 0] + rn_ * unit[:, 1], rn_ * unit[:, 0] - re_ * unit[:, 1]):
+                parts.append(np.divide(np.bincount(fi[ok], c, minlength=F), cnt, out=np.zeros(F), where=cnt > 0))
+    if not parts:
+        return {"tested": False, "why": "fewer than 20 reports carry two reference models"}
+    V = np.column_stack(parts)
+    order = np.argsort(mid, kind="stable")
+    lo = np.searchsorted(mid[order], mid[order] - SHARING_WINDOW_S, side="right")
+    hi = np.searchsorted(mid[order], mid[order] + SHARING_WINDOW_S, side="left")
+    i = np.repeat(np.arange(F), hi - lo)
+    j = np.concatenate([np.arange(a_, b_) for a_, b_ in zip(lo, hi, strict=True)]) if F else np.zeros(0, int)
+    keep = i != j
+    fi_, fj = order[i[keep]], order[j[keep]]
+    if len(fi_) == 0:
+        return {"tested": False, "why": "no two flights within the window"}
+    # Bartlett weights: the closer in time, the more a pair counts (an error correlated for
+    # hours is shared most by flights in the same hour)
+    w = 1.0 - np.abs(mid[fi_] - mid[fj]) / SHARING_WINDOW_S
+    rng = np.random.default_rng(SHARING_SEED)
+    E = rng.choice(np.array([-1.0, 1.0]), size=(SHARING_DRAWS, F))
+    z_obs, z_null, rho = [], [], []
+    for k, name in enumerate(SHARING_COMPONENTS):  # each component's statistic over its sign-flip sd
+        Vk = V[:, k::4]
+        a_ij = np.einsum("ij,ij->i", Vk[fi_], Vk[fj]) * w
+        sd = float(np.sqrt(2.0 * np.sum(a_ij**2)))  # the sign-flip null's exact standard deviation
+        if sd <= 0:
+            continue
+        A = sparse.csr_matrix((a_ij, (fi_, fj)), shape=(F, F))
+        z_obs.append(float(a_ij.sum()) / sd)
+        z_null.append(np.einsum("df,df->d", (A @ E.T).T, E) / sd)
+        norms = np.linalg.norm(Vk, axis=1)
+        scale = float(np.sum(norms[fi_] * norms[fj] * w))
+        rho.append((name, float(a_ij.sum()) / scale if scale > 0 else 0.0))
+    if not z_obs:
+        return {"tested": False, "why": "the references' differences are all explained by their offsets and scales"}
+    observed = max(z_obs)
+    null = np.max(np.array(z_null), axis=0)  # the largest component's, under the same flips
+    p = (1 + int(np.sum(null >= observed - 1e-12 * max(abs(observed), 1.0)))) / (1 + SHARING_DRAWS)
+    k = int(np.argmax(z_obs))
+    return {
+        "tested": True,
+        "p": float(p),
+        "z": observed,
+        "component": rho[k][0],
+        "rho": rho[k][1],
+        "flights": int(F),
+        "pairs": int(len(fi_) // 2),
+        "reference_pairs": len(parts) // 4,
+    }
+
+
+def dependence_units(flight: np.ndarray, time_s: np.ndarray, block: np.ndarray, sharing: dict) -> tuple:
+    """(cluster, fold, unit) per row: the tests' independent units. Flights where the data
+    span at least MIN_SHARING_BLOCKS weather blocks and the reference models' differences show
+    no error shared between flights (reference_sharing, p >= SHARING_LEVEL): then each
+    flight's errors are its own, and the tests gain the units (and the degrees of freedom)
+    that 6-h blocks pool. Else the weather blocks: an analysis error is one field over the
+    region, and flights in the same hours share it (or no test could say they do not)."""
+    n_blocks = len(np.unique(block))
+    if n_blocks >= MIN_SHARING_BLOCKS and sharing.get("tested") and sharing["p"] >= SHARING_LEVEL:
+        fl = pd.Series(time_s).groupby(flight)
+        mid = (fl.min() + fl.max()) / 2.0
+        rank = pd.Series(np.argsort(np.argsort(mid.to_numpy(), kind="stable")), index=mid.index)
+        cluster = rank.reindex(flight).to_numpy()
+        return cluster, (cluster % N_FOLDS).astype(np.int8), "flight"
+    return block, (block % N_FOLDS).astype(np.int8), "weather block"
+
+
+def unit_words(d: WindData) -> str:
+    """The tests' units in words (plural)."""
+    return "flights" if d.unit == "flight" else "6-h weather blocks"
+
+
+def units_reason(d: WindData) -> str:
+    """Why the tests' units are what they are, in one clause."""
+    sh = d.sharing
+    if d.unit == "flight":
+        return (
+            f"the reference models' differences show no error shared between flights (p {sh['p']:.2g}, "
+            f"{sh['pairs']} pairs of flights within {SHARING_WINDOW_S / 3600:g} h)"
+        )
+    if not sh.get("tested"):
+        return f"reference error shared between flights could not be tested: {sh['why']}"
+    if len(np.unique(d.block)) < MIN_SHARING_BLOCKS:
+        return f"too few weather blocks to test for reference error shared between flights (< {MIN_SHARING_BLOCKS})"
+    return (
+        f"the reference models' differences show error shared between flights (p {sh['p']:.2g}, "
+        f"correlation {sh['rho']:.2f} between flights within {SHARING_WINDOW_S / 3600:g} h)"
+    )
 
 
 def _field_covariates(lat, lon, alt_ft, when: dt.datetime) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -307,7 +480,9 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     ac_cat = r["aircraft"].astype("category")
     names = [str(c) for c in ac_cat.cat.categories]
     ac = ac_cat.cat.codes.to_numpy()
-    cluster, fold = weather_blocks(flight, t)
+    block, _ = weather_blocks(flight, t)
+    sharing = reference_sharing(rep, src_codes, flight, t, re_, rn_)
+    cluster, fold, unit = dependence_units(flight, t, block, sharing)
     # turn rate, flight phase and flight-path angle from a flight's adjacent (used) reports,
     # per report, then back on its rows
     per = pd.DataFrame({"z": z, "t": t, "f": flight, "alt": alt, "tas": r["tas_ms"].to_numpy()}).groupby(rep).first()
@@ -370,6 +545,9 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         local_hour=local_hour,
         cluster=cluster,
         fold=fold,
+        block=block,
+        unit=unit,
+        sharing=sharing,
         report_lat=df["lat"].to_numpy()[first],
         report_lon=df["lon"].to_numpy()[first],
         jitter=_jitter(df, first),

@@ -867,8 +867,9 @@ def _means_by_aircraft(d: WindData, fit: Fit, rows: np.ndarray | None, groups: n
 
 def recalibration_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, tuple[float, float]]:
     """Per aircraft: (p-value, time of the change) of a change in its mean offset: the sup
-    |CUSUM| of its weather blocks' mean offsets, by permuting the blocks (cusum_permutation:
-    blocks are the independent units here as in every other test). The asymptotic
+    |CUSUM| of its mean offsets over the tests' units (d.cluster: weather blocks, or
+    flights where no reference error is shared between them), by permuting the units
+    (cusum_permutation). The asymptotic
     Kolmogorov p of the flight means' CUSUM that this replaces rejected 38 times its level
     at 1e-4 (40 independent means) and named a recalibration in noise once a held-out floor
     no longer hid it."""
@@ -899,10 +900,9 @@ def cand_recalibration(d: WindData, st: State, fit: Fit | None, rows: np.ndarray
 
 
 def drift_scan(d: WindData, fit: Fit, rows: np.ndarray | None = None) -> dict[int, float]:
-    """Per aircraft: p-value of a linear trend of its mean offset over the 6-h weather
-    blocks it flew in (each block's middle as its time): a block's flights share the
-    reference models' error, so flights are not independent, blocks are (as in every
-    other test here)."""
+    """Per aircraft: p-value of a linear trend of its mean offset over the tests' units it
+    flew in (d.cluster: 6-h weather blocks, whose flights share the reference models'
+    error, or flights where they share none; each unit's middle as its time)."""
     return {
         i: slope_permutation(0.5 * (t0 + t1) / 86400.0, m)
         for i, m, t0, t1 in _means_by_aircraft(d, fit, rows, d.cluster)
@@ -915,7 +915,7 @@ def fleet_contrasts(d: WindData, fit: Fit) -> dict[int, tuple[np.ndarray, np.nda
     another aircraft also flew, in time order. A change the whole fleet shares (a reference
     model's upgrade, a fleet-wide step or trend) and the reference error every aircraft in a
     block shares cancel; what one aircraft does on its own is left."""
-    g = pd.DataFrame({"ac": d.aircraft, "blk": d.cluster, "off": fit.resid[: d.n] / d.tas, "t": d.time_s}).groupby(
+    g = pd.DataFrame({"ac": d.aircraft, "blk": d.block, "off": fit.resid[: d.n] / d.tas, "t": d.time_s}).groupby(
         ["blk", "ac"]
     )
     m = g["off"].mean().unstack()  # block x aircraft
@@ -1174,9 +1174,9 @@ def held_out(
 
 def held_out_contest(r_x: np.ndarray, r_y: np.ndarray, clusters: np.ndarray) -> tuple[float, float]:
     """Whether explanation x predicts held-out rows better than explanation y: the
-    difference of their held-out squared residuals summed per weather block, D_b =
-    SS_y,b - SS_x,b (blocks are the independent units, as in every test here), its mean
-    over the G blocks against its standard error, Student's t with G - 1 degrees of freedom
+    difference of their held-out squared residuals summed per unit, D_b = SS_y,b - SS_x,b
+    (`clusters`: the tests' independent units, weather blocks or flights), its mean over
+    the G units against its standard error, Student's t with G - 1 degrees of freedom
     (a Diebold-Mariano comparison of two forecasts on clusters). Returns (t, one-sided p
     that x is no better than y)."""
     uniq, inv = np.unique(clusters, return_inverse=True)
