@@ -93,14 +93,20 @@ WEATHER_BLOCK_S = 6 * 3600.0  # twice the weather models' error correlation time
 N_FOLDS = 5
 
 
+def flight_mid_times(flight: np.ndarray, time_s: np.ndarray) -> pd.Series:
+    """Each flight's mid-time (s), halfway between its first and last row, indexed by flight id
+    (sorted): what places a flight in its weather block and in time among the others."""
+    fl = pd.Series(time_s).groupby(flight)
+    return (fl.min() + fl.max()) / 2.0
+
+
 def weather_blocks(flight: np.ndarray, time_s: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(cluster, fold) per row. A reference model's analysis error is one field over the
     region, correlated for hours and hundreds of km (aerotruth.sensors.weather_model), so
     the flights of every aircraft in the same hours share it: flights are not independent,
     blocks of WEATHER_BLOCK_S are (nearly). Each flight goes whole to the block of its
     mid-time; the tests cluster on blocks and the held-out folds take every N_FOLDS-th block."""
-    fl = pd.Series(time_s).groupby(flight)
-    mid = (fl.min() + fl.max()) / 2.0
+    mid = flight_mid_times(flight, time_s)
     block_of_flight = np.floor(mid / WEATHER_BLOCK_S).astype(np.int64)
     blocks = block_of_flight.reindex(flight).to_numpy()
     order = np.unique(blocks)
@@ -166,8 +172,7 @@ def reference_sharing(
     fl[ri] = flight
     flights, fi = np.unique(fl, return_inverse=True)
     F = len(flights)
-    t = pd.Series(time_s).groupby(flight).agg(["min", "max"]).reindex(flights)
-    mid = 0.5 * (t["min"].to_numpy() + t["max"].to_numpy())
+    mid = flight_mid_times(flight, time_s).reindex(flights).to_numpy()
     parts = []
     for a in range(n_src):
         for b in range(a + 1, n_src):
@@ -246,8 +251,7 @@ def dependence_units(flight: np.ndarray, time_s: np.ndarray, block: np.ndarray, 
     region, and flights in the same hours share it (or no test could say they do not)."""
     n_blocks = len(np.unique(block))
     if n_blocks >= MIN_SHARING_BLOCKS and sharing.get("tested") and sharing["p"] >= SHARING_LEVEL:
-        fl = pd.Series(time_s).groupby(flight)
-        mid = (fl.min() + fl.max()) / 2.0
+        mid = flight_mid_times(flight, time_s)
         rank = pd.Series(np.argsort(np.argsort(mid.to_numpy(), kind="stable")), index=mid.index)
         cluster = rank.reindex(flight).to_numpy()
         return cluster, (cluster % N_FOLDS).astype(np.int8), "flight"
