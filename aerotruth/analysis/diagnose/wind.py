@@ -177,7 +177,7 @@ from aerotruth.units import DEG, KT
 # the library's family-wise level (first round): 1 %, with the screening's 1 % a nominal 2 %.
 # At 3 % aerotruth's own sensors' null carried 8 findings in 100 datasets (reference bias
 # and TAS scale at one to three times the 1 % level: validation/diagnose_confusion_plan.md,
-# "The library's level at 3 %"), above the 5 % null budget; at 1 %, 3 of them.
+# "The library's level at 3 %"), above the 5 % null budget; at 1 %, 5 of 100.
 ALPHA_LIBRARY = 0.01
 ALPHA_SCREEN = 0.01
 MAX_ROUNDS = 10
