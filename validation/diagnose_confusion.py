@@ -631,18 +631,28 @@ def diagnose_with_code(code: str, obs, spec) -> tuple[list, dict, int]:
     return [Finding(**f) for f in out["findings"]], out["baseline"], out["rows"]
 
 
+def sizes_of(generator: str) -> dict[str, float]:
+    """The plan's size of each effect on this generator."""
+    return {**SIZES, **(SIM_SIZES if generator == "simulated" else {})}
+
+
+def make_dataset(generator: str, effect: str, size: float, seed: int, cfg: dict | None):
+    """(observation table, model spec) of one dataset of either generator (`cfg`: the
+    simulated generator's settings, sim_config, with `reference` where it is the truth)."""
+    if generator == "independent":
+        return independent_dataset(effect, size, seed)
+    assert cfg is not None
+    obs, spec = simulated_dataset(effect, size, seed, cfg)
+    return (truth_reference(obs) if cfg.get("reference") == "truth" else obs), spec
+
+
 def run_one(generator: str, effect: str, size: float, seed: int, cfg: dict) -> dict:
     from aerotruth.analysis.diagnose.wind import diagnose_wind, prepare
 
     t0 = time.perf_counter()
     row = {"generator": generator, "effect": effect, "size": f"{size:g}", "seed": seed}
     try:
-        if generator == "independent":
-            obs, spec = independent_dataset(effect, size, seed)
-        else:
-            obs, spec = simulated_dataset(effect, size, seed, cfg)
-            if cfg.get("reference") == "truth":
-                obs = truth_reference(obs)
+        obs, spec = make_dataset(generator, effect, size, seed, cfg)
         t1 = time.perf_counter()
         if cfg.get("diagnose_code"):
             findings, baseline, n_rows = diagnose_with_code(cfg["diagnose_code"]["path"], obs, spec)
@@ -945,7 +955,7 @@ def main() -> None:
     bad = [e for e in effects if e not in EFFECTS]
     if bad:
         ap.error(f"--effects: unknown {bad}; known: {', '.join(EFFECTS)}")
-    sizes = {**SIZES, **(SIM_SIZES if a.generator == "simulated" else {})}
+    sizes = sizes_of(a.generator)
     for s in a.size:
         name, _, v = s.partition("=")
         if name not in SIZES or not v:

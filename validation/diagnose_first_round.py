@@ -22,14 +22,7 @@ from pathlib import Path
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
 import diagnose_confusion as dc  # noqa: E402
-
-
-def seeds_of(text: str) -> list[int]:
-    out: list[int] = []
-    for part in text.split(","):
-        lo, _, hi = part.strip().partition("-")
-        out.extend(range(int(lo), int(hi) + 1) if hi else [int(lo)])
-    return out
+from seed_runs import parse_seeds  # noqa: E402
 
 
 def main() -> None:
@@ -42,22 +35,16 @@ def main() -> None:
     ap.add_argument("--aircraft", type=int, default=12)
     ap.add_argument("--days", type=int, default=10)
     a = ap.parse_args()
-    try:
-        seeds = seeds_of(a.seeds)
-    except ValueError:
-        ap.error(f"--seeds {a.seeds!r}: expected integers and ranges like 70000-70009,70023")
+    seeds = parse_seeds(a.seeds)
 
     from aerotruth.analysis.diagnose.wind import _library_level, diagnose_wind, prepare
 
-    sizes = {**dc.SIZES, **(dc.SIM_SIZES if a.generator == "simulated" else {})}
+    size = dc.sizes_of(a.generator)[a.effect]
     cfg = dc.sim_config(a.campaign, a.aircraft, a.days) if a.generator == "simulated" else None
     level = _library_level(1)
     print(f"# library level (first round): {level:.3g}")
     for s in seeds:
-        if cfg is None:
-            obs, spec = dc.independent_dataset(a.effect, sizes[a.effect], s)
-        else:
-            obs, spec = dc.simulated_dataset(a.effect, sizes[a.effect], s, cfg)
+        obs, spec = dc.make_dataset(a.generator, a.effect, size, s, cfg)
         d = prepare(obs)
         findings, baseline, _, _ = diagnose_wind(d, spec)
         first = baseline["rounds"][0] if baseline["rounds"] else {}
