@@ -59,10 +59,12 @@ named at 1/r of the first one's level (on null data nearly every diagnosis ends 
 first round, whose level is unchanged; without it each later round's look would add up
 to the full 2 % of wrong causes).
 
-Gain. Weather block k goes to fold k mod N_FOLDS (five folds, each spread over the whole
-period); each fold is predicted by parameters learned on the other four and the residual
-RMS (kt) of the effect's channel measured on it; an effect enters only if it lowers that
-held-out RMS (MIN_REL_GAIN).
+Gain. The tests' unit k in time (a flight or a weather block) goes to fold k mod N_FOLDS
+(five folds, each spread over the whole period); each fold is predicted by parameters
+learned on the other four and the residual RMS (kt) of the effect's channel measured on
+it; an effect enters only if it lowers that held-out RMS (MIN_REL_GAIN). A scanned effect
+(SCANNED: a recalibration, an offset drift) is held out with the aircraft and step times
+its scan selects on all units, only its sizes learned out of fold.
 
 Causes compete, not queue. Each round fits every candidate explanation on the current
 model: the library's effects and the screening's signatures (effects outside the
