@@ -911,9 +911,19 @@ def _carriers(d: WindData, fit0: Fit, c: _Cand) -> list[dict]:
         step_at = split_time(t0, t1, cusum_split(bm))
     else:
         return []
+    ps_of = carried_by(d, fit0, step_at)
+    chosen = {eff: selected_aircraft(ps) for eff, ps in ps_of.items()}
+    by_bar = {eff for eff, sel in chosen.items() if sel}
+    # a carrier found in one form is said in the other as well where its contrast supports
+    # that too (ALPHA_RIVAL, unadjusted): one aircraft's step in the middle of the period and
+    # its ramp are nearly the same series (correlation ~0.87), and which of the two the
+    # Bonferroni bar selects is then the draw's, not the data's evidence
+    for eff, other in (("recalibration", "offset_drift"), ("offset_drift", "recalibration")):
+        if chosen[other] or not chosen[eff]:
+            continue
+        chosen[other] = {i: ps_of[other][i] for i in chosen[eff] if ps_of[other].get(i, 1.0) < ALPHA_RIVAL}
     out = []
-    for eff, ps in carried_by(d, fit0, step_at).items():
-        sel = selected_aircraft(ps)
+    for eff, sel in chosen.items():
         if not sel:
             continue
         names = [d.names[i] for i in sorted(sel)]
@@ -926,7 +936,11 @@ def _carriers(d: WindData, fit0: Fit, c: _Cand) -> list[dict]:
                 "test": "the aircraft's weather-block offsets minus the median of the rest of the fleet's, "
                 + "blocks permuted "
                 + ("(one split at the fleet's change time)" if eff == "recalibration" else "(slope in time)")
-                + ", Bonferroni over aircraft",
+                + (
+                    ", Bonferroni over aircraft"
+                    if eff in by_bar
+                    else f", unadjusted below {ALPHA_RIVAL:g} on the aircraft that carry the change in the other form"
+                ),
                 "cause": f"{CAUSES[eff]} ({', '.join(names)}{when}: the fleet's change is carried by "
                 f"{'this aircraft' if len(names) == 1 else 'these aircraft'})",
             }
