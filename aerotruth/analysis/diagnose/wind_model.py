@@ -1,6 +1,6 @@
 """The model of `aerotruth diagnose` on an observation table and its effects library: the
-columns of each term on the stacked (transverse, along) channels, the (generalised) least
-squares fit with clustered Wald tests, the change-point scan and the quantization check. See
+columns of each term on the stacked (transverse, along) channels, flight-clustered least
+squares and Wald tests, the change-point scan and the quantization check. See
 aerotruth.analysis.diagnose.wind for the method."""
 
 from __future__ import annotations
@@ -16,7 +16,6 @@ from pydantic import Field, ValidationError, field_validator
 from scipy import sparse, stats
 
 from aerotruth.analysis.diagnose.wind_data import N_FOLDS, WindData
-from aerotruth.analysis.diagnose.wind_weights import Weights
 from aerotruth.analysis.least_squares import live_columns, ols
 from aerotruth.analysis.wind.heading_correction import heading_spread
 from aerotruth.errors import ConfigError
@@ -225,7 +224,6 @@ class State:
     steps: dict[int, list[float]] = field(default_factory=dict)  # aircraft -> step times (free new A after each)
     drifts: set[int] = field(default_factory=set)  # aircraft whose A drifts linearly in time (free rate)
     signatures: list[dict] = field(default_factory=list)  # screening terms entered (free)
-    weights: Weights | None = None  # the fit's working covariance (wind_weights), None: ordinary least squares
 
 
 def stack_channels(trans: np.ndarray | None, along: np.ndarray | None, n: int) -> np.ndarray:
@@ -506,22 +504,17 @@ class Basis:
 
     def __init__(self, d: WindData, st: State, y: np.ndarray, clusters: np.ndarray):
         self.d, self.y, self.clusters = d, y, clusters
-        self.weights = st.weights
         self.blocks = current_blocks(d, st)
         self.X0 = np.column_stack([b.cols for b in self.blocks])
-        self.X0w, self.yw = self._whiten(self.X0), self._whiten(y)
         self.slices, k = [], 0
         for b in self.blocks:
             self.slices.append(slice(k, k + b.cols.shape[1]))
             k += b.cols.shape[1]
         self.parts = {p: self._part(None if p is None else train_rows(d, p)) for p in (None, *FOLDS)}
 
-    def _whiten(self, x: np.ndarray) -> np.ndarray:
-        return x if self.weights is None else self.weights.whiten(x)
-
     def _part(self, rows: np.ndarray | None) -> dict:
-        Xr = self.X0w if rows is None else self.X0w[rows]
-        yr = self.yw if rows is None else self.yw[rows]
+        Xr = self.X0 if rows is None else self.X0[rows]
+        yr = self.y if rows is None else self.y[rows]
         beta, xtx = ols(Xr, yr)
         live = live_columns(xtx)
         return {
@@ -530,8 +523,7 @@ class Basis:
             "live": live,
             "inv": np.linalg.pinv(xtx[np.ix_(live, live)]),
             "Xr": Xr[:, live],
-            "resid": self.y - self.X0 @ beta,  # original units
-            "resid_w": self.yw - self.X0w @ beta,  # whitened (the same as resid without weights)
+            "resid": self.y - self.X0 @ beta,
         }
 
     def base_fit(self, part: int | None = None) -> Fit:
@@ -544,16 +536,14 @@ class Basis:
         p = self.parts[part]
         rows = p["rows"]
         C = np.column_stack([b.cols for b in blocks])
-        Cw = self._whiten(C)
-        Cr = Cw if rows is None else Cw[rows]
+        Cr = C if rows is None else C[rows]
         Pi = p["inv"] @ (p["Xr"].T @ Cr)
-        Ct = C - self.X0[:, p["live"]] @ Pi  # original units: what the residual loses
-        Ctw = Cw - self.X0w[:, p["live"]] @ Pi if self.weights is not None else Ct
-        Ctr = Ctw if rows is None else Ctw[rows]
+        Ct = C - self.X0[:, p["live"]] @ Pi
+        Ctr = Ct if rows is None else Ct[rows]
         # a column the model already spans (nothing left after partialling): coefficient 0
         keep = np.sum(Ctr**2, axis=0) > 1e-18 * np.maximum(np.sum(Cr**2, axis=0), 1e-300)
         Ctr_k = Ctr[:, keep]
-        e0r = p["resid_w"] if rows is None else p["resid_w"][rows]
+        e0r = p["resid"] if rows is None else p["resid"][rows]
         gamma = np.zeros(C.shape[1])
         xtx = Ctr_k.T @ Ctr_k
         if keep.any():
@@ -611,23 +601,15 @@ def cluster_robust(X: np.ndarray, resid: np.ndarray, g: np.ndarray, xtx: np.ndar
 
 
 def solve(
-    blocks: list[Block],
-    y: np.ndarray,
-    clusters: np.ndarray,
-    rows: np.ndarray | None = None,
-    with_cov: bool = True,
-    weights: Weights | None = None,
+    blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.ndarray | None = None, with_cov: bool = True
 ) -> Fit:
-    """Least squares on the stacked channels (rows: a mask of the 2n rows), generalised with
-    the working covariance `weights` (wind_weights; None: ordinary), CR1 covariance on the
-    clusters of the whitened rows; the residual in the original units."""
+    """OLS on the stacked channels (rows: a mask of the 2n rows), CR1 covariance on the clusters."""
     X = np.column_stack([b.cols for b in blocks])
     slices, k = [], 0
     for b in blocks:
         slices.append(slice(k, k + b.cols.shape[1]))
         k += b.cols.shape[1]
-    Xw, yw = (X, y) if weights is None else (weights.whiten(X), weights.whiten(y))
-    Xr, yr = (Xw, yw) if rows is None else (Xw[rows], yw[rows])
+    Xr, yr = (X, y) if rows is None else (X[rows], y[rows])
     beta, xtx = ols(Xr, yr)  # columns zero on every used row (an aircraft left out): coefficient 0
     live = live_columns(xtx)
     resid = y - X @ beta
@@ -635,8 +617,7 @@ def solve(
     if with_cov:
         idx = np.flatnonzero(live)
         g = clusters if rows is None else clusters[rows]
-        rw = yw - Xw @ beta
-        rr = rw if rows is None else rw[rows]
+        rr = resid if rows is None else resid[rows]
         cov[np.ix_(idx, idx)] = cluster_robust(Xr[:, idx], rr, g, xtx[np.ix_(idx, idx)])
     return Fit(blocks, beta, cov, resid, slices, clusters)
 
@@ -1109,18 +1090,18 @@ def fit_with(
     if basis is not None:
         rows = None if part is None else train_rows(d, part)
     cur = current_blocks(d, st)
-    fit = solve(cur + blocks, y, clusters, rows, with_cov, st.weights)
+    fit = solve(cur + blocks, y, clusters, rows, with_cov)
     if eff != "field_scaling":
         return fit, 0.0
     first = fit
     total = float(fit.coef("field_scaling")[0][1][0])
     for _ in range(3):
-        st2 = State(st.spec, list(st.entered), st.gamma + total, st.steps, st.drifts, st.signatures, st.weights)
-        f0 = solve(current_blocks(d, st2), y, clusters, rows, False, st.weights)
+        st2 = State(st.spec, list(st.entered), st.gamma + total, st.steps, st.drifts, st.signatures)
+        f0 = solve(current_blocks(d, st2), y, clusters, rows, False)
         b2 = cand_field_scaling(d, st2, f0)
         if not b2:
             break
-        f2 = solve(current_blocks(d, st2) + b2, y, clusters, rows, False, st.weights)
+        f2 = solve(current_blocks(d, st2) + b2, y, clusters, rows, False)
         step = float(f2.coef("field_scaling")[0][1][0])
         total += step
         fit = f2
@@ -1136,7 +1117,7 @@ def fit_with(
 
 def fold_fits(d: WindData, st: State, y, clusters) -> list[Fit]:
     """The current model fitted on each fold's training flights (fold k is held out from fit k)."""
-    return [solve(current_blocks(d, st), y, clusters, train_rows(d, k), False, st.weights) for k in FOLDS]
+    return [solve(current_blocks(d, st), y, clusters, train_rows(d, k), False) for k in FOLDS]
 
 
 def held_out_resid(
