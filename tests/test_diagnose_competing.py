@@ -17,6 +17,7 @@ import straight_obs_generator as sog
 from aerotruth.analysis.diagnose.wind import WindModelSpec, diagnose_wind, prepare
 from aerotruth.analysis.diagnose.wind_data import isa_density_ratio, neighbour_rate, report_rates
 from aerotruth.analysis.diagnose.wind_model import (
+    PERMUTATION_STAGES,
     Basis,
     Block,
     State,
@@ -218,6 +219,23 @@ def test_the_block_permutation_cusum_is_calibrated():
     assert 0.025 <= np.mean(ps < 0.05) <= 0.08
     p, k = cusum_permutation(np.r_[rng.normal(size=15), rng.normal(size=15) + 2.0])
     assert p < 0.01 and 12 <= k <= 16
+
+
+def test_a_per_aircraft_scan_resolves_below_its_bonferroni_level():
+    """The per-aircraft scans' permutations go on to 399,999 where p is below 0.002: a step
+    of 10 sd half-way through 30 blocks is exceeded only by the permutations that keep its
+    two halves apart, 2 / C(30, 15) = 1.3e-8 of them, so none of 399,999 and p = 1 / 400,000
+    (at 39,999 it stopped at 1 / 40,000, above the ~7.5e-5 an aircraft of twelve must beat
+    at the library's level); a p of ~0.01 stops at 39,999 (p x 40,000 a whole number)."""
+    rng = np.random.default_rng(9)
+    step = np.r_[np.zeros(15), np.full(15, 10.0)] + rng.normal(size=30)
+    assert cusum_permutation(step, PERMUTATION_STAGES)[0] == 1 / 400_000
+    assert cusum_permutation(step)[0] == 1 / 40_000
+    t = np.arange(30.0)
+    x = next(x for x in (rng.normal(size=30) + 0.02 * t for _ in range(2000)) if 0.004 < slope_permutation(t, x) < 0.02)
+    p = slope_permutation(t, x, PERMUTATION_STAGES)
+    assert p == slope_permutation(t, x)
+    assert abs(p * 40_000 - round(p * 40_000)) < 1e-6
 
 
 def test_the_block_slope_permutation_is_calibrated():

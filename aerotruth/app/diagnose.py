@@ -446,6 +446,26 @@ def _units_text(baseline: dict) -> str:
     return f"{u['count']} {what}: {u['why']}"
 
 
+def _field_lines(field: dict | None) -> list[str]:
+    """The reference models' error the aircraft share (baseline["reference_field"],
+    wind_field), in one paragraph; none where the data show no such field."""
+    if not field:
+        return []
+
+    def length(v: float, unit: str) -> str:
+        return "any" if not math.isfinite(v) or v > 1e5 else f"{v:,.0f} {unit}"
+
+    return [
+        f"The reference models' error as the aircraft share it: {field['field_rms_ms']:.1f} m/s per component "
+        f"({100 * field['share']:.0f} % of the residual's variance), correlated over "
+        f"{length(field['horizontal_km'], 'km')}, "
+        f"{length(field['vertical_m'], 'm')} of altitude and {length(field['time_min'], 'min')} (e-folding, from "
+        f"{field['pairs']:,} pairs of rows of different aircraft); each aircraft's recalibration and drift scans "
+        "measure it against that error as the other aircraft saw it.",
+        "",
+    ]
+
+
 def write_wind_diagnosis(
     measured: str, findings: list, baseline: dict, spec: WindModelSpec, extended: WindModelSpec, plots: dict, out_dir
 ) -> None:
@@ -483,6 +503,7 @@ def write_wind_diagnosis(
         + ("; TAS along the air path" if spec.tas_along_path else "")
         + f". Tests on {_units_text(baseline)}.",
         "",
+        *_field_lines(baseline.get("reference_field")),
         f"Residual RMS (kt), transverse {rr['transverse_before']:.2f} → {rr['transverse_after']:.2f}, along "
         f"{rr['along_before']:.2f} → {rr['along_after']:.2f} (model → extended model).",
         "",

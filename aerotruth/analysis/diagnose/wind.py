@@ -128,6 +128,7 @@ from aerotruth.analysis.diagnose.wind_data import (  # noqa: F401  (prepare re-e
     unit_words,
     units_reason,
 )
+from aerotruth.analysis.diagnose.wind_field import fit_field_kernel
 from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSpec, wind_model_from_campaign re-exported)
     CANDIDATES,
     CHANNEL,
@@ -1035,6 +1036,8 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     heading = choose_deviation_heading(d, spec, y, clusters)
     spec = spec.model_copy(update={"deviation_heading": heading["chosen"]})
     st = initial_state(d, spec)
+    # the reference error field the fleet shares, read off the ordinary fit of the model as given
+    st.field = fit_field_kernel(d, solve(current_blocks(d, st), y, clusters, with_cov=False).resid)
     fit_start = None  # the model before any effect: the first round's fit
     findings: list = []
     plots: dict = {}
@@ -1172,6 +1175,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         "flights": int(len(np.unique(d.flight))),
         "weather_blocks": int(len(np.unique(d.block))),
         "units": {"unit": d.unit, "count": n_units, "why": units_reason(d), "sharing_test": d.sharing},
+        "reference_field": None if st.field is None else st.field.params(),
         "data": d.table,
     }
     if not testable:
