@@ -14,6 +14,7 @@ from types import SimpleNamespace
 import numpy as np
 import pytest
 
+from aerotruth.analysis.diagnose import wind_model
 from aerotruth.analysis.diagnose.wind_field import (
     FieldKernel,
     fit_field_kernel,
@@ -21,7 +22,7 @@ from aerotruth.analysis.diagnose.wind_field import (
     other_aircraft_field,
     unit_groups,
 )
-from aerotruth.analysis.diagnose.wind_model import recalibration_scan
+from aerotruth.analysis.diagnose.wind_model import Fit, drift_scan, recalibration_scan
 
 KM_PER_DEG = 111.195
 BLOCK_S = 6 * 3600.0
@@ -101,6 +102,33 @@ def fleet_rows(
         tas=np.full(n, 130.0),
     )
     return d, resid, np.r_[ft, fa]
+
+
+def residual_only_fit(resid: np.ndarray) -> Fit:
+    """A Fit carrying only a residual (what the scans read)."""
+    return Fit([], np.zeros(0), np.zeros((0, 0)), resid, [], np.zeros(0, dtype=int))
+
+
+def test_the_scans_of_one_fit_krige_the_field_once(monkeypatch):
+    """The recalibration and drift scans of one fit read the same field: kriged once, and the
+    scans' p-values those of a fit that krige it afresh."""
+    d, resid, _ = fleet_rows(12, n_aircraft=6, hours=60.0, every_s=300.0)
+    k = fit_field_kernel(d, resid)
+    assert k is not None
+    calls = []
+    krige = wind_model.other_aircraft_field
+
+    def counted(*a, **kw):
+        calls.append(1)
+        return krige(*a, **kw)
+
+    monkeypatch.setattr(wind_model, "other_aircraft_field", counted)
+    fit = residual_only_fit(resid)
+    recal, drift = recalibration_scan(d, fit, None, k), drift_scan(d, fit, None, k)
+    assert len(calls) == 1
+    assert recalibration_scan(d, residual_only_fit(resid), None, k) == recal
+    assert drift_scan(d, residual_only_fit(resid), None, k) == drift
+    assert len(calls) == 3
 
 
 def test_the_field_read_back_from_a_known_covariance():
@@ -191,7 +219,7 @@ def test_a_recalibration_is_clearer_against_the_other_aircraft():
         step = (d.aircraft == 0) & (d.time_s > 48 * 3600.0)
         resid = resid.copy()
         resid[: d.n] += step * d.tas * np.radians(0.5)
-        fit = SimpleNamespace(resid=resid)
+        fit = residual_only_fit(resid)
         k = fit_field_kernel(d, resid)
         assert k is not None
         p_field.append(recalibration_scan(d, fit, None, k)[0][0])

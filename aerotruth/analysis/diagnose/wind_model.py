@@ -487,6 +487,18 @@ class Fit:
     resid: np.ndarray
     slices: list[slice]
     clusters: np.ndarray
+    # transverse_less_field's result per field kernel: the per-aircraft scans of one fit
+    # (recalibration and drift) read the same kriged field
+    _less_field: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def transverse_less_field(self, d: WindData, kernel: FieldKernel | None) -> np.ndarray:
+        """(n,) the transverse residual, less each row's reference error field as the other
+        aircraft's rows saw it where there is a `kernel` (wind_field.other_aircraft_field)."""
+        if kernel is None:
+            return self.resid[: d.n]
+        if kernel not in self._less_field:
+            self._less_field[kernel] = self.resid[: d.n] - other_aircraft_field(d, self.resid, kernel)[: d.n]
+        return self._less_field[kernel]
 
     def coef(self, effect: str, aircraft: int | None = None) -> list[tuple[Block, np.ndarray, np.ndarray]]:
         return [
@@ -881,9 +893,7 @@ def _means_by_aircraft(
     row's residual less that field as the other aircraft's rows saw it (wind_field: a
     recalibrated aircraft against its neighbours in space and time, not the block's mean)."""
     r = np.ones(d.n, dtype=bool) if rows is None else rows[: d.n]
-    res = fit.resid[: d.n]
-    if field is not None:
-        res = res - other_aircraft_field(d, fit.resid, field)[: d.n]
+    res = fit.transverse_less_field(d, field)
     for i in range(len(d.names)):
         sel = (d.aircraft == i) & r
         if len(np.unique(d.flight[sel])) >= 2 * MIN_FLIGHTS:
