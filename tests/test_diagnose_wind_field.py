@@ -109,6 +109,25 @@ def residual_only_fit(resid: np.ndarray) -> Fit:
     return Fit([], np.zeros(0), np.zeros((0, 0)), resid, [], np.zeros(0, dtype=int))
 
 
+def test_local_coordinates_are_wgs84_distances():
+    """East and north on the tangent plane at the rows' mean: a degree of latitude at 45 N is
+    111,132.95 m of meridian arc on WGS-84, a degree of longitude there 78,846.8 m of the
+    parallel (geodesy tables); over one degree the plane departs from the arcs by ~1e-5."""
+    d = SimpleNamespace(
+        n=4,
+        lat=np.array([44.5, 45.5, 45.0, 45.0]),
+        lon=np.array([-93.0, -93.0, -93.5, -92.5]),
+        alt_ft=np.array([0.0, 10_000.0, 20_000.0, 30_000.0]),
+        time_s=np.array([0.0, 60.0, 120.0, 180.0]),
+    )
+    x, y, z, t = local_coordinates(d)
+    assert y[1] - y[0] == pytest.approx(111.13295, rel=1e-4)
+    assert x[3] - x[2] == pytest.approx(78.8468, rel=1e-4)
+    assert abs(x[1] - x[0]) < 1e-3 and abs(y[3] - y[2]) < 0.05  # the parallel bows north of the chord
+    assert z[1] - z[0] == pytest.approx(3048.0)
+    assert t[3] == pytest.approx(3.0)
+
+
 def test_the_scans_of_one_fit_krige_the_field_once(monkeypatch):
     """The recalibration and drift scans of one fit read the same field: kriged once, and the
     scans' p-values those of a fit that krige it afresh."""

@@ -37,9 +37,9 @@ import numpy as np
 from scipy import optimize
 
 from aerotruth.analysis.diagnose.wind_data import WindData
+from aerotruth.geo import enu
 from aerotruth.units import FT
 
-EARTH_RADIUS_KM = 6371.0
 NEIGHBOURS = 16  # rows of other aircraft a row's field is predicted from (the most correlated)
 MIN_PAIR_COUNT = 30  # pairs a bin needs before its mean product is used
 MIN_CORR = 0.03  # a bin's correlation below this is not fitted (its log is noise)
@@ -81,12 +81,12 @@ class FieldKernel:
 
 
 def local_coordinates(d: WindData) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """(east km, north km, altitude m, time min) of every row: a plane tangent at the rows'
-    mean position (equirectangular; over a 1,000-km network the distances err < 1 %)."""
+    """(east km, north km, altitude m, time min) of every row: east and north on the WGS-84
+    tangent plane at the rows' mean position (geo.enu, at the ellipsoid), altitude as
+    reported."""
     lat0, lon0 = float(np.mean(d.lat)), float(np.mean(d.lon))
-    x = np.radians(d.lon - lon0) * EARTH_RADIUS_KM * math.cos(math.radians(lat0))
-    y = np.radians(d.lat - lat0) * EARTH_RADIUS_KM
-    return x, y, d.alt_ft * FT, d.time_s / 60.0
+    e, n, _ = enu(d.lat, d.lon, np.zeros(d.n), lat0, lon0, 0.0)
+    return np.asarray(e) / 1000.0, np.asarray(n) / 1000.0, d.alt_ft * FT, d.time_s / 60.0
 
 
 def unit_groups(d: WindData) -> list[np.ndarray]:
