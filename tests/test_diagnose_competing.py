@@ -34,6 +34,7 @@ from aerotruth.analysis.diagnose.wind_model import (
     stack_channels,
     train_rows,
 )
+from aerotruth.analysis.diagnose.wind_weights import working_weights
 
 
 def test_the_angle_of_attack_shapes_are_one_over_the_dynamic_pressure():
@@ -173,17 +174,23 @@ def data():
     return prepare(gen.generate(fleet, rng, flights=30))
 
 
-def test_partialling_out_is_the_full_fit(data):
+@pytest.mark.parametrize("weighted", [False, True])
+def test_partialling_out_is_the_full_fit(data, weighted):
     """Frisch-Waugh-Lovell: a candidate's coefficients and residuals from Basis.fit equal
-    those of solving the whole design, on all rows and on a fold's training rows."""
+    those of solving the whole design, on all rows and on a fold's training rows, by
+    ordinary least squares and by generalised least squares with the working covariance
+    (the residuals in the original units in both)."""
     d = data
     st = State(WindModelSpec(), [], 0.0, {}, set(), [])
     y = stack_channels(d.trans, d.along, d.n)
     clusters = np.r_[d.cluster, d.cluster]
+    if weighted:
+        st.weights = working_weights(d, solve(current_blocks(d, st), y, clusters, with_cov=False).resid)
+        assert st.weights is not None  # the generator's reference errors are correlated along a flight
     basis = Basis(d, st, y, clusters)
     blocks = cand_soft_iron(d, st, None) + cand_tas_scale(d, st, None)
     cur = current_blocks(d, st)
-    full = solve(cur + blocks, y, clusters)
+    full = solve(cur + blocks, y, clusters, weights=st.weights)
     part = basis.fit(blocks)
     k = sum(b.cols.shape[1] for b in cur)
     assert np.allclose(part.beta, full.beta[k:], rtol=1e-7, atol=1e-10)
@@ -191,7 +198,7 @@ def test_partialling_out_is_the_full_fit(data):
     assert np.all(np.isfinite(np.diag(part.cov))) and np.all(np.diag(part.cov) > 0)
     train = train_rows(d, 0)  # every fold but 0: what predicts fold 0
     assert not np.any(train & rows_of_fold(d, 0)) and np.all(train | rows_of_fold(d, 0))
-    full0 = solve(cur + blocks, y, clusters, train, False)
+    full0 = solve(cur + blocks, y, clusters, train, False, st.weights)
     part0 = basis.fit(blocks, 0, False)
     assert np.allclose(part0.resid, full0.resid, atol=1e-8)
     # a column the model already spans gets coefficient 0, not a number made of rounding

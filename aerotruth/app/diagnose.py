@@ -466,6 +466,24 @@ def _field_lines(field: dict | None) -> list[str]:
     ]
 
 
+def _weights_text(baseline: dict) -> str:
+    """The fit and its working covariance in one clause (baseline["weights"]; reports written
+    before it: the ordinary fit)."""
+    w = baseline.get("weights")
+    if w is None or "form" in w:
+        return "Fitted by ordinary least squares."
+    parts = [
+        f"{ch} {100 * w[ch]['correlated_share']:.0f} % over {w[ch]['tau_s'] / 60:.0f} min"
+        for ch in ("transverse", "along")
+        if w[ch]["correlated_share"] > 0
+    ]
+    return (
+        "Fitted by generalised least squares: each report weighed for the error it shares with its "
+        f"neighbours of the same flight and reference ({', '.join(parts)}) and for its ground track's "
+        f"rounding (positions to {w['position_step_deg']:g} deg)."
+    )
+
+
 def write_wind_diagnosis(
     measured: str, findings: list, baseline: dict, spec: WindModelSpec, extended: WindModelSpec, plots: dict, out_dir
 ) -> None:
@@ -501,7 +519,7 @@ def write_wind_diagnosis(
         f"lat/lon grid {spec.lat_lon_step_deg:g} deg"
         + ("; a TAS bias per aircraft" if spec.tas_bias else "")
         + ("; TAS along the air path" if spec.tas_along_path else "")
-        + f". Tests on {_units_text(baseline)}.",
+        + f". Tests on {_units_text(baseline)}. {_weights_text(baseline)}",
         "",
         *_field_lines(baseline.get("reference_field")),
         f"Residual RMS (kt), transverse {rr['transverse_before']:.2f} → {rr['transverse_after']:.2f}, along "

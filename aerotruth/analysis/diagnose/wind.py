@@ -39,6 +39,17 @@ rest; `field_scaling` by Gauss-Newton on gamma):
     offset_drift       per aircraft A changing linearly in time (trend of its weather-block means)
     quantization       the reports' lat/lon grid is coarser (or finer) than the model's
 
+The fit. Generalised least squares with a working covariance per (flight, reference) series
+and channel (wind_weights): the reference error's correlation along the flight
+(Ornstein-Uhlenbeck plus a white part, read off the ordinary fit of the model as given)
+and each row's ground-track rounding variance (the data's position step over the span of
+the two reports its ground velocity is taken over), so that a report that repeats its
+neighbour's error, or whose ground track is short, counts for what it adds. Residuals,
+held-out gains and every figure reported stay in the original units. It is the tests'
+unit's covariance, used where the units are flights; where they are weather blocks (the
+reference error a field the flights share) or the residual shows no correlation along
+flights, the fit is the ordinary one (baseline "weights").
+
 Evidence. Reference-model errors are one field over the region, correlated for hours, so
 the flights of all aircraft in the same hours share them (on aerotruth's own simulated
 reports, clustering on flights gave false reference biases): the tests' independent units
@@ -173,6 +184,7 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
     term_center,
     wind_model_from_campaign,
 )
+from aerotruth.analysis.diagnose.wind_weights import working_weights
 from aerotruth.analysis.least_squares import clustered_se
 from aerotruth.analysis.wind.heading_correction import heading_spread
 from aerotruth.units import DEG, KT
@@ -1036,8 +1048,12 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     heading = choose_deviation_heading(d, spec, y, clusters)
     spec = spec.model_copy(update={"deviation_heading": heading["chosen"]})
     st = initial_state(d, spec)
-    # the reference error field the fleet shares, read off the ordinary fit of the model as given
-    st.field = fit_field_kernel(d, solve(current_blocks(d, st), y, clusters, with_cov=False).resid)
+    # the ordinary fit of the model as given: the tests' working covariance within a unit
+    # (wind_weights; where the units are flights) and the reference error field the fleet
+    # shares (wind_field; where they are weather blocks) are read off its residual
+    r0 = solve(current_blocks(d, st), y, clusters, with_cov=False).resid
+    st.weights = working_weights(d, r0)
+    st.field = fit_field_kernel(d, r0)
     fit_start = None  # the model before any effect: the first round's fit
     findings: list = []
     plots: dict = {}
@@ -1048,7 +1064,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     n_units = len(np.unique(d.cluster))
     testable = n_units >= MIN_BLOCKS
     for _ in range(MAX_ROUNDS):
-        fit_start = fit_start or solve(current_blocks(d, st), y, clusters, with_cov=False)
+        fit_start = fit_start or solve(current_blocks(d, st), y, clusters, with_cov=False, weights=st.weights)
         if not testable:  # only the reports' grid, which needs no weather blocks (and no fit)
             c = _quantization(d, st, len(findings) + 1)
             if c is None or not (c["p"] < c["level"] and c["rel"] > MIN_REL_GAIN):
@@ -1136,7 +1152,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
                 f.evidence["rivals"][r["effect"]]["verdict"] = "confusable (separate, but never entered on its own)"
         carriers = [x for x in carriers if x["effect"] not in named]  # a cause named on its own is not a copy
         _name_confusable(d, f, best, [r for r in rivals if r["verdict"] == "confusable"], carriers, shapes)
-    fit_end = solve(current_blocks(d, st), y, clusters)
+    fit_end = solve(current_blocks(d, st), y, clusters, weights=st.weights)
     assert fit_start is not None  # set in the first round (MAX_ROUNDS >= 1)
     free = {
         b.label[5:]: {
@@ -1149,7 +1165,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         for b, be, v in fit_end.coef("base", -1)
         if b.label.startswith("free:")
     }
-    baseline = {
+    baseline: dict[str, Any] = {
         "rounds": rounds,
         "model_fit": model_fit(d, st, fit_end),
         "free_terms": free,
@@ -1160,6 +1176,16 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
             "along_after": rms_of_kt(fit_end.resid, d.n, "along"),
         },
         "deviation_heading": heading,
+        "weights": st.weights.params
+        if st.weights is not None
+        else {
+            "form": "ordinary least squares: "
+            + (
+                "the residual is not correlated within a flight's series"
+                if d.unit == "flight"
+                else "the units are weather blocks (the reference error a field the flights share)"
+            )
+        },
         "alpha": {"library": ALPHA_LIBRARY, "screening": ALPHA_SCREEN, "family_wise": ALPHA_LIBRARY + ALPHA_SCREEN},
         "not_identifiable": (
             []

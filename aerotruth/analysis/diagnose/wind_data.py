@@ -74,6 +74,8 @@ class WindData:
     block: np.ndarray  # weather block of the row's flight (the fleet's contrasts compare aircraft within one)
     unit: str  # "flight" or "weather block": what `cluster` counts (dependence_units)
     sharing: dict  # the test of reference error shared between flights that chose it (reference_sharing)
+    track_span_s: np.ndarray  # time between the two reports the row's ground velocity is taken over (its neighbours)
+    position_step_deg: float  # the reports' lat/lon resolution read off the values (0: not rounded)
     report_lat: np.ndarray  # every report (not only gated), for the quantization
     report_lon: np.ndarray
     jitter: dict  # ground-track jitter of the reports (segment velocity differences)
@@ -397,6 +399,21 @@ def neighbour_rate(flight: np.ndarray, t: np.ndarray, x: np.ndarray) -> np.ndarr
         return np.where(hi > lo, (x_hi - x_lo) / (hi - lo), 0.0)
 
 
+def _track_spans(rows: pd.DataFrame) -> np.ndarray:
+    """Per report (heading_errors' `report` index, time order within each flight): the time
+    between its neighbours, t[k+1] - t[k-1], the span its ground velocity is taken over
+    (ground_track); NaN at a flight's ends (gated out there)."""
+    per = rows.groupby("report", sort=True)[["time_s", "flight"]].first()
+    t, fl = per["time_s"].to_numpy(), per["flight"].to_numpy()
+    out = np.full(len(t), np.nan)
+    if len(t) >= 3:
+        inner = (fl[2:] == fl[1:-1]) & (fl[:-2] == fl[1:-1])
+        out[1:-1] = np.where(inner, t[2:] - t[:-2], np.nan)
+    full = np.full(int(per.index.max()) + 1 if len(per) else 0, np.nan)
+    full[per.index.to_numpy()] = out
+    return full
+
+
 def track_gates(df: pd.DataFrame) -> GateSpec:
     """TRACK_GATES with the shortest span scaled to the reports' position resolution (read off
     the values, heading_errors.position_step_deg): 10 km for TAMDAR's 0.01 deg, in proportion
@@ -433,6 +450,7 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
             f"{source}: only {int(used.sum())} report rows pass the ground-track gates (need 20); gates: {counts}"
         )
     r = rows[used]
+    span = _track_spans(rows)[r["report"].to_numpy()]
     table = {
         "rows_read": int(len(obs)),
         "rows_dropped_empty": int(df.attrs.get("dropped_empty", 0)),
@@ -552,6 +570,8 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         block=block,
         unit=unit,
         sharing=sharing,
+        track_span_s=span,
+        position_step_deg=position_step_deg(df["lat"].to_numpy()[first], df["lon"].to_numpy()[first]),
         report_lat=df["lat"].to_numpy()[first],
         report_lon=df["lon"].to_numpy()[first],
         jitter=_jitter(df, first),

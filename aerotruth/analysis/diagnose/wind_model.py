@@ -1,6 +1,6 @@
 """The model of `aerotruth diagnose` on an observation table and its effects library: the
-columns of each term on the stacked (transverse, along) channels, flight-clustered least
-squares and Wald tests, the change-point scan and the quantization check. See
+columns of each term on the stacked (transverse, along) channels, the (generalised) least
+squares fit with clustered Wald tests, the change-point scan and the quantization check. See
 aerotruth.analysis.diagnose.wind for the method."""
 
 from __future__ import annotations
@@ -17,6 +17,7 @@ from scipy import sparse, stats
 
 from aerotruth.analysis.diagnose.wind_data import N_FOLDS, WindData
 from aerotruth.analysis.diagnose.wind_field import FieldKernel, other_aircraft_field
+from aerotruth.analysis.diagnose.wind_weights import Weights
 from aerotruth.analysis.least_squares import live_columns, ols
 from aerotruth.analysis.wind.heading_correction import heading_spread
 from aerotruth.errors import ConfigError
@@ -228,6 +229,7 @@ class State:
     # the reference error field the fleet shares (wind_field), read off the model as given:
     # the per-aircraft scans measure an aircraft against the other aircraft's view of it
     field: FieldKernel | None = None
+    weights: Weights | None = None  # the fit's working covariance (wind_weights), None: ordinary least squares
 
 
 def stack_channels(trans: np.ndarray | None, along: np.ndarray | None, n: int) -> np.ndarray:
@@ -520,17 +522,22 @@ class Basis:
 
     def __init__(self, d: WindData, st: State, y: np.ndarray, clusters: np.ndarray):
         self.d, self.y, self.clusters = d, y, clusters
+        self.weights = st.weights
         self.blocks = current_blocks(d, st)
         self.X0 = np.column_stack([b.cols for b in self.blocks])
+        self.X0w, self.yw = self._whiten(self.X0), self._whiten(y)
         self.slices, k = [], 0
         for b in self.blocks:
             self.slices.append(slice(k, k + b.cols.shape[1]))
             k += b.cols.shape[1]
         self.parts = {p: self._part(None if p is None else train_rows(d, p)) for p in (None, *FOLDS)}
 
+    def _whiten(self, x: np.ndarray) -> np.ndarray:
+        return x if self.weights is None else self.weights.whiten(x)
+
     def _part(self, rows: np.ndarray | None) -> dict:
-        Xr = self.X0 if rows is None else self.X0[rows]
-        yr = self.y if rows is None else self.y[rows]
+        Xr = self.X0w if rows is None else self.X0w[rows]
+        yr = self.yw if rows is None else self.yw[rows]
         beta, xtx = ols(Xr, yr)
         live = live_columns(xtx)
         return {
@@ -539,7 +546,8 @@ class Basis:
             "live": live,
             "inv": np.linalg.pinv(xtx[np.ix_(live, live)]),
             "Xr": Xr[:, live],
-            "resid": self.y - self.X0 @ beta,
+            "resid": self.y - self.X0 @ beta,  # original units
+            "resid_w": self.yw - self.X0w @ beta,  # whitened (the same as resid without weights)
         }
 
     def base_fit(self, part: int | None = None) -> Fit:
@@ -552,14 +560,16 @@ class Basis:
         p = self.parts[part]
         rows = p["rows"]
         C = np.column_stack([b.cols for b in blocks])
-        Cr = C if rows is None else C[rows]
+        Cw = self._whiten(C)
+        Cr = Cw if rows is None else Cw[rows]
         Pi = p["inv"] @ (p["Xr"].T @ Cr)
-        Ct = C - self.X0[:, p["live"]] @ Pi
-        Ctr = Ct if rows is None else Ct[rows]
+        Ct = C - self.X0[:, p["live"]] @ Pi  # original units: what the residual loses
+        Ctw = Cw - self.X0w[:, p["live"]] @ Pi if self.weights is not None else Ct
+        Ctr = Ctw if rows is None else Ctw[rows]
         # a column the model already spans (nothing left after partialling): coefficient 0
         keep = np.sum(Ctr**2, axis=0) > 1e-18 * np.maximum(np.sum(Cr**2, axis=0), 1e-300)
         Ctr_k = Ctr[:, keep]
-        e0r = p["resid"] if rows is None else p["resid"][rows]
+        e0r = p["resid_w"] if rows is None else p["resid_w"][rows]
         gamma = np.zeros(C.shape[1])
         xtx = Ctr_k.T @ Ctr_k
         if keep.any():
@@ -617,15 +627,23 @@ def cluster_robust(X: np.ndarray, resid: np.ndarray, g: np.ndarray, xtx: np.ndar
 
 
 def solve(
-    blocks: list[Block], y: np.ndarray, clusters: np.ndarray, rows: np.ndarray | None = None, with_cov: bool = True
+    blocks: list[Block],
+    y: np.ndarray,
+    clusters: np.ndarray,
+    rows: np.ndarray | None = None,
+    with_cov: bool = True,
+    weights: Weights | None = None,
 ) -> Fit:
-    """OLS on the stacked channels (rows: a mask of the 2n rows), CR1 covariance on the clusters."""
+    """Least squares on the stacked channels (rows: a mask of the 2n rows), generalised with
+    the working covariance `weights` (wind_weights; None: ordinary), CR1 covariance on the
+    clusters of the whitened rows; the residual in the original units."""
     X = np.column_stack([b.cols for b in blocks])
     slices, k = [], 0
     for b in blocks:
         slices.append(slice(k, k + b.cols.shape[1]))
         k += b.cols.shape[1]
-    Xr, yr = (X, y) if rows is None else (X[rows], y[rows])
+    Xw, yw = (X, y) if weights is None else (weights.whiten(X), weights.whiten(y))
+    Xr, yr = (Xw, yw) if rows is None else (Xw[rows], yw[rows])
     beta, xtx = ols(Xr, yr)  # columns zero on every used row (an aircraft left out): coefficient 0
     live = live_columns(xtx)
     resid = y - X @ beta
@@ -633,7 +651,8 @@ def solve(
     if with_cov:
         idx = np.flatnonzero(live)
         g = clusters if rows is None else clusters[rows]
-        rr = resid if rows is None else resid[rows]
+        rw = yw - Xw @ beta
+        rr = rw if rows is None else rw[rows]
         cov[np.ix_(idx, idx)] = cluster_robust(Xr[:, idx], rr, g, xtx[np.ix_(idx, idx)])
     return Fit(blocks, beta, cov, resid, slices, clusters)
 
@@ -1131,18 +1150,20 @@ def fit_with(
     if basis is not None:
         rows = None if part is None else train_rows(d, part)
     cur = current_blocks(d, st)
-    fit = solve(cur + blocks, y, clusters, rows, with_cov)
+    fit = solve(cur + blocks, y, clusters, rows, with_cov, st.weights)
     if eff != "field_scaling":
         return fit, 0.0
     first = fit
     total = float(fit.coef("field_scaling")[0][1][0])
     for _ in range(3):
-        st2 = State(st.spec, list(st.entered), st.gamma + total, st.steps, st.drifts, st.signatures, st.field)
-        f0 = solve(current_blocks(d, st2), y, clusters, rows, False)
+        st2 = State(
+            st.spec, list(st.entered), st.gamma + total, st.steps, st.drifts, st.signatures, st.field, st.weights
+        )
+        f0 = solve(current_blocks(d, st2), y, clusters, rows, False, st.weights)
         b2 = cand_field_scaling(d, st2, f0)
         if not b2:
             break
-        f2 = solve(current_blocks(d, st2) + b2, y, clusters, rows, False)
+        f2 = solve(current_blocks(d, st2) + b2, y, clusters, rows, False, st.weights)
         step = float(f2.coef("field_scaling")[0][1][0])
         total += step
         fit = f2
@@ -1158,7 +1179,7 @@ def fit_with(
 
 def fold_fits(d: WindData, st: State, y, clusters) -> list[Fit]:
     """The current model fitted on each fold's training flights (fold k is held out from fit k)."""
-    return [solve(current_blocks(d, st), y, clusters, train_rows(d, k), False) for k in FOLDS]
+    return [solve(current_blocks(d, st), y, clusters, train_rows(d, k), False, st.weights) for k in FOLDS]
 
 
 def held_out_resid(
