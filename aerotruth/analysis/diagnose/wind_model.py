@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, Literal
 
 import numpy as np
@@ -651,7 +651,7 @@ def solve(
     if with_cov:
         idx = np.flatnonzero(live)
         g = clusters if rows is None else clusters[rows]
-        rw = yw - Xw @ beta
+        rw = resid if weights is None else yw - Xw @ beta  # the whitened residual
         rr = rw if rows is None else rw[rows]
         cov[np.ix_(idx, idx)] = cluster_robust(Xr[:, idx], rr, g, xtx[np.ix_(idx, idx)])
     return Fit(blocks, beta, cov, resid, slices, clusters)
@@ -1156,9 +1156,7 @@ def fit_with(
     first = fit
     total = float(fit.coef("field_scaling")[0][1][0])
     for _ in range(3):
-        st2 = State(
-            st.spec, list(st.entered), st.gamma + total, st.steps, st.drifts, st.signatures, st.field, st.weights
-        )
+        st2 = replace(st, entered=list(st.entered), gamma=st.gamma + total)
         f0 = solve(current_blocks(d, st2), y, clusters, rows, False, st.weights)
         b2 = cand_field_scaling(d, st2, f0)
         if not b2:
