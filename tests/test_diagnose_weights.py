@@ -41,12 +41,13 @@ def _ou(t: np.ndarray, flight: np.ndarray, tau: float, rng: np.random.Generator)
 
 
 def test_rounding_variance_is_the_hand_worked_one():
-    """0.01-deg positions at 60 N, neighbours 100 s apart: q_n = 0.01 pi/180 x 6,371,008.8 m =
-    1111.95 m, q_e = q_n cos 60 = 555.97 m; (q_n^2 + q_e^2) / 12 / 100^2 = 12.88 (m/s)^2. Not
-    rounded, or the span unknown: 0."""
+    """0.01-deg positions at 60 N, neighbours 100 s apart: on WGS-84 a degree of latitude
+    there is 111,412.29 m and a degree of longitude 55,800.00 m (geodesy tables), so q_n =
+    1114.12 m, q_e = 558.00 m; (q_n^2 + q_e^2) / 12 / 100^2 = 12.94 (m/s)^2 (a sphere of
+    6,371 km gives 12.88). Not rounded, or the span unknown: 0."""
     d = SimpleNamespace(position_step_deg=0.01, lat=np.array([60.0, 60.0]), track_span_s=np.array([100.0, np.nan]))
     v = rounding_variance(d)
-    assert v[0] == pytest.approx(12.88, abs=0.01)
+    assert v[0] == pytest.approx(12.9386, abs=0.001)
     assert v[1] == 0.0
     d0 = SimpleNamespace(position_step_deg=0.0, lat=np.array([60.0]), track_span_s=np.array([100.0]))
     assert rounding_variance(d0)[0] == 0.0

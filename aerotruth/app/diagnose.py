@@ -460,8 +460,9 @@ def _field_lines(field: dict | None) -> list[str]:
         f"({100 * field['share']:.0f} % of the residual's variance), correlated over "
         f"{length(field['horizontal_km'], 'km')}, "
         f"{length(field['vertical_m'], 'm')} of altitude and {length(field['time_min'], 'min')} (e-folding, from "
-        f"{field['pairs']:,} pairs of rows of different aircraft); each aircraft's recalibration and drift scans "
-        "measure it against that error as the other aircraft saw it.",
+        f"{field['pairs']:,} pairs of rows of different aircraft); each aircraft's recalibration and drift scans, "
+        "and the tests of its own soft iron and field scaling, measure it against that error as the other aircraft "
+        "saw it.",
         "",
     ]
 

@@ -60,15 +60,20 @@ no aircraft error): then flights, which have the degrees of freedom the blocks p
 (wind_data.dependence_units; said in the report with the test's p). On those units: a Wald
 test with the leave-one-unit-out (jackknife) covariance, F(q, G - 1); per-aircraft
 parameters are tested aircraft by aircraft and the p-values combined by summing their
-chi-square equivalents (Fisher-type). Changes in time are tested by permuting the units
-(exact for any number of them): an aircraft's change-point (sup |CUSUM| of its units' mean
-offsets) and drift (their slope), Bonferroni over aircraft, and the fleet's change-point
-and trend. Family-wise: ALPHA_LIBRARY over the library's candidates of a round
-and ALPHA_SCREEN over the screening tests, each Bonferroni-split (nominal 2 % in all), and
-divided by the round's number: every round looks at the data again, so the r-th finding is
-named at 1/r of the first one's level (on null data nearly every diagnosis ends in the
-first round, whose level is unchanged; without it each later round's look would add up
-to the full 2 % of wrong causes).
+chi-square equivalents (Fisher-type). Where the units are weather blocks and the residual
+shows the reference error as a field the aircraft share (wind_field), each aircraft's own
+deviation terms (soft iron, field scaling: OWN_TERMS) are tested on the table less that
+error as the other aircraft's rows saw it, which holds none of this aircraft's deviation;
+a term the fleet shares is in those rows too and is tested on the table as it is.
+Changes in time are tested by permuting the units (exact for any number of them): an
+aircraft's change-point (sup |CUSUM| of its units' mean offsets) and drift (their slope),
+Bonferroni over aircraft, and the fleet's change-point and trend. Family-wise:
+ALPHA_LIBRARY over the library's candidates of a round and ALPHA_SCREEN over the screening
+tests, each Bonferroni-split (nominal 2 % in all), and divided by the round's number:
+every round looks at the data again, so the r-th finding is named at 1/r of the first
+one's level (on null data nearly every diagnosis ends in the first round, whose level is
+unchanged; without it each later round's look would add up to the full 2 % of wrong
+causes).
 
 Gain. The tests' unit k in time (a flight or a weather block) goes to fold k mod N_FOLDS
 (five folds, each spread over the whole period); each fold is predicted by parameters
@@ -219,6 +224,20 @@ SCANNED = {
     "recalibration": "sup |CUSUM| of the aircraft's means over its {units}, permuted, Bonferroni over aircraft",
     "offset_drift": "slope in time of the aircraft's means over its {units}, permuted, Bonferroni over aircraft",
 }
+
+# terms each aircraft has on its own (its deviation's twice-round part, its once-round part's
+# growth where the magnetic field is weak): where the data show a reference error field the
+# aircraft share (wind_field), tested on the table less that field as the other aircraft saw
+# it, as the recalibration and drift scans are. A term the fleet shares (a reference's bias,
+# a stale declination, a TAS scale) is in the other aircraft's rows too, and is tested on the
+# table as it is.
+OWN_TERMS = {"soft_iron", "field_scaling"}
+OWN_TEST = "cluster-robust Wald on {units}, against the reference error as the other aircraft saw it"
+
+
+def _wald_words(st: State, eff: str) -> str:
+    return OWN_TEST if st.field is not None and eff in OWN_TERMS else "cluster-robust Wald on {units}"
+
 
 CAUSES = {
     "soft_iron": "the heading error goes twice round with the heading (2z): soft iron magnetised by the horizontal "
@@ -530,6 +549,12 @@ def _library_candidates(d, st, y, clusters, fit0, basis, r0, look: int = 1) -> l
     level = _library_level(look)
     ss0 = float(np.sum(r0**2))
     out: list[_Cand] = []
+    # the round's model on the table less the field the other aircraft saw (OWN_TERMS' tests)
+    own = (
+        Basis(d, st, y - fit0.field_of(d, st.field), clusters)
+        if st.field is not None and OWN_TERMS - set(st.entered)
+        else None
+    )
     for eff in CANDIDATES:
         if eff in st.entered:
             continue
@@ -567,6 +592,8 @@ def _library_candidates(d, st, y, clusters, fit0, basis, r0, look: int = 1) -> l
                 # misplaces would otherwise be judged by the misplacement (a ramp then
                 # predicts that fold better than the step it stands for)
                 build = (blocks, CHANNEL[eff])
+            elif own is not None and eff in OWN_TERMS:  # the partialled fit on the table less the field
+                p = block_p(own.fit(blocks), eff, d)
             else:  # field scaling: the test of its first linearisation, the partialled fit's (jackknife)
                 p = block_p(fit1 if eff != "field_scaling" else basis.fit(blocks), eff, d)
         r1 = held_out_resid(d, st, y, clusters, eff, build, basis=basis)
@@ -826,7 +853,7 @@ def _library_finding(d, st, fit0, c: _Cand, base, y, clusters, plots: dict) -> A
         params = _parameters(eff, d, fit1, c["dgamma"], st)
         ch = CHANNEL[eff]
         evidence = {
-            "test": SCANNED.get(eff, "cluster-robust Wald on {units}").format(units=unit_words(d)),
+            "test": SCANNED.get(eff, _wald_words(st, eff)).format(units=unit_words(d)),
             "p_value": c["p"],
             "alpha": c["level"],
             "flights": int(len(np.unique(d.flight))),

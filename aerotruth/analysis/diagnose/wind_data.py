@@ -303,6 +303,16 @@ def _report_rows(df: pd.DataFrame) -> np.ndarray:
     return np.flatnonzero(np.r_[True, (ac[1:] != ac[:-1]) | (np.diff(t) != 0)])
 
 
+def metres_per_degree(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """(north, east) metres per degree of latitude and of longitude at each latitude on
+    WGS-84 (M and N cos(lat) times pi/180): a position grid's steps in metres, for the
+    rounding of the reports' positions (the quantization check's jitter and the weighted
+    fit's rounding variance, wind_weights)."""
+    lat = np.asarray(lat_deg, dtype=float)
+    rm, rn = wgs84_radii(lat * DEG)
+    return rm * DEG, rn * np.cos(lat * DEG) * DEG
+
+
 def _jitter(df: pd.DataFrame, first: np.ndarray) -> dict:
     """Differences of adjacent segment velocities (m/s, per component) at every interior
     report of level flight (`first`: the reports' rows), with c = 1/dt2^2 + (1/dt1 + 1/dt2)^2
@@ -312,8 +322,7 @@ def _jitter(df: pd.DataFrame, first: np.ndarray) -> dict:
     t = df["time_s"].to_numpy()[first]
     lat, lon = df["lat"].to_numpy()[first], df["lon"].to_numpy()[first]
     alt = df["pressure_altitude_ft"].to_numpy()[first]
-    rm, rn = wgs84_radii(lat * DEG)
-    m_lat, m_lon = rm * DEG, rn * np.cos(lat * DEG) * DEG  # metres per degree of the reports' grid
+    m_lat, m_lon = metres_per_degree(lat)  # of the reports' grid
     # segment velocities as the wind paper's ground track has them (one displacement per segment,
     # at its mid latitude: metres from per-point scales, lon x m_lon(lat), carried lon x dm_lon)
     de, dn = segment_displacements(lat * DEG, lon * DEG)

@@ -489,18 +489,23 @@ class Fit:
     resid: np.ndarray
     slices: list[slice]
     clusters: np.ndarray
-    # transverse_less_field's result per field kernel: the per-aircraft scans of one fit
-    # (recalibration and drift) read the same kriged field
-    _less_field: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+    # field_of's result per field kernel: the tests of one fit that read the field (each
+    # aircraft's scans and its own terms, OWN_TERMS) share one kriging
+    _field: dict = field(default_factory=dict, init=False, repr=False, compare=False)
+
+    def field_of(self, d: WindData, kernel: FieldKernel) -> np.ndarray:
+        """(2n,) each row's reference error field as the other aircraft's rows saw it, from
+        this fit's residual (wind_field.other_aircraft_field)."""
+        if kernel not in self._field:
+            self._field[kernel] = other_aircraft_field(d, self.resid, kernel)
+        return self._field[kernel]
 
     def transverse_less_field(self, d: WindData, kernel: FieldKernel | None) -> np.ndarray:
         """(n,) the transverse residual, less each row's reference error field as the other
-        aircraft's rows saw it where there is a `kernel` (wind_field.other_aircraft_field)."""
+        aircraft's rows saw it where there is a `kernel`."""
         if kernel is None:
             return self.resid[: d.n]
-        if kernel not in self._less_field:
-            self._less_field[kernel] = self.resid[: d.n] - other_aircraft_field(d, self.resid, kernel)[: d.n]
-        return self._less_field[kernel]
+        return self.resid[: d.n] - self.field_of(d, kernel)[: d.n]
 
     def coef(self, effect: str, aircraft: int | None = None) -> list[tuple[Block, np.ndarray, np.ndarray]]:
         return [

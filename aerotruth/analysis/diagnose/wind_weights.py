@@ -52,8 +52,7 @@ from dataclasses import dataclass
 import numpy as np
 from scipy import sparse
 
-from aerotruth.analysis.diagnose.wind_data import WindData
-from aerotruth.units import EARTH_RADIUS_M
+from aerotruth.analysis.diagnose.wind_data import WindData, metres_per_degree
 
 MAX_PIECE = 30  # rows of one series whitened together at most
 LAGS = 4  # the residual's correlation is read at lags 1..LAGS within series
@@ -78,8 +77,8 @@ def rounding_variance(d: WindData) -> np.ndarray:
     """(m/s)^2 per row: the mean over north and east of the ground velocity's rounding
     variance, (q_n^2 + q_e^2) / 12 / T^2 (module docstring); 0 where the positions are not
     rounded or the span is unknown."""
-    q_n = math.radians(d.position_step_deg) * EARTH_RADIUS_M
-    q_e = q_n * np.cos(np.radians(d.lat))
+    m_lat, m_lon = metres_per_degree(d.lat)
+    q_n, q_e = d.position_step_deg * m_lat, d.position_step_deg * m_lon
     with np.errstate(invalid="ignore", divide="ignore"):
         v = (q_n**2 + q_e**2) / 12.0 / d.track_span_s**2
     return np.where(np.isfinite(v), v, 0.0)
