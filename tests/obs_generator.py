@@ -392,3 +392,30 @@ def generate(
 def truth_table(truths: list[AircraftTruth]) -> pd.DataFrame:
     """The hidden coefficients, one row per aircraft."""
     return pd.DataFrame([a.__dict__ for a in truths]).set_index("aircraft")
+
+
+def add_reference_field(
+    obs: pd.DataFrame, seed: int, sd_kt: float = 6.0, l_km: float = 200.0, l_h: float = 3.0, modes: int = 200
+) -> pd.DataFrame:
+    """The observation table with each reference model's wind moved by an error field the
+    aircraft share (a draw per model, seeded by `seed`): east and north each a sum of `modes`
+    random cosines (random Fourier features, wavenumbers N(0, 1/l^2) in x, y and time), a
+    Gaussian covariance of sd_kt^2 with lengths l_km and l_h hours, evaluated at the rows'
+    positions and times."""
+    rng = np.random.default_rng([seed, 7])
+    obs = obs.copy()
+    x = (obs["lon"].to_numpy() + 93.0) * 111.195 * np.cos(np.radians(45.0))
+    y = (obs["lat"].to_numpy() - 45.0) * 111.195
+    t = (obs["time"].to_numpy() - obs["time"].min()) / 3600.0
+    for src in obs["ref_source"].unique():
+        s = obs["ref_source"].to_numpy() == src
+        comp = []
+        for _ in range(2):
+            kx, ky, w = rng.normal(0, 1 / l_km, modes), rng.normal(0, 1 / l_km, modes), rng.normal(0, 1 / l_h, modes)
+            arg = np.outer(x[s], kx) + np.outer(y[s], ky) + np.outer(t[s], w) + rng.uniform(0, 2 * np.pi, modes)
+            comp.append(sd_kt * np.sqrt(2.0 / modes) * np.cos(arg).sum(axis=1))
+        speed, wdir = obs.loc[s, "ref_wind_speed_kt"].to_numpy(), np.radians(obs.loc[s, "ref_wind_dir_deg"].to_numpy())
+        u, v = -speed * np.sin(wdir) + comp[0], -speed * np.cos(wdir) + comp[1]
+        obs.loc[s, "ref_wind_speed_kt"] = np.hypot(u, v)
+        obs.loc[s, "ref_wind_dir_deg"] = np.degrees(np.arctan2(-u, -v)) % 360.0
+    return obs

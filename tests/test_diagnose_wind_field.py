@@ -268,30 +268,6 @@ def test_report_says_the_field_in_one_paragraph():
     assert "2,693,322 pairs" in text
 
 
-def add_shared_field(obs, seed: int, sd_kt: float = 6.0, l_km: float = 200.0, l_h: float = 3.0, modes: int = 200):
-    """The observation table with each reference model's wind moved by a field the aircraft
-    share: east and north each a sum of `modes` random cosines (random Fourier features,
-    wavenumbers N(0, 1/l^2) in x, y and time), a Gaussian covariance of sd_kt^2 with lengths
-    l_km and l_h hours, drawn here on the rows' positions and times."""
-    rng = np.random.default_rng([seed, 7])
-    obs = obs.copy()
-    x = (obs["lon"].to_numpy() + 93.0) * KM_PER_DEG * np.cos(np.radians(45.0))
-    y = (obs["lat"].to_numpy() - 45.0) * KM_PER_DEG
-    t = (obs["time"].to_numpy() - obs["time"].min()) / 3600.0
-    for src in obs["ref_source"].unique():
-        s = obs["ref_source"].to_numpy() == src
-        comp = []
-        for _ in range(2):
-            kx, ky, w = rng.normal(0, 1 / l_km, modes), rng.normal(0, 1 / l_km, modes), rng.normal(0, 1 / l_h, modes)
-            arg = np.outer(x[s], kx) + np.outer(y[s], ky) + np.outer(t[s], w) + rng.uniform(0, 2 * np.pi, modes)
-            comp.append(sd_kt * np.sqrt(2.0 / modes) * np.cos(arg).sum(axis=1))
-        speed, wdir = obs.loc[s, "ref_wind_speed_kt"].to_numpy(), np.radians(obs.loc[s, "ref_wind_dir_deg"].to_numpy())
-        u, v = -speed * np.sin(wdir) + comp[0], -speed * np.cos(wdir) + comp[1]
-        obs.loc[s, "ref_wind_speed_kt"] = np.hypot(u, v)
-        obs.loc[s, "ref_wind_dir_deg"] = np.degrees(np.arctan2(-u, -v)) % 360.0
-    return obs
-
-
 @pytest.mark.slow
 def test_an_aircraft_own_field_scaling_is_clearer_against_the_other_aircraft(monkeypatch):
     """Field scaling hidden (each aircraft's hard iron B, C growing as 1/H, the model's gamma
@@ -312,7 +288,7 @@ def test_an_aircraft_own_field_scaling_is_clearer_against_the_other_aircraft(mon
     for seed in range(1, 9):
         rng = np.random.default_rng(seed)
         fleet = [replace(a, h0_nT=17000.0) for a in gen.fleet(12, rng, de_every=0, one_heading_last=False)]
-        d = prepare(add_shared_field(gen.generate(fleet, rng, flights=40, ref_sigma_kt=2.0), seed))
+        d = prepare(gen.add_reference_field(gen.generate(fleet, rng, flights=40, ref_sigma_kt=2.0), seed))
         assert d.unit == "weather block"
         p = {}
         for own in (shipped, set()):

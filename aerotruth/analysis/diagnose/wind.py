@@ -64,7 +64,9 @@ chi-square equivalents (Fisher-type). Where the units are weather blocks and the
 shows the reference error as a field the aircraft share (wind_field), each aircraft's own
 deviation terms (soft iron, field scaling: OWN_TERMS) are tested on the table less that
 error as the other aircraft's rows saw it, which holds none of this aircraft's deviation;
-a term the fleet shares is in those rows too and is tested on the table as it is.
+a term the fleet shares is in those rows too and is tested on the table as it is; a
+reference's bias, with two or more reference models, on the references' differences at the
+same reports, where nothing of the aircraft is left (wind_pairs).
 Changes in time are tested by permuting the units (exact for any number of them): an
 aircraft's change-point (sup |CUSUM| of its units' mean offsets) and drift (their slope),
 Bonferroni over aircraft, and the fleet's change-point and trend. Family-wise:
@@ -189,6 +191,7 @@ from aerotruth.analysis.diagnose.wind_model import (  # noqa: F401  (WindModelSp
     term_center,
     wind_model_from_campaign,
 )
+from aerotruth.analysis.diagnose.wind_pairs import reference_difference_test
 from aerotruth.analysis.diagnose.wind_weights import working_weights
 from aerotruth.analysis.least_squares import clustered_se
 from aerotruth.analysis.wind.heading_correction import heading_spread
@@ -236,6 +239,8 @@ OWN_TEST = "cluster-robust Wald on {units}, against the reference error as the o
 
 
 def _wald_words(st: State, eff: str) -> str:
+    if eff == "reference_bias" and st.reference_pairs is not None:
+        return st.reference_pairs["test"]
     return OWN_TEST if st.field is not None and eff in OWN_TERMS else "cluster-robust Wald on {units}"
 
 
@@ -594,6 +599,8 @@ def _library_candidates(d, st, y, clusters, fit0, basis, r0, look: int = 1) -> l
                 build = (blocks, CHANNEL[eff])
             elif own is not None and eff in OWN_TERMS:  # the partialled fit on the table less the field
                 p = block_p(own.fit(blocks), eff, d)
+            elif eff == "reference_bias" and st.reference_pairs is not None:  # the references side by side
+                p = st.reference_pairs["p"]
             else:  # field scaling: the test of its first linearisation, the partialled fit's (jackknife)
                 p = block_p(fit1 if eff != "field_scaling" else basis.fit(blocks), eff, d)
         r1 = held_out_resid(d, st, y, clusters, eff, build, basis=basis)
@@ -1081,6 +1088,7 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
     r0 = solve(current_blocks(d, st), y, clusters, with_cov=False).resid
     st.weights = working_weights(d, r0)
     st.field = fit_field_kernel(d, r0)
+    st.reference_pairs = reference_difference_test(d, y, st.field)
     fit_start = None  # the model before any effect: the first round's fit
     findings: list = []
     plots: dict = {}
@@ -1229,6 +1237,9 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         "weather_blocks": int(len(np.unique(d.block))),
         "units": {"unit": d.unit, "count": n_units, "why": units_reason(d), "sharing_test": d.sharing},
         "reference_field": None if st.field is None else st.field.params(),
+        "reference_pairs": None
+        if st.reference_pairs is None
+        else {k: v for k, v in st.reference_pairs.items() if k != "test"},
         "data": d.table,
     }
     if not testable:

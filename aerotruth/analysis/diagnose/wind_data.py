@@ -50,6 +50,9 @@ class WindData:
     wref_e: np.ndarray  # unit vector along the wind for a reference bias: the other references' mean (0 where calm)
     wref_n: np.ndarray
     wref_speed: np.ndarray  # m/s: that wind's speed (a reference's scale error is proportional to it)
+    report: np.ndarray  # the row's report (rows of one report, one per reference, share it)
+    wobs_e: np.ndarray  # the aircraft's reported wind, m/s towards east and north (its errors are the aircraft's)
+    wobs_n: np.ndarray
     lat: np.ndarray
     lon: np.ndarray
     alt_ft: np.ndarray
@@ -483,7 +486,8 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     g = pd.DataFrame({"rep": rep, "e": re_, "n": rn_})
     tot = g.groupby("rep")[["e", "n"]].transform("sum").to_numpy()
     cnt = g.groupby("rep")["e"].transform("size").to_numpy()
-    we, wn = towards_from_report(df["wind_speed_kt"].to_numpy()[used], df["wind_dir_deg"].to_numpy()[used])
+    wobs_e, wobs_n = towards_from_report(df["wind_speed_kt"].to_numpy()[used], df["wind_dir_deg"].to_numpy()[used])
+    we, wn = wobs_e, wobs_n
     with np.errstate(invalid="ignore", divide="ignore"):
         others = cnt > 1
         we = np.where(others, (tot[:, 0] - re_) / (cnt - 1), we)
@@ -557,6 +561,9 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
         wref_e=ue,
         wref_n=un,
         wref_speed=np.nan_to_num(sp),
+        report=rep,
+        wobs_e=wobs_e,
+        wobs_n=wobs_n,
         lat=lat,
         lon=lon,
         alt_ft=alt,

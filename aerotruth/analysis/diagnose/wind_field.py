@@ -179,7 +179,7 @@ def fit_field_kernel(d: WindData, resid: np.ndarray) -> FieldKernel | None:
     )
 
 
-def _frames(z: np.ndarray) -> np.ndarray:
+def heading_frames(z: np.ndarray) -> np.ndarray:
     """(k, 2, 2): each row's (transverse, along) from (east, north)."""
     c, s = np.cos(z), np.sin(z)
     return np.stack([np.stack([c, -s], axis=-1), np.stack([s, c], axis=-1)], axis=-2)
@@ -200,7 +200,7 @@ def other_aircraft_field(
             np.abs(z[g][:, None] - z[g][None, :]),
             np.abs(t[g][:, None] - t[g][None, :]),
         )
-        R = _frames(d.z[g])
+        R = heading_frames(d.z[g])
         rg = np.stack([resid[g], resid[d.n :][g]], axis=-1)  # (k, 2): the rows' (transverse, along)
         for a in np.unique(d.aircraft[g]):
             rows = np.flatnonzero(d.aircraft[g] == a)

@@ -230,6 +230,9 @@ class State:
     # the per-aircraft scans measure an aircraft against the other aircraft's view of it
     field: FieldKernel | None = None
     weights: Weights | None = None  # the fit's working covariance (wind_weights), None: ordinary least squares
+    # the references' biases tested on their differences at the same reports where there is a
+    # field (wind_pairs.reference_difference_test; no term of the model enters them)
+    reference_pairs: dict | None = None
 
 
 def stack_channels(trans: np.ndarray | None, along: np.ndarray | None, n: int) -> np.ndarray:
@@ -662,7 +665,7 @@ def solve(
     return Fit(blocks, beta, cov, resid, slices, clusters)
 
 
-def _wald_p(beta: np.ndarray, cov: np.ndarray, df_den: int) -> float:
+def wald_p(beta: np.ndarray, cov: np.ndarray, df_den: int) -> float:
     ok = np.isfinite(np.diag(cov)) & (np.diag(cov) > 0)
     if not ok.any() or df_den < 1:
         return 1.0
@@ -693,17 +696,17 @@ def block_p(fit: Fit, effect: str, d: WindData) -> float:
     per = [(b, be, v) for b, be, v in parts if b.aircraft >= 0]
     ps = []
     if fleet and effect in SEPARATE_BLOCKS:
-        ps.append(min(1.0, min(_wald_p(be, v, G - 1) for _, be, v in fleet) * len(fleet)))
+        ps.append(min(1.0, min(wald_p(be, v, G - 1) for _, be, v in fleet) * len(fleet)))
     elif fleet:
         be = np.concatenate([x[1] for x in fleet])
         sl = [s for b, s in zip(fit.blocks, fit.slices, strict=False) if b.effect == effect and b.aircraft < 0]
         idx = np.concatenate([np.arange(s.start, s.stop) for s in sl])
-        ps.append(_wald_p(be, fit.cov[np.ix_(idx, idx)], G - 1))
+        ps.append(wald_p(be, fit.cov[np.ix_(idx, idx)], G - 1))
     if per:
         chi, dof = 0.0, 0
         for b, be, v in per:
             g_i = len(np.unique(d.cluster[d.aircraft == b.aircraft]))
-            p = _wald_p(be, v, g_i - 1)
+            p = wald_p(be, v, g_i - 1)
             q = be.size
             chi += float(stats.chi2.isf(max(p, 1e-300), q))
             dof += q
