@@ -31,7 +31,8 @@ rest; `field_scaling` by Gauss-Newton on gamma):
     tas_scale          per aircraft k: along residual = k TAS
     stale_declination  age a (years): transverse = a (-dD/dt)(lat, lon), D the IGRF declination
     reference_bias     per reference model b (kt along its wind): t = b w.n, a = b w.u; each
-                       reference's b tested alone, Bonferroni over the references
+                       reference's b tested alone, Bonferroni over the references (where
+                       there is a field, on the references' differences: wind_pairs)
                        (also as a scale s of its wind, error = s W, and which form fits better;
                        where a scale does, the error in the chosen forms is tested and held
                        out too: evidence["forms_chosen"])
@@ -231,9 +232,10 @@ SCANNED = {
 # terms each aircraft has on its own (its deviation's twice-round part, its once-round part's
 # growth where the magnetic field is weak): where the data show a reference error field the
 # aircraft share (wind_field), tested on the table less that field as the other aircraft saw
-# it, as the recalibration and drift scans are. A term the fleet shares (a reference's bias,
-# a stale declination, a TAS scale) is in the other aircraft's rows too, and is tested on the
-# table as it is.
+# it, as the recalibration and drift scans are (the other aircraft's rows carry their own
+# terms of the kind too; on shared routes a little of them is in the field subtracted). A
+# term the fleet shares (a reference's bias, a stale declination, a TAS scale) is in the
+# other aircraft's rows too, and is tested on the table as it is.
 OWN_TERMS = {"soft_iron", "field_scaling"}
 OWN_TEST = "cluster-robust Wald on {units}, against the reference error as the other aircraft saw it"
 
@@ -458,7 +460,8 @@ def _forms_chosen(d: WindData, st: State, y: np.ndarray, clusters: np.ndarray, b
         "p_value": block_p(fit, "reference_bias", d),
         "held_out_before": b_ho,
         "held_out_after": a_ho,
-        "test": f"cluster-robust Wald on {unit_words(d)}; held out as the finding's gain",
+        "test": f"on the table (each model's rows), cluster-robust Wald on {unit_words(d)}; held out as the "
+        "finding's gain",
     }
 
 
@@ -542,6 +545,11 @@ class _Cand(TypedDict):
     sigs: NotRequired[list[dict]]
     key: NotRequired[str]
     q: NotRequired[dict[str, Any]]
+    # how the candidate is tested when it is a rival (_rivals): its test's own basis (OWN_TERMS:
+    # the table less the field), or a p that no term of the aircraft's model changes (a
+    # reference's bias on the references' differences)
+    test_basis: NotRequired[Any]
+    p_given_any: NotRequired[float]
 
 
 def _library_level(look: int) -> float:
@@ -564,6 +572,7 @@ def _library_candidates(d, st, y, clusters, fit0, basis, r0, look: int = 1) -> l
         if eff in st.entered:
             continue
         build = None
+        test_basis, p_given_any = None, None
         if eff in FORMS:
             # p: the smallest form's, Bonferroni over the forms; the form: of those significant
             # at the library's level, the one that predicts held-out blocks best (a form with
@@ -599,8 +608,10 @@ def _library_candidates(d, st, y, clusters, fit0, basis, r0, look: int = 1) -> l
                 build = (blocks, CHANNEL[eff])
             elif own is not None and eff in OWN_TERMS:  # the partialled fit on the table less the field
                 p = block_p(own.fit(blocks), eff, d)
+                test_basis = own
             elif eff == "reference_bias" and st.reference_pairs is not None:  # the references side by side
                 p = st.reference_pairs["p"]
+                p_given_any = p
             else:  # field scaling: the test of its first linearisation, the partialled fit's (jackknife)
                 p = block_p(fit1 if eff != "field_scaling" else basis.fit(blocks), eff, d)
         r1 = held_out_resid(d, st, y, clusters, eff, build, basis=basis)
@@ -608,22 +619,25 @@ def _library_candidates(d, st, y, clusters, fit0, basis, r0, look: int = 1) -> l
             continue
         ch = channel_rows(d.n, CHANNEL[eff])
         b_ho, a_ho = math.sqrt(np.mean(r0[ch] ** 2)) / KT, math.sqrt(np.mean(r1[ch] ** 2)) / KT
-        out.append(
-            {
-                "effect": eff,
-                "kind": "library",
-                "p": p,
-                "level": level,
-                "held_out": (b_ho, a_ho),
-                "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0,
-                "gain_all": (ss0 - float(np.sum(r1**2))) / ss0 if ss0 > 0 else 0.0,
-                "channel": CHANNEL[eff],
-                "fit": fit1,
-                "blocks": blocks,
-                "resid_ho": r1,
-                "dgamma": dg,
-            }
-        )
+        cand: _Cand = {
+            "effect": eff,
+            "kind": "library",
+            "p": p,
+            "level": level,
+            "held_out": (b_ho, a_ho),
+            "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0,
+            "gain_all": (ss0 - float(np.sum(r1**2))) / ss0 if ss0 > 0 else 0.0,
+            "channel": CHANNEL[eff],
+            "fit": fit1,
+            "blocks": blocks,
+            "resid_ho": r1,
+            "dgamma": dg,
+        }
+        if test_basis is not None:
+            cand["test_basis"] = test_basis
+        if p_given_any is not None:
+            cand["p_given_any"] = p_given_any
+        out.append(cand)
     q = _quantization(d, st, look)
     if q is not None:
         out.append(q)
@@ -749,9 +763,12 @@ def _rivals(d, basis, best: _Cand, others: list[_Cand]) -> list[dict]:
     out = []
     clusters2 = np.r_[d.cluster, d.cluster]
     for c in others:
-        rb = [Block("rival", b.label, b.cols, b.aircraft) for b in c["blocks"]]
-        joint = basis.fit(best["blocks"] + rb)
-        p_sep = block_p(joint, "rival", d)
+        if "p_given_any" in c:  # no term of the model enters its test: given the best, the same
+            p_sep = c["p_given_any"]
+        else:  # in its own test's basis (OWN_TERMS: the table less the field)
+            rb = [Block("rival", b.label, b.cols, b.aircraft) for b in c["blocks"]]
+            joint = c.get("test_basis", basis).fit(best["blocks"] + rb)
+            p_sep = block_p(joint, "rival", d)
         t, p_beat = held_out_contest(best["resid_ho"], c["resid_ho"], clusters2)
         weak = not c["p"] < c["level"]
         if p_sep < (ALPHA_RIVAL if weak else c["level"]):
@@ -872,6 +889,10 @@ def _library_finding(d, st, fit0, c: _Cand, base, y, clusters, plots: dict) -> A
             )
         if eff == "reference_bias" and any(x["form"] == "scale" for x in params["bias_kt"].values()):
             evidence["forms_chosen"] = _forms_chosen(d, st, y, clusters, base, params["bias_kt"])
+        if eff == "reference_bias" and st.reference_pairs is not None:
+            # the contrast the test measured (attenuated by the measured wind's direction error;
+            # the sizes above are the table's fit)
+            evidence["contrast_kt"] = {src: v["b_kt"] for src, v in st.reference_pairs["per"].items()}
         gain = {
             "metric": f"RMS of the {ch} wind residual (kt)"
             if ch != "both"

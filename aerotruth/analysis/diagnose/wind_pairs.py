@@ -24,7 +24,17 @@ squares on the whitened rows and tests it with the cluster-robust covariance ove
 valid whatever the covariance (the working covariance decides only the weights): reports
 where many aircraft fly close together see one draw of the field, and count about once
 rather than once per aircraft. With two references the two differences are one contrast,
-tested once; with more, each reference against the others, Bonferroni over them.
+tested once; with more, each reference against the mean of the others present at each
+report, Bonferroni over them.
+
+What it cannot tell, and what it assumes. The differences see only what the references do
+not share: a bias both models make alike (and an error of the measured wind along the wind,
+the aircraft's) is not in them; with two references the contrast says that they differ, not
+which of them errs (the finding's sizes, per reference, are the table's fit). The measured
+wind's errors must be independent of the analyses': a model that assimilated these very
+reports (a reanalysis taking in the aircraft's winds) carries part of their error, which
+leans towards the measured wind's direction and would read as a bias of that model where
+the other assimilated less of it.
 """
 
 from __future__ import annotations
@@ -39,19 +49,19 @@ from aerotruth.analysis.diagnose.wind_model import cluster_robust, wald_p
 from aerotruth.analysis.least_squares import ols
 from aerotruth.units import KT
 
-MAX_PIECE = 400  # reports whitened together (a Cholesky of 2 x 400 rows)
+MAX_PIECE = 300  # reports whitened together (a Cholesky of 2 x 300 rows)
 NUGGET_FLOOR = 0.1  # the nugget's least share of D's variance per channel
+NUGGET_MIN = 1e-4  # (m/s)^2: and at least this (a reference listed twice has no difference at all)
 MIN_UNITS = 5  # units with paired reports a test needs
 
 
-def paired_reports(d: WindData) -> np.ndarray:
-    """(R, M) row index of each reference's row at every report that has a row of each of
-    the M references (reports missing one are left out)."""
+def report_rows(d: WindData) -> np.ndarray:
+    """(R, M) row index of each reference's row at every report (the first where a report
+    has two rows of one reference), -1 where the report has no row of that reference."""
     m = len(d.sources)
     frame = pd.DataFrame({"report": d.report, "source": d.source, "row": np.arange(d.n)})
     wide = frame.pivot_table(index="report", columns="source", values="row", aggfunc="first")
-    wide = wide.reindex(columns=range(m)).dropna()
-    return wide.to_numpy(dtype=np.int64)
+    return wide.reindex(columns=range(m)).fillna(-1).to_numpy(dtype=np.int64)
 
 
 def measured_wind_column(d: WindData, rows: np.ndarray) -> np.ndarray:
@@ -66,18 +76,34 @@ def measured_wind_column(d: WindData, rows: np.ndarray) -> np.ndarray:
     return np.column_stack([ue * np.cos(z) - un * np.sin(z), ue * np.sin(z) + un * np.cos(z)]) * KT
 
 
-def _whitening(d: WindData, rows: np.ndarray, kernel: FieldKernel, factor: float, nugget: np.ndarray):
+def _cholesky(C: np.ndarray) -> np.ndarray:
+    """The lower Cholesky factor of a working covariance; with a little more on the diagonal
+    where rounding leaves it not quite positive definite (two reports at one place and
+    time), and the diagonal's square root where even that fails (ordinary weights)."""
+    try:
+        return np.linalg.cholesky(C)
+    except np.linalg.LinAlgError:
+        pass
+    try:
+        return np.linalg.cholesky(C + np.eye(len(C)) * 1e-6 * float(np.mean(np.diag(C))))
+    except np.linalg.LinAlgError:
+        return np.diag(np.sqrt(np.diag(C)))
+
+
+def _whitening(d, coords, rows: np.ndarray, scale: np.ndarray, kernel: FieldKernel, nugget: np.ndarray):
     """Per piece of a unit's reports (time order, at most MAX_PIECE): (positions in `rows`,
     the lower Cholesky factor of D's working covariance over their (transverse, along)
-    pairs, interleaved)."""
-    x, y, z, t = local_coordinates(d)
+    pairs, interleaved); `scale` each report's factor on the field's variance."""
+    x, y, z, t = coords
     order = np.argsort(d.time_s[rows], kind="stable")
     out = []
     for piece in np.array_split(order, max(1, -(-len(order) // MAX_PIECE))):
         r = rows[piece]
+        f = np.sqrt(scale[piece])
         K = (
-            factor
-            * kernel.variance
+            kernel.variance
+            * f[:, None]
+            * f[None, :]
             * kernel.correlation(
                 np.hypot(x[r][:, None] - x[r][None, :], y[r][:, None] - y[r][None, :]),
                 np.abs(z[r][:, None] - z[r][None, :]),
@@ -90,55 +116,79 @@ def _whitening(d: WindData, rows: np.ndarray, kernel: FieldKernel, factor: float
         diag = np.arange(2 * k)
         C[diag[0::2], diag[0::2]] += nugget[0]
         C[diag[1::2], diag[1::2]] += nugget[1]
-        out.append((piece, np.linalg.cholesky(C)))
+        out.append((piece, _cholesky(C)))
     return out
+
+
+def _contrast(d, coords, y: np.ndarray, rr: np.ndarray, j: int, kernel: FieldKernel) -> dict | None:
+    """Reference j against the mean of the other references present at each report (module
+    docstring): {"b_kt", "p", "reports", "units"}, None with fewer than MIN_UNITS units."""
+    n = d.n
+    mine = rr[:, j] >= 0
+    others = (rr >= 0) & (np.arange(rr.shape[1]) != j)[None, :]
+    k = others.sum(axis=1)
+    use = mine & (k > 0)
+    rr, others, k = rr[use], others[use], k[use]
+    rows = rr[:, j]
+    safe = np.where(others, rr, rows[:, None])  # a valid index where a reference is absent (masked out)
+    mean_o = np.stack([(np.where(others, y[c * n + safe], 0.0)).sum(axis=1) / k for c in (0, 1)], axis=1)
+    D = np.column_stack([y[rows], y[n + rows]]) - mean_o  # (R, 2)
+    X = measured_wind_column(d, rows)
+    ok = np.isfinite(D).all(axis=1) & np.isfinite(X).all(axis=1)
+    rows, D, X, k = rows[ok], D[ok], X[ok], k[ok]
+    units = d.cluster[rows]
+    order = np.argsort(units, kind="stable")
+    uniq, starts = np.unique(units[order], return_index=True)
+    if len(uniq) < MIN_UNITS or not (D.var(axis=0) > 0).any():
+        return None
+    scale = 1.0 + 1.0 / k  # D's field variance over one model's, each report (independent models)
+    nugget = np.maximum.reduce(
+        [D.var(axis=0) - float(np.mean(scale)) * kernel.variance, NUGGET_FLOOR * D.var(axis=0), np.full(2, NUGGET_MIN)]
+    )
+    xs, ys, gs = [], [], []
+    for u, pos in zip(uniq, np.split(order, starts[1:]), strict=True):
+        for piece, L in _whitening(d, coords, rows[pos], scale[pos], kernel, nugget):
+            at = pos[piece]
+            xs.append(solve_triangular(L, X[at].reshape(-1), lower=True))
+            ys.append(solve_triangular(L, D[at].reshape(-1), lower=True))
+            gs.append(np.full(2 * len(at), u))
+    xw, yw, g = np.concatenate(xs)[:, None], np.concatenate(ys), np.concatenate(gs)
+    beta, xtx = ols(xw, yw)
+    cov = cluster_robust(xw, yw - xw @ beta, g, xtx)
+    return {
+        "b_kt": float(beta[0]),
+        "p": wald_p(beta, cov, len(uniq) - 1),
+        "reports": int(len(rows)),
+        "units": int(len(uniq)),
+    }
 
 
 def reference_difference_test(d: WindData, y: np.ndarray, kernel: FieldKernel | None) -> dict | None:
     """The references' biases tested on their differences at the same reports (module
     docstring), `y` the stacked residual less the model's known offsets. Returns {"p": the
-    smallest p times the contrasts tested, "per": {reference: {"b_kt", "p"}}, "reports",
-    "units", "test"}; None with one reference, no field (`kernel` None) or fewer than
-    MIN_UNITS units with paired reports."""
+    smallest p times the contrasts tested, "per": {reference: {"b_kt", "p", "reports",
+    "units"}}, "test"}; None with one reference, no field (`kernel` None) or no contrast
+    with MIN_UNITS units of paired reports."""
     m = len(d.sources)
     if m < 2 or kernel is None:
         return None
-    idx = paired_reports(d)
-    if len(idx) == 0:
-        return None
-    units = d.cluster[idx[:, 0]]
-    uniq = np.unique(units)
-    if len(uniq) < MIN_UNITS:
-        return None
-    n = d.n
-    Y = np.stack([np.column_stack([y[idx[:, j]], y[n + idx[:, j]]]) for j in range(m)], axis=1)  # (R, M, 2)
-    X = measured_wind_column(d, idx[:, 0])  # the same at every row of a report
-    factor = 1.0 + 1.0 / (m - 1)
+    rr = report_rows(d)
+    coords = local_coordinates(d)
     tested = [0] if m == 2 else list(range(m))  # two references: one contrast
     per: dict[str, dict] = {}
     for j in tested:
-        D = Y[:, j] - (Y.sum(axis=1) - Y[:, j]) / (m - 1)  # (R, 2)
-        nugget = np.maximum(D.var(axis=0) - factor * kernel.variance, NUGGET_FLOOR * D.var(axis=0))
-        xs, ys, gs = [], [], []
-        for u in uniq:
-            pos = np.flatnonzero(units == u)
-            for piece, L in _whitening(d, idx[pos, 0], kernel, factor, nugget):
-                rows = pos[piece]
-                xs.append(solve_triangular(L, X[rows].reshape(-1), lower=True))
-                ys.append(solve_triangular(L, D[rows].reshape(-1), lower=True))
-                gs.append(np.full(2 * len(rows), u))
-        xw, yw, g = np.concatenate(xs)[:, None], np.concatenate(ys), np.concatenate(gs)
-        beta, xtx = ols(xw, yw)
-        cov = cluster_robust(xw, yw - xw @ beta, g, xtx)
-        per[d.sources[j]] = {"b_kt": float(beta[0]), "p": wald_p(beta, cov, len(uniq) - 1)}
+        c = _contrast(d, coords, y, rr, j, kernel)
+        if c is not None:
+            per[d.sources[j]] = c
+    if not per:
+        return None
+    p = float(min(1.0, min(v["p"] for v in per.values()) * len(tested)))
     if m == 2:  # the other reference's is the same contrast, of the other sign
         only = per[d.sources[0]]
-        per[d.sources[1]] = {"b_kt": -only["b_kt"], "p": only["p"]}
+        per[d.sources[1]] = {**only, "b_kt": -only["b_kt"]}
     return {
-        "p": float(min(1.0, min(v["p"] for v in per.values()) * len(tested))),
+        "p": p,
         "per": per,
-        "reports": int(len(idx)),
-        "units": int(len(uniq)),
         "test": "the references' differences at the same reports along the aircraft's reported wind, weighted by "
         "the field's covariance, cluster-robust Wald on {units}",
     }
