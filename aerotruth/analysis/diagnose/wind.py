@@ -552,6 +552,16 @@ class _Cand(TypedDict):
     p_given_any: NotRequired[float]
 
 
+def _gains(d, r0: np.ndarray, r1: np.ndarray, ss0: float, channel: str) -> tuple[tuple[float, float], float, float]:
+    """A candidate's held-out RMS (kt) of its channel before and after, its relative gain
+    there, and the relative gain of both channels' squared residuals (_Cand's held_out,
+    rel and gain_all)."""
+    m = channel_rows(d.n, channel)
+    b_ho, a_ho = math.sqrt(np.mean(r0[m] ** 2)) / KT, math.sqrt(np.mean(r1[m] ** 2)) / KT
+    rel = (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0
+    return (b_ho, a_ho), rel, (ss0 - float(np.sum(r1**2))) / ss0 if ss0 > 0 else 0.0
+
+
 def _library_level(look: int) -> float:
     """A library candidate's level in the round's look (module docstring: family-wise):
     ALPHA_LIBRARY over the candidates and the reports' grid, over the look."""
@@ -617,16 +627,15 @@ def _library_candidates(d, st, y, clusters, fit0, basis, r0, look: int = 1) -> l
         r1 = held_out_resid(d, st, y, clusters, eff, build, basis=basis)
         if r1 is None:
             continue
-        ch = channel_rows(d.n, CHANNEL[eff])
-        b_ho, a_ho = math.sqrt(np.mean(r0[ch] ** 2)) / KT, math.sqrt(np.mean(r1[ch] ** 2)) / KT
+        held, rel, gain_all = _gains(d, r0, r1, ss0, CHANNEL[eff])
         cand: _Cand = {
             "effect": eff,
             "kind": "library",
             "p": p,
             "level": level,
-            "held_out": (b_ho, a_ho),
-            "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0,
-            "gain_all": (ss0 - float(np.sum(r1**2))) / ss0 if ss0 > 0 else 0.0,
+            "held_out": held,
+            "rel": rel,
+            "gain_all": gain_all,
             "channel": CHANNEL[eff],
             "fit": fit1,
             "blocks": blocks,
@@ -716,17 +725,16 @@ def _screen_candidates(d, st, y, clusters, fit0, basis, r0, done: set[str], look
             continue
         r1 = held_out_resid(d, st, y, clusters, "screen", (blocks, ch), basis=basis)
         assert r1 is not None  # the term's columns are given
-        m = channel_rows(d.n, ch)
-        b_ho, a_ho = math.sqrt(np.mean(r0[m] ** 2)) / KT, math.sqrt(np.mean(r1[m] ** 2)) / KT
+        held, rel, gain_all = _gains(d, r0, r1, ss0, ch)
         out.append(
             {
                 "effect": f"unexplained:{key}",
                 "kind": "screen",
                 "p": p,
                 "level": level,
-                "held_out": (b_ho, a_ho),
-                "rel": (b_ho - a_ho) / b_ho if b_ho > 0 else 0.0,
-                "gain_all": (ss0 - float(np.sum(r1**2))) / ss0 if ss0 > 0 else 0.0,
+                "held_out": held,
+                "rel": rel,
+                "gain_all": gain_all,
                 "channel": ch,
                 "fit": fit1,
                 "blocks": blocks,
