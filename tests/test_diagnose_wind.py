@@ -116,6 +116,32 @@ def test_stale_declination_five_years():
     _first(findings, "stale_declination", 5.0)
 
 
+def test_a_one_sided_coefficient_test_against_the_t_table():
+    """signed_p against Student's t table (two-tailed 5 % points: 2.228 at 10 degrees of
+    freedom, 2.042 at 30): the allowed direction gets half the two-sided p, the other one
+    less that half."""
+    from aerotruth.analysis.diagnose.wind_model import signed_p
+
+    assert signed_p(2.228, 1.0, 10, +1) == pytest.approx(0.025, abs=2e-4)
+    assert signed_p(-2.228 * 3.0, 9.0, 10, -1) == pytest.approx(0.025, abs=2e-4)
+    assert signed_p(-2.042, 1.0, 30, +1) == pytest.approx(0.975, abs=2e-4)
+    assert signed_p(1.0, 0.0, 30, +1) == 1.0
+
+
+@pytest.mark.slow
+def test_a_declination_table_newer_than_the_data_is_not_named():
+    """A receiver cannot carry a declination model newer than its data: the same network and
+    fleet as the five-year test, with the table five years *newer* (the heading error of the
+    opposite sign, as large), must not be named a stale declination (the test is one-sided:
+    its p on the wrong side is above one half), while five years older is named (above)."""
+    fleet, rng = _fleet(6)
+    obs = gen.generate(fleet, rng, flights=40, hub=ANCHORAGE, stale_declination_years=-5.0)
+    findings, baseline, _ = _diagnose(obs)
+    assert all("stale_declination" not in (f.effect, *f.parameters.get("confusable_with", [])) for f in findings)
+    assert all("stale declination" not in f.cause for f in findings), [f.cause for f in findings]
+    assert baseline["rounds"][0]["stale_declination"]["p"] > 0.5
+
+
 @pytest.mark.slow
 def test_reference_model_bias_along_the_wind():
     fleet, rng = _fleet(7)

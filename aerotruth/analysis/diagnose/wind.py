@@ -29,7 +29,9 @@ rest; `field_scaling` by Gauss-Newton on gamma):
     soft_iron          per aircraft D, E (2z): soft iron induced by the horizontal field
     field_scaling      gamma: hard-iron B, C grow as 1/H (magnetic latitude)
     tas_scale          per aircraft k: along residual = k TAS
-    stale_declination  age a (years): transverse = a (-dD/dt)(lat, lon), D the IGRF declination
+    stale_declination  age a (years): transverse = a (-dD/dt)(lat, lon), D the IGRF declination;
+                       one-sided towards an older table where the spec states a current one
+                       (a receiver cannot carry a model newer than its data)
     reference_bias     per reference model b (kt along its wind): t = b w.n, a = b w.u; each
                        reference's b tested alone, Bonferroni over the references (where
                        there is a field, on the references' differences: wind_pairs)
@@ -136,6 +138,7 @@ from __future__ import annotations
 import datetime as dt
 import math
 from collections.abc import Callable
+from dataclasses import replace
 from typing import Any, NotRequired, TypedDict
 
 import numpy as np
@@ -774,7 +777,7 @@ def _rivals(d, basis, best: _Cand, others: list[_Cand]) -> list[dict]:
         if "p_given_any" in c:  # no term of the model enters its test: given the best, the same
             p_sep = c["p_given_any"]
         else:  # in its own test's basis (OWN_TERMS: the table less the field)
-            rb = [Block("rival", b.label, b.cols, b.aircraft) for b in c["blocks"]]
+            rb = [replace(b, effect="rival", p=None) for b in c["blocks"]]  # sign kept: the rival's own test
             joint = c.get("test_basis", basis).fit(best["blocks"] + rb)
             p_sep = block_p(joint, "rival", d)
         t, p_beat = held_out_contest(best["resid_ho"], c["resid_ho"], clusters2)

@@ -214,6 +214,9 @@ class Block:
     cols: np.ndarray  # (2n, q)
     aircraft: int = -1
     p: float | None = None  # a scanned candidate's p-value (Bonferroni over aircraft), else None
+    # +1 (-1): the physics allows this one-column term only a positive (negative) coefficient,
+    # so its test is one-sided in that direction (block_p); 0: either sign, two-sided
+    sign: int = 0
 
 
 @dataclass
@@ -677,6 +680,15 @@ def wald_p(beta: np.ndarray, cov: np.ndarray, df_den: int) -> float:
     return float(stats.f.sf(w / q, q, df_den))
 
 
+def signed_p(beta: float, var: float, df_den: int, sign: int) -> float:
+    """One-sided p of a single coefficient whose alternative is sign x beta > 0: the t test's
+    upper tail, t = sign beta / sqrt(var) on df_den degrees of freedom (half the two-sided
+    F(1, df_den) p in the allowed direction, one less that half in the other)."""
+    if not (np.isfinite(var) and var > 0) or df_den < 1:
+        return 1.0
+    return float(stats.t.sf(sign * beta / math.sqrt(var), df_den))
+
+
 # effects whose fleet-wide blocks are separate causes, one each: a reference model's bias is
 # that model's (the other reference's term beside it is a second, independent question), so
 # each block is tested alone and the smallest p taken times their number (Bonferroni), as
@@ -686,8 +698,9 @@ SEPARATE_BLOCKS = {"reference_bias"}
 
 def block_p(fit: Fit, effect: str, d: WindData) -> float:
     """p-value of `effect`'s blocks = 0: fleet-wide blocks by one Wald test on all flights
-    (each block alone for SEPARATE_BLOCKS, Bonferroni over them), per-aircraft blocks
-    aircraft by aircraft (their flights) combined by chi-square sums."""
+    (each block alone for SEPARATE_BLOCKS, Bonferroni over them; one column whose sign the
+    physics fixes, Block.sign, one-sided), per-aircraft blocks aircraft by aircraft (their
+    flights) combined by chi-square sums."""
     parts = fit.coef(effect)
     if not parts:
         return 1.0
@@ -697,6 +710,9 @@ def block_p(fit: Fit, effect: str, d: WindData) -> float:
     ps = []
     if fleet and effect in SEPARATE_BLOCKS:
         ps.append(min(1.0, min(wald_p(be, v, G - 1) for _, be, v in fleet) * len(fleet)))
+    elif len(fleet) == 1 and fleet[0][0].sign and fleet[0][1].size == 1:  # one signed column
+        b, be, v = fleet[0]
+        ps.append(signed_p(float(be[0]), float(v[0, 0]), G - 1, b.sign))
     elif fleet:
         be = np.concatenate([x[1] for x in fleet])
         sl = [s for b, s in zip(fit.blocks, fit.slices, strict=False) if b.effect == effect and b.aircraft < 0]
@@ -800,7 +816,13 @@ def declination_identifiable(d: WindData) -> float:
 def cand_stale_declination(d: WindData, st: State, fit: Fit | None) -> list[Block]:
     if declination_identifiable(d) < 0.01:
         return []
-    return [Block("stale_declination", "age", declination_column(d)[:, None])]
+    # a receiver's declination model cannot be newer than the data it converts: the true age
+    # is >= 0, so the departure from the stated age a0 is >= -a0. Where the spec states a
+    # current model (a0 <= 0) only an older one is a cause, and the test is one-sided towards
+    # it; a table "years newer than the data" is no receiver's and no cause to name. With
+    # a0 > 0 both directions are possible (two-sided).
+    older = 1 if st.spec.declination_age_yr <= 0 else 0
+    return [Block("stale_declination", "age", declination_column(d)[:, None], sign=older)]
 
 
 def cand_reference_bias(d: WindData, st: State, fit: Fit | None) -> list[Block]:
