@@ -137,7 +137,8 @@ def test_a_declination_table_newer_than_the_data_is_not_named():
     fleet, rng = _fleet(6)
     obs = gen.generate(fleet, rng, flights=40, hub=ANCHORAGE, stale_declination_years=-5.0)
     findings, baseline, _ = _diagnose(obs)
-    assert all("stale_declination" not in (f.effect, *f.parameters.get("confusable_with", [])) for f in findings)
+    named = [(f.effect, *(c["effect"] for c in f.parameters.get("confusable_with", []))) for f in findings]
+    assert all("stale_declination" not in n for n in named), named
     assert all("stale declination" not in f.cause for f in findings), [f.cause for f in findings]
     assert baseline["rounds"][0]["stale_declination"]["p"] > 0.5
 
