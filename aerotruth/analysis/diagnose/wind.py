@@ -97,7 +97,10 @@ signature beats it and explains it away: `_lead`). Every other significant candi
 then judged against the lead, and so is every candidate the data support at a nominal 5 %
 (ALPHA_RIVAL: whether two explanations can be told apart does not hang on the second
 reaching the level that names a cause): *separate* when still significant with the lead in the
-model (it competes again in the next round), *beaten* when the lead predicts the held-out
+model (it competes again in the next round; a rival only supported at ALPHA_RIVAL is left
+apart only where the lead is itself still supported beside it: a lead that holds nothing
+beside its rival is a partial copy of it, as a ramp fitted to a mid-period step is),
+*beaten* when the lead predicts the held-out
 units better (held_out_contest: the difference of the two explanations' held-out squared
 residuals summed per unit, t two-sided at ALPHA_BEATS: the lead was chosen as the better
 one on the same units), else *confusable*: the
@@ -761,16 +764,30 @@ def _trend_p(d: WindData, fit0: Fit, channel: str) -> float:
     return slope_permutation(0.5 * (t0 + t1), m)
 
 
+def _best_given_rival(d, basis, best: _Cand, c: _Cand) -> float:
+    """The best explanation's p with rival c's terms in the model, in the best one's own
+    test (its basis; a p that no term of the model changes stays as it is)."""
+    if "p_given_any" in best:
+        return best["p_given_any"]
+    rb = [replace(b, effect="rival", p=None) for b in c["blocks"]]
+    joint = best.get("test_basis", basis).fit(rb + best["blocks"])
+    return block_p(joint, best["blocks"][0].effect, d)
+
+
 def _rivals(d, basis, best: _Cand, others: list[_Cand]) -> list[dict]:
     """What the round's best explanation is against each other explanation the data support.
 
     For each rival y (significant, or supported at ALPHA_RIVAL: *weak*; with a held-out
     gain): first whether y is a *separate* effect, still significant at its own level with
     the best one in the model (then it competes in a later round; a weak rival still
-    supported at ALPHA_RIVAL is *apart*: another thing, too weak to name, and left out);
-    else y explains what the best one explains, and the best one is named alone only if it
-    *beats* y: predicts the held-out units better (held_out_contest, two-sided at
-    ALPHA_BEATS: _beats). A rival it does not beat is *confusable* with it: the finding names both."""
+    supported at ALPHA_RIVAL is *apart*: another thing, too weak to name, and left out, but
+    only where the best one is itself still supported at ALPHA_RIVAL beside y: a best one
+    that holds nothing beside y is a partial copy of y, which holds what it explains and
+    more, as a ramp fitted to an offset's step in the middle of the period is; then, as
+    below, beaten or confusable); else y explains what the best one explains, and the best
+    one is named alone only if it *beats* y: predicts the held-out units better
+    (held_out_contest, two-sided at ALPHA_BEATS: _beats). A rival it does not beat is
+    *confusable* with it: the finding names both."""
     out = []
     clusters2 = np.r_[d.cluster, d.cluster]
     for c in others:
@@ -782,14 +799,20 @@ def _rivals(d, basis, best: _Cand, others: list[_Cand]) -> list[dict]:
             p_sep = block_p(joint, "rival", d)
         t, p_beat = held_out_contest(best["resid_ho"], c["resid_ho"], clusters2)
         weak = not c["p"] < c["level"]
+        p_back = None
         if p_sep < (ALPHA_RIVAL if weak else c["level"]):
             verdict = "apart" if weak else "separate"
+            if weak:  # apart only if the best one holds something of its own beside it
+                p_back = _best_given_rival(d, basis, best, c)
+                if not p_back < ALPHA_RIVAL:
+                    verdict = "beaten" if _beats(p_beat) else "confusable"
         else:
             verdict = "beaten" if _beats(p_beat) else "confusable"
         out.append(
             {
                 "effect": c["effect"],
                 "verdict": verdict,
+                "p_best_given_it": p_back,
                 "p_given_best": p_sep,
                 "held_out_t": t,
                 "p_not_beaten": p_beat,
@@ -1188,7 +1211,9 @@ def diagnose_wind(d: WindData, spec: WindModelSpec) -> tuple[list, dict, State, 
         }
         f.evidence["rivals_rule"] = (
             "a rival (significant, with a held-out gain) is separate when still significant with this finding in the "
-            f"model; otherwise beaten when this finding predicts held-out {unit_words(d)} better (two-sided p < "
+            f"model (a weak one, supported at {ALPHA_RIVAL:g}, is left apart only where this finding is itself still "
+            f"supported at {ALPHA_RIVAL:g} with the rival in the model); otherwise beaten when this finding predicts "
+            f"held-out {unit_words(d)} better (two-sided p < "
             f"{ALPHA_BEATS:g}, Diebold-Mariano on the units' sums), else confusable; a separate rival that this "
             "finding did not beat and that never enters on its own is confusable after all"
         )
