@@ -13,6 +13,7 @@ refused, never replaced by the rename. Output places are checked before any work
 from __future__ import annotations
 
 import os
+import re
 import uuid
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
@@ -95,10 +96,18 @@ def make_folder(path: str | Path, option: str | None = None) -> Path:
     return path
 
 
-def remove_stale_temporaries(folder: str | Path) -> int:
-    """Delete `*.tmp` files left in `folder` by killed writers; returns how many."""
+# the name _temporary_for gives: <final name>.<pid>.<8 hex>.tmp
+_TEMPORARY = re.compile(r"^.+\.\d+\.[0-9a-f]{8}" + re.escape(TMP_SUFFIX) + "$")
+
+
+def remove_stale_temporaries(folder: str | Path, recursive: bool = False) -> int:
+    """Delete the temporaries (atomic_write's names) left in `folder` (and its subfolders
+    with `recursive`) by killed writers; returns how many. Only for a folder no live writer
+    uses (a run's, under its lock)."""
     n = 0
-    for stale in Path(folder).glob(f"*{TMP_SUFFIX}"):
-        stale.unlink(missing_ok=True)
-        n += 1
+    pattern = f"**/*{TMP_SUFFIX}" if recursive else f"*{TMP_SUFFIX}"
+    for stale in Path(folder).glob(pattern):
+        if _TEMPORARY.match(stale.name) and stale.is_file():
+            stale.unlink(missing_ok=True)
+            n += 1
     return n

@@ -298,6 +298,33 @@ def test_a_flight_evicted_with_its_lock_file_is_flown_again_under_a_fresh_lock(t
     assert now and track is not None and diverged is None and len(flown) == 2
 
 
+def test_a_resumed_run_drops_the_temporaries_a_killed_one_left_in_any_of_its_folders(run_dir):
+    """A run killed between writing a file's temporary and renaming it (CI seed 2712450051:
+    tables/wind_climatology.wind_by_level.md.2250.cd53e410.tmp) leaves that temporary; the
+    resumed run must end with the same files as an uninterrupted one, temporaries gone,
+    whatever folder of the run they are in. A file of another name ending in .tmp is not
+    one of the run's temporaries and stays."""
+    before = {p.relative_to(run_dir) for p in run_dir.rglob("*") if p.is_file()}
+    table = next((run_dir / "tables").iterdir()).name
+    (run_dir / "figures" / "sub").mkdir(parents=True)
+    planted = [
+        run_dir / "tables" / f"{table}.2250.cd53e410.tmp",
+        run_dir / "metrics.json.31.0123abcd.tmp",
+        run_dir / "figures" / "sub" / "wind.png.7.deadbeef.tmp",
+        run_dir / "tasks" / "t.parquet.12.89abcdef.tmp",
+        run_dir / ".aerotruth-probe.55.00ff00ff.tmp",
+    ]
+    for p in planted:
+        p.write_bytes(b"half")
+    kept = run_dir / "tables" / "notes.tmp"  # not a temporary's name
+    kept.write_bytes(b"mine")
+    run_campaign(parse_campaign(ONE_TASK), ExecutorChoice("local", workers=1), out=run_dir, **QUIET)
+    assert not any(p.exists() for p in planted), [str(p) for p in planted if p.exists()]
+    assert kept.read_bytes() == b"mine"
+    after = {p.relative_to(run_dir) for p in run_dir.rglob("*") if p.is_file()} - {kept.relative_to(run_dir)}
+    assert after == before
+
+
 # -- SIGKILL of `aerotruth run` ------------------------------------------------------------
 
 TINY = """\

@@ -212,13 +212,19 @@ class RunStore:
 
     def prepare(self, campaign: Campaign, tasks: list[Task]) -> None:
         """Create or reopen the run directory for `campaign`: write the resolved config and
-        the manifest, drop temporaries and the tables of tasks the campaign no longer has."""
+        the manifest, drop temporaries (of any file a killed run was writing) and the tables
+        of tasks the campaign no longer has."""
         if not self.manifest_path.exists() and self.tasks_dir.exists() and any(self.tasks_dir.glob("*.parquet")):
             raise RunDirError(
                 f"{self.root} has task results but no manifest.json; choose another --out or delete the directory"
             )
         self.tasks_dir.mkdir(parents=True, exist_ok=True)
-        remove_stale_temporaries(self.tasks_dir)
+        # a run killed while writing any of its files leaves that file's temporary: the
+        # resumed run (under the run lock: no other writer is live) starts without them
+        remove_stale_temporaries(self.root)
+        for name in RUN_FOLDER_NAMES:
+            if (self.root / name).is_dir():
+                remove_stale_temporaries(self.root / name, recursive=True)
         ids = sorted(t.id for t in tasks)
         if len(set(ids)) != len(ids):
             raise RunDirError("campaign expands into repeated task identities")
