@@ -84,6 +84,7 @@ import numpy as np  # noqa: E402
 ROOT = Path(__file__).resolve().parents[1]
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "validation"))
+sys.path.insert(0, str(ROOT))  # this checkout's aerotruth (the one source_digest reads), not an installed one
 import obs_generator as gen  # noqa: E402
 
 # ----------------------------------------------------------------------------- effects
