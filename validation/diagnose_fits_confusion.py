@@ -200,7 +200,16 @@ def main() -> None:
 
 
 # the sizes the plan's rule picked (--sizing, the plan's record)
-SIZED: dict[str, float] = {}
+SIZED: dict[str, float] = {
+    "cyclic_period": 1.414,
+    "dgps_offset": 0.1,
+    "waas_jump": 0.5,
+    "ins_bias": 2.0,
+    "waas_latency": 0.02,
+    "tvps_scale": 0.03873,
+    "ins_frame": 5.0,
+    "baro_coupling": 10.0,
+}
 
 if __name__ == "__main__":
     main()
