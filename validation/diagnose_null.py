@@ -3,7 +3,8 @@ from the truth store -> Mode-S sensor -> decoded 1-s trajectory).
 
 Prints `label: value` lines:
   null_datasets, null_findings (target: <= 5 per 100 with nothing hidden), null_false_rate;
-  power_<effect>_<size>: the share of datasets in which the hidden effect is ranked first.
+  power_<effect>_<size>: the share of datasets in which the hidden effect is ranked first;
+  wrong_cause_<effect>_<size>: the share in which a finding of another effect is named (and which).
 Datasets: Mesaba schedule days (first 6 legs) of distinct aircraft on distinct dates
 spread over a year (every 23rd day from 15 Aug 2009: each its own truth weather, so the
 null is not one day's wind), each with `--seeds` sensor seeds; truth is flown once into
@@ -75,15 +76,20 @@ def main() -> None:
         ("heading_time_offset", "heading_lag_s", (0.5, 1.0, 2.0)),
     ):
         for size in sizes:
-            hit = m = 0
+            hit = m = wrong = 0
+            others: list[str] = []
             for i, day in enumerate(ds[: args.power]):
                 got = findings(day, np.random.default_rng(7 + i), **{key: size})
                 if got is None:
                     continue
                 m += 1
                 hit += bool(got) and got[0].effect == effect
+                bad = [f.effect for f in got if f.effect != effect]
+                wrong += bool(bad)
+                others += bad
             if m:  # with --power 0 (or no usable day) there is no share to print
                 print(f"power_{effect}_{size:g}: {hit / m:.2f} ({hit} of {m})")
+                print(f"wrong_cause_{effect}_{size:g}: {wrong / m:.2f} ({wrong} of {m}; {','.join(others) or 'none'})")
 
 
 if __name__ == "__main__":
