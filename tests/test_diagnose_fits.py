@@ -209,3 +209,16 @@ def test_a_waas_latency_is_named_alone_and_the_fits_compensates_it(tmp_path):
         vertical_rms("ref"),
     )
     assert late > 2.5 * truth and fixed < 1.15 * truth, (late, fixed, truth)
+
+
+def test_an_unflagged_step_common_to_every_approach_is_named_alone():
+    """A 1.5-m WAAS step 150 s into each of 12 approaches (0.87 m on each axis, ~150 s before
+    the threshold): before it each approach's FITS is 1.5 m off the same way, which the
+    latency and offset tests, run before the step scan, read as a DGPS station offset and a
+    latency unless the steps are flagged first (validation/diagnose_fits_confusion_plan.md)."""
+    log, _ = gen.make_log(
+        12, seed=37, jumps_per_s=0.0, threshold_y_sd_m=3.0, unflagged_jump=(150.0, np.full(3, 1.5 / np.sqrt(3)))
+    )
+    findings, _ = diagnose_log("log", log, FitsModel())
+    assert {f.effect for f in findings} == {"waas_jump"}, [f.effect for f in findings]
+    assert len(findings) >= 10 and all(f.parameters["step_m"]["value"] == pytest.approx(1.5, rel=0.2) for f in findings)

@@ -766,17 +766,50 @@ def diagnose_log(path, df: pd.DataFrame, model: FitsModel) -> tuple[list[Finding
     if dgps:
         baseline["fits_minus_dgps_rms_m"] = _err_rms(aps, model.period_s, model.dgps_offset_m)
         m2 = dataclasses.replace(model, period_s=period)
-        lat = _latency_effect(aps, m2)
-        if lat is not None:  # the other effects on the re-tagged epochs (else the latency reads as jumps and an offset)
-            findings.append(lat)
-            aps = [retagged(ap, lat.parameters["latency_s"]["value"]) for ap in aps]
-        tv = _tvps_effect(aps, m2)
-        if tv is not None:  # the offset and the rest on rescaled readings (else the scale reads as an offset)
-            findings.append(tv)
-            aps = [_rescaled(ap, tv.parameters["tvps_scale"]["value"]) for ap in aps]
-        for g in (_offset_effect(aps, m2), _ins_bias_effect(aps, m2), _baro_effect(aps, m2)):
-            if g is not None:
-                findings.append(g)
-        findings += _jump_effects(aps, m2)
+        found = _dgps_effects(aps, m2)
+        jumps = [g for g in found if g.effect == "waas_jump"]
+        if jumps:
+            # the other effects again with the steps flagged: before an unflagged step each
+            # approach's FITS is off by it (the bias is fixed at the threshold, after it), which
+            # the tests before the scan read as a station offset and, the steps coming in the
+            # descent, as a latency, when the steps agree across approaches
+            # (validation/diagnose_fits_confusion_plan.md); the scan then looks for more steps
+            found = _dgps_effects(_steps_flagged(aps, jumps), m2) + jumps
+        findings += found
     findings.sort(key=lambda x: -x.evidence.get("score", 0.0))
     return findings, baseline
+
+
+def _dgps_effects(aps: list[_Approach], model: FitsModel) -> list[Finding]:
+    """The effects a DGPS reference shows, each tested on the inputs the ones before it
+    corrected: latency, TVPS scale, then the station offset, the INS bias, the barometer
+    coupling and the unflagged steps."""
+    out = []
+    lat = _latency_effect(aps, model)
+    if lat is not None:  # the other effects on the re-tagged epochs (else the latency reads as jumps and an offset)
+        out.append(lat)
+        aps = [retagged(ap, lat.parameters["latency_s"]["value"]) for ap in aps]
+    tv = _tvps_effect(aps, model)
+    if tv is not None:  # the offset and the rest on rescaled readings (else the scale reads as an offset)
+        out.append(tv)
+        aps = [_rescaled(ap, tv.parameters["tvps_scale"]["value"]) for ap in aps]
+    out += [g for g in (_offset_effect(aps, model), _ins_bias_effect(aps, model), _baro_effect(aps, model)) if g]
+    return out + _jump_effects(aps, model)
+
+
+def _steps_flagged(aps: list[_Approach], jumps: list[Finding]) -> list[_Approach]:
+    """The approaches with the WAAS epoch of each step found flagged, as a receiver flags a
+    satellite-set change (the FITS then carries no step across it; section IV-C)."""
+    at: dict[str, list[float]] = {}
+    for j in jumps:
+        at.setdefault(j.evidence["approach"], []).append(j.parameters["time_s"]["value"])
+    out = []
+    for ap in aps:
+        times = at.get(str(ap.name), [])
+        if times:
+            flags = ap.flags.copy()
+            for t in times:  # the nearest epoch: a step found on re-tagged epochs is within the latency of its own
+                flags[int(np.argmin(np.abs(ap.t_w - t)))] = 1
+            ap = dataclasses.replace(ap, flags=flags)
+        out.append(ap)
+    return out
