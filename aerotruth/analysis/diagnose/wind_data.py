@@ -306,6 +306,14 @@ def _report_rows(df: pd.DataFrame) -> np.ndarray:
     return np.flatnonzero(np.r_[True, (ac[1:] != ac[:-1]) | (np.diff(t) != 0)])
 
 
+def heading_components(e: np.ndarray, n: np.ndarray, z: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """A vector's (east, north) components on the (transverse, along) frame of heading z
+    (radians from true north): transverse on (cos z, -sin z), along on (sin z, cos z), the
+    frame of the residual's two channels (wind.py's module docstring)."""
+    c, s = np.cos(z), np.sin(z)
+    return e * c - n * s, e * s + n * c
+
+
 def metres_per_degree(lat_deg: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """(north, east) metres per degree of latitude and of longitude at each latitude on
     WGS-84 (M and N cos(lat) times pi/180): a position grid's steps in metres, for the
@@ -472,7 +480,7 @@ def prepare(obs: pd.DataFrame, source: str = "observation table", gates: GateSpe
     }
     z = r["heading_deg"].to_numpy() * DEG
     dv_e, dv_n = -r["dw_e"].to_numpy(), -r["dw_n"].to_numpy()
-    trans = dv_e * np.cos(z) - dv_n * np.sin(z)
+    trans, _ = heading_components(dv_e, dv_n, z)
     # along: |V_A| - |V_A'|, not the projection on the heading, which carries TAS (1 - cos d)
     # of the heading error d itself (~1.5 kt at 6 deg: measured as a bias of the reference test)
     va_e, va_n = r["va_e"].to_numpy(), r["va_n"].to_numpy()

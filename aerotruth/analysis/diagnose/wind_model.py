@@ -15,7 +15,7 @@ import pandas as pd
 from pydantic import Field, ValidationError, field_validator
 from scipy import sparse, stats
 
-from aerotruth.analysis.diagnose.wind_data import N_FOLDS, WindData
+from aerotruth.analysis.diagnose.wind_data import N_FOLDS, WindData, heading_components
 from aerotruth.analysis.diagnose.wind_field import FieldKernel, other_aircraft_field
 from aerotruth.analysis.diagnose.wind_weights import Weights
 from aerotruth.analysis.least_squares import live_columns, ols
@@ -276,9 +276,8 @@ def declination_column(d: WindData) -> np.ndarray:
 def reference_bias_column(d: WindData, m: int) -> np.ndarray:
     """Reference m's rows: the unit wind vector on n and u, in kt (coefficient: bias, kt)."""
     s = d.source == m
-    tr = s * (d.wref_e * np.cos(d.z) - d.wref_n * np.sin(d.z))
-    al = s * (d.wref_e * np.sin(d.z) + d.wref_n * np.cos(d.z))
-    return stack_channels(tr, al, d.n) * KT
+    tr, al = heading_components(d.wref_e, d.wref_n, d.z)
+    return stack_channels(s * tr, s * al, d.n) * KT
 
 
 def reference_scale_column(d: WindData, m: int) -> np.ndarray:
@@ -293,9 +292,7 @@ def wind_rate_column(d: WindData) -> np.ndarray:
     seconds but stamped at the window's end carries W(t) - (W / 2) dW/dt: against a
     reference at its stamp, V_A - V_A' = W_REF - W_TAM gains +(W / 2) dW/dt (TAMDAR's
     10-s window: 5 s; a wind older or younger than its time stamp in general)."""
-    tr = d.wind_rate_e * np.cos(d.z) - d.wind_rate_n * np.sin(d.z)
-    al = d.wind_rate_e * np.sin(d.z) + d.wind_rate_n * np.cos(d.z)
-    return stack_channels(tr, al, d.n)
+    return stack_channels(*heading_components(d.wind_rate_e, d.wind_rate_n, d.z), d.n)
 
 
 def signature_column(d: WindData, sig: dict) -> np.ndarray:

@@ -43,7 +43,7 @@ import numpy as np
 import pandas as pd
 from scipy.linalg import solve_triangular
 
-from aerotruth.analysis.diagnose.wind_data import WindData
+from aerotruth.analysis.diagnose.wind_data import WindData, heading_components
 from aerotruth.analysis.diagnose.wind_field import FieldKernel, heading_frames, local_coordinates
 from aerotruth.analysis.diagnose.wind_model import cluster_robust, wald_p
 from aerotruth.analysis.least_squares import ols
@@ -72,8 +72,7 @@ def measured_wind_column(d: WindData, rows: np.ndarray) -> np.ndarray:
     sp = np.hypot(e, n)
     with np.errstate(invalid="ignore", divide="ignore"):
         ue, un = np.where(sp > 0, e / sp, 0.0), np.where(sp > 0, n / sp, 0.0)
-    z = d.z[rows]
-    return np.column_stack([ue * np.cos(z) - un * np.sin(z), ue * np.sin(z) + un * np.cos(z)]) * KT
+    return np.column_stack(heading_components(ue, un, d.z[rows])) * KT
 
 
 def _cholesky(C: np.ndarray) -> np.ndarray:
