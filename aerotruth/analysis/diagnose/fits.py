@@ -42,6 +42,10 @@ Effects (each with the size the hidden-effect tests use):
   slow noise) steps by more than 0.5 m and 8 noise sigmas between the 30 s before and
   after an epoch the receiver did not flag. Extension: the epoch flagged (the FITS
   compensates it, section IV-C). A single event: its gain is measured on that approach.
+  The effects tested before the scan (latency, TVPS scale, offset, INS bias, barometer)
+  are tested again with the steps found flagged: before its step an approach's FITS is off
+  by it (the bias is fixed at the threshold, after it), and steps that agree across
+  approaches read as a DGPS offset and a latency.
 * `baro_coupling` — (a barometer-coupled INS only) the INS - DGPS height error has the
   spectrum of the barometer's error through a third-order loop of another time constant
   than the model's: the mean periodogram over approaches of its first differences (Hann
