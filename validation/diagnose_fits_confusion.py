@@ -36,7 +36,7 @@ sys.path.insert(0, str(ROOT))
 sys.path.insert(0, str(ROOT / "tests"))
 sys.path.insert(0, str(ROOT / "validation"))
 import approach_log_generator as gen  # noqa: E402
-from diagnose_confusion import wilson  # noqa: E402
+from diagnose_confusion import _share  # noqa: E402
 
 from aerotruth.analysis.diagnose.fits import FitsModel, diagnose_log  # noqa: E402
 
@@ -98,11 +98,6 @@ def pick_size(grid: list[float], shares: list[float]) -> float | tuple[float, fl
         if shares[i] < 0.5 and shares[i + 1] > 0.8:
             return (grid[i], grid[i + 1])
     return grid[int(np.argmin([abs(s - 0.65) for s in shares]))]
-
-
-def _share(k: int, n: int) -> str:
-    lo, hi = wilson(k, n)
-    return f"{k / n:.2f} ({k} of {n}; Wilson 95 % {lo:.2f}-{hi:.2f})"
 
 
 def sizing(effects: list[str], n: int) -> None:
